@@ -1,0 +1,58 @@
+#pragma once
+// Bubble descriptors I(x, t) (A.3-A.7): rotation (heading) invariant holistic vectors.
+
+#include <Eigen/Core>
+#include <array>
+#include <vector>
+
+#include "core/bubble/surface.h"
+
+namespace tsc {
+
+/// A bubble descriptor on the normalised scale every threshold uses: finite, non-negative,
+/// N_v blocks of (H1+1)(H2+1) values, each block summing to 1/N_v (or all zero when the
+/// feature saw nothing), so the whole vector sums to at most 1.
+class Descriptor {
+ public:
+  Descriptor() = default;
+  /// Throws std::invalid_argument if any value is negative or not finite.
+  explicit Descriptor(Eigen::VectorXf values);
+  const Eigen::VectorXf& values() const { return values_; }
+  int dim() const { return static_cast<int>(values_.size()); }
+  bool empty() const { return values_.size() == 0; }
+
+ private:
+  Eigen::VectorXf values_;
+};
+
+/// χ² distance ½ Σ (a−b)²/(a+b) over entries where a+b > 0 (appendix C).
+double ChiSquared(const Eigen::VectorXf& a, const Eigen::VectorXf& b);
+
+struct DescriptorOptions {
+  int h1 = 9;  ///< harmonics in pan
+  int h2 = 9;  ///< harmonics in tilt
+  /// true: entries are sqrt(z^T z) (amplitude); false: z^T z as in (A.7) (energy).
+  /// Normalisation per block follows either way. See docs/decisions.md.
+  bool amplitude = true;
+  void Validate() const;
+};
+
+/// Computes descriptors from bubble surfaces by quadrature of (A.4) over the viewing grid.
+/// Tables of the trigonometric basis are built once per grid.
+class DescriptorComputer {
+ public:
+  DescriptorComputer(const ViewingGrid& grid, DescriptorOptions options = {});
+  int block_size() const { return (options_.h1 + 1) * (options_.h2 + 1); }
+  /// Normalised descriptor of dimension N_v·(H1+1)(H2+1).
+  Descriptor Compute(const BubbleSurface& surface) const;
+  /// Raw I_{i,h1h2} = z^T z of one feature block (A.7), before any normalisation.
+  Eigen::VectorXf RawBlock(const BubbleSurface& surface, int feature_block) const;
+
+ private:
+  ViewingGrid grid_;
+  DescriptorOptions options_;
+  Eigen::MatrixXf cos1_, sin1_;  // (H1+1) x n_pan
+  Eigen::MatrixXf cos2_, sin2_;  // (H2+1) x n_tilt
+};
+
+}  // namespace tsc

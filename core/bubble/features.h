@@ -1,0 +1,74 @@
+#pragma once
+// Sensory features q_i of the bubble space (thesis section 2.3) and the feature sets L1..L5.
+
+#include <array>
+#include <opencv2/core.hpp>
+#include <string>
+#include <vector>
+
+namespace tsc {
+
+/// One visual or depth feature. Values q_i are in [0, 1].
+enum class Feature {
+  kHue,         ///< circular mean hue of the patch, scaled to [0,1]
+  kVertical,    ///< response to a vertical grating (Cartesian)
+  kHorizontal,  ///< response to a horizontal grating (Cartesian)
+  kHyperbolic,  ///< response to a hyperbolic grating (non-Cartesian, Gallant et al. 1993)
+  kPolar,       ///< response to a polar (angular) grating (non-Cartesian)
+  kConcentric,  ///< response to a concentric (radial) grating (non-Cartesian)
+  kIntensity,   ///< mean grey level of the patch in [0,1]; used for informativeness (app. C)
+  kDepth,       ///< mean range of the patch divided by the sensor's maximum range
+};
+inline constexpr int kNumFeatureKinds = 8;
+
+const char* FeatureName(Feature f);
+
+/// An ordered list of distinct features; its order is the block order of the descriptor.
+class FeatureSet {
+ public:
+  /// Throws std::invalid_argument on an empty list or a repeated feature.
+  explicit FeatureSet(std::vector<Feature> features);
+  /// Thesis sets: L1 hue+Cartesian, L2 L1+non-Cartesian, L3 depth, L4 L1+depth, L5 L2+depth.
+  /// `with_intensity` appends intensity (the thesis' 7th feature, needed by place detection).
+  static FeatureSet Thesis(int l, bool with_intensity = true);
+  /// Parses "L2", "L5", "L2+I" (with intensity, the default) or "L2-I" (without).
+  static FeatureSet Parse(const std::string& name);
+
+  const std::vector<Feature>& features() const { return features_; }
+  int size() const { return static_cast<int>(features_.size()); }
+  /// Block index of `f`, or -1 if absent.
+  int IndexOf(Feature f) const;
+  bool Contains(Feature f) const { return IndexOf(f) >= 0; }
+  bool NeedsDepth() const { return Contains(Feature::kDepth); }
+  std::string ToString() const;
+
+ private:
+  std::vector<Feature> features_;
+};
+
+/// Computes feature values on square patches of side `patch_px` of a prepared image.
+/// The grating kernels are zero-mean and unit-norm; a response is the magnitude of the
+/// quadrature pair (cosine and sine phase) of the kernel, divided by patch_px/2 (the largest
+/// possible response of a [0,1] patch) and clamped to [0,1].
+/// Kernels, with (u, v) the patch coordinates centred and scaled to [-1, 1]:
+///   vertical    cos/sin(2π·2·u)             horizontal  cos/sin(2π·2·v)
+///   hyperbolic  cos/sin(2π·2·u·v)            polar       cos/sin(4·atan2(v,u))
+///   concentric  cos/sin(2π·2·sqrt(u²+v²))
+class PatchFeatureExtractor {
+ public:
+  explicit PatchFeatureExtractor(int patch_px = 12);
+  int patch_px() const { return patch_px_; }
+  /// `grey`: CV_32F in [0,1]; `hue_cos`, `hue_sin`: CV_32F per-pixel cos/sin of hue weighted
+  /// by saturation; `depth`: CV_32F in [0,1] or empty. (x0, y0) is the patch's top-left corner,
+  /// fully inside the images. Writes one value per feature of `set` into `out`.
+  void Compute(const FeatureSet& set, const cv::Mat& grey, const cv::Mat& hue_cos,
+               const cv::Mat& hue_sin, const cv::Mat& depth, int x0, int y0,
+               float* out) const;
+
+ private:
+  int patch_px_;
+  // Per grating: cosine and sine kernel, patch_px*patch_px each, row-major.
+  std::array<std::vector<float>, 10> kernels_;
+};
+
+}  // namespace tsc

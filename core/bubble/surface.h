@@ -1,0 +1,81 @@
+#pragma once
+// Bubble surfaces B_i(x, t) (A.1, A.2): one radius rho_i per sampled viewing direction and
+// feature, accumulated over the observations made at one base point.
+
+#include <Eigen/Core>
+#include <opencv2/core.hpp>
+#include <vector>
+
+#include "core/bubble/camera.h"
+#include "core/bubble/features.h"
+
+namespace tsc {
+
+/// Regular sampling of the viewing sphere: f1 (pan) in [0, 2π) at n_pan() steps of d_phi,
+/// f2 (tilt from the zenith) in [0, π] at n_tilt() cell centres (j + 1/2)·d_phi.
+class ViewingGrid {
+ public:
+  /// d_phi in degrees; must divide 180 into a whole number of steps (e.g. 2.5, 5).
+  explicit ViewingGrid(double d_phi_deg = 2.5);
+  double d_phi_rad() const { return d_phi_rad_; }
+  int n_pan() const { return n_pan_; }
+  int n_tilt() const { return n_tilt_; }
+  double f1(int i) const { return i * d_phi_rad_; }
+  double f2(int j) const { return (j + 0.5) * d_phi_rad_; }
+
+ private:
+  double d_phi_rad_;
+  int n_pan_, n_tilt_;
+};
+
+/// One camera frame as the bubble space sees it.
+struct Observation {
+  cv::Mat bgr;          ///< CV_8UC3 colour image
+  cv::Mat depth_m;      ///< optional CV_32F range in metres (0 = no reading), same size as bgr
+  PanTilt pan_tilt;     ///< camera direction relative to the base when the frame was taken
+};
+
+struct BubbleSurfaceOptions {
+  double d_phi_deg = 2.5;        ///< grid spacing of viewing directions, degrees
+  float rest_radius = 0.0f;      ///< rho_0, radius of unobserved directions
+  double max_depth_m = 10.0;     ///< range that maps to depth feature value 1
+  int patch_px = 12;             ///< side of the resampled d_phi x d_phi patch, pixels
+  void Validate() const;         ///< throws std::invalid_argument naming the bad field
+};
+
+/// The N_v bubble surfaces of one base point. Observe() overwrites the directions a frame
+/// covers (A.2); directions never observed keep rho_0.
+class BubbleSurface {
+ public:
+  BubbleSurface(FeatureSet features, CameraIntrinsics camera, BubbleSurfaceOptions options = {});
+
+  /// Adds one frame. Throws std::invalid_argument if the image size does not match the
+  /// camera, or depth is needed and missing / of another size.
+  void Observe(const Observation& obs);
+  /// Forgets all observations (a new base point).
+  void Reset();
+
+  const ViewingGrid& grid() const { return grid_; }
+  const FeatureSet& features() const { return features_; }
+  const CameraIntrinsics& camera() const { return camera_; }
+  /// rho for feature block `i`: n_tilt x n_pan, row = tilt index, column = pan index.
+  const Eigen::MatrixXf& radius(int i) const { return rho_[i]; }
+  Eigen::MatrixXf& mutable_radius(int i) { return rho_[i]; }
+  /// 1 where a direction has been observed.
+  const Eigen::Matrix<uint8_t, Eigen::Dynamic, Eigen::Dynamic>& observed() const {
+    return observed_;
+  }
+  Eigen::Matrix<uint8_t, Eigen::Dynamic, Eigen::Dynamic>& mutable_observed() { return observed_; }
+  int ObservedCount() const;
+
+ private:
+  FeatureSet features_;
+  CameraIntrinsics camera_;
+  BubbleSurfaceOptions options_;
+  ViewingGrid grid_;
+  PatchFeatureExtractor extractor_;
+  std::vector<Eigen::MatrixXf> rho_;
+  Eigen::Matrix<uint8_t, Eigen::Dynamic, Eigen::Dynamic> observed_;
+};
+
+}  // namespace tsc

@@ -1,0 +1,42 @@
+#include "core/map/topological_map.h"
+
+#include <stdexcept>
+
+namespace tsc {
+namespace {
+std::pair<PlaceId, PlaceId> Key(PlaceId x, PlaceId y) {
+  return x < y ? std::make_pair(x, y) : std::make_pair(y, x);
+}
+}  // namespace
+
+void TopologicalMap::AddPlace(PlaceId p) { places_.insert(p); }
+
+bool TopologicalMap::RecordTransition(PlaceId from, PlaceId to, TransitionRegion region) {
+  if (from == to) return false;
+  places_.insert(from);
+  places_.insert(to);
+  const auto key = Key(from, to);
+  auto [it, inserted] = edges_.try_emplace(key, MapEdge{key.first, key.second, 0, {}});
+  ++it->second.traversals;
+  if (!region.empty()) it->second.transitions.push_back(region);
+  return true;
+}
+
+void TopologicalMap::RestoreEdge(MapEdge edge) {
+  if (edge.a == edge.b) {
+    throw std::invalid_argument("map edge from place " + edge.a.ToString() + " to itself");
+  }
+  const auto key = Key(edge.a, edge.b);
+  edge.a = key.first;
+  edge.b = key.second;
+  places_.insert(edge.a);
+  places_.insert(edge.b);
+  edges_[key] = std::move(edge);
+}
+
+const MapEdge* TopologicalMap::Find(PlaceId x, PlaceId y) const {
+  auto it = edges_.find(Key(x, y));
+  return it == edges_.end() ? nullptr : &it->second;
+}
+
+}  // namespace tsc

@@ -1,0 +1,131 @@
+#include "core/memory/discriminant.h"
+
+#include <svm.h>
+
+#include <algorithm>
+#include <cmath>
+#include <memory>
+#include <mutex>
+#include <stdexcept>
+#include <string>
+
+namespace tsc {
+namespace {
+
+void Quiet(const char*) {}
+
+// Scale of the RBF kernel from the data: 1 / median squared distance over a fixed set of pairs
+// (i, i + n/2), so the cost stays O(n·dim) and the result deterministic.
+double MedianGamma(const Eigen::MatrixXf& x) {
+  const Eigen::Index n = x.cols();
+  std::vector<double> d2;
+  const Eigen::Index pairs = std::min<Eigen::Index>(n, 256);
+  for (Eigen::Index i = 0; i < pairs; ++i) {
+    const Eigen::Index j = (i + std::max<Eigen::Index>(1, n / 2)) % n;
+    if (j != i) d2.push_back((x.col(i) - x.col(j)).squaredNorm());
+  }
+  std::nth_element(d2.begin(), d2.begin() + static_cast<std::ptrdiff_t>(d2.size() / 2), d2.end());
+  const double median = d2.empty() ? 0.0 : d2[d2.size() / 2];
+  if (median > 1e-12) return 1.0 / median;
+  // All samples (nearly) equal: size the support from the vector's own scale instead.
+  const double scale = x.col(0).squaredNorm();
+  return scale > 1e-12 ? 1.0 / (0.01 * scale) : 1.0;
+}
+
+}  // namespace
+
+void DiscriminantOptions::Validate() const {
+  if (!(nu > 0 && nu <= 1)) throw std::invalid_argument("memory.svm_nu must be in (0,1], got " + std::to_string(nu));
+  if (!(gamma >= 0) || !std::isfinite(gamma)) throw std::invalid_argument("memory.svm_gamma must be >= 0, got " + std::to_string(gamma));
+  if (max_training < 2) throw std::invalid_argument("memory.svm_max_training must be >= 2, got " + std::to_string(max_training));
+}
+
+OneClassDiscriminant::OneClassDiscriminant(Eigen::MatrixXf support, Eigen::VectorXf coef,
+                                           double rho, double gamma)
+    : support_(std::move(support)), coef_(std::move(coef)), rho_(rho), gamma_(gamma) {
+  if (support_.cols() != coef_.size()) {
+    throw std::invalid_argument("discriminant: " + std::to_string(support_.cols()) +
+                                " support vectors but " + std::to_string(coef_.size()) +
+                                " coefficients");
+  }
+  if (!support_.allFinite() || !coef_.allFinite() || !std::isfinite(rho) ||
+      !std::isfinite(gamma) || gamma <= 0) {
+    throw std::invalid_argument("discriminant: non-finite values or gamma <= 0");
+  }
+  support_sq_norm_ = support_.colwise().squaredNorm().transpose();
+}
+
+OneClassDiscriminant OneClassDiscriminant::Train(const Eigen::MatrixXf& samples,
+                                                 const DiscriminantOptions& options) {
+  options.Validate();
+  const Eigen::Index n = samples.cols(), dim = samples.rows();
+  if (n < 1) throw std::invalid_argument("discriminant: no training samples");
+  const double gamma = options.gamma > 0 ? options.gamma : MedianGamma(samples);
+  if (n == 1 || (samples.colwise() - samples.col(0)).squaredNorm() < 1e-20) {
+    // A single point: the ball exp(−γ‖x−s‖²) > e^{−1}, i.e. ‖x−s‖² < 1/γ.
+    return OneClassDiscriminant(samples.col(0), Eigen::VectorXf::Ones(1), std::exp(-1.0), gamma);
+  }
+  static std::once_flag quiet;
+  std::call_once(quiet, [] { svm_set_print_string_function(&Quiet); });
+
+  // libsvm's sparse format: one node per non-zero entry, index 1-based, −1 terminates.
+  std::vector<std::vector<svm_node>> nodes(n);
+  std::vector<svm_node*> rows(n);
+  std::vector<double> labels(n, 1.0);
+  for (Eigen::Index i = 0; i < n; ++i) {
+    for (Eigen::Index d = 0; d < dim; ++d) {
+      const float v = samples(d, i);
+      if (v != 0.0f) nodes[i].push_back({static_cast<int>(d + 1), v});
+    }
+    nodes[i].push_back({-1, 0.0});
+    rows[i] = nodes[i].data();
+  }
+  svm_problem problem{static_cast<int>(n), labels.data(), rows.data()};
+  svm_parameter param{};
+  param.svm_type = ONE_CLASS;
+  param.kernel_type = RBF;
+  param.gamma = gamma;
+  param.nu = options.nu;
+  param.cache_size = 64;
+  param.eps = 1e-3;
+  param.shrinking = 1;
+  if (const char* err = svm_check_parameter(&problem, &param)) {
+    throw std::invalid_argument(std::string("libsvm: ") + err);
+  }
+  std::unique_ptr<svm_model, void (*)(svm_model*)> model(
+      svm_train(&problem, &param), [](svm_model* m) { svm_free_and_destroy_model(&m); });
+  const int n_sv = model->l;
+  Eigen::MatrixXf support = Eigen::MatrixXf::Zero(dim, n_sv);
+  Eigen::VectorXf coef(n_sv);
+  for (int s = 0; s < n_sv; ++s) {
+    for (const svm_node* node = model->SV[s]; node->index != -1; ++node) {
+      support(node->index - 1, s) = static_cast<float>(node->value);
+    }
+    coef[s] = static_cast<float>(model->sv_coef[0][s]);
+  }
+  return OneClassDiscriminant(std::move(support), std::move(coef), model->rho[0], gamma);
+}
+
+double OneClassDiscriminant::Evaluate(const Eigen::VectorXf& x) const {
+  if (!trained()) return -1.0;
+  const Eigen::VectorXf d2 =
+      (support_sq_norm_.array() + x.squaredNorm() - 2.0f * (support_.transpose() * x).array())
+          .matrix();
+  return (coef_.array() * (-static_cast<float>(gamma_) * d2.array().max(0.0f)).exp()).sum() -
+         rho_;
+}
+
+double OneClassDiscriminant::VoteFraction(const Eigen::MatrixXf& xs) const {
+  if (!trained() || xs.cols() == 0) return 0.0;
+  // ‖x−s‖² for all pairs at once: one matrix product.
+  Eigen::MatrixXf d2 = (-2.0f * (support_.transpose() * xs)).eval();
+  d2.colwise() += support_sq_norm_;
+  d2.rowwise() += xs.colwise().squaredNorm();
+  const Eigen::VectorXf k =
+      (coef_.transpose() * (-static_cast<float>(gamma_) * d2.array().max(0.0f)).exp().matrix())
+          .transpose();
+  const auto votes = (k.array() > static_cast<float>(rho_)).count();
+  return static_cast<double>(votes) / static_cast<double>(xs.cols());
+}
+
+}  // namespace tsc

@@ -1,0 +1,47 @@
+#pragma once
+// One-class SVM discriminant d_N of a place memory node (section 3.3): ν-OCSVM with an RBF
+// kernel, trained with libsvm, evaluated densely with Eigen.
+
+#include <Eigen/Core>
+#include <vector>
+
+namespace tsc {
+
+struct DiscriminantOptions {
+  double nu = 0.1;             ///< ν of the one-class SVM, (0, 1]
+  double gamma = 0.0;          ///< RBF γ; 0 → 1/(median squared distance) of the training set
+  int max_training = 512;      ///< cap of training vectors per node (deterministic subsample)
+  void Validate() const;
+};
+
+/// d(x) = Σ α_i exp(−γ‖x − s_i‖²) − ρ. Positive inside the learned support.
+class OneClassDiscriminant {
+ public:
+  OneClassDiscriminant() = default;
+  /// Restores a trained discriminant. Throws on mismatched sizes or non-finite values.
+  OneClassDiscriminant(Eigen::MatrixXf support, Eigen::VectorXf coef, double rho, double gamma);
+
+  /// Trains on the columns of `samples` (dim x n, n ≥ 1). With one sample (or all equal) the
+  /// support is a ball of radius given by `gamma` around it. Deterministic.
+  static OneClassDiscriminant Train(const Eigen::MatrixXf& samples,
+                                    const DiscriminantOptions& options);
+
+  bool trained() const { return support_.cols() > 0; }
+  double Evaluate(const Eigen::VectorXf& x) const;
+  /// Fraction of the columns of `xs` with d > 0, V_N of (3.9)-(3.10).
+  double VoteFraction(const Eigen::MatrixXf& xs) const;
+
+  const Eigen::MatrixXf& support() const { return support_; }  ///< dim x n_sv
+  const Eigen::VectorXf& coef() const { return coef_; }
+  double rho() const { return rho_; }
+  double gamma() const { return gamma_; }
+
+ private:
+  Eigen::MatrixXf support_;
+  Eigen::VectorXf coef_;
+  Eigen::VectorXf support_sq_norm_;
+  double rho_ = 0.0;
+  double gamma_ = 1.0;
+};
+
+}  // namespace tsc

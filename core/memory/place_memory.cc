@@ -1,0 +1,350 @@
+#include "core/memory/place_memory.h"
+
+#include <algorithm>
+#include <cmath>
+#include <functional>
+#include <limits>
+#include <stdexcept>
+#include <string>
+
+namespace tsc {
+namespace {
+
+uint64_t SplitMix64(uint64_t x) {
+  x += 0x9e3779b97f4a7c15ULL;
+  x = (x ^ (x >> 30)) * 0xbf58476d1ce4e5b9ULL;
+  x = (x ^ (x >> 27)) * 0x94d049bb133111ebULL;
+  return x ^ (x >> 31);
+}
+
+uint64_t PlaceKey(PlaceId id) { return SplitMix64((uint64_t{id.robot} << 32) | id.local); }
+
+// `cap` evenly spaced columns of `x` (all of them when there are fewer). Deterministic.
+Eigen::MatrixXf EvenlySpaced(const Eigen::MatrixXf& x, int cap) {
+  const Eigen::Index n = x.cols();
+  if (n <= cap) return x;
+  Eigen::MatrixXf out(x.rows(), cap);
+  for (int j = 0; j < cap; ++j) out.col(j) = x.col(static_cast<Eigen::Index>(j) * n / cap);
+  return out;
+}
+
+}  // namespace
+
+Eigen::VectorXf DetectedPlace::Mean() const {
+  if (descriptors.cols() == 0) throw std::invalid_argument("detected place without members");
+  return descriptors.rowwise().mean();
+}
+
+void PlaceMemoryOptions::Validate() const {
+  auto fail = [](const std::string& key, const std::string& what) {
+    throw std::invalid_argument("memory." + key + " " + what);
+  };
+  if (!(tau_r > 0) || !std::isfinite(tau_r)) fail("tau_r", "must be > 0, got " + std::to_string(tau_r));
+  if (tau_l < 0) fail("tau_l", "must be >= 0, got " + std::to_string(tau_l));
+  if (!(tau_h >= 0 && tau_h < 1)) fail("tau_h", "must be in [0,1), got " + std::to_string(tau_h));
+  if (max_samples_per_place < 1) fail("max_samples_per_place", "must be >= 1");
+  if (max_vote_points < 1) fail("max_vote_points", "must be >= 1");
+  discriminant.Validate();
+}
+
+PlaceMemory::PlaceMemory(uint32_t robot, PlaceMemoryOptions options)
+    : robot_(robot), options_(std::move(options)) {
+  options_.Validate();
+}
+
+std::optional<int> PlaceMemory::Find(PlaceId id) const {
+  for (size_t i = 0; i < places_.size(); ++i) {
+    if (places_[i].id == id) return static_cast<int>(i);
+  }
+  return std::nullopt;
+}
+
+Eigen::VectorXf PlaceMemory::Centroid(int node) const {
+  return centroid_sums_[node] / static_cast<float>(nodes_[node].num_places());
+}
+
+int PlaceMemory::Depth() const {
+  int depth = 0;
+  for (size_t i = 0; i < places_.size(); ++i) {
+    int d = 0;
+    for (int n = static_cast<int>(i); nodes_[n].parent >= 0; n = nodes_[n].parent) ++d;
+    depth = std::max(depth, d);
+  }
+  return depth;
+}
+
+Eigen::MatrixXf PlaceMemory::VotePoints(const DetectedPlace& d) const {
+  return EvenlySpaced(d.descriptors, options_.max_vote_points);
+}
+
+double PlaceMemory::Cost(const DetectedPlace& d, const Eigen::MatrixXf& votes, int node,
+                         int* best_child) const {
+  const Eigen::VectorXf mean = d.Mean();
+  // (3.6)-(3.7): the two children most similar to D.
+  double g1 = std::numeric_limits<double>::infinity(), g2 = g1;
+  int n1 = -1;
+  for (int child : nodes_[node].children) {
+    const double g = (mean - Centroid(child)).squaredNorm();
+    if (g < g1) {
+      g2 = g1;
+      g1 = g;
+      n1 = child;
+    } else if (g < g2) {
+      g2 = g;
+    }
+  }
+  *best_child = n1;
+  // (3.8); one child: the ratio term is 1; γ̃(D,N²) = 0 implies γ̃(D,N¹) = 0: ratio 1 too.
+  const double ratio = std::isinf(g2) || g2 <= 0.0 ? 1.0 : g1 / g2;
+  const double vote = discriminants_[n1].VoteFraction(votes);
+  return g1 + ratio + (1.0 - vote);
+}
+
+Recognition PlaceMemory::Descend(const DetectedPlace& d, int start) const {
+  Recognition r;
+  r.start_nodes.push_back(start);
+  const Eigen::MatrixXf votes = VotePoints(d);
+  for (int node = start;;) {
+    r.visited.push_back(node);
+    int best = -1;
+    r.cost = Cost(d, votes, node, &best);
+    if (r.cost > options_.tau_r) return r;  // (3.11) fails: not recognised
+    if (nodes_[best].terminal()) {
+      r.place = nodes_[best].place;
+      return r;
+    }
+    node = best;
+  }
+}
+
+Recognition PlaceMemory::Recognize(const DetectedPlace& d, std::optional<int> previous) const {
+  Recognition total;
+  if (empty()) return total;
+  auto absorb = [&total](const Recognition& r) {
+    total.start_nodes.insert(total.start_nodes.end(), r.start_nodes.begin(), r.start_nodes.end());
+    total.visited.insert(total.visited.end(), r.visited.begin(), r.visited.end());
+    total.cost = r.cost;
+    total.place = r.place;
+  };
+  bool root_tried = false;
+  if (previous && *previous >= 0 && *previous < static_cast<int>(places_.size())) {
+    // Hybrid: start at the parent of β(D_{m−1}) and climb up to τ_l levels.
+    int start = nodes_[*previous].parent;
+    for (int level = 0; level <= options_.tau_l && start >= 0; ++level) {
+      absorb(Descend(d, start));
+      root_tried = root_tried || start == root_;
+      if (total.place) {
+        total.hybrid = true;
+        return total;
+      }
+      start = nodes_[start].parent;
+    }
+  }
+  if (!root_tried) absorb(Descend(d, root_));
+  return total;
+}
+
+int PlaceMemory::Learn(const DetectedPlace& d) {
+  if (d.descriptors.cols() == 0) throw std::invalid_argument("cannot learn an empty place");
+  LearnedPlace p;
+  p.id = PlaceId{robot_, next_local_};
+  p.mean = d.Mean();
+  if (!places_.empty() && p.mean.size() != places_.front().mean.size()) {
+    throw std::invalid_argument("descriptor dimension " + std::to_string(p.mean.size()) +
+                                " differs from the memory's " +
+                                std::to_string(places_.front().mean.size()));
+  }
+  p.member_count = d.descriptors.cols();
+  p.samples = EvenlySpaced(d.descriptors, options_.max_samples_per_place);
+  p.detected = {d.index};
+  p.members = d.members;
+  // γ of (3.12) between the new place and every learned place.
+  std::vector<double> distances(places_.size());
+  for (size_t i = 0; i < places_.size(); ++i) {
+    distances[i] = (places_[i].mean - p.mean).squaredNorm();
+  }
+  slink_.Insert(distances);
+  places_.push_back(std::move(p));
+  ++next_local_;
+  RebuildTree({});
+  return static_cast<int>(places_.size()) - 1;
+}
+
+void PlaceMemory::Update(int place, const DetectedPlace& d) {
+  LearnedPlace& p = places_.at(place);
+  if (d.descriptors.cols() == 0) return;
+  const Eigen::VectorXf old_mean = p.mean;
+  const auto added = d.descriptors.cols();
+  p.mean = (p.mean * static_cast<float>(p.member_count) + d.descriptors.rowwise().sum()) /
+           static_cast<float>(p.member_count + added);
+  p.member_count += added;
+  Eigen::MatrixXf both(p.samples.rows(), p.samples.cols() + added);
+  both << p.samples, d.descriptors;
+  p.samples = EvenlySpaced(both, options_.max_samples_per_place);
+  p.detected.push_back(d.index);
+  p.members.insert(p.members.end(), d.members.begin(), d.members.end());
+  // The place's path to the root: centroids move, discriminants see new members.
+  const Eigen::VectorXf delta = p.mean - old_mean;
+  for (int n = place; n >= 0; n = nodes_[n].parent) {
+    centroid_sums_[n] += delta;
+    if (n != root_) RetrainDiscriminant(n);
+  }
+}
+
+Eigen::MatrixXf PlaceMemory::TrainingSet(int node) const {
+  const MemoryNode& nd = nodes_[node];
+  Eigen::Index total = 0;
+  for (int i = nd.first_leaf; i < nd.end_leaf; ++i) total += places_[leaf_order_[i]].samples.cols();
+  const Eigen::Index cap = std::min<Eigen::Index>(total, options_.discriminant.max_training);
+  const Eigen::Index dim = places_.front().mean.size();
+  Eigen::MatrixXf out(dim, cap);
+  // Column j of the result is sample ⌊j·total/cap⌋ of the node's places in leaf order.
+  Eigen::Index offset = 0, j = 0;
+  for (int i = nd.first_leaf; i < nd.end_leaf && j < cap; ++i) {
+    const Eigen::MatrixXf& s = places_[leaf_order_[i]].samples;
+    while (j < cap) {
+      const Eigen::Index want = j * total / cap;
+      if (want >= offset + s.cols()) break;
+      out.col(j++) = s.col(want - offset);
+    }
+    offset += s.cols();
+  }
+  return out;
+}
+
+void PlaceMemory::RetrainDiscriminant(int node) {
+  discriminants_[node] = OneClassDiscriminant::Train(TrainingSet(node), options_.discriminant);
+}
+
+void PlaceMemory::RebuildTree(const std::unordered_map<uint64_t, OneClassDiscriminant>& saved) {
+  const int n = static_cast<int>(places_.size());
+  // Keep the discriminants of nodes whose place set does not change.
+  std::unordered_map<uint64_t, OneClassDiscriminant> previous = saved;
+  for (size_t i = 0; i < nodes_.size(); ++i) {
+    if (discriminants_[i].trained()) previous.emplace(nodes_[i].set_key, discriminants_[i]);
+  }
+  std::vector<MemoryNode> nodes(n);
+  for (int i = 0; i < n; ++i) nodes[i].place = i;
+
+  const std::vector<DendrogramMerge> merges = ToDendrogram(slink_);
+  if (n == 1) {
+    nodes.push_back(MemoryNode{});
+    nodes[1].children = {0};
+    nodes[0].parent = 1;
+  } else {
+    // Binary dendrogram: clusters 0..n−1 are places, n+i is merge i (heights increase).
+    const int total = 2 * n - 1;
+    std::vector<int> bin_parent(total, -1);
+    for (int i = 0; i < n - 1; ++i) {
+      bin_parent[merges[i].a] = n + i;
+      bin_parent[merges[i].b] = n + i;
+    }
+    // Simplification (section 3.6): merge node N folds into its parent P when
+    // h(P) − h(N) ≤ τ_h·h(P); folding is transitive, the root never folds.
+    std::vector<int> target(total, -1);
+    for (int c = total - 1; c >= n; --c) {
+      const int p = bin_parent[c];
+      if (p < 0) {
+        target[c] = c;
+        continue;
+      }
+      const double hp = merges[p - n].height, hc = merges[c - n].height;
+      target[c] = hp - hc <= options_.tau_h * hp ? target[p] : c;
+    }
+    std::vector<int> index(total, -1);
+    for (int i = 0; i < n; ++i) index[i] = i;
+    for (int c = n; c < total; ++c) {
+      if (target[c] != c) continue;
+      index[c] = static_cast<int>(nodes.size());
+      MemoryNode node;
+      node.height = merges[c - n].height;
+      nodes.push_back(node);
+    }
+    for (int c = 0; c < total; ++c) {
+      if (index[c] < 0 || bin_parent[c] < 0) continue;
+      const int parent = index[target[bin_parent[c]]];
+      nodes[index[c]].parent = parent;
+      nodes[parent].children.push_back(index[c]);
+    }
+  }
+  nodes_ = std::move(nodes);
+  root_ = static_cast<int>(nodes_.size()) - 1;
+
+  // Leaf order by depth-first traversal: each node's places are one contiguous range.
+  leaf_order_.clear();
+  leaf_order_.reserve(n);
+  std::vector<std::pair<int, bool>> stack{{root_, false}};
+  while (!stack.empty()) {
+    auto [node, done] = stack.back();
+    stack.pop_back();
+    MemoryNode& nd = nodes_[node];
+    if (done) {
+      nd.end_leaf = static_cast<int>(leaf_order_.size());
+      continue;
+    }
+    nd.first_leaf = static_cast<int>(leaf_order_.size());
+    if (nd.terminal()) {
+      leaf_order_.push_back(nd.place);
+      nd.end_leaf = nd.first_leaf + 1;
+      continue;
+    }
+    stack.push_back({node, true});
+    for (auto it = nd.children.rbegin(); it != nd.children.rend(); ++it) stack.push_back({*it, false});
+  }
+  // Children precede parents in index order, so one forward pass fills keys and sums.
+  centroid_sums_.assign(nodes_.size(), Eigen::VectorXf());
+  for (size_t i = 0; i < nodes_.size(); ++i) {
+    MemoryNode& nd = nodes_[i];
+    if (nd.terminal()) {
+      nd.set_key = PlaceKey(places_[nd.place].id);
+      centroid_sums_[i] = places_[nd.place].mean;
+      continue;
+    }
+    nd.set_key = 0;
+    centroid_sums_[i] = Eigen::VectorXf::Zero(places_.front().mean.size());
+    for (int c : nd.children) {
+      nd.set_key += nodes_[c].set_key;  // order-free: wrapping sum of per-place hashes
+      centroid_sums_[i] += centroid_sums_[c];
+    }
+  }
+  // Only nodes whose place set is new are trained; the root's d_N is never consulted.
+  discriminants_.assign(nodes_.size(), OneClassDiscriminant());
+  for (size_t i = 0; i < nodes_.size(); ++i) {
+    if (static_cast<int>(i) == root_) continue;
+    auto it = previous.find(nodes_[i].set_key);
+    if (it != previous.end()) {
+      discriminants_[i] = it->second;
+    } else {
+      RetrainDiscriminant(static_cast<int>(i));
+    }
+  }
+}
+
+PlaceMemory PlaceMemory::Restore(uint32_t robot, PlaceMemoryOptions options,
+                                 std::vector<LearnedPlace> places, Slink slink,
+                                 uint32_t next_local,
+                                 const std::unordered_map<uint64_t, OneClassDiscriminant>& saved) {
+  PlaceMemory memory(robot, std::move(options));
+  if (static_cast<int>(places.size()) != slink.size()) {
+    throw std::invalid_argument("place memory: " + std::to_string(places.size()) +
+                                " places but SLINK state of " + std::to_string(slink.size()));
+  }
+  for (const LearnedPlace& p : places) {
+    if (p.mean.size() == 0 || p.mean.size() != places.front().mean.size() ||
+        !p.mean.allFinite() || p.samples.rows() != p.mean.size() || p.samples.cols() == 0 ||
+        p.member_count < 1) {
+      throw std::invalid_argument("place memory: place " + p.id.ToString() + " is inconsistent");
+    }
+    if (p.id.robot == robot && p.id.local >= next_local) {
+      throw std::invalid_argument("place memory: place " + p.id.ToString() +
+                                  " not below next local id " + std::to_string(next_local));
+    }
+  }
+  memory.places_ = std::move(places);
+  memory.slink_ = std::move(slink);
+  memory.next_local_ = next_local;
+  if (!memory.places_.empty()) memory.RebuildTree(saved);
+  return memory;
+}
+
+}  // namespace tsc

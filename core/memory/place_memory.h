@@ -1,0 +1,129 @@
+#pragma once
+// The place memory (sections 3.3, 3.5, 3.6): a rooted tree over the learned places, built by
+// incremental SLINK and simplified with τ_h, with a one-class SVM discriminant per node;
+// recognition by top-down or hybrid traversal with the cost g_N of (3.8).
+
+#include <Eigen/Core>
+#include <cstdint>
+#include <optional>
+#include <unordered_map>
+#include <vector>
+
+#include "core/detect/place_detector.h"
+#include "core/memory/discriminant.h"
+#include "core/memory/place_id.h"
+#include "core/memory/slink.h"
+
+namespace tsc {
+
+/// A detected place D_m with the descriptors of its member base points.
+struct DetectedPlace {
+  DetectedPlaceIndex index = 0;
+  std::vector<BaseIndex> members;
+  Eigen::MatrixXf descriptors;  ///< dim x |members|, column j belongs to members[j]
+  /// Ī_m of (3.5). Precondition: at least one member.
+  Eigen::VectorXf Mean() const;
+};
+
+/// A terminal node's place p ∈ P.
+struct LearnedPlace {
+  PlaceId id;
+  Eigen::VectorXf mean;                          ///< Ī_p over all member base points
+  int64_t member_count = 0;                      ///< base points averaged into `mean`
+  Eigen::MatrixXf samples;                       ///< dim x k representative member descriptors
+  std::vector<DetectedPlaceIndex> detected;      ///< detected places that compose it
+  std::vector<BaseIndex> members;                ///< member base points (this robot's stream)
+};
+
+/// A node of the simplified tree. Terminals are nodes 0..P−1 (node i holds place i); inner
+/// nodes follow; the root is inner and always exists once a place is learned.
+struct MemoryNode {
+  int parent = -1;              ///< −1 for the root
+  std::vector<int> children;    ///< node indices
+  int place = -1;               ///< place index for terminals, −1 for inner nodes
+  double height = 0.0;          ///< SLINK merge height (0 for terminals)
+  int first_leaf = 0;           ///< the node's places are leaf_order()[first_leaf, end_leaf)
+  int end_leaf = 0;
+  uint64_t set_key = 0;         ///< order-free hash of the node's place set
+  bool terminal() const { return place >= 0; }
+  int num_places() const { return end_leaf - first_leaf; }
+};
+
+struct PlaceMemoryOptions {
+  double tau_r = 1.2;   ///< τ_r recognition cost threshold (3.11)
+  int tau_l = 1;        ///< τ_l levels climbed by the hybrid traversal
+  double tau_h = 0.25;  ///< τ_h relative merge-height gap folded by simplification, [0, 1)
+  int max_samples_per_place = 8;  ///< representative member descriptors kept per place
+  int max_vote_points = 32;       ///< base points of D used for the vote V_N (evenly spaced)
+  DiscriminantOptions discriminant;
+  void Validate() const;
+};
+
+/// Outcome of one recognition attempt.
+struct Recognition {
+  std::optional<int> place;       ///< recognised place index β(D), if any
+  double cost = 0.0;              ///< g_N at the last node evaluated
+  bool hybrid = false;            ///< the hybrid traversal recognised it
+  std::vector<int> start_nodes;   ///< nodes a descent started from, in order
+  std::vector<int> visited;       ///< every inner node whose g_N was evaluated, in order
+};
+
+class PlaceMemory {
+ public:
+  PlaceMemory(uint32_t robot, PlaceMemoryOptions options);
+
+  /// Hybrid when `previous` names a learned place (start at its terminal's parent, climb up
+  /// to τ_l levels, descending from each), then top-down from the root.
+  Recognition Recognize(const DetectedPlace& d, std::optional<int> previous = std::nullopt) const;
+  /// Top-down descent from `start`: while g_N ≤ τ_r go to N¹; a terminal N¹ recognises.
+  Recognition Descend(const DetectedPlace& d, int start) const;
+  /// g_N(D) of (3.8) at inner node `node`; sets `best_child` to N¹.
+  double Cost(const DetectedPlace& d, const Eigen::MatrixXf& votes, int node,
+              int* best_child) const;
+
+  /// Learns D as a new place p*+1 (SLINK insertion, rebuild, retrain changed nodes).
+  int Learn(const DetectedPlace& d);
+  /// Adds D to place `place` (members, mean, samples) and retrains its path to the root.
+  void Update(int place, const DetectedPlace& d);
+
+  uint32_t robot() const { return robot_; }
+  const PlaceMemoryOptions& options() const { return options_; }
+  const std::vector<LearnedPlace>& places() const { return places_; }
+  const std::vector<MemoryNode>& nodes() const { return nodes_; }
+  const std::vector<OneClassDiscriminant>& discriminants() const { return discriminants_; }
+  const std::vector<int>& leaf_order() const { return leaf_order_; }
+  const Slink& slink() const { return slink_; }
+  int root() const { return root_; }
+  bool empty() const { return places_.empty(); }
+  uint32_t next_local_id() const { return next_local_; }
+  std::optional<int> Find(PlaceId id) const;
+  /// c(N): mean of the means of the node's places.
+  Eigen::VectorXf Centroid(int node) const;
+  int Depth() const;
+
+  /// Rebuilds a memory saved earlier. Discriminants are taken from `saved` by set key where
+  /// present and retrained otherwise. Throws std::invalid_argument on inconsistent input.
+  static PlaceMemory Restore(uint32_t robot, PlaceMemoryOptions options,
+                             std::vector<LearnedPlace> places, Slink slink, uint32_t next_local,
+                             const std::unordered_map<uint64_t, OneClassDiscriminant>& saved);
+
+ private:
+  void RebuildTree(const std::unordered_map<uint64_t, OneClassDiscriminant>& saved);
+  void ComputeCentroidSums();
+  void RetrainDiscriminant(int node);
+  Eigen::MatrixXf TrainingSet(int node) const;
+  Eigen::MatrixXf VotePoints(const DetectedPlace& d) const;
+
+  uint32_t robot_;
+  PlaceMemoryOptions options_;
+  std::vector<LearnedPlace> places_;
+  Slink slink_;
+  std::vector<MemoryNode> nodes_;
+  std::vector<OneClassDiscriminant> discriminants_;  // per node; root's is unused
+  std::vector<Eigen::VectorXf> centroid_sums_;       // per node: Σ place means
+  std::vector<int> leaf_order_;
+  int root_ = -1;
+  uint32_t next_local_ = 1;
+};
+
+}  // namespace tsc

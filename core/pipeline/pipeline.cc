@@ -1,0 +1,192 @@
+#include "core/pipeline/pipeline.h"
+
+#include <stdexcept>
+#include <string>
+
+namespace tsc {
+namespace {
+PlaceEvent MakeEvent(EventKind kind, BaseIndex frame, DetectedPlaceIndex detected) {
+  PlaceEvent e;
+  e.kind = kind;
+  e.frame = frame;
+  e.detected_place = detected;
+  return e;
+}
+}  // namespace
+
+const char* EventKindName(EventKind k) {
+  switch (k) {
+    case EventKind::kDetected: return "detected";
+    case EventKind::kRecognized: return "recognized";
+    case EventKind::kLearned: return "learned";
+    case EventKind::kMapped: return "mapped";
+    case EventKind::kPruned: return "pruned";
+  }
+  return "?";
+}
+
+void PipelineOptions::Validate() const {
+  surface.Validate();
+  descriptor.Validate();
+  reliability.Validate();
+  detector.Validate();
+  memory.Validate();
+  if (!features.Contains(Feature::kIntensity)) {
+    throw std::invalid_argument("bubble.features must include intensity (place detection uses it)");
+  }
+}
+
+Pipeline::Pipeline(CameraIntrinsics camera, PipelineOptions options, PlaceMemory memory,
+                   TopologicalMap map, PipelineState state)
+    : options_((options.Validate(), std::move(options))),
+      surface_(options_.features, camera, options_.surface),
+      computer_(surface_.grid(), options_.descriptor),
+      detector_(options_.detector, state.next_detected, state.next_base),
+      memory_(std::move(memory)),
+      map_(std::move(map)),
+      next_base_(state.next_base),
+      previous_place_(state.previous_place) {
+  if (memory_.robot() != options_.robot) {
+    throw std::invalid_argument("place memory of robot " + std::to_string(memory_.robot()) +
+                                " given to the pipeline of robot " +
+                                std::to_string(options_.robot));
+  }
+}
+
+PipelineState Pipeline::state() const {
+  return PipelineState{next_base_, detector_.next_place(), previous_place_};
+}
+
+void Pipeline::AccumulateView(const Observation& obs) { surface_.Observe(obs); }
+
+FrameResult Pipeline::Process(const Observation& obs) {
+  surface_.Observe(obs);
+  const Descriptor descriptor = computer_.Compute(surface_);
+  const IntensityStats intensity = IntensityStatistics(surface_);
+  surface_.Reset();  // the next frame is the next base point
+  return ProcessDescriptor(descriptor, intensity);
+}
+
+FrameResult Pipeline::ProcessDescriptor(const Descriptor& descriptor,
+                                        const IntensityStats& intensity) {
+  if (!memory_.empty() && descriptor.dim() != memory_.places().front().mean.size()) {
+    throw std::invalid_argument("descriptor of dimension " + std::to_string(descriptor.dim()) +
+                                " for a memory of dimension " +
+                                std::to_string(memory_.places().front().mean.size()));
+  }
+  FrameResult out;
+  const BaseIndex k = next_base_++;
+  out.base.index = k;
+  out.base.descriptor = descriptor.values();
+  out.base.intensity = intensity;
+  out.base.status =
+      ClassifyBasePoint(options_.reliability, intensity, descriptor.values(),
+                        previous_descriptor_ ? &*previous_descriptor_ : nullptr);
+  previous_descriptor_ = descriptor.values();
+  recent_.emplace_back(k, descriptor.values());
+  HandleDetection(detector_.Add(k, out.base.status == BaseStatus::kGood), k, out);
+  TrimDescriptors();
+  return out;
+}
+
+FrameResult Pipeline::Finish() {
+  FrameResult out;
+  out.has_base = false;
+  HandleDetection(detector_.Finish(), next_base_ - 1, out);
+  TrimDescriptors();
+  return out;
+}
+
+DetectedPlace Pipeline::Gather(DetectedPlaceIndex m, const std::vector<BaseIndex>& members) const {
+  DetectedPlace d;
+  d.index = m;
+  d.members = members;
+  const Eigen::Index dim = recent_.empty() ? 0 : recent_.front().second.size();
+  d.descriptors.resize(dim, static_cast<Eigen::Index>(members.size()));
+  // recent_ is sorted by base index and holds every member of an unclosed place.
+  size_t r = 0;
+  for (size_t j = 0; j < members.size(); ++j) {
+    while (r < recent_.size() && recent_[r].first < members[j]) ++r;
+    if (r == recent_.size() || recent_[r].first != members[j]) {
+      throw std::logic_error("descriptor of base point " + std::to_string(members[j]) + " lost");
+    }
+    d.descriptors.col(static_cast<Eigen::Index>(j)) = recent_[r].second;
+  }
+  return d;
+}
+
+void Pipeline::HandleDetection(const std::vector<DetectionEvent>& events, BaseIndex k,
+                               FrameResult& out) {
+  const auto previous_index = [&]() -> std::optional<int> {
+    return previous_place_ ? memory_.Find(*previous_place_) : std::nullopt;
+  };
+  for (const DetectionEvent& event : events) {
+    if (const auto* opened = std::get_if<PlaceOpened>(&event)) {
+      partial_recognition_.reset();
+      if (!options_.recognize_partial || memory_.empty()) continue;
+      const Recognition r = memory_.Recognize(Gather(opened->place, opened->members),
+                                              previous_index());
+      if (!r.place) continue;
+      partial_recognition_ = *r.place;
+      PlaceEvent e = MakeEvent(EventKind::kRecognized, k, opened->place);
+      e.place = memory_.places()[*r.place].id;
+      e.cost = r.cost;
+      e.partial = true;
+      e.hybrid = r.hybrid;
+      out.events.push_back(e);
+    } else if (const auto* closed = std::get_if<PlaceClosed>(&event)) {
+      DetectedPlace d = Gather(closed->place, closed->members);
+      PlaceEvent detected = MakeEvent(EventKind::kDetected, k, closed->place);
+      detected.members = static_cast<int64_t>(closed->members.size());
+      out.events.push_back(detected);
+      if (!closed->transition_before.empty()) out.transitions.push_back(closed->transition_before);
+      // Recognise or learn (sections 3.5, 3.6).
+      const Recognition r = memory_.Recognize(d, previous_index());
+      int place;
+      PlaceEvent e = MakeEvent(EventKind::kLearned, k, closed->place);
+      if (r.place) {
+        place = *r.place;
+        memory_.Update(place, d);
+        e.kind = EventKind::kRecognized;
+        e.cost = r.cost;
+        e.hybrid = r.hybrid;
+      } else {
+        place = memory_.Learn(d);
+        e.kind = EventKind::kLearned;
+        e.cost = r.cost;
+      }
+      const PlaceId id = memory_.places()[place].id;
+      e.place = id;
+      out.events.push_back(e);
+      out.changed_places.push_back(place);
+      out.memory_changed = true;
+      map_.AddPlace(id);
+      // Mapping (section 3.7): the edge β(D_{m−1})β(D_m).
+      if (previous_place_ && map_.RecordTransition(*previous_place_, id, closed->transition_before)) {
+        PlaceEvent mapped = MakeEvent(EventKind::kMapped, k, closed->place);
+        mapped.place = id;
+        mapped.from = previous_place_;
+        mapped.transition = closed->transition_before;
+        out.events.push_back(mapped);
+      }
+      previous_place_ = id;
+      partial_recognition_.reset();
+      out.closed_places.push_back(std::move(d));
+    } else if (const auto* pruned = std::get_if<PlacePruned>(&event)) {
+      PlaceEvent e = MakeEvent(EventKind::kPruned, k, 0);
+      e.members = static_cast<int64_t>(pruned->members.size());
+      out.events.push_back(e);
+    }
+  }
+}
+
+void Pipeline::TrimDescriptors() {
+  // Keep what an unclosed place or a pending window may still claim.
+  BaseIndex keep_from = next_base_ - options_.detector.tau_n - 1;
+  if (!detector_.current_members().empty()) {
+    keep_from = std::min(keep_from, detector_.current_members().front());
+  }
+  while (!recent_.empty() && recent_.front().first < keep_from) recent_.pop_front();
+}
+
+}  // namespace tsc

@@ -1,0 +1,113 @@
+#pragma once
+// The TSC loop (figure 3.1, appendix D.2): frame → bubble descriptor → reliability → place
+// detection → recognition or learning → mapping. Pure computation: the caller persists the
+// FrameResult (one transaction per result) and publishes its events.
+
+#include <deque>
+#include <optional>
+#include <utility>
+#include <vector>
+
+#include "core/bubble/descriptor.h"
+#include "core/bubble/surface.h"
+#include "core/detect/place_detector.h"
+#include "core/detect/reliability.h"
+#include "core/map/topological_map.h"
+#include "core/memory/place_memory.h"
+
+namespace tsc {
+
+enum class EventKind { kDetected, kRecognized, kLearned, kMapped, kPruned };
+const char* EventKindName(EventKind k);
+
+/// One pipeline event; the fields that do not apply keep their defaults.
+struct PlaceEvent {
+  EventKind kind = EventKind::kDetected;
+  BaseIndex frame = 0;                  ///< base point at which it happened
+  DetectedPlaceIndex detected_place = 0;
+  std::optional<PlaceId> place;         ///< recognised / learned / mapped-to place
+  std::optional<PlaceId> from;          ///< mapped: the previous place β(D_{m−1})
+  double cost = 0.0;                    ///< recognised: g_N of the final decision
+  bool partial = false;                 ///< recognised on an opened, not yet closed place
+  bool hybrid = false;                  ///< recognised by the hybrid traversal
+  TransitionRegion transition;          ///< mapped: the region crossed
+  int64_t members = 0;                  ///< detected / pruned: number of base points
+};
+
+struct BasePointRecord {
+  BaseIndex index = 0;
+  BaseStatus status = BaseStatus::kGood;
+  Eigen::VectorXf descriptor;
+  IntensityStats intensity;
+};
+
+/// Everything one base point changed.
+struct FrameResult {
+  BasePointRecord base;                      ///< absent for Finish()
+  bool has_base = true;
+  std::vector<PlaceEvent> events;
+  std::vector<DetectedPlace> closed_places;  ///< detected places closed now (with descriptors)
+  std::vector<TransitionRegion> transitions; ///< transition regions closed now
+  std::vector<int> changed_places;           ///< place indices learned or updated
+  bool memory_changed = false;               ///< tree / discriminants changed
+};
+
+struct PipelineOptions {
+  uint32_t robot = 1;
+  FeatureSet features = FeatureSet::Thesis(2, true);
+  BubbleSurfaceOptions surface;
+  DescriptorOptions descriptor;
+  ReliabilityOptions reliability;
+  DetectorOptions detector;
+  PlaceMemoryOptions memory;
+  bool recognize_partial = true;  ///< try recognition when a place opens (extent > τ_p)
+  void Validate() const;
+};
+
+/// Where a pipeline continues from (a fresh start or a reopened store).
+struct PipelineState {
+  BaseIndex next_base = 0;
+  DetectedPlaceIndex next_detected = 1;
+  std::optional<PlaceId> previous_place;  ///< β of the last detected place, for hybrid search
+};
+
+class Pipeline {
+ public:
+  Pipeline(CameraIntrinsics camera, PipelineOptions options, PlaceMemory memory,
+           TopologicalMap map, PipelineState state = {});
+
+  /// Adds a view to the current base point without finishing it (a PTZ sweep).
+  void AccumulateView(const Observation& obs);
+  /// Adds the last view of a base point and runs the loop on it.
+  FrameResult Process(const Observation& obs);
+  /// Runs the loop on a ready descriptor (benchmarks, tests, replay).
+  FrameResult ProcessDescriptor(const Descriptor& descriptor, const IntensityStats& intensity);
+  /// End of the stream: closes the open window and place.
+  FrameResult Finish();
+
+  const PlaceMemory& memory() const { return memory_; }
+  const TopologicalMap& map() const { return map_; }
+  const PipelineOptions& options() const { return options_; }
+  const BubbleSurface& surface() const { return surface_; }
+  const DescriptorComputer& descriptor_computer() const { return computer_; }
+  PipelineState state() const;
+
+ private:
+  void HandleDetection(const std::vector<DetectionEvent>& events, BaseIndex k, FrameResult& out);
+  DetectedPlace Gather(DetectedPlaceIndex m, const std::vector<BaseIndex>& members) const;
+  void TrimDescriptors();
+
+  PipelineOptions options_;
+  BubbleSurface surface_;
+  DescriptorComputer computer_;
+  PlaceDetector detector_;
+  PlaceMemory memory_;
+  TopologicalMap map_;
+  BaseIndex next_base_;
+  std::optional<PlaceId> previous_place_;
+  std::optional<Eigen::VectorXf> previous_descriptor_;
+  std::deque<std::pair<BaseIndex, Eigen::VectorXf>> recent_;  // descriptors not yet closed
+  std::optional<int> partial_recognition_;  // place the open place was recognised as
+};
+
+}  // namespace tsc

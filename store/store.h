@@ -1,0 +1,55 @@
+#pragma once
+// SQLite persistence of the TSC knowledge base (appendix D.2, DESIGN §5): base points,
+// detected places, transition regions, place memory, learned places, topological map.
+// WAL mode, one transaction per pipeline result, a schema version table with migrations.
+
+#include <sqlite3.h>
+
+#include <filesystem>
+#include <memory>
+#include <optional>
+#include <string>
+
+#include "core/pipeline/pipeline.h"
+
+namespace tsc {
+
+/// Everything needed to continue a robot's pipeline where it stopped.
+struct StoredState {
+  PlaceMemory memory;
+  TopologicalMap map;
+  PipelineState pipeline;
+};
+
+/// Thrown with a message naming the database file and what failed.
+class StoreError : public std::runtime_error {
+ public:
+  using std::runtime_error::runtime_error;
+};
+
+class Store {
+ public:
+  /// Opens or creates the database; creates or migrates the schema. Throws StoreError.
+  static Store Open(const std::filesystem::path& path);
+  Store(Store&&) noexcept;
+  Store& operator=(Store&&) noexcept;
+  ~Store();
+
+  /// Loads the saved state (an empty memory for a new database). `robot` must match the
+  /// database's robot id when one is recorded (throws StoreError otherwise).
+  StoredState Load(uint32_t robot, const PlaceMemoryOptions& options);
+  /// Writes one pipeline result in one transaction: base point, closed detected places,
+  /// transitions, changed learned places, the tree and discriminants when they changed, map
+  /// edges of mapped events, and the pipeline position. Throws StoreError (rolled back).
+  void Commit(const FrameResult& result, const Pipeline& pipeline);
+
+  const std::filesystem::path& path() const { return path_; }
+  int schema_version() const;
+
+ private:
+  Store(std::filesystem::path path, sqlite3* db);
+  std::filesystem::path path_;
+  sqlite3* db_ = nullptr;
+};
+
+}  // namespace tsc

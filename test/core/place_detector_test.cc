@@ -1,0 +1,121 @@
+#include "core/detect/place_detector.h"
+
+#include <gtest/gtest.h>
+
+#include <string>
+#include <vector>
+
+namespace tsc {
+namespace {
+
+struct Outcome {
+  std::vector<PlaceClosed> closed;
+  std::vector<PlaceOpened> opened;
+  std::vector<PlacePruned> pruned;
+  std::vector<WindowClosed> windows;
+};
+
+// Runs a good/bad pattern ('g' good, 'b' bad) through the detector, 0-based indices.
+Outcome RunPattern(const std::string& pattern, DetectorOptions options) {
+  PlaceDetector dut(options);
+  Outcome o;
+  auto collect = [&o](const std::vector<DetectionEvent>& events) {
+    for (const auto& e : events) {
+      if (auto* c = std::get_if<PlaceClosed>(&e)) o.closed.push_back(*c);
+      if (auto* p = std::get_if<PlaceOpened>(&e)) o.opened.push_back(*p);
+      if (auto* p = std::get_if<PlacePruned>(&e)) o.pruned.push_back(*p);
+      if (auto* w = std::get_if<WindowClosed>(&e)) o.windows.push_back(*w);
+    }
+  };
+  for (size_t k = 0; k < pattern.size(); ++k) {
+    collect(dut.Add(static_cast<BaseIndex>(k), pattern[k] == 'g'));
+  }
+  collect(dut.Finish());
+  return o;
+}
+
+TEST(PlaceDetector, ReproducesFigure3_2) {
+  // Figure 3.2 (1-based): Q*(1)={1,2,3}, T*(1)={4,5,6}, Q*(7)={7,8,9}, T*(7)={10},
+  // Q*(11)={11,12,13}, T*(11)={14,15,16}; τ_n = τ_w = τ_p = 2.
+  const Outcome o = RunPattern("gggbbbgggbgggbbb", DetectorOptions{2, 2, 2});
+  ASSERT_EQ(o.closed.size(), 2u);
+  EXPECT_EQ(o.closed[0].place, 1);
+  EXPECT_EQ(o.closed[0].members, (std::vector<BaseIndex>{0, 1, 2}));  // D1 = {1,2,3}
+  EXPECT_EQ(o.closed[1].place, 2);
+  // D2 = Q*(7) ∪ Q*(11) = {7,8,9,11,12,13}
+  EXPECT_EQ(o.closed[1].members, (std::vector<BaseIndex>{6, 7, 8, 10, 11, 12}));
+  EXPECT_TRUE(o.pruned.empty());
+  ASSERT_EQ(o.windows.size(), 3u);
+  EXPECT_TRUE(o.windows[0].transition);
+  EXPECT_FALSE(o.windows[1].transition);  // T*(7) is noise inside D2
+  EXPECT_TRUE(o.windows[2].transition);
+  EXPECT_EQ(o.closed[1].transition_before, (TransitionRegion{3, 5}));
+  EXPECT_TRUE(o.closed[0].transition_before.empty());
+}
+
+TEST(PlaceDetector, OpensPlaceWhenExtentPassesTauP) {
+  const Outcome o = RunPattern("ggggg", DetectorOptions{2, 2, 3});
+  ASSERT_EQ(o.opened.size(), 1u);
+  EXPECT_EQ(o.opened[0].members, (std::vector<BaseIndex>{0, 1, 2, 3}));
+  ASSERT_EQ(o.closed.size(), 1u);
+  EXPECT_EQ(o.closed[0].members.size(), 5u);
+}
+
+TEST(PlaceDetector, PrunesPlaceWithExtentAtMostTauP) {
+  const Outcome o = RunPattern("ggbbbgggggg", DetectorOptions{2, 2, 2});
+  ASSERT_EQ(o.pruned.size(), 1u);
+  EXPECT_EQ(o.pruned[0].members, (std::vector<BaseIndex>{0, 1}));
+  ASSERT_EQ(o.closed.size(), 1u);
+  EXPECT_EQ(o.closed[0].place, 1);  // pruned places take no index
+  EXPECT_EQ(o.closed[0].members.front(), 5);
+}
+
+TEST(PlaceDetector, AbsorbsGoodPointsBetweenBadPointsWithinTauN) {
+  // Bad, good, good, bad: with τ_n = 3 the two good points belong to the window, which then
+  // spans 4 points and is a transition (τ_w = 4).
+  const Outcome o = RunPattern("ggggbggbgggggg", DetectorOptions{3, 4, 2});
+  ASSERT_EQ(o.windows.size(), 1u);
+  EXPECT_EQ(o.windows[0].first, 4);
+  EXPECT_EQ(o.windows[0].last, 7);
+  EXPECT_TRUE(o.windows[0].transition);
+  ASSERT_EQ(o.closed.size(), 2u);
+  EXPECT_EQ(o.closed[1].members.front(), 8);
+  EXPECT_EQ(o.closed[1].transition_before, (TransitionRegion{4, 7}));
+}
+
+TEST(PlaceDetector, ShortWindowIsNoiseInsidePlace) {
+  const Outcome o = RunPattern("gggggbgggg", DetectorOptions{2, 2, 2});
+  ASSERT_EQ(o.closed.size(), 1u);
+  EXPECT_EQ(o.closed[0].members.size(), 9u);
+}
+
+TEST(PlaceDetector, RejectsOutOfOrderBasePoints) {
+  PlaceDetector dut(DetectorOptions{});
+  dut.Add(0, true);
+  EXPECT_THROW(dut.Add(2, true), std::invalid_argument);
+}
+
+TEST(PlaceDetector, ContinuesIndicesAfterRestart) {
+  PlaceDetector dut(DetectorOptions{1, 1, 0}, /*next_place=*/7, /*first_base=*/100);
+  dut.Add(100, true);
+  const auto events = dut.Finish();
+  ASSERT_FALSE(events.empty());
+  const auto* closed = std::get_if<PlaceClosed>(&events.back());
+  ASSERT_NE(closed, nullptr);
+  EXPECT_EQ(closed->place, 7);
+  EXPECT_EQ(dut.next_place(), 8);
+}
+
+TEST(DetectorOptions, ValidateNamesBadKey) {
+  DetectorOptions o;
+  o.tau_n = 0;
+  try {
+    o.Validate();
+    FAIL();
+  } catch (const std::invalid_argument& e) {
+    EXPECT_NE(std::string(e.what()).find("tau_n"), std::string::npos);
+  }
+}
+
+}  // namespace
+}  // namespace tsc

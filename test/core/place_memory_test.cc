@@ -1,0 +1,181 @@
+#include "core/memory/place_memory.h"
+
+#include <gtest/gtest.h>
+
+#include <algorithm>
+#include <random>
+
+namespace tsc {
+namespace {
+
+constexpr int kDim = 6;
+
+// A detected place of `n` members scattered by `spread` around `centre`.
+DetectedPlace MakePlace(DetectedPlaceIndex m, const Eigen::VectorXf& centre, std::mt19937& rng,
+                        int n = 12, float spread = 0.01f) {
+  std::normal_distribution<float> noise(0.0f, spread);
+  DetectedPlace d;
+  d.index = m;
+  d.descriptors.resize(kDim, n);
+  for (int j = 0; j < n; ++j) {
+    d.members.push_back(m * 100 + j);
+    for (int i = 0; i < kDim; ++i) d.descriptors(i, j) = std::max(0.0f, centre[i] + noise(rng));
+  }
+  return d;
+}
+
+Eigen::VectorXf Centre(std::initializer_list<float> v) {
+  Eigen::VectorXf c(kDim);
+  int i = 0;
+  for (float x : v) c[i++] = x;
+  return c;
+}
+
+// Places A1, A2 (close), B1, B2 (close), C (far from both groups).
+class PlaceMemoryTest : public ::testing::Test {
+ protected:
+  PlaceMemoryTest() : dut_(1, Options()) {
+    centres_ = {Centre({1.0f, 0, 0, 0, 0, 0}), Centre({1.0f, 0.2f, 0, 0, 0, 0}),
+                Centre({0, 0, 1.0f, 0, 0, 0}), Centre({0, 0, 1.0f, 0.2f, 0, 0}),
+                Centre({0, 0, 0, 0, 1.0f, 1.0f})};
+    for (size_t p = 0; p < centres_.size(); ++p) {
+      dut_.Learn(MakePlace(static_cast<DetectedPlaceIndex>(p + 1), centres_[p], rng_));
+    }
+  }
+  static PlaceMemoryOptions Options() {
+    PlaceMemoryOptions o;
+    o.tau_r = 1.2;
+    o.tau_l = 1;
+    o.tau_h = 0.25;
+    return o;
+  }
+  std::mt19937 rng_{7};
+  std::vector<Eigen::VectorXf> centres_;
+  PlaceMemory dut_;
+};
+
+TEST_F(PlaceMemoryTest, BuildsTreeWithOneTerminalPerPlace) {
+  ASSERT_EQ(dut_.places().size(), 5u);
+  for (int p = 0; p < 5; ++p) {
+    EXPECT_TRUE(dut_.nodes()[p].terminal());
+    EXPECT_EQ(dut_.places()[p].id, (PlaceId{1, static_cast<uint32_t>(p + 1)}));
+  }
+  EXPECT_EQ(dut_.nodes()[dut_.root()].num_places(), 5);
+  // A1 and A2 share a parent that holds nothing else; so do B1 and B2.
+  EXPECT_EQ(dut_.nodes()[0].parent, dut_.nodes()[1].parent);
+  EXPECT_EQ(dut_.nodes()[dut_.nodes()[0].parent].num_places(), 2);
+  EXPECT_EQ(dut_.nodes()[2].parent, dut_.nodes()[3].parent);
+  for (size_t n = 0; n < dut_.nodes().size(); ++n) {
+    if (static_cast<int>(n) != dut_.root()) {
+      EXPECT_TRUE(dut_.discriminants()[n].trained()) << n;
+    }
+  }
+}
+
+TEST_F(PlaceMemoryTest, TopDownReachesTheRightTerminal) {
+  for (int p = 0; p < 5; ++p) {
+    const Recognition r = dut_.Recognize(MakePlace(50 + p, centres_[p], rng_));
+    ASSERT_TRUE(r.place.has_value()) << "place " << p << " cost " << r.cost;
+    EXPECT_EQ(*r.place, p);
+    EXPECT_FALSE(r.hybrid);
+    EXPECT_EQ(r.start_nodes, (std::vector<int>{dut_.root()}));
+    EXPECT_LE(r.cost, dut_.options().tau_r);
+  }
+}
+
+TEST_F(PlaceMemoryTest, UnknownPlaceIsNotRecognised) {
+  const Recognition r = dut_.Recognize(MakePlace(60, Centre({0, 1.0f, 0, 1.0f, 0, 0}), rng_));
+  EXPECT_FALSE(r.place.has_value());
+  EXPECT_GT(r.cost, dut_.options().tau_r);
+}
+
+TEST_F(PlaceMemoryTest, HybridStartsAtPreviousPlacesParent) {
+  // Coming from A1, a visit to A2 is found below A1's parent without going to the root.
+  const Recognition r = dut_.Recognize(MakePlace(61, centres_[1], rng_), /*previous=*/0);
+  ASSERT_TRUE(r.place.has_value());
+  EXPECT_EQ(*r.place, 1);
+  EXPECT_TRUE(r.hybrid);
+  ASSERT_FALSE(r.start_nodes.empty());
+  EXPECT_EQ(r.start_nodes.front(), dut_.nodes()[0].parent);
+}
+
+TEST_F(PlaceMemoryTest, HybridClimbsAtMostTauLLevelsThenFallsBackToRoot) {
+  // Coming from A1, a visit to C: the parent of A1 fails, the climb goes up τ_l levels,
+  // then the search restarts from the root.
+  const Recognition r = dut_.Recognize(MakePlace(62, centres_[4], rng_), /*previous=*/0);
+  ASSERT_TRUE(r.place.has_value());
+  EXPECT_EQ(*r.place, 4);
+  std::vector<int> expected;
+  for (int n = dut_.nodes()[0].parent, level = 0; n >= 0 && level <= 1;
+       n = dut_.nodes()[n].parent, ++level) {
+    expected.push_back(n);
+  }
+  if (expected.back() != dut_.root()) expected.push_back(dut_.root());
+  EXPECT_EQ(r.start_nodes, expected);
+}
+
+TEST_F(PlaceMemoryTest, TauLZeroTriesOnlyTheParentBeforeTheRoot) {
+  PlaceMemoryOptions o = Options();
+  o.tau_l = 0;
+  PlaceMemory memory(1, o);
+  for (size_t p = 0; p < centres_.size(); ++p) {
+    memory.Learn(MakePlace(static_cast<DetectedPlaceIndex>(p + 1), centres_[p], rng_));
+  }
+  const Recognition r = memory.Recognize(MakePlace(63, centres_[4], rng_), 0);
+  ASSERT_EQ(r.start_nodes.size(), 2u);
+  EXPECT_EQ(r.start_nodes[0], memory.nodes()[0].parent);
+  EXPECT_EQ(r.start_nodes[1], memory.root());
+}
+
+TEST_F(PlaceMemoryTest, UpdateMovesMeanAndKeepsTree) {
+  const Eigen::VectorXf before = dut_.places()[2].mean;
+  const auto nodes_before = dut_.nodes().size();
+  DetectedPlace d = MakePlace(70, centres_[2] + Centre({0, 0, 0, 0.05f, 0, 0}), rng_, 12);
+  dut_.Update(2, d);
+  const LearnedPlace& p = dut_.places()[2];
+  EXPECT_EQ(p.member_count, 24);
+  EXPECT_EQ(p.detected, (std::vector<DetectedPlaceIndex>{3, 70}));
+  EXPECT_GT((p.mean - before).norm(), 0.01f);
+  EXPECT_LE(p.samples.cols(), dut_.options().max_samples_per_place);
+  EXPECT_EQ(dut_.nodes().size(), nodes_before);
+  EXPECT_TRUE(dut_.Centroid(2).isApprox(p.mean, 1e-5f));
+}
+
+TEST_F(PlaceMemoryTest, RestoreReproducesTreeWithoutRetraining) {
+  std::unordered_map<uint64_t, OneClassDiscriminant> saved;
+  for (size_t n = 0; n < dut_.nodes().size(); ++n) {
+    if (dut_.discriminants()[n].trained()) saved.emplace(dut_.nodes()[n].set_key, dut_.discriminants()[n]);
+  }
+  const PlaceMemory copy = PlaceMemory::Restore(1, Options(), dut_.places(), dut_.slink(),
+                                                dut_.next_local_id(), saved);
+  ASSERT_EQ(copy.nodes().size(), dut_.nodes().size());
+  for (size_t n = 0; n < copy.nodes().size(); ++n) {
+    EXPECT_EQ(copy.nodes()[n].children, dut_.nodes()[n].children);
+    EXPECT_EQ(copy.nodes()[n].set_key, dut_.nodes()[n].set_key);
+    EXPECT_EQ(copy.discriminants()[n].rho(), dut_.discriminants()[n].rho());
+  }
+  EXPECT_THROW(PlaceMemory::Restore(1, Options(), dut_.places(), Slink(), 6, saved),
+               std::invalid_argument);
+}
+
+TEST(OneClassDiscriminant, AcceptsTrainingCloudAndRejectsFarPoints) {
+  std::mt19937 rng(3);
+  std::normal_distribution<float> noise(0.0f, 0.05f);
+  Eigen::MatrixXf x(4, 100);
+  for (int j = 0; j < 100; ++j)
+    for (int i = 0; i < 4; ++i) x(i, j) = 1.0f + noise(rng);
+  const OneClassDiscriminant dut = OneClassDiscriminant::Train(x, DiscriminantOptions{});
+  EXPECT_GT(dut.VoteFraction(x), 0.8);
+  EXPECT_EQ(dut.VoteFraction(Eigen::MatrixXf::Constant(4, 3, 3.0f)), 0.0);
+  EXPECT_NEAR(dut.Evaluate(x.col(0)) > 0, dut.VoteFraction(x.col(0)), 1e-9);
+}
+
+TEST(OneClassDiscriminant, SingleSampleIsABall) {
+  Eigen::MatrixXf x = Eigen::MatrixXf::Constant(3, 1, 0.5f);
+  const OneClassDiscriminant dut = OneClassDiscriminant::Train(x, DiscriminantOptions{});
+  EXPECT_GT(dut.Evaluate(x.col(0)), 0.0);
+  EXPECT_LT(dut.Evaluate(Eigen::VectorXf::Constant(3, 5.0f)), 0.0);
+}
+
+}  // namespace
+}  // namespace tsc

@@ -1,0 +1,81 @@
+#include "core/memory/slink.h"
+
+#include <gtest/gtest.h>
+
+#include <algorithm>
+#include <random>
+#include <vector>
+
+namespace tsc {
+namespace {
+
+// Independent single linkage by brute force: repeatedly join the two clusters with the
+// smallest minimum pairwise distance. O(n³).
+std::vector<double> BruteForceHeights(const std::vector<Eigen::VectorXd>& x) {
+  const size_t n = x.size();
+  std::vector<std::vector<double>> d(n, std::vector<double>(n));
+  for (size_t i = 0; i < n; ++i)
+    for (size_t j = 0; j < n; ++j) d[i][j] = (x[i] - x[j]).squaredNorm();
+  std::vector<bool> alive(n, true);
+  std::vector<double> heights;
+  for (size_t step = 0; step + 1 < n; ++step) {
+    double best = 1e300;
+    size_t bi = 0, bj = 0;
+    for (size_t i = 0; i < n; ++i)
+      for (size_t j = i + 1; j < n; ++j)
+        if (alive[i] && alive[j] && d[i][j] < best) best = d[i][j], bi = i, bj = j;
+    heights.push_back(best);
+    alive[bj] = false;
+    for (size_t k = 0; k < n; ++k) d[bi][k] = d[k][bi] = std::min(d[bi][k], d[bj][k]);
+  }
+  std::sort(heights.begin(), heights.end());
+  return heights;
+}
+
+TEST(Slink, IncrementalInsertionMatchesBruteForceSingleLinkage) {
+  std::mt19937 rng(42);
+  std::normal_distribution<double> normal;
+  std::vector<Eigen::VectorXd> points;
+  Slink dut;
+  for (int n = 0; n < 200; ++n) {
+    Eigen::VectorXd p(5);
+    for (int d = 0; d < 5; ++d) p[d] = normal(rng) + (n % 4) * 3.0;  // four loose groups
+    std::vector<double> dist;
+    for (const auto& q : points) dist.push_back((q - p).squaredNorm());
+    dut.Insert(dist);
+    points.push_back(p);
+  }
+  const std::vector<DendrogramMerge> merges = ToDendrogram(dut);
+  ASSERT_EQ(merges.size(), 199u);
+  const std::vector<double> expected = BruteForceHeights(points);
+  for (size_t i = 0; i < merges.size(); ++i) {
+    EXPECT_NEAR(merges[i].height, expected[i], 1e-9) << "merge " << i;
+  }
+}
+
+TEST(Slink, DendrogramMergesFormOneTree) {
+  Slink dut;
+  dut.Insert({});
+  dut.Insert({1.0});
+  dut.Insert({4.0, 2.0});
+  const auto merges = ToDendrogram(dut);
+  ASSERT_EQ(merges.size(), 2u);
+  EXPECT_DOUBLE_EQ(merges[0].height, 1.0);
+  EXPECT_DOUBLE_EQ(merges[1].height, 2.0);
+  // The second merge joins point 2 with cluster 3 (the first merge).
+  EXPECT_TRUE((merges[1].a == 2 && merges[1].b == 3) || (merges[1].a == 3 && merges[1].b == 2));
+}
+
+TEST(Slink, RestoreRejectsInvalidPointerRepresentation) {
+  EXPECT_THROW(Slink({0, 1}, {1.0, Slink::kInfinity}), std::invalid_argument);
+  EXPECT_THROW(Slink({1}, {1.0, 2.0}), std::invalid_argument);
+  EXPECT_NO_THROW(Slink({1, 1}, {1.0, Slink::kInfinity}));
+}
+
+TEST(Slink, InsertRejectsWrongDistanceCount) {
+  Slink dut;
+  EXPECT_THROW(dut.Insert({1.0}), std::invalid_argument);
+}
+
+}  // namespace
+}  // namespace tsc

@@ -1,0 +1,31 @@
+#include "core/map/topological_map.h"
+
+#include <gtest/gtest.h>
+
+namespace tsc {
+namespace {
+
+TEST(TopologicalMap, RecordsUndirectedEdgesWithTraversalsAndRegions) {
+  TopologicalMap dut;
+  const PlaceId a{1, 1}, b{1, 2};
+  EXPECT_TRUE(dut.RecordTransition(a, b, TransitionRegion{10, 14}));
+  EXPECT_TRUE(dut.RecordTransition(b, a, TransitionRegion{40, 41}));
+  ASSERT_EQ(dut.edges().size(), 1u);
+  const MapEdge* e = dut.Find(b, a);
+  ASSERT_NE(e, nullptr);
+  EXPECT_EQ(e->traversals, 2);
+  EXPECT_EQ(e->a, a);
+  ASSERT_EQ(e->transitions.size(), 2u);
+  EXPECT_EQ(e->transitions[1], (TransitionRegion{40, 41}));
+  EXPECT_EQ(dut.places().size(), 2u);
+}
+
+TEST(TopologicalMap, SelfTransitionAddsNoEdge) {
+  TopologicalMap dut;
+  EXPECT_FALSE(dut.RecordTransition({1, 1}, {1, 1}, {}));
+  EXPECT_TRUE(dut.edges().empty());
+  EXPECT_THROW(dut.RestoreEdge(MapEdge{{1, 1}, {1, 1}, 1, {}}), std::invalid_argument);
+}
+
+}  // namespace
+}  // namespace tsc
