@@ -221,7 +221,9 @@ void PlaceMemory::RebuildTree(const std::unordered_map<uint64_t, OneClassDiscrim
   // Keep the discriminants of nodes whose place set does not change.
   std::unordered_map<uint64_t, OneClassDiscriminant> previous = saved;
   for (size_t i = 0; i < nodes_.size(); ++i) {
-    if (discriminants_[i].trained()) previous.emplace(nodes_[i].set_key, discriminants_[i]);
+    if (discriminants_[i].trained()) {
+      previous.emplace(nodes_[i].set_key, std::move(discriminants_[i]));
+    }
   }
   std::vector<MemoryNode> nodes(n);
   for (int i = 0; i < n; ++i) nodes[i].place = i;
@@ -313,7 +315,7 @@ void PlaceMemory::RebuildTree(const std::unordered_map<uint64_t, OneClassDiscrim
     if (static_cast<int>(i) == root_) continue;
     auto it = previous.find(nodes_[i].set_key);
     if (it != previous.end()) {
-      discriminants_[i] = it->second;
+      discriminants_[i] = std::move(it->second);
     } else {
       RetrainDiscriminant(static_cast<int>(i));
     }
