@@ -5,9 +5,11 @@
 
 #include <sqlite3.h>
 
+#include <cstdint>
 #include <filesystem>
 #include <memory>
 #include <optional>
+#include <stdexcept>
 #include <string>
 
 #include "core/pipeline/pipeline.h"
@@ -29,6 +31,10 @@ class StoreError : public std::runtime_error {
 
 class Store {
  public:
+  /// Schema version this code writes; Open() migrates older databases up to it and refuses
+  /// newer ones.
+  static constexpr int kSchemaVersion = 1;
+
   /// Opens or creates the database; creates or migrates the schema. Throws StoreError.
   static Store Open(const std::filesystem::path& path);
   Store(Store&&) noexcept;

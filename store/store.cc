@@ -1,0 +1,988 @@
+#include "store/store.h"
+
+#include <algorithm>
+#include <array>
+#include <bit>
+#include <cstring>
+#include <limits>
+#include <span>
+#include <string_view>
+#include <type_traits>
+#include <unordered_map>
+#include <unordered_set>
+#include <utility>
+#include <vector>
+
+namespace tsc {
+namespace {
+
+// ---------------------------------------------------------------------------------------
+// Schema. kMigrations[v] takes a database from version v to v + 1; a step that has shipped is
+// never edited, a change is a new step appended here.
+
+constexpr std::array<const char*, 1> kMigrations = {
+    // Version 1: the initial schema, after appendix D.2.
+    R"sql(
+CREATE TABLE meta(key TEXT PRIMARY KEY, value) WITHOUT ROWID;
+CREATE TABLE base_points(
+  idx INTEGER PRIMARY KEY,          -- BaseIndex k
+  status INTEGER NOT NULL,          -- BaseStatus: 0 good, 1 uninformative, 2 incoherent
+  descriptor BLOB NOT NULL,         -- float32 LE
+  intensity_mean REAL NOT NULL,
+  intensity_var REAL NOT NULL);
+CREATE TABLE detected_places(
+  idx INTEGER PRIMARY KEY,          -- DetectedPlaceIndex m
+  mean BLOB NOT NULL,               -- float32 LE
+  members BLOB NOT NULL,            -- int64 LE base point indices
+  place_robot INTEGER,              -- β(D_m), once recognised or learned
+  place_local INTEGER);
+CREATE TABLE transition_regions(
+  id INTEGER PRIMARY KEY AUTOINCREMENT,
+  first INTEGER NOT NULL,           -- base points, inclusive
+  last INTEGER NOT NULL,
+  from_robot INTEGER, from_local INTEGER,
+  to_robot INTEGER, to_local INTEGER,
+  UNIQUE(first, last));
+CREATE TABLE learned_places(
+  position INTEGER PRIMARY KEY,     -- index in PlaceMemory::places()
+  robot INTEGER NOT NULL,
+  local INTEGER NOT NULL,
+  mean BLOB NOT NULL,               -- float32 LE
+  member_count INTEGER NOT NULL,
+  samples BLOB NOT NULL,            -- int32 rows, int32 cols, float32 column-major
+  detected BLOB NOT NULL,           -- int64 LE detected place indices
+  members BLOB NOT NULL,            -- int64 LE base point indices
+  UNIQUE(robot, local));
+CREATE TABLE memory_nodes(
+  idx INTEGER PRIMARY KEY,
+  parent INTEGER NOT NULL,          -- -1 for the root
+  place INTEGER NOT NULL,           -- place position for terminals, -1 for inner nodes
+  height REAL NOT NULL,
+  first_leaf INTEGER NOT NULL,
+  end_leaf INTEGER NOT NULL,
+  set_key INTEGER NOT NULL);        -- uint64 bit-cast to int64
+CREATE TABLE discriminants(
+  set_key INTEGER PRIMARY KEY,      -- uint64 bit-cast to int64
+  dim INTEGER NOT NULL,
+  n_sv INTEGER NOT NULL,
+  rho REAL NOT NULL,
+  gamma REAL NOT NULL,
+  support BLOB NOT NULL,            -- float32 LE, dim x n_sv column-major
+  coef BLOB NOT NULL);              -- float32 LE, n_sv
+CREATE TABLE map_places(
+  robot INTEGER NOT NULL,
+  local INTEGER NOT NULL,
+  PRIMARY KEY(robot, local)) WITHOUT ROWID;
+CREATE TABLE map_edges(
+  a_robot INTEGER NOT NULL, a_local INTEGER NOT NULL,  -- a < b
+  b_robot INTEGER NOT NULL, b_local INTEGER NOT NULL,
+  traversals INTEGER NOT NULL,
+  transitions BLOB NOT NULL,        -- int64 LE (first, last) pairs
+  PRIMARY KEY(a_robot, a_local, b_robot, b_local)) WITHOUT ROWID;
+CREATE TABLE peers(                 -- teammates merged so far (written by the merge issue)
+  robot INTEGER PRIMARY KEY,
+  last_merged_version INTEGER NOT NULL,
+  merged_at_utime INTEGER NOT NULL);
+)sql",
+};
+static_assert(static_cast<int>(kMigrations.size()) == Store::kSchemaVersion);
+
+constexpr int kBusyTimeoutMs = 5000;
+
+// Keys of the meta table.
+constexpr const char* kMetaRobot = "robot";
+constexpr const char* kMetaNextBase = "next_base";
+constexpr const char* kMetaNextDetected = "next_detected";
+constexpr const char* kMetaPreviousRobot = "previous_place_robot";
+constexpr const char* kMetaPreviousLocal = "previous_place_local";
+constexpr const char* kMetaNextLocal = "next_local_id";
+constexpr const char* kMetaSlink = "slink";  // int32 π[n] then float64 λ[n]
+
+// ---------------------------------------------------------------------------------------
+// Blobs: little-endian raw arrays of arithmetic values with explicit length checks.
+
+template <typename T>
+concept Arithmetic = std::is_arithmetic_v<T> && !std::is_same_v<T, bool>;
+
+using Bytes = std::vector<unsigned char>;
+
+/// Copies `count` values between native and little-endian byte order (the conversion is its
+/// own inverse, so one function serves both directions).
+template <Arithmetic T>
+void CopyLittleEndian(const unsigned char* src, unsigned char* dst, size_t count) {
+  static_assert(std::endian::native == std::endian::little ||
+                std::endian::native == std::endian::big);
+  if constexpr (std::endian::native == std::endian::little) {
+    if (count > 0) std::memcpy(dst, src, count * sizeof(T));
+  } else {
+    for (size_t i = 0; i < count; ++i) {
+      std::reverse_copy(src + i * sizeof(T), src + (i + 1) * sizeof(T), dst + i * sizeof(T));
+    }
+  }
+}
+
+class BlobWriter {
+ public:
+  template <Arithmetic T>
+  BlobWriter& Put(std::span<const T> values) {
+    const size_t at = bytes_.size();
+    bytes_.resize(at + values.size_bytes());
+    CopyLittleEndian<T>(reinterpret_cast<const unsigned char*>(values.data()), bytes_.data() + at,
+                        values.size());
+    return *this;
+  }
+  template <Arithmetic T>
+  BlobWriter& PutOne(T value) {
+    return Put(std::span<const T>(&value, 1));
+  }
+  Bytes Finish() { return std::move(bytes_); }
+
+ private:
+  Bytes bytes_;
+};
+
+/// A blob that does not decode; the caller adds table, row and column.
+class BlobError : public std::runtime_error {
+ public:
+  using std::runtime_error::runtime_error;
+};
+
+class BlobReader {
+ public:
+  explicit BlobReader(std::span<const unsigned char> bytes) : bytes_(bytes) {}
+
+  size_t remaining() const { return bytes_.size() - pos_; }
+
+  template <Arithmetic T>
+  void TakeInto(T* out, size_t count) {
+    if (count > remaining() / sizeof(T)) {
+      throw BlobError("blob of " + std::to_string(bytes_.size()) +
+                      " bytes is too short: " + std::to_string(count) + " values of " +
+                      std::to_string(sizeof(T)) + " bytes wanted at byte " + std::to_string(pos_));
+    }
+    CopyLittleEndian<T>(bytes_.data() + pos_, reinterpret_cast<unsigned char*>(out), count);
+    pos_ += count * sizeof(T);
+  }
+  template <Arithmetic T>
+  std::vector<T> Take(size_t count) {
+    if (count > remaining() / sizeof(T)) {
+      TakeInto<T>(nullptr, count);  // throws with the standard message
+    }
+    std::vector<T> out(count);
+    TakeInto(out.data(), count);
+    return out;
+  }
+  template <Arithmetic T>
+  T TakeOne() {
+    T value{};
+    TakeInto(&value, 1);
+    return value;
+  }
+  /// Everything left, which must be a whole number of values.
+  template <Arithmetic T>
+  std::vector<T> TakeRest() {
+    if (remaining() % sizeof(T) != 0) {
+      throw BlobError("blob of " + std::to_string(bytes_.size()) +
+                      " bytes is not a whole number of " + std::to_string(sizeof(T)) +
+                      "-byte values");
+    }
+    return Take<T>(remaining() / sizeof(T));
+  }
+  void ExpectEnd() const {
+    if (remaining() != 0) {
+      throw BlobError("blob of " + std::to_string(bytes_.size()) + " bytes has " +
+                      std::to_string(remaining()) + " trailing bytes");
+    }
+  }
+
+ private:
+  std::span<const unsigned char> bytes_;
+  size_t pos_ = 0;
+};
+
+template <Arithmetic T>
+Bytes EncodeArray(std::span<const T> values) {
+  return BlobWriter().Put(values).Finish();
+}
+
+Bytes EncodeVector(const Eigen::VectorXf& v) {
+  return EncodeArray(std::span<const float>(v.data(), static_cast<size_t>(v.size())));
+}
+
+Bytes EncodeSamples(const Eigen::MatrixXf& m) {
+  BlobWriter w;
+  w.PutOne(static_cast<int32_t>(m.rows())).PutOne(static_cast<int32_t>(m.cols()));
+  w.Put(std::span<const float>(m.data(), static_cast<size_t>(m.size())));
+  return w.Finish();
+}
+
+Bytes EncodeTransitions(const std::vector<TransitionRegion>& regions) {
+  BlobWriter w;
+  for (const TransitionRegion& r : regions) w.PutOne<int64_t>(r.first).PutOne<int64_t>(r.last);
+  return w.Finish();
+}
+
+Bytes EncodeSlink(const Slink& slink) {
+  std::vector<int32_t> pi(slink.pi().begin(), slink.pi().end());
+  return BlobWriter()
+      .Put(std::span<const int32_t>(pi))
+      .Put(std::span<const double>(slink.lambda()))
+      .Finish();
+}
+
+int64_t ToSqlKey(uint64_t key) { return std::bit_cast<int64_t>(key); }
+uint64_t FromSqlKey(int64_t key) { return std::bit_cast<uint64_t>(key); }
+
+// ---------------------------------------------------------------------------------------
+// sqlite3 wrappers.
+
+/// The open connection and the file name every message carries.
+struct Db {
+  sqlite3* handle;
+  const std::filesystem::path& path;
+};
+
+[[noreturn]] void Fail(const Db& db, const std::string& what) {
+  throw StoreError(db.path.string() + ": " + what);
+}
+
+[[noreturn]] void FailSqlite(const Db& db, const std::string& what) {
+  Fail(db, what + ": " + (db.handle ? sqlite3_errmsg(db.handle) : "out of memory"));
+}
+
+void Exec(const Db& db, const char* sql) {
+  char* message = nullptr;
+  if (sqlite3_exec(db.handle, sql, nullptr, nullptr, &message) != SQLITE_OK) {
+    const std::string text = message ? message : sqlite3_errmsg(db.handle);
+    sqlite3_free(message);
+    const std::string_view head(sql);
+    Fail(db, "cannot execute `" + std::string(head.substr(0, 60)) + "`: " + text);
+  }
+}
+
+/// A prepared statement, finalised on destruction.
+class Statement {
+ public:
+  Statement(const Db& db, const char* sql) : db_(db) {
+    if (sqlite3_prepare_v2(db.handle, sql, -1, &stmt_, nullptr) != SQLITE_OK) {
+      FailSqlite(db, std::string("cannot prepare `") + sql + "`");
+    }
+  }
+  Statement(const Statement&) = delete;
+  Statement& operator=(const Statement&) = delete;
+  ~Statement() { sqlite3_finalize(stmt_); }
+
+  Statement& Int(int i, int64_t v) { return Check(sqlite3_bind_int64(stmt_, i, v)); }
+  Statement& Real(int i, double v) { return Check(sqlite3_bind_double(stmt_, i, v)); }
+  Statement& Null(int i) { return Check(sqlite3_bind_null(stmt_, i)); }
+  Statement& Text(int i, const char* text) {
+    return Check(sqlite3_bind_text(stmt_, i, text, -1, SQLITE_TRANSIENT));
+  }
+  Statement& Blob(int i, const Bytes& bytes) {
+    static const unsigned char kEmpty = 0;  // a null pointer would bind NULL, not an empty blob
+    return Check(sqlite3_bind_blob64(stmt_, i, bytes.empty() ? &kEmpty : bytes.data(), bytes.size(),
+                                     SQLITE_TRANSIENT));
+  }
+  /// Binds robot at i and local at i + 1 (NULLs when absent).
+  Statement& Place(int i, const std::optional<PlaceId>& id) {
+    if (!id) return Null(i).Null(i + 1);
+    return Int(i, id->robot).Int(i + 1, id->local);
+  }
+
+  /// True when a row is ready; false when the statement is done.
+  bool Step() {
+    const int rc = sqlite3_step(stmt_);
+    if (rc == SQLITE_ROW) return true;
+    if (rc == SQLITE_DONE) return false;
+    FailSqlite(db_, std::string("cannot run `") + sqlite3_sql(stmt_) + "`");
+  }
+  /// Runs a statement that returns no rows and makes it ready for new bindings.
+  void Run() {
+    while (Step()) {
+    }
+    Reset();
+  }
+  void Reset() {
+    sqlite3_reset(stmt_);
+    sqlite3_clear_bindings(stmt_);
+  }
+  sqlite3_stmt* get() const { return stmt_; }
+
+ private:
+  Statement& Check(int rc) {
+    if (rc != SQLITE_OK)
+      FailSqlite(db_, std::string("cannot bind to `") + sqlite3_sql(stmt_) + "`");
+    return *this;
+  }
+
+  Db db_;
+  sqlite3_stmt* stmt_ = nullptr;
+};
+
+/// BEGIN IMMEDIATE … COMMIT; rolls back unless Commit() succeeded (on exceptions too).
+class Transaction {
+ public:
+  explicit Transaction(const Db& db) : db_(db) { Exec(db_, "BEGIN IMMEDIATE"); }
+  Transaction(const Transaction&) = delete;
+  Transaction& operator=(const Transaction&) = delete;
+  ~Transaction() {
+    if (!committed_) sqlite3_exec(db_.handle, "ROLLBACK", nullptr, nullptr, nullptr);
+  }
+  void Commit() {
+    Exec(db_, "COMMIT");
+    committed_ = true;
+  }
+
+ private:
+  Db db_;
+  bool committed_ = false;
+};
+
+/// The current row of a query, with checked typed access: every failure names the table, the
+/// row and the column.
+class Row {
+ public:
+  Row(const Db& db, const Statement& stmt, std::string table, std::string row)
+      : db_(db), stmt_(stmt.get()), table_(std::move(table)), row_(std::move(row)) {}
+
+  [[noreturn]] void Fail(const char* column, const std::string& what) const {
+    tsc::Fail(db_, "table " + table_ + ", row " + row_ + ", column " + column + ": " + what);
+  }
+
+  bool IsNull(int col) const { return sqlite3_column_type(stmt_, col) == SQLITE_NULL; }
+
+  int64_t Int(int col, const char* name, int64_t lo = std::numeric_limits<int64_t>::min(),
+              int64_t hi = std::numeric_limits<int64_t>::max()) const {
+    if (sqlite3_column_type(stmt_, col) != SQLITE_INTEGER) Fail(name, "not an integer");
+    const int64_t v = sqlite3_column_int64(stmt_, col);
+    if (v < lo || v > hi) {
+      Fail(name,
+           std::to_string(v) + " outside [" + std::to_string(lo) + ", " + std::to_string(hi) + "]");
+    }
+    return v;
+  }
+  std::optional<int64_t> OptionalInt(int col, const char* name, int64_t lo, int64_t hi) const {
+    if (IsNull(col)) return std::nullopt;
+    return Int(col, name, lo, hi);
+  }
+  double Real(int col, const char* name) const {
+    const int type = sqlite3_column_type(stmt_, col);
+    if (type != SQLITE_FLOAT && type != SQLITE_INTEGER) Fail(name, "not a number");
+    return sqlite3_column_double(stmt_, col);
+  }
+  PlaceId Place(int col, const char* name) const {
+    std::optional<PlaceId> id = OptionalPlace(col, name);
+    if (!id) Fail(name, "no place");
+    return *id;
+  }
+  /// Robot at `col`, local at `col + 1`; both NULL → none.
+  std::optional<PlaceId> OptionalPlace(int col, const char* name) const {
+    constexpr int64_t kMax = std::numeric_limits<uint32_t>::max();
+    if (IsNull(col) && IsNull(col + 1)) return std::nullopt;
+    return PlaceId{static_cast<uint32_t>(Int(col, name, 0, kMax)),
+                   static_cast<uint32_t>(Int(col + 1, name, 0, kMax))};
+  }
+
+  /// Runs `decode(BlobReader&)` over a BLOB column; decoding errors name the cell.
+  template <typename F>
+  auto Decode(int col, const char* name, F&& decode) const {
+    if (sqlite3_column_type(stmt_, col) != SQLITE_BLOB) Fail(name, "not a blob");
+    const auto* data = static_cast<const unsigned char*>(sqlite3_column_blob(stmt_, col));
+    const int size = sqlite3_column_bytes(stmt_, col);
+    BlobReader reader(std::span<const unsigned char>(data, data ? static_cast<size_t>(size) : 0));
+    try {
+      return decode(reader);
+    } catch (const BlobError& e) {
+      Fail(name, e.what());
+    }
+  }
+  template <Arithmetic T>
+  std::vector<T> Array(int col, const char* name) const {
+    return Decode(col, name, [](BlobReader& r) { return r.TakeRest<T>(); });
+  }
+  /// A float32 vector; `dim` ≥ 0 requires that many values. Values must be finite.
+  Eigen::VectorXf Vector(int col, const char* name, int64_t dim = -1) const {
+    Eigen::VectorXf v = Decode(col, name, [&](BlobReader& r) {
+      if (r.remaining() % sizeof(float) != 0 ||
+          (dim >= 0 && r.remaining() != static_cast<size_t>(dim) * sizeof(float))) {
+        throw BlobError("blob of " + std::to_string(r.remaining()) + " bytes is not " +
+                        (dim >= 0 ? std::to_string(dim) : std::string("a whole number of")) +
+                        " float32 values");
+      }
+      Eigen::VectorXf out(static_cast<Eigen::Index>(r.remaining() / sizeof(float)));
+      r.TakeInto(out.data(), static_cast<size_t>(out.size()));
+      return out;
+    });
+    if (!v.allFinite()) Fail(name, "non-finite value");
+    return v;
+  }
+  /// A float32 matrix stored column-major, of `rows` x `cols` (both in [0, 2^31)).
+  Eigen::MatrixXf Matrix(int col, const char* name, int64_t rows, int64_t cols) const {
+    Eigen::MatrixXf m = Decode(col, name, [&](BlobReader& r) {
+      // Sizes are checked before anything of rows x cols is allocated.
+      if (static_cast<uint64_t>(rows) * static_cast<uint64_t>(cols) * sizeof(float) !=
+          r.remaining()) {
+        throw BlobError("blob of " + std::to_string(r.remaining()) + " bytes is not " +
+                        std::to_string(rows) + " x " + std::to_string(cols) + " float32 values");
+      }
+      Eigen::MatrixXf out(rows, cols);
+      r.TakeInto(out.data(), static_cast<size_t>(out.size()));
+      r.ExpectEnd();
+      return out;
+    });
+    if (!m.allFinite()) Fail(name, "non-finite value");
+    return m;
+  }
+  /// The samples layout: int32 rows, int32 cols, then rows x cols float32 column-major.
+  Eigen::MatrixXf Samples(int col, const char* name) const {
+    Eigen::MatrixXf m = Decode(col, name, [](BlobReader& r) {
+      const int32_t rows = r.TakeOne<int32_t>(), cols = r.TakeOne<int32_t>();
+      if (rows < 0 || cols < 0) {
+        throw BlobError("negative size " + std::to_string(rows) + " x " + std::to_string(cols));
+      }
+      const uint64_t count = uint64_t{static_cast<uint32_t>(rows)} * static_cast<uint32_t>(cols);
+      if (count > r.remaining() / sizeof(float)) {
+        throw BlobError(std::to_string(rows) + " x " + std::to_string(cols) + " floats need " +
+                        std::to_string(count * sizeof(float)) + " bytes, " +
+                        std::to_string(r.remaining()) + " left");
+      }
+      Eigen::MatrixXf out(rows, cols);
+      r.TakeInto(out.data(), static_cast<size_t>(count));
+      r.ExpectEnd();
+      return out;
+    });
+    if (!m.allFinite()) Fail(name, "non-finite value");
+    return m;
+  }
+
+ private:
+  Db db_;
+  sqlite3_stmt* stmt_;
+  std::string table_;
+  std::string row_;
+};
+
+// ---------------------------------------------------------------------------------------
+// Meta table.
+
+void SetMeta(const Db& db, const char* key, const std::optional<int64_t>& value) {
+  Statement s(db, "INSERT OR REPLACE INTO meta(key, value) VALUES(?1, ?2)");
+  s.Text(1, key);
+  if (value) {
+    s.Int(2, *value);
+  } else {
+    s.Null(2);
+  }
+  s.Run();
+}
+
+void SetMetaBlob(const Db& db, const char* key, const Bytes& value) {
+  Statement s(db, "INSERT OR REPLACE INTO meta(key, value) VALUES(?1, ?2)");
+  s.Text(1, key).Blob(2, value).Run();
+}
+
+/// Runs `read(Row&)` on the meta row `key`; nullopt when there is none or its value is NULL.
+template <typename F>
+auto ReadMeta(const Db& db, const char* key, F&& parse)
+    -> std::optional<decltype(parse(std::declval<const Row&>()))> {
+  Statement s(db, "SELECT value FROM meta WHERE key = ?1");
+  s.Text(1, key);
+  if (!s.Step()) return std::nullopt;
+  const Row row(db, s, "meta", std::string("key=") + key);
+  if (row.IsNull(0)) return std::nullopt;
+  return parse(row);
+}
+
+std::optional<int64_t> MetaInt(const Db& db, const char* key, int64_t lo, int64_t hi) {
+  return ReadMeta(db, key, [&](const Row& r) { return r.Int(0, "value", lo, hi); });
+}
+
+/// Records `robot` in a new database; throws if the database belongs to another robot.
+void CheckRobot(const Db& db, uint32_t robot) {
+  const std::optional<int64_t> stored =
+      MetaInt(db, kMetaRobot, 0, std::numeric_limits<uint32_t>::max());
+  if (!stored) {
+    SetMeta(db, kMetaRobot, robot);
+  } else if (*stored != robot) {
+    Fail(db, "database belongs to robot " + std::to_string(*stored) + ", not to robot " +
+                 std::to_string(robot));
+  }
+}
+
+int64_t ReadSchemaVersion(const Db& db) {
+  Statement s(db, "SELECT MAX(version) FROM schema_version");
+  if (!s.Step()) return 0;
+  const Row row(db, s, "schema_version", "max");
+  return row.IsNull(0) ? 0 : row.Int(0, "version", 0, std::numeric_limits<int32_t>::max());
+}
+
+void Migrate(const Db& db) {
+  Transaction tx(db);
+  Exec(db, "CREATE TABLE IF NOT EXISTS schema_version(version INTEGER NOT NULL)");
+  const int64_t version = ReadSchemaVersion(db);
+  if (version > Store::kSchemaVersion) {
+    Fail(db, "database schema version " + std::to_string(version) + " is newer than the version " +
+                 std::to_string(Store::kSchemaVersion) +
+                 " this program knows; refusing to open it");
+  }
+  if (version < Store::kSchemaVersion) {
+    for (int64_t v = version; v < Store::kSchemaVersion; ++v) {
+      Exec(db, kMigrations[static_cast<size_t>(v)]);
+    }
+    Exec(db, "DELETE FROM schema_version");
+    Statement(db, "INSERT INTO schema_version(version) VALUES(?1)")
+        .Int(1, Store::kSchemaVersion)
+        .Run();
+  }
+  tx.Commit();
+}
+
+// ---------------------------------------------------------------------------------------
+// Commit helpers.
+
+void InsertBasePoint(const Db& db, const BasePointRecord& base) {
+  Statement(db,
+            "INSERT OR REPLACE INTO base_points(idx, status, descriptor, intensity_mean, "
+            "intensity_var) VALUES(?1, ?2, ?3, ?4, ?5)")
+      .Int(1, base.index)
+      .Int(2, static_cast<int64_t>(base.status))
+      .Blob(3, EncodeVector(base.descriptor))
+      .Real(4, base.intensity.mean)
+      .Real(5, base.intensity.variance)
+      .Run();
+}
+
+/// Non-partial recognised / learned event of detected place `m`, if any.
+const PlaceEvent* Assignment(const FrameResult& result, DetectedPlaceIndex m) {
+  for (const PlaceEvent& e : result.events) {
+    if ((e.kind == EventKind::kRecognized || e.kind == EventKind::kLearned) && !e.partial &&
+        e.detected_place == m && e.place) {
+      return &e;
+    }
+  }
+  return nullptr;
+}
+
+void InsertDetectedPlaces(const Db& db, const FrameResult& result) {
+  Statement s(db,
+              "INSERT OR REPLACE INTO detected_places(idx, mean, members, place_robot, "
+              "place_local) VALUES(?1, ?2, ?3, ?4, ?5)");
+  for (const DetectedPlace& d : result.closed_places) {
+    const PlaceEvent* assigned = Assignment(result, d.index);
+    s.Int(1, d.index)
+        .Blob(2, d.descriptors.cols() > 0 ? EncodeVector(d.Mean()) : Bytes{})
+        .Blob(3, EncodeArray(std::span<const int64_t>(d.members)))
+        .Place(4, assigned ? assigned->place : std::nullopt)
+        .Run();
+  }
+  // Assignments of places closed by earlier results (the pipeline assigns a place when it
+  // closes it, but the event alone is enough to fill the column).
+  Statement update(db,
+                   "UPDATE detected_places SET place_robot = ?1, place_local = ?2 WHERE idx = ?3");
+  for (const PlaceEvent& e : result.events) {
+    const bool closed_now =
+        std::any_of(result.closed_places.begin(), result.closed_places.end(),
+                    [&](const DetectedPlace& d) { return d.index == e.detected_place; });
+    if (!closed_now && Assignment(result, e.detected_place) == &e) {
+      update.Place(1, e.place).Int(3, e.detected_place).Run();
+    }
+  }
+}
+
+/// The transition region before a closed place runs from β(D_{m−1}) to β(D_m): the mapped
+/// event gives both; without one the place was recognised as its predecessor (no edge).
+void InsertTransitions(const Db& db, const FrameResult& result) {
+  Statement s(db,
+              "INSERT OR REPLACE INTO transition_regions(first, last, from_robot, from_local, "
+              "to_robot, to_local) VALUES(?1, ?2, ?3, ?4, ?5, ?6)");
+  for (const TransitionRegion& r : result.transitions) {
+    std::optional<PlaceId> from, to;
+    for (const DetectedPlace& d : result.closed_places) {
+      if (d.members.empty() || d.members.front() != r.last + 1) continue;
+      if (const PlaceEvent* assigned = Assignment(result, d.index)) to = assigned->place;
+      from = to;
+      for (const PlaceEvent& e : result.events) {
+        if (e.kind == EventKind::kMapped && e.detected_place == d.index) from = e.from;
+      }
+    }
+    s.Int(1, r.first).Int(2, r.last).Place(3, from).Place(5, to).Run();
+  }
+}
+
+void UpsertLearnedPlaces(const Db& db, const PlaceMemory& memory, const std::vector<int>& changed) {
+  Statement s(db,
+              "INSERT INTO learned_places(position, robot, local, mean, member_count, samples, "
+              "detected, members) VALUES(?1, ?2, ?3, ?4, ?5, ?6, ?7, ?8) "
+              "ON CONFLICT(position) DO UPDATE SET robot = excluded.robot, "
+              "local = excluded.local, mean = excluded.mean, "
+              "member_count = excluded.member_count, samples = excluded.samples, "
+              "detected = excluded.detected, members = excluded.members");
+  for (int position : changed) {
+    if (position < 0 || position >= static_cast<int>(memory.places().size())) {
+      Fail(db, "changed place " + std::to_string(position) + " is not one of the " +
+                   std::to_string(memory.places().size()) + " learned places");
+    }
+    const LearnedPlace& p = memory.places()[static_cast<size_t>(position)];
+    s.Int(1, position)
+        .Int(2, p.id.robot)
+        .Int(3, p.id.local)
+        .Blob(4, EncodeVector(p.mean))
+        .Int(5, p.member_count)
+        .Blob(6, EncodeSamples(p.samples))
+        .Blob(7, EncodeArray(std::span<const int64_t>(p.detected)))
+        .Blob(8, EncodeArray(std::span<const int64_t>(p.members)))
+        .Run();
+  }
+}
+
+/// Rewrites the tree and the SLINK state; stores the discriminants of new node sets and of the
+/// nodes on the paths of changed places (Update() retrains those in place), and deletes those
+/// no node uses any more.
+void WriteTree(const Db& db, const PlaceMemory& memory, const std::vector<int>& changed) {
+  const std::vector<MemoryNode>& nodes = memory.nodes();
+  Exec(db, "DELETE FROM memory_nodes");
+  Statement insert_node(db,
+                        "INSERT INTO memory_nodes(idx, parent, place, height, first_leaf, "
+                        "end_leaf, set_key) VALUES(?1, ?2, ?3, ?4, ?5, ?6, ?7)");
+  for (size_t i = 0; i < nodes.size(); ++i) {
+    const MemoryNode& n = nodes[i];
+    insert_node.Int(1, static_cast<int64_t>(i))
+        .Int(2, n.parent)
+        .Int(3, n.place)
+        .Real(4, n.height)
+        .Int(5, n.first_leaf)
+        .Int(6, n.end_leaf)
+        .Int(7, ToSqlKey(n.set_key))
+        .Run();
+  }
+
+  std::unordered_set<uint64_t> stored;
+  {
+    Statement s(db, "SELECT set_key FROM discriminants");
+    while (s.Step()) {
+      stored.insert(FromSqlKey(Row(db, s, "discriminants", "?").Int(0, "set_key")));
+    }
+  }
+  std::unordered_set<uint64_t> refresh;
+  for (int place : changed) {
+    for (int n = place; n >= 0 && n < static_cast<int>(nodes.size()); n = nodes[n].parent) {
+      refresh.insert(nodes[n].set_key);
+    }
+  }
+  Statement insert_disc(db,
+                        "INSERT OR REPLACE INTO discriminants(set_key, dim, n_sv, rho, gamma, "
+                        "support, coef) VALUES(?1, ?2, ?3, ?4, ?5, ?6, ?7)");
+  std::unordered_set<uint64_t> wanted;
+  for (size_t i = 0; i < nodes.size(); ++i) {
+    const OneClassDiscriminant& d = memory.discriminants()[i];
+    const uint64_t key = nodes[i].set_key;
+    if (!d.trained() || !wanted.insert(key).second) continue;  // the root's is never trained
+    if (stored.contains(key) && !refresh.contains(key)) continue;
+    const Eigen::MatrixXf& support = d.support();
+    insert_disc.Int(1, ToSqlKey(key))
+        .Int(2, support.rows())
+        .Int(3, support.cols())
+        .Real(4, d.rho())
+        .Real(5, d.gamma())
+        .Blob(6, EncodeArray(
+                     std::span<const float>(support.data(), static_cast<size_t>(support.size()))))
+        .Blob(7, EncodeVector(d.coef()))
+        .Run();
+  }
+  Statement erase(db, "DELETE FROM discriminants WHERE set_key = ?1");
+  for (uint64_t key : stored) {
+    if (!wanted.contains(key)) erase.Int(1, ToSqlKey(key)).Run();
+  }
+  SetMetaBlob(db, kMetaSlink, EncodeSlink(memory.slink()));
+  SetMeta(db, kMetaNextLocal, memory.next_local_id());
+}
+
+void WriteMap(const Db& db, const FrameResult& result, const TopologicalMap& map) {
+  Statement place(db, "INSERT OR IGNORE INTO map_places(robot, local) VALUES(?1, ?2)");
+  Statement edge(db,
+                 "INSERT OR REPLACE INTO map_edges(a_robot, a_local, b_robot, b_local, "
+                 "traversals, transitions) VALUES(?1, ?2, ?3, ?4, ?5, ?6)");
+  for (const PlaceEvent& e : result.events) {
+    const bool assigned =
+        (e.kind == EventKind::kRecognized || e.kind == EventKind::kLearned) && !e.partial;
+    if (!assigned && e.kind != EventKind::kMapped) continue;
+    for (const std::optional<PlaceId>& id : {e.place, e.from}) {
+      if (id && map.places().contains(*id)) place.Place(1, id).Run();
+    }
+    if (e.kind != EventKind::kMapped) continue;
+    if (!e.place || !e.from) Fail(db, "mapped event without both places");
+    const MapEdge* found = map.Find(*e.from, *e.place);
+    if (!found) {
+      Fail(db, "mapped event " + e.from->ToString() + " - " + e.place->ToString() +
+                   " has no edge in the map");
+    }
+    edge.Place(1, found->a)
+        .Place(3, found->b)
+        .Int(5, found->traversals)
+        .Blob(6, EncodeTransitions(found->transitions))
+        .Run();
+  }
+}
+
+void WritePipelineState(const Db& db, const PipelineState& state) {
+  SetMeta(db, kMetaNextBase, state.next_base);
+  SetMeta(db, kMetaNextDetected, state.next_detected);
+  SetMeta(
+      db, kMetaPreviousRobot,
+      state.previous_place ? std::optional<int64_t>(state.previous_place->robot) : std::nullopt);
+  SetMeta(
+      db, kMetaPreviousLocal,
+      state.previous_place ? std::optional<int64_t>(state.previous_place->local) : std::nullopt);
+}
+
+// ---------------------------------------------------------------------------------------
+// Load helpers.
+
+std::vector<LearnedPlace> ReadLearnedPlaces(const Db& db) {
+  std::vector<LearnedPlace> places;
+  Statement s(db,
+              "SELECT position, robot, local, mean, member_count, samples, detected, members "
+              "FROM learned_places ORDER BY position");
+  while (s.Step()) {
+    const int64_t position = Row(db, s, "learned_places", "?").Int(0, "position");
+    const Row row(db, s, "learned_places", "position=" + std::to_string(position));
+    if (position != static_cast<int64_t>(places.size())) {
+      row.Fail("position",
+               "expected " + std::to_string(places.size()) + " (positions must be 0, 1, 2, ...)");
+    }
+    LearnedPlace p;
+    p.id = row.Place(1, "robot/local");
+    p.mean = row.Vector(3, "mean");
+    if (p.mean.size() == 0) row.Fail("mean", "empty");
+    if (!places.empty() && p.mean.size() != places.front().mean.size()) {
+      row.Fail("mean", "dimension " + std::to_string(p.mean.size()) + " differs from " +
+                           std::to_string(places.front().mean.size()) + " of position 0");
+    }
+    p.member_count = row.Int(4, "member_count", 1);
+    p.samples = row.Samples(5, "samples");
+    if (p.samples.rows() != p.mean.size() || p.samples.cols() == 0) {
+      row.Fail("samples", std::to_string(p.samples.rows()) + " x " +
+                              std::to_string(p.samples.cols()) + " samples for a mean of " +
+                              std::to_string(p.mean.size()));
+    }
+    p.detected = row.Array<int64_t>(6, "detected");
+    p.members = row.Array<int64_t>(7, "members");
+    places.push_back(std::move(p));
+  }
+  return places;
+}
+
+Slink ReadSlink(const Db& db, size_t expected) {
+  std::optional<Slink> slink = ReadMeta(db, kMetaSlink, [&](const Row& row) {
+    auto [pi, lambda] = row.Decode(0, "value", [&](BlobReader& r) {
+      if (r.remaining() != expected * (sizeof(int32_t) + sizeof(double))) {
+        throw BlobError("blob of " + std::to_string(r.remaining()) + " bytes is not a SLINK " +
+                        "state of " + std::to_string(expected) + " places");
+      }
+      std::vector<int32_t> p = r.Take<int32_t>(expected);
+      std::vector<double> l = r.Take<double>(expected);
+      return std::make_pair(std::vector<int>(p.begin(), p.end()), std::move(l));
+    });
+    try {
+      return Slink(std::move(pi), std::move(lambda));
+    } catch (const std::invalid_argument& e) {
+      row.Fail("value", e.what());
+    }
+  });
+  if (slink) return std::move(*slink);
+  if (expected != 0) {
+    Fail(db, "table meta has no row key=" + std::string(kMetaSlink) + " for " +
+                 std::to_string(expected) + " learned places");
+  }
+  return Slink();
+}
+
+std::unordered_map<uint64_t, OneClassDiscriminant> ReadDiscriminants(const Db& db) {
+  std::unordered_map<uint64_t, OneClassDiscriminant> saved;
+  Statement s(db, "SELECT set_key, dim, n_sv, rho, gamma, support, coef FROM discriminants");
+  constexpr int64_t kMaxSize = std::numeric_limits<int32_t>::max();
+  while (s.Step()) {
+    const int64_t key = Row(db, s, "discriminants", "?").Int(0, "set_key");
+    const Row row(db, s, "discriminants", "set_key=" + std::to_string(key));
+    const int64_t dim = row.Int(1, "dim", 0, kMaxSize);
+    const int64_t n_sv = row.Int(2, "n_sv", 0, kMaxSize);
+    const double rho = row.Real(3, "rho"), gamma = row.Real(4, "gamma");
+    Eigen::MatrixXf support = row.Matrix(5, "support", dim, n_sv);
+    Eigen::VectorXf coef = row.Vector(6, "coef", n_sv);
+    try {
+      saved.emplace(FromSqlKey(key),
+                    OneClassDiscriminant(std::move(support), std::move(coef), rho, gamma));
+    } catch (const std::invalid_argument& e) {
+      row.Fail("support", e.what());
+    }
+  }
+  return saved;
+}
+
+TopologicalMap ReadMap(const Db& db) {
+  TopologicalMap map;
+  {
+    Statement s(db, "SELECT robot, local FROM map_places ORDER BY robot, local");
+    while (s.Step()) map.AddPlace(Row(db, s, "map_places", "?").Place(0, "robot/local"));
+  }
+  Statement s(db,
+              "SELECT a_robot, a_local, b_robot, b_local, traversals, transitions FROM "
+              "map_edges ORDER BY a_robot, a_local, b_robot, b_local");
+  while (s.Step()) {
+    const Row key(db, s, "map_edges", "?");
+    MapEdge edge;
+    edge.a = key.Place(0, "a_robot/a_local");
+    edge.b = key.Place(2, "b_robot/b_local");
+    const Row row(db, s, "map_edges", edge.a.ToString() + "-" + edge.b.ToString());
+    edge.traversals = row.Int(4, "traversals", 0);
+    const std::vector<int64_t> bounds = row.Array<int64_t>(5, "transitions");
+    if (bounds.size() % 2 != 0) row.Fail("transitions", "odd number of region bounds");
+    for (size_t i = 0; i < bounds.size(); i += 2) {
+      edge.transitions.push_back(TransitionRegion{bounds[i], bounds[i + 1]});
+    }
+    try {
+      map.RestoreEdge(std::move(edge));
+    } catch (const std::invalid_argument& e) {
+      row.Fail("a_robot", e.what());
+    }
+  }
+  return map;
+}
+
+/// MAX(column) of `table`, or nullopt for an empty table.
+std::optional<int64_t> MaxIndex(const Db& db, const char* table) {
+  Statement s(db, (std::string("SELECT MAX(idx) FROM ") + table).c_str());
+  if (!s.Step()) return std::nullopt;
+  return Row(db, s, table, "max")
+      .OptionalInt(0, "idx", std::numeric_limits<int64_t>::min(),
+                   std::numeric_limits<int64_t>::max());
+}
+
+PipelineState ReadPipelineState(const Db& db) {
+  constexpr int64_t kMax = std::numeric_limits<int64_t>::max();
+  constexpr int64_t kMaxId = std::numeric_limits<uint32_t>::max();
+  PipelineState state;
+  state.next_base = MetaInt(db, kMetaNextBase, 0, kMax).value_or(0);
+  state.next_detected = MetaInt(db, kMetaNextDetected, 1, kMax).value_or(1);
+  const std::optional<int64_t> robot = MetaInt(db, kMetaPreviousRobot, 0, kMaxId);
+  const std::optional<int64_t> local = MetaInt(db, kMetaPreviousLocal, 0, kMaxId);
+  if (robot.has_value() != local.has_value()) {
+    Fail(db, "table meta: previous place has only one of robot and local");
+  }
+  if (robot) {
+    state.previous_place = PlaceId{static_cast<uint32_t>(*robot), static_cast<uint32_t>(*local)};
+  }
+  // Both tables are written in the same transaction as the position, so it must be past them.
+  if (const auto k = MaxIndex(db, "base_points"); k && *k >= state.next_base) {
+    Fail(db, "table meta: next_base " + std::to_string(state.next_base) +
+                 " is not past base point " + std::to_string(*k));
+  }
+  if (const auto m = MaxIndex(db, "detected_places"); m && *m >= state.next_detected) {
+    Fail(db, "table meta: next_detected " + std::to_string(state.next_detected) +
+                 " is not past detected place " + std::to_string(*m));
+  }
+  return state;
+}
+
+}  // namespace
+
+// ---------------------------------------------------------------------------------------
+
+Store::Store(std::filesystem::path path, sqlite3* db) : path_(std::move(path)), db_(db) {}
+
+Store::Store(Store&& other) noexcept
+    : path_(std::move(other.path_)), db_(std::exchange(other.db_, nullptr)) {}
+
+Store& Store::operator=(Store&& other) noexcept {
+  if (this != &other) {
+    sqlite3_close_v2(db_);
+    path_ = std::move(other.path_);
+    db_ = std::exchange(other.db_, nullptr);
+  }
+  return *this;
+}
+
+Store::~Store() { sqlite3_close_v2(db_); }
+
+Store Store::Open(const std::filesystem::path& path) {
+  sqlite3* handle = nullptr;
+  const int rc =
+      sqlite3_open_v2(path.c_str(), &handle, SQLITE_OPEN_READWRITE | SQLITE_OPEN_CREATE, nullptr);
+  Store store(path, handle);  // owns the handle from here, even when opening failed
+  const Db db{handle, store.path_};
+  if (rc != SQLITE_OK) FailSqlite(db, "cannot open the database");
+  sqlite3_extended_result_codes(handle, 1);
+  if (sqlite3_busy_timeout(handle, kBusyTimeoutMs) != SQLITE_OK) {
+    FailSqlite(db, "cannot set the busy timeout");
+  }
+  {
+    Statement wal(db, "PRAGMA journal_mode=WAL");
+    const bool row = wal.Step();
+    const auto* mode = row ? sqlite3_column_text(wal.get(), 0) : nullptr;
+    if (mode == nullptr || std::string_view(reinterpret_cast<const char*>(mode)) != "wal") {
+      Fail(db, "cannot switch to WAL journal mode");
+    }
+  }
+  Exec(db, "PRAGMA synchronous=NORMAL; PRAGMA foreign_keys=ON;");
+  Migrate(db);
+  return store;
+}
+
+int Store::schema_version() const {
+  const Db db{db_, path_};
+  return static_cast<int>(ReadSchemaVersion(db));
+}
+
+StoredState Store::Load(uint32_t robot, const PlaceMemoryOptions& options) {
+  options.Validate();  // a configuration error, not a store error: std::invalid_argument
+  const Db db{db_, path_};
+  try {
+    Transaction tx(db);
+    CheckRobot(db, robot);
+    std::vector<LearnedPlace> places = ReadLearnedPlaces(db);
+    Slink slink = ReadSlink(db, places.size());
+    const uint32_t next_local = static_cast<uint32_t>(
+        MetaInt(db, kMetaNextLocal, 1, std::numeric_limits<uint32_t>::max()).value_or(1));
+    const auto saved = ReadDiscriminants(db);
+    std::optional<PlaceMemory> memory;
+    try {
+      memory = PlaceMemory::Restore(robot, options, std::move(places), std::move(slink), next_local,
+                                    saved);
+    } catch (const std::invalid_argument& e) {
+      Fail(db, std::string("tables learned_places/discriminants, meta slink: ") + e.what());
+    }
+    TopologicalMap map = ReadMap(db);
+    const PipelineState state = ReadPipelineState(db);
+    tx.Commit();
+    return StoredState{std::move(*memory), std::move(map), state};
+  } catch (const StoreError&) {
+    throw;
+  } catch (const std::exception& e) {
+    Fail(db, std::string("cannot load: ") + e.what());
+  }
+}
+
+void Store::Commit(const FrameResult& result, const Pipeline& pipeline) {
+  const Db db{db_, path_};
+  try {
+    Transaction tx(db);
+    const PlaceMemory& memory = pipeline.memory();
+    CheckRobot(db, memory.robot());
+    if (result.has_base) InsertBasePoint(db, result.base);
+    InsertDetectedPlaces(db, result);
+    InsertTransitions(db, result);
+    if (!result.changed_places.empty()) UpsertLearnedPlaces(db, memory, result.changed_places);
+    if (result.memory_changed || !result.changed_places.empty()) {
+      WriteTree(db, memory, result.changed_places);
+    }
+    WriteMap(db, result, pipeline.map());
+    WritePipelineState(db, pipeline.state());
+    tx.Commit();
+  } catch (const StoreError&) {
+    throw;
+  } catch (const std::exception& e) {
+    Fail(db, std::string("cannot commit: ") + e.what());
+  }
+}
+
+}  // namespace tsc

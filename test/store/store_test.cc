@@ -1,0 +1,484 @@
+#include "store/store.h"
+
+#include <gtest/gtest.h>
+#include <sqlite3.h>
+#include <unistd.h>
+
+#include <algorithm>
+#include <chrono>
+#include <filesystem>
+#include <random>
+#include <set>
+#include <string>
+#include <vector>
+
+namespace tsc {
+namespace {
+
+namespace fs = std::filesystem;
+
+constexpr int kDim = 7 * 100;
+constexpr uint32_t kRobot = 3;
+
+PipelineOptions Options() {
+  PipelineOptions o;
+  o.robot = kRobot;
+  o.detector = DetectorOptions{2, 2, 3};
+  return o;
+}
+
+CameraIntrinsics Camera() { return CameraIntrinsics::FromHorizontalFov(64, 48, 60); }
+
+Eigen::VectorXf Normalised(Eigen::VectorXf v) { return v / v.sum(); }
+
+/// A synthetic descriptor stream: clusters of noisy vectors (places) separated by sparse
+/// vectors far from everything (transitions).
+class Stream {
+ public:
+  explicit Stream(unsigned seed) : rng_(seed) {}
+
+  int AddCluster() {
+    std::uniform_real_distribution<float> u(0.0f, 1.0f);
+    Eigen::VectorXf v(kDim);
+    for (int i = 0; i < kDim; ++i) v[i] = u(rng_);
+    centres_.push_back(Normalised(v));
+    return static_cast<int>(centres_.size()) - 1;
+  }
+
+  /// `n` frames of cluster `c` with 2 % multiplicative noise, then 3 incoherent frames.
+  std::vector<Descriptor> Visit(int c, int n) {
+    std::vector<Descriptor> out;
+    std::normal_distribution<float> noise(0.0f, 0.02f);
+    for (int j = 0; j < n; ++j) {
+      Eigen::VectorXf v = centres_[static_cast<size_t>(c)];
+      for (int i = 0; i < kDim; ++i) v[i] = std::max(0.0f, v[i] * (1.0f + noise(rng_)));
+      out.emplace_back(Normalised(v));
+    }
+    std::uniform_int_distribution<int> pick(0, kDim - 1);
+    for (int j = 0; j < 3; ++j) {
+      Eigen::VectorXf v = Eigen::VectorXf::Zero(kDim);
+      for (int s = 0; s < 5; ++s) v[pick(rng_)] = 1.0f;
+      out.emplace_back(Normalised(v));
+    }
+    return out;
+  }
+
+ private:
+  std::mt19937 rng_;
+  std::vector<Eigen::VectorXf> centres_;
+};
+
+/// Counts of what a run committed.
+struct Committed {
+  int frames = 0;
+  int transitions = 0;
+  int learned = 0;
+  int recognized = 0;
+};
+
+void Feed(Pipeline& pipeline, Store& store, const std::vector<Descriptor>& frames,
+          Committed& committed) {
+  for (const Descriptor& d : frames) {
+    const FrameResult r = pipeline.ProcessDescriptor(d, IntensityStats{0.5, 0.05});
+    store.Commit(r, pipeline);
+    ++committed.frames;
+    committed.transitions += static_cast<int>(r.transitions.size());
+    for (const PlaceEvent& e : r.events) {
+      committed.learned += e.kind == EventKind::kLearned;
+      committed.recognized += e.kind == EventKind::kRecognized && !e.partial;
+    }
+  }
+}
+
+void Finish(Pipeline& pipeline, Store& store, Committed& committed) {
+  const FrameResult r = pipeline.Finish();
+  store.Commit(r, pipeline);
+  committed.transitions += static_cast<int>(r.transitions.size());
+  for (const PlaceEvent& e : r.events) {
+    committed.learned += e.kind == EventKind::kLearned;
+    committed.recognized += e.kind == EventKind::kRecognized && !e.partial;
+  }
+}
+
+/// Runs one SQL statement on the file directly (bypassing Store) and returns the first
+/// column of the first row as an integer (0 when there is none).
+int64_t Sql(const fs::path& path, const std::string& sql) {
+  sqlite3* db = nullptr;
+  EXPECT_EQ(sqlite3_open(path.c_str(), &db), SQLITE_OK);
+  sqlite3_stmt* stmt = nullptr;
+  EXPECT_EQ(sqlite3_prepare_v2(db, sql.c_str(), -1, &stmt, nullptr), SQLITE_OK)
+      << sql << ": " << sqlite3_errmsg(db);
+  int64_t value = 0;
+  const int rc = sqlite3_step(stmt);
+  EXPECT_TRUE(rc == SQLITE_ROW || rc == SQLITE_DONE) << sql << ": " << sqlite3_errmsg(db);
+  if (rc == SQLITE_ROW) value = sqlite3_column_int64(stmt, 0);
+  sqlite3_finalize(stmt);
+  sqlite3_close(db);
+  return value;
+}
+
+/// Like Sql() for a text result.
+std::string SqlText(const fs::path& path, const std::string& sql) {
+  sqlite3* db = nullptr;
+  EXPECT_EQ(sqlite3_open(path.c_str(), &db), SQLITE_OK);
+  sqlite3_stmt* stmt = nullptr;
+  EXPECT_EQ(sqlite3_prepare_v2(db, sql.c_str(), -1, &stmt, nullptr), SQLITE_OK)
+      << sql << ": " << sqlite3_errmsg(db);
+  std::string value;
+  if (sqlite3_step(stmt) == SQLITE_ROW && sqlite3_column_text(stmt, 0) != nullptr) {
+    value = reinterpret_cast<const char*>(sqlite3_column_text(stmt, 0));
+  }
+  sqlite3_finalize(stmt);
+  sqlite3_close(db);
+  return value;
+}
+
+void ExpectSameMemory(const PlaceMemory& want, const PlaceMemory& got) {
+  EXPECT_EQ(got.robot(), want.robot());
+  EXPECT_EQ(got.next_local_id(), want.next_local_id());
+  ASSERT_EQ(got.places().size(), want.places().size());
+  for (size_t i = 0; i < want.places().size(); ++i) {
+    SCOPED_TRACE("place " + std::to_string(i));
+    const LearnedPlace& w = want.places()[i];
+    const LearnedPlace& g = got.places()[i];
+    EXPECT_EQ(g.id, w.id);
+    EXPECT_EQ(g.mean, w.mean);
+    EXPECT_EQ(g.member_count, w.member_count);
+    EXPECT_EQ(g.samples, w.samples);
+    EXPECT_EQ(g.detected, w.detected);
+    EXPECT_EQ(g.members, w.members);
+  }
+  EXPECT_EQ(got.slink().pi(), want.slink().pi());
+  EXPECT_EQ(got.slink().lambda(), want.slink().lambda());
+  EXPECT_EQ(got.root(), want.root());
+  EXPECT_EQ(got.leaf_order(), want.leaf_order());
+  ASSERT_EQ(got.nodes().size(), want.nodes().size());
+  for (size_t i = 0; i < want.nodes().size(); ++i) {
+    SCOPED_TRACE("node " + std::to_string(i));
+    const MemoryNode& w = want.nodes()[i];
+    const MemoryNode& g = got.nodes()[i];
+    EXPECT_EQ(g.parent, w.parent);
+    EXPECT_EQ(g.children, w.children);
+    EXPECT_EQ(g.place, w.place);
+    EXPECT_EQ(g.height, w.height);
+    EXPECT_EQ(g.first_leaf, w.first_leaf);
+    EXPECT_EQ(g.end_leaf, w.end_leaf);
+    EXPECT_EQ(g.set_key, w.set_key);
+    const OneClassDiscriminant& wd = want.discriminants()[i];
+    const OneClassDiscriminant& gd = got.discriminants()[i];
+    EXPECT_EQ(gd.trained(), wd.trained());
+    EXPECT_EQ(gd.support(), wd.support());
+    EXPECT_EQ(gd.coef(), wd.coef());
+    EXPECT_EQ(gd.rho(), wd.rho());
+    EXPECT_EQ(gd.gamma(), wd.gamma());
+  }
+}
+
+void ExpectSameMap(const TopologicalMap& want, const TopologicalMap& got) {
+  EXPECT_EQ(got.places(), want.places());
+  ASSERT_EQ(got.edges().size(), want.edges().size());
+  for (const auto& [key, w] : want.edges()) {
+    SCOPED_TRACE("edge " + w.a.ToString() + "-" + w.b.ToString());
+    const MapEdge* g = got.Find(key.first, key.second);
+    ASSERT_NE(g, nullptr);
+    EXPECT_EQ(g->a, w.a);
+    EXPECT_EQ(g->b, w.b);
+    EXPECT_EQ(g->traversals, w.traversals);
+    EXPECT_EQ(g->transitions, w.transitions);
+  }
+}
+
+void ExpectSameState(const PipelineState& want, const PipelineState& got) {
+  EXPECT_EQ(got.next_base, want.next_base);
+  EXPECT_EQ(got.next_detected, want.next_detected);
+  EXPECT_EQ(got.previous_place, want.previous_place);
+}
+
+class StoreTest : public ::testing::Test {
+ protected:
+  StoreTest() {
+    const std::string name =
+        std::string("tscd_store_test_") + std::to_string(::getpid()) + "_" +
+        ::testing::UnitTest::GetInstance()->current_test_info()->name() + "_" +
+        std::to_string(std::chrono::steady_clock::now().time_since_epoch().count());
+    dir_ = fs::temp_directory_path() / name;
+    fs::create_directories(dir_);
+    path_ = dir_ / "tscd.db";
+  }
+  ~StoreTest() override {
+    std::error_code ec;
+    fs::remove_all(dir_, ec);
+  }
+
+  /// A pipeline continuing from what `store` holds.
+  static Pipeline Continue(Store& store) {
+    StoredState s = store.Load(kRobot, Options().memory);
+    return Pipeline(Camera(), Options(), std::move(s.memory), std::move(s.map), s.pipeline);
+  }
+
+  fs::path dir_;
+  fs::path path_;
+};
+
+TEST_F(StoreTest, LoadReturnsWhatWasCommitted) {
+  Stream stream(17);
+  for (int c = 0; c < 4; ++c) stream.AddCluster();
+  Committed committed;
+  std::optional<PlaceMemory> memory;
+  std::optional<TopologicalMap> map;
+  PipelineState state;
+  {
+    Store dut = Store::Open(path_);
+    Pipeline pipeline = Continue(dut);
+    for (int c : {0, 1, 2, 0, 3, 1}) Feed(pipeline, dut, stream.Visit(c, 14), committed);
+    Finish(pipeline, dut, committed);
+    memory = pipeline.memory();
+    map = pipeline.map();
+    state = pipeline.state();
+  }
+  // The stream exercised learning, recognition (Update) and mapping.
+  EXPECT_GE(committed.learned, 3);
+  EXPECT_GE(committed.recognized, 1);
+  ASSERT_GE(memory->places().size(), 3u);
+  EXPECT_GE(map->edges().size(), 2u);
+
+  Store dut = Store::Open(path_);
+  const StoredState loaded = dut.Load(kRobot, Options().memory);
+  ExpectSameMemory(*memory, loaded.memory);
+  ExpectSameMap(*map, loaded.map);
+  ExpectSameState(state, loaded.pipeline);
+
+  // The knowledge base of appendix D.2 beyond what the memory needs.
+  EXPECT_EQ(Sql(path_, "SELECT COUNT(*) FROM base_points"), committed.frames);
+  EXPECT_EQ(Sql(path_, "SELECT COUNT(*) FROM detected_places"),
+            committed.learned + committed.recognized);
+  EXPECT_EQ(Sql(path_, "SELECT COUNT(*) FROM detected_places WHERE place_robot IS NULL"), 0);
+  EXPECT_EQ(Sql(path_, "SELECT COUNT(*) FROM transition_regions"), committed.transitions);
+  EXPECT_EQ(Sql(path_, "SELECT COUNT(*) FROM transition_regions WHERE to_robot IS NULL"), 0);
+  EXPECT_EQ(Sql(path_, "SELECT COUNT(*) FROM memory_nodes"),
+            static_cast<int64_t>(memory->nodes().size()));
+  EXPECT_EQ(Sql(path_, "SELECT COUNT(*) FROM map_places"),
+            static_cast<int64_t>(map->places().size()));
+  // One discriminant per distinct trained node set, none left over from older trees.
+  std::set<uint64_t> keys;
+  for (size_t i = 0; i < memory->nodes().size(); ++i) {
+    if (memory->discriminants()[i].trained()) keys.insert(memory->nodes()[i].set_key);
+  }
+  EXPECT_EQ(Sql(path_, "SELECT COUNT(*) FROM discriminants"), static_cast<int64_t>(keys.size()));
+  EXPECT_EQ(SqlText(path_, "PRAGMA journal_mode"), "wal");
+}
+
+TEST_F(StoreTest, ReopenedDatabaseContinuesLearning) {
+  Stream stream(23);
+  for (int c = 0; c < 5; ++c) stream.AddCluster();
+  Committed committed;
+  uint32_t max_local_before = 0;
+  size_t places_before = 0;
+  int64_t detected_before = 0;
+  {
+    Store dut = Store::Open(path_);
+    Pipeline pipeline = Continue(dut);
+    for (int c : {0, 1, 2}) Feed(pipeline, dut, stream.Visit(c, 14), committed);
+    Finish(pipeline, dut, committed);
+    for (const LearnedPlace& p : pipeline.memory().places()) {
+      max_local_before = std::max(max_local_before, p.id.local);
+    }
+    places_before = pipeline.memory().places().size();
+    detected_before = Sql(path_, "SELECT MAX(idx) FROM detected_places");
+  }
+  ASSERT_GE(places_before, 2u);
+  int recognized_before = committed.recognized;
+  {
+    Store dut = Store::Open(path_);
+    Pipeline pipeline = Continue(dut);
+    for (int c : {3, 0, 4}) Feed(pipeline, dut, stream.Visit(c, 14), committed);
+    Finish(pipeline, dut, committed);
+  }
+  // The revisit of cluster 0 is recognised by the reloaded memory.
+  EXPECT_GT(committed.recognized, recognized_before);
+
+  Store dut = Store::Open(path_);
+  const StoredState loaded = dut.Load(kRobot, Options().memory);
+  const std::vector<LearnedPlace>& places = loaded.memory.places();
+  ASSERT_GT(places.size(), places_before);
+  std::set<PlaceId> ids;
+  for (size_t i = 0; i < places.size(); ++i) {
+    EXPECT_TRUE(ids.insert(places[i].id).second) << "duplicate " << places[i].id.ToString();
+    EXPECT_EQ(places[i].id.robot, kRobot);
+    if (i >= places_before) {
+      EXPECT_GT(places[i].id.local, max_local_before);
+    }
+  }
+  EXPECT_GT(loaded.memory.next_local_id(), places.back().id.local);
+  // Base points 0..frames-1, each once; detected place indices continue.
+  EXPECT_EQ(Sql(path_, "SELECT COUNT(*) FROM base_points"), committed.frames);
+  EXPECT_EQ(Sql(path_, "SELECT COUNT(DISTINCT idx) FROM base_points"), committed.frames);
+  EXPECT_EQ(Sql(path_, "SELECT MIN(idx) FROM base_points"), 0);
+  EXPECT_EQ(Sql(path_, "SELECT MAX(idx) FROM base_points"), committed.frames - 1);
+  EXPECT_EQ(loaded.pipeline.next_base, committed.frames);
+  EXPECT_GT(Sql(path_, "SELECT MAX(idx) FROM detected_places"), detected_before);
+  EXPECT_EQ(Sql(path_, "SELECT COUNT(*) FROM detected_places"),
+            committed.learned + committed.recognized);
+}
+
+TEST_F(StoreTest, RecommittingAResultIsHarmless) {
+  Stream stream(5);
+  stream.AddCluster();
+  stream.AddCluster();
+  Store dut = Store::Open(path_);
+  Pipeline pipeline = Continue(dut);
+  for (int c : {0, 1}) {
+    for (const Descriptor& d : stream.Visit(c, 12)) {
+      const FrameResult r = pipeline.ProcessDescriptor(d, IntensityStats{0.5, 0.05});
+      dut.Commit(r, pipeline);
+      dut.Commit(r, pipeline);
+    }
+  }
+  const StoredState loaded = dut.Load(kRobot, Options().memory);
+  ExpectSameMemory(pipeline.memory(), loaded.memory);
+  ExpectSameMap(pipeline.map(), loaded.map);
+}
+
+TEST_F(StoreTest, NewDatabaseHasSchemaVersionOneAndAnEmptyMemory) {
+  Store dut = Store::Open(path_);
+  EXPECT_EQ(dut.schema_version(), 1);
+  EXPECT_EQ(Store::kSchemaVersion, 1);
+  EXPECT_EQ(dut.path(), path_);
+  const StoredState loaded = dut.Load(kRobot, Options().memory);
+  EXPECT_TRUE(loaded.memory.empty());
+  EXPECT_EQ(loaded.memory.robot(), kRobot);
+  EXPECT_TRUE(loaded.map.edges().empty());
+  ExpectSameState(PipelineState{}, loaded.pipeline);
+  // Reopening an up-to-date database changes nothing.
+  Store again = Store::Open(path_);
+  EXPECT_EQ(again.schema_version(), 1);
+  EXPECT_EQ(Sql(path_, "SELECT COUNT(*) FROM schema_version"), 1);
+}
+
+TEST_F(StoreTest, OpenRefusesANewerSchemaVersion) {
+  { Store::Open(path_); }
+  Sql(path_, "UPDATE schema_version SET version = 2");
+  try {
+    Store::Open(path_);
+    FAIL() << "a database of schema version 2 was opened";
+  } catch (const StoreError& e) {
+    const std::string what = e.what();
+    EXPECT_NE(what.find(path_.string()), std::string::npos) << what;
+    EXPECT_NE(what.find("version 2"), std::string::npos) << what;
+    EXPECT_NE(what.find("version 1"), std::string::npos) << what;
+  }
+}
+
+TEST_F(StoreTest, OpenRefusesAFileThatIsNotADatabase) {
+  {
+    std::FILE* f = std::fopen(path_.c_str(), "wb");
+    ASSERT_NE(f, nullptr);
+    const std::string junk(4096, 'x');
+    std::fwrite(junk.data(), 1, junk.size(), f);
+    std::fclose(f);
+  }
+  EXPECT_THROW(Store::Open(path_), StoreError);
+}
+
+TEST_F(StoreTest, LoadRefusesADatabaseOfAnotherRobot) {
+  {
+    Store dut = Store::Open(path_);
+    dut.Load(kRobot, Options().memory);
+  }
+  Store dut = Store::Open(path_);
+  try {
+    dut.Load(kRobot + 1, Options().memory);
+    FAIL() << "robot " << kRobot + 1 << " loaded the database of robot " << kRobot;
+  } catch (const StoreError& e) {
+    const std::string what = e.what();
+    EXPECT_NE(what.find(path_.string()), std::string::npos) << what;
+    EXPECT_NE(what.find("robot " + std::to_string(kRobot)), std::string::npos) << what;
+  }
+}
+
+TEST_F(StoreTest, CommitRefusesAPipelineOfAnotherRobotAndRollsBack) {
+  Store dut = Store::Open(path_);
+  dut.Load(kRobot, Options().memory);
+  PipelineOptions other = Options();
+  other.robot = kRobot + 1;
+  Pipeline pipeline(Camera(), other, PlaceMemory(other.robot, other.memory), TopologicalMap());
+  Stream stream(3);
+  stream.AddCluster();
+  const FrameResult r =
+      pipeline.ProcessDescriptor(stream.Visit(0, 1).front(), IntensityStats{0.5, 0.05});
+  EXPECT_THROW(dut.Commit(r, pipeline), StoreError);
+  EXPECT_EQ(Sql(path_, "SELECT COUNT(*) FROM base_points"), 0);
+}
+
+TEST_F(StoreTest, LoadNamesTableRowAndColumnOfACorruptBlob) {
+  {
+    Stream stream(9);
+    stream.AddCluster();
+    stream.AddCluster();
+    Committed committed;
+    Store dut = Store::Open(path_);
+    Pipeline pipeline = Continue(dut);
+    for (int c : {0, 1}) Feed(pipeline, dut, stream.Visit(c, 12), committed);
+    Finish(pipeline, dut, committed);
+  }
+  ASSERT_GE(Sql(path_, "SELECT COUNT(*) FROM learned_places"), 1);
+  Sql(path_, "UPDATE learned_places SET mean = x'0102030405' WHERE position = 0");
+  Store dut = Store::Open(path_);
+  try {
+    dut.Load(kRobot, Options().memory);
+    FAIL() << "a corrupt mean was loaded";
+  } catch (const StoreError& e) {
+    const std::string what = e.what();
+    EXPECT_NE(what.find(path_.string()), std::string::npos) << what;
+    EXPECT_NE(what.find("learned_places"), std::string::npos) << what;
+    EXPECT_NE(what.find("position=0"), std::string::npos) << what;
+    EXPECT_NE(what.find("mean"), std::string::npos) << what;
+  }
+}
+
+TEST_F(StoreTest, LoadRejectsBlobsOfTheWrongShape) {
+  {
+    Stream stream(9);
+    stream.AddCluster();
+    stream.AddCluster();
+    Committed committed;
+    Store dut = Store::Open(path_);
+    Pipeline pipeline = Continue(dut);
+    for (int c : {0, 1}) Feed(pipeline, dut, stream.Visit(c, 12), committed);
+    Finish(pipeline, dut, committed);
+  }
+  struct Case {
+    const char* sql;
+    const char* table;
+  };
+  const Case cases[] = {
+      // samples claim more columns than the blob holds
+      {"UPDATE learned_places SET samples = x'BC020000FFFFFF7F' WHERE position = 0",
+       "learned_places"},
+      {"UPDATE learned_places SET members = x'010203' WHERE position = 0", "learned_places"},
+      {"UPDATE learned_places SET mean = 'text' WHERE position = 0", "learned_places"},
+      {"UPDATE discriminants SET n_sv = n_sv + 1", "discriminants"},
+      {"UPDATE map_edges SET transitions = x'0000000000000000'", "map_edges"},
+      {"UPDATE meta SET value = x'00' WHERE key = 'slink'", "meta"},
+  };
+  for (const Case& c : cases) {
+    SCOPED_TRACE(c.sql);
+    const fs::path copy = dir_ / "copy.db";
+    fs::remove(copy);
+    {
+      Store original = Store::Open(path_);  // checkpoints the WAL on close
+    }
+    fs::copy_file(path_, copy);
+    Sql(copy, c.sql);
+    Store dut = Store::Open(copy);
+    try {
+      dut.Load(kRobot, Options().memory);
+      ADD_FAILURE() << "loaded";
+    } catch (const StoreError& e) {
+      EXPECT_NE(std::string(e.what()).find(c.table), std::string::npos) << e.what();
+    }
+  }
+}
+
+}  // namespace
+}  // namespace tsc
