@@ -94,7 +94,12 @@ void BM_Learn(benchmark::State& state) {
     state.ResumeTiming();
   }
 }
-BENCHMARK(BM_Learn)->Arg(10)->Arg(100)->Arg(1000)->Arg(10000)->Unit(benchmark::kMillisecond)
+BENCHMARK(BM_Learn)
+    ->Arg(10)
+    ->Arg(100)
+    ->Arg(1000)
+    ->Arg(10000)
+    ->Unit(benchmark::kMillisecond)
     ->Iterations(5);
 
 }  // namespace

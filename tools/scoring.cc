@@ -23,8 +23,7 @@ std::string MajorityLabel(const GroundTruth& truth, const std::vector<int>& fram
 
 namespace {
 // Frames of `a` that revisit some frame of `b`, at least a third of |a|.
-bool RevisitsThird(const GroundTruth& truth, const std::vector<int>& a,
-                   const std::set<int>& b) {
+bool RevisitsThird(const GroundTruth& truth, const std::vector<int>& a, const std::set<int>& b) {
   if (a.empty()) return false;
   int hits = 0;
   for (int f : a) {

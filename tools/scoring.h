@@ -11,8 +11,8 @@ namespace tsc {
 
 /// Per-frame ground truth, frames 0-based in name order.
 struct GroundTruth {
-  std::vector<std::string> labels;          ///< place label per frame, "" inside transitions
-  std::vector<std::vector<int>> revisits;   ///< earlier frames each frame shows again
+  std::vector<std::string> labels;         ///< place label per frame, "" inside transitions
+  std::vector<std::vector<int>> revisits;  ///< earlier frames each frame shows again
   bool has_labels() const { return !labels.empty(); }
   bool has_revisits() const { return !revisits.empty(); }
 };

@@ -30,17 +30,17 @@ class ViewingGrid {
 
 /// One camera frame as the bubble space sees it.
 struct Observation {
-  cv::Mat bgr;          ///< CV_8UC3 colour image
-  cv::Mat depth_m;      ///< optional CV_32F range in metres (0 = no reading), same size as bgr
-  PanTilt pan_tilt;     ///< camera direction relative to the base when the frame was taken
+  cv::Mat bgr;       ///< CV_8UC3 colour image
+  cv::Mat depth_m;   ///< optional CV_32F range in metres (0 = no reading), same size as bgr
+  PanTilt pan_tilt;  ///< camera direction relative to the base when the frame was taken
 };
 
 struct BubbleSurfaceOptions {
-  double d_phi_deg = 2.5;        ///< grid spacing of viewing directions, degrees
-  float rest_radius = 0.0f;      ///< rho_0, radius of unobserved directions
-  double max_depth_m = 10.0;     ///< range that maps to depth feature value 1
-  int patch_px = 12;             ///< side of the resampled d_phi x d_phi patch, pixels
-  void Validate() const;         ///< throws std::invalid_argument naming the bad field
+  double d_phi_deg = 2.5;     ///< grid spacing of viewing directions, degrees
+  float rest_radius = 0.0f;   ///< rho_0, radius of unobserved directions
+  double max_depth_m = 10.0;  ///< range that maps to depth feature value 1
+  int patch_px = 12;          ///< side of the resampled d_phi x d_phi patch, pixels
+  void Validate() const;      ///< throws std::invalid_argument naming the bad field
 };
 
 /// The N_v bubble surfaces of one base point. Observe() overwrites the directions a frame
@@ -76,6 +76,35 @@ class BubbleSurface {
   PatchFeatureExtractor extractor_;
   std::vector<Eigen::MatrixXf> rho_;
   Eigen::Matrix<uint8_t, Eigen::Dynamic, Eigen::Dynamic> observed_;
+
+  // A grid direction seen by a frame: its cell (column-major index into rho_ and observed_)
+  // and the top-left corner of its patch in the resized image.
+  struct PatchSite {
+    int cell;
+    int x0, y0;
+  };
+  // Patch sites of one camera direction; computed once per (pan, tilt) and kept.
+  struct SiteList {
+    PanTilt pan_tilt;
+    std::vector<PatchSite> sites;
+  };
+  const std::vector<PatchSite>& Sites(const PanTilt& pan_tilt);
+  std::vector<PatchSite> ComputeSites(const PanTilt& pan_tilt) const;
+  // Resizes `in` to resized_size_ (area averaging).
+  void Resize(const cv::Mat& in, cv::Mat& out);
+
+  cv::Size resized_size_;  // image size at which a d_phi patch is patch_px wide
+  CameraIntrinsics resized_camera_;
+  std::vector<SiteList> site_cache_;  // most recent last, bounded
+  // Per-frame images, reused from frame to frame to avoid allocations. A copy of the surface
+  // starts with its own, empty ones (copied cv::Mats would share their pixels).
+  struct Scratch {
+    cv::Mat shrunk, small_bgr, grey8, grey, hsv, hue_cos, hue_sin, depth_norm, depth_valid, depth;
+    Scratch() = default;
+    Scratch(const Scratch&) {}
+    Scratch& operator=(const Scratch&) { return *this; }
+  };
+  Scratch scratch_;
 };
 
 }  // namespace tsc

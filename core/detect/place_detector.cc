@@ -6,9 +6,12 @@
 namespace tsc {
 
 void DetectorOptions::Validate() const {
-  if (tau_n < 1) throw std::invalid_argument("detection.tau_n must be >= 1, got " + std::to_string(tau_n));
-  if (tau_w < 1) throw std::invalid_argument("detection.tau_w must be >= 1, got " + std::to_string(tau_w));
-  if (tau_p < 0) throw std::invalid_argument("detection.tau_p must be >= 0, got " + std::to_string(tau_p));
+  if (tau_n < 1)
+    throw std::invalid_argument("detection.tau_n must be >= 1, got " + std::to_string(tau_n));
+  if (tau_w < 1)
+    throw std::invalid_argument("detection.tau_w must be >= 1, got " + std::to_string(tau_w));
+  if (tau_p < 0)
+    throw std::invalid_argument("detection.tau_p must be >= 0, got " + std::to_string(tau_p));
 }
 
 PlaceDetector::PlaceDetector(DetectorOptions options, DetectedPlaceIndex next_place,

@@ -16,9 +16,9 @@ using BaseIndex = int64_t;
 using DetectedPlaceIndex = int64_t;
 
 struct DetectorOptions {
-  int tau_n = 3;  ///< τ_n: a bad point within this many points extends the temporal window
-  int tau_w = 3;  ///< τ_w: temporal windows this long or longer are transitions, shorter noise
-  int tau_p = 4;  ///< τ_p: places with this many base points or fewer are pruned
+  int tau_n = 2;  ///< τ_n: a bad point within this many points extends the temporal window
+  int tau_w = 2;  ///< τ_w: temporal windows this long or longer are transitions, shorter noise
+  int tau_p = 3;  ///< τ_p: places with this many base points or fewer are pruned
   void Validate() const;
 };
 

@@ -12,7 +12,7 @@ namespace tsc {
 struct ReliabilityOptions {
   double tau_mu = 0.08;      ///< τ_μ: mean intensity at or below → uninformative, [0,1]
   double tau_sigma = 0.002;  ///< τ_σ: intensity variance at or below → uninformative, [0,0.25]
-  double tau_kappa = 0.25;   ///< τ_κ: χ² to the previous descriptor above → incoherent, [0,1]
+  double tau_kappa = 0.02;   ///< τ_κ: χ² to the previous descriptor above → incoherent, [0,1]
   void Validate() const;
 };
 

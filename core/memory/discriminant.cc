@@ -35,9 +35,13 @@ double MedianGamma(const Eigen::MatrixXf& x) {
 }  // namespace
 
 void DiscriminantOptions::Validate() const {
-  if (!(nu > 0 && nu <= 1)) throw std::invalid_argument("memory.svm_nu must be in (0,1], got " + std::to_string(nu));
-  if (!(gamma >= 0) || !std::isfinite(gamma)) throw std::invalid_argument("memory.svm_gamma must be >= 0, got " + std::to_string(gamma));
-  if (max_training < 2) throw std::invalid_argument("memory.svm_max_training must be >= 2, got " + std::to_string(max_training));
+  if (!(nu > 0 && nu <= 1))
+    throw std::invalid_argument("memory.svm_nu must be in (0,1], got " + std::to_string(nu));
+  if (!(gamma >= 0) || !std::isfinite(gamma))
+    throw std::invalid_argument("memory.svm_gamma must be >= 0, got " + std::to_string(gamma));
+  if (max_training < 2)
+    throw std::invalid_argument("memory.svm_max_training must be >= 2, got " +
+                                std::to_string(max_training));
 }
 
 OneClassDiscriminant::OneClassDiscriminant(Eigen::MatrixXf support, Eigen::VectorXf coef,
@@ -48,8 +52,8 @@ OneClassDiscriminant::OneClassDiscriminant(Eigen::MatrixXf support, Eigen::Vecto
                                 " support vectors but " + std::to_string(coef_.size()) +
                                 " coefficients");
   }
-  if (!support_.allFinite() || !coef_.allFinite() || !std::isfinite(rho) ||
-      !std::isfinite(gamma) || gamma <= 0) {
+  if (!support_.allFinite() || !coef_.allFinite() || !std::isfinite(rho) || !std::isfinite(gamma) ||
+      gamma <= 0) {
     throw std::invalid_argument("discriminant: non-finite values or gamma <= 0");
   }
   support_sq_norm_ = support_.colwise().squaredNorm().transpose();
@@ -111,8 +115,7 @@ double OneClassDiscriminant::Evaluate(const Eigen::VectorXf& x) const {
   const Eigen::VectorXf d2 =
       (support_sq_norm_.array() + x.squaredNorm() - 2.0f * (support_.transpose() * x).array())
           .matrix();
-  return (coef_.array() * (-static_cast<float>(gamma_) * d2.array().max(0.0f)).exp()).sum() -
-         rho_;
+  return (coef_.array() * (-static_cast<float>(gamma_) * d2.array().max(0.0f)).exp()).sum() - rho_;
 }
 
 double OneClassDiscriminant::VoteFraction(const Eigen::MatrixXf& xs) const {

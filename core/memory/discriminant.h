@@ -8,9 +8,9 @@
 namespace tsc {
 
 struct DiscriminantOptions {
-  double nu = 0.1;             ///< ν of the one-class SVM, (0, 1]
-  double gamma = 0.0;          ///< RBF γ; 0 → 1/(median squared distance) of the training set
-  int max_training = 512;      ///< cap of training vectors per node (deterministic subsample)
+  double nu = 0.1;         ///< ν of the one-class SVM, (0, 1]
+  double gamma = 0.0;      ///< RBF γ; 0 → 1/(median squared distance) of the training set
+  int max_training = 128;  ///< cap of training vectors per node (deterministic subsample)
   void Validate() const;
 };
 

@@ -39,7 +39,8 @@ void PlaceMemoryOptions::Validate() const {
   auto fail = [](const std::string& key, const std::string& what) {
     throw std::invalid_argument("memory." + key + " " + what);
   };
-  if (!(tau_r > 0) || !std::isfinite(tau_r)) fail("tau_r", "must be > 0, got " + std::to_string(tau_r));
+  if (!(tau_r > 0) || !std::isfinite(tau_r))
+    fail("tau_r", "must be > 0, got " + std::to_string(tau_r));
   if (tau_l < 0) fail("tau_l", "must be >= 0, got " + std::to_string(tau_l));
   if (!(tau_h >= 0 && tau_h < 1)) fail("tau_h", "must be in [0,1), got " + std::to_string(tau_h));
   if (max_samples_per_place < 1) fail("max_samples_per_place", "must be >= 1");
@@ -291,7 +292,8 @@ void PlaceMemory::RebuildTree(const std::unordered_map<uint64_t, OneClassDiscrim
       continue;
     }
     stack.push_back({node, true});
-    for (auto it = nd.children.rbegin(); it != nd.children.rend(); ++it) stack.push_back({*it, false});
+    for (auto it = nd.children.rbegin(); it != nd.children.rend(); ++it)
+      stack.push_back({*it, false});
   }
   // Children precede parents in index order, so one forward pass fills keys and sums.
   centroid_sums_.assign(nodes_.size(), Eigen::VectorXf());
@@ -323,8 +325,7 @@ void PlaceMemory::RebuildTree(const std::unordered_map<uint64_t, OneClassDiscrim
 }
 
 PlaceMemory PlaceMemory::Restore(uint32_t robot, PlaceMemoryOptions options,
-                                 std::vector<LearnedPlace> places, Slink slink,
-                                 uint32_t next_local,
+                                 std::vector<LearnedPlace> places, Slink slink, uint32_t next_local,
                                  const std::unordered_map<uint64_t, OneClassDiscriminant>& saved) {
   PlaceMemory memory(robot, std::move(options));
   if (static_cast<int>(places.size()) != slink.size()) {
@@ -332,9 +333,8 @@ PlaceMemory PlaceMemory::Restore(uint32_t robot, PlaceMemoryOptions options,
                                 " places but SLINK state of " + std::to_string(slink.size()));
   }
   for (const LearnedPlace& p : places) {
-    if (p.mean.size() == 0 || p.mean.size() != places.front().mean.size() ||
-        !p.mean.allFinite() || p.samples.rows() != p.mean.size() || p.samples.cols() == 0 ||
-        p.member_count < 1) {
+    if (p.mean.size() == 0 || p.mean.size() != places.front().mean.size() || !p.mean.allFinite() ||
+        p.samples.rows() != p.mean.size() || p.samples.cols() == 0 || p.member_count < 1) {
       throw std::invalid_argument("place memory: place " + p.id.ToString() + " is inconsistent");
     }
     if (p.id.robot == robot && p.id.local >= next_local) {

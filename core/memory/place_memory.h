@@ -28,29 +28,29 @@ struct DetectedPlace {
 /// A terminal node's place p ∈ P.
 struct LearnedPlace {
   PlaceId id;
-  Eigen::VectorXf mean;                          ///< Ī_p over all member base points
-  int64_t member_count = 0;                      ///< base points averaged into `mean`
-  Eigen::MatrixXf samples;                       ///< dim x k representative member descriptors
-  std::vector<DetectedPlaceIndex> detected;      ///< detected places that compose it
-  std::vector<BaseIndex> members;                ///< member base points (this robot's stream)
+  Eigen::VectorXf mean;                      ///< Ī_p over all member base points
+  int64_t member_count = 0;                  ///< base points averaged into `mean`
+  Eigen::MatrixXf samples;                   ///< dim x k representative member descriptors
+  std::vector<DetectedPlaceIndex> detected;  ///< detected places that compose it
+  std::vector<BaseIndex> members;            ///< member base points (this robot's stream)
 };
 
 /// A node of the simplified tree. Terminals are nodes 0..P−1 (node i holds place i); inner
 /// nodes follow; the root is inner and always exists once a place is learned.
 struct MemoryNode {
-  int parent = -1;              ///< −1 for the root
-  std::vector<int> children;    ///< node indices
-  int place = -1;               ///< place index for terminals, −1 for inner nodes
-  double height = 0.0;          ///< SLINK merge height (0 for terminals)
-  int first_leaf = 0;           ///< the node's places are leaf_order()[first_leaf, end_leaf)
+  int parent = -1;            ///< −1 for the root
+  std::vector<int> children;  ///< node indices
+  int place = -1;             ///< place index for terminals, −1 for inner nodes
+  double height = 0.0;        ///< SLINK merge height (0 for terminals)
+  int first_leaf = 0;         ///< the node's places are leaf_order()[first_leaf, end_leaf)
   int end_leaf = 0;
-  uint64_t set_key = 0;         ///< order-free hash of the node's place set
+  uint64_t set_key = 0;  ///< order-free hash of the node's place set
   bool terminal() const { return place >= 0; }
   int num_places() const { return end_leaf - first_leaf; }
 };
 
 struct PlaceMemoryOptions {
-  double tau_r = 1.2;   ///< τ_r recognition cost threshold (3.11)
+  double tau_r = 1.3;   ///< τ_r recognition cost threshold (3.11)
   int tau_l = 1;        ///< τ_l levels climbed by the hybrid traversal
   double tau_h = 0.25;  ///< τ_h relative merge-height gap folded by simplification, [0, 1)
   int max_samples_per_place = 8;  ///< representative member descriptors kept per place
@@ -61,11 +61,11 @@ struct PlaceMemoryOptions {
 
 /// Outcome of one recognition attempt.
 struct Recognition {
-  std::optional<int> place;       ///< recognised place index β(D), if any
-  double cost = 0.0;              ///< g_N at the last node evaluated
-  bool hybrid = false;            ///< the hybrid traversal recognised it
-  std::vector<int> start_nodes;   ///< nodes a descent started from, in order
-  std::vector<int> visited;       ///< every inner node whose g_N was evaluated, in order
+  std::optional<int> place;      ///< recognised place index β(D), if any
+  double cost = 0.0;             ///< g_N at the last node evaluated
+  bool hybrid = false;           ///< the hybrid traversal recognised it
+  std::vector<int> start_nodes;  ///< nodes a descent started from, in order
+  std::vector<int> visited;      ///< every inner node whose g_N was evaluated, in order
 };
 
 class PlaceMemory {

@@ -27,8 +27,8 @@ Slink::Slink(std::vector<int> pi, std::vector<double> lambda)
 void Slink::Insert(const std::vector<double>& distances) {
   const int n = size();
   if (static_cast<int>(distances.size()) != n) {
-    throw std::invalid_argument("SLINK insert: expected " + std::to_string(n) +
-                                " distances, got " + std::to_string(distances.size()));
+    throw std::invalid_argument("SLINK insert: expected " + std::to_string(n) + " distances, got " +
+                                std::to_string(distances.size()));
   }
   for (double d : distances) {
     if (!std::isfinite(d) || d < 0) throw std::invalid_argument("SLINK insert: bad distance");
@@ -58,9 +58,8 @@ std::vector<DendrogramMerge> ToDendrogram(const Slink& slink) {
   if (n < 2) return {};
   std::vector<int> order(n - 1);
   std::iota(order.begin(), order.end(), 0);
-  std::stable_sort(order.begin(), order.end(), [&](int a, int b) {
-    return slink.lambda()[a] < slink.lambda()[b];
-  });
+  std::stable_sort(order.begin(), order.end(),
+                   [&](int a, int b) { return slink.lambda()[a] < slink.lambda()[b]; });
   // Union-find over points; each set remembers the dendrogram cluster that represents it.
   std::vector<int> parent(n), cluster(n);
   std::iota(parent.begin(), parent.end(), 0);

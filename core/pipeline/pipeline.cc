@@ -16,11 +16,16 @@ PlaceEvent MakeEvent(EventKind kind, BaseIndex frame, DetectedPlaceIndex detecte
 
 const char* EventKindName(EventKind k) {
   switch (k) {
-    case EventKind::kDetected: return "detected";
-    case EventKind::kRecognized: return "recognized";
-    case EventKind::kLearned: return "learned";
-    case EventKind::kMapped: return "mapped";
-    case EventKind::kPruned: return "pruned";
+    case EventKind::kDetected:
+      return "detected";
+    case EventKind::kRecognized:
+      return "recognized";
+    case EventKind::kLearned:
+      return "learned";
+    case EventKind::kMapped:
+      return "mapped";
+    case EventKind::kPruned:
+      return "pruned";
   }
   return "?";
 }
@@ -79,9 +84,8 @@ FrameResult Pipeline::ProcessDescriptor(const Descriptor& descriptor,
   out.base.index = k;
   out.base.descriptor = descriptor.values();
   out.base.intensity = intensity;
-  out.base.status =
-      ClassifyBasePoint(options_.reliability, intensity, descriptor.values(),
-                        previous_descriptor_ ? &*previous_descriptor_ : nullptr);
+  out.base.status = ClassifyBasePoint(options_.reliability, intensity, descriptor.values(),
+                                      previous_descriptor_ ? &*previous_descriptor_ : nullptr);
   previous_descriptor_ = descriptor.values();
   recent_.emplace_back(k, descriptor.values());
   HandleDetection(detector_.Add(k, out.base.status == BaseStatus::kGood), k, out);
@@ -124,8 +128,8 @@ void Pipeline::HandleDetection(const std::vector<DetectionEvent>& events, BaseIn
     if (const auto* opened = std::get_if<PlaceOpened>(&event)) {
       partial_recognition_.reset();
       if (!options_.recognize_partial || memory_.empty()) continue;
-      const Recognition r = memory_.Recognize(Gather(opened->place, opened->members),
-                                              previous_index());
+      const Recognition r =
+          memory_.Recognize(Gather(opened->place, opened->members), previous_index());
       if (!r.place) continue;
       partial_recognition_ = *r.place;
       PlaceEvent e = MakeEvent(EventKind::kRecognized, k, opened->place);
@@ -162,7 +166,8 @@ void Pipeline::HandleDetection(const std::vector<DetectionEvent>& events, BaseIn
       out.memory_changed = true;
       map_.AddPlace(id);
       // Mapping (section 3.7): the edge β(D_{m−1})β(D_m).
-      if (previous_place_ && map_.RecordTransition(*previous_place_, id, closed->transition_before)) {
+      if (previous_place_ &&
+          map_.RecordTransition(*previous_place_, id, closed->transition_before)) {
         PlaceEvent mapped = MakeEvent(EventKind::kMapped, k, closed->place);
         mapped.place = id;
         mapped.from = previous_place_;

@@ -23,15 +23,15 @@ const char* EventKindName(EventKind k);
 /// One pipeline event; the fields that do not apply keep their defaults.
 struct PlaceEvent {
   EventKind kind = EventKind::kDetected;
-  BaseIndex frame = 0;                  ///< base point at which it happened
+  BaseIndex frame = 0;  ///< base point at which it happened
   DetectedPlaceIndex detected_place = 0;
-  std::optional<PlaceId> place;         ///< recognised / learned / mapped-to place
-  std::optional<PlaceId> from;          ///< mapped: the previous place β(D_{m−1})
-  double cost = 0.0;                    ///< recognised: g_N of the final decision
-  bool partial = false;                 ///< recognised on an opened, not yet closed place
-  bool hybrid = false;                  ///< recognised by the hybrid traversal
-  TransitionRegion transition;          ///< mapped: the region crossed
-  int64_t members = 0;                  ///< detected / pruned: number of base points
+  std::optional<PlaceId> place;  ///< recognised / learned / mapped-to place
+  std::optional<PlaceId> from;   ///< mapped: the previous place β(D_{m−1})
+  double cost = 0.0;             ///< recognised: g_N of the final decision
+  bool partial = false;          ///< recognised on an opened, not yet closed place
+  bool hybrid = false;           ///< recognised by the hybrid traversal
+  TransitionRegion transition;   ///< mapped: the region crossed
+  int64_t members = 0;           ///< detected / pruned: number of base points
 };
 
 struct BasePointRecord {
@@ -43,13 +43,13 @@ struct BasePointRecord {
 
 /// Everything one base point changed.
 struct FrameResult {
-  BasePointRecord base;                      ///< absent for Finish()
+  BasePointRecord base;  ///< absent for Finish()
   bool has_base = true;
   std::vector<PlaceEvent> events;
-  std::vector<DetectedPlace> closed_places;  ///< detected places closed now (with descriptors)
-  std::vector<TransitionRegion> transitions; ///< transition regions closed now
-  std::vector<int> changed_places;           ///< place indices learned or updated
-  bool memory_changed = false;               ///< tree / discriminants changed
+  std::vector<DetectedPlace> closed_places;   ///< detected places closed now (with descriptors)
+  std::vector<TransitionRegion> transitions;  ///< transition regions closed now
+  std::vector<int> changed_places;            ///< place indices learned or updated
+  bool memory_changed = false;                ///< tree / discriminants changed
 };
 
 struct PipelineOptions {
@@ -73,8 +73,8 @@ struct PipelineState {
 
 class Pipeline {
  public:
-  Pipeline(CameraIntrinsics camera, PipelineOptions options, PlaceMemory memory,
-           TopologicalMap map, PipelineState state = {});
+  Pipeline(CameraIntrinsics camera, PipelineOptions options, PlaceMemory memory, TopologicalMap map,
+           PipelineState state = {});
 
   /// Adds a view to the current base point without finishing it (a PTZ sweep).
   void AccumulateView(const Observation& obs);

@@ -144,10 +144,11 @@ TEST_F(PlaceMemoryTest, UpdateMovesMeanAndKeepsTree) {
 TEST_F(PlaceMemoryTest, RestoreReproducesTreeWithoutRetraining) {
   std::unordered_map<uint64_t, OneClassDiscriminant> saved;
   for (size_t n = 0; n < dut_.nodes().size(); ++n) {
-    if (dut_.discriminants()[n].trained()) saved.emplace(dut_.nodes()[n].set_key, dut_.discriminants()[n]);
+    if (dut_.discriminants()[n].trained())
+      saved.emplace(dut_.nodes()[n].set_key, dut_.discriminants()[n]);
   }
-  const PlaceMemory copy = PlaceMemory::Restore(1, Options(), dut_.places(), dut_.slink(),
-                                                dut_.next_local_id(), saved);
+  const PlaceMemory copy =
+      PlaceMemory::Restore(1, Options(), dut_.places(), dut_.slink(), dut_.next_local_id(), saved);
   ASSERT_EQ(copy.nodes().size(), dut_.nodes().size());
   for (size_t n = 0; n < copy.nodes().size(); ++n) {
     EXPECT_EQ(copy.nodes()[n].children, dut_.nodes()[n].children);

@@ -1,0 +1,287 @@
+#include "core/bubble/features.h"
+
+#include <Eigen/Core>
+#include <algorithm>
+#include <cctype>
+#include <cmath>
+#include <numbers>
+#include <stdexcept>
+
+namespace tsc {
+namespace {
+
+// Largest patch side the extractor accepts; the patch is gathered into a stack buffer.
+constexpr int kMaxPatchPx = 64;
+// Smallest patch side on which every grating (two cycles across the patch) is resolved.
+constexpr int kMinPatchPx = 6;
+
+// Grating index of a feature (kernels_[2g] is the cosine, kernels_[2g + 1] the sine kernel),
+// or -1 for a feature that is not a grating response.
+int GratingIndex(Feature f) {
+  switch (f) {
+    case Feature::kVertical:
+      return 0;
+    case Feature::kHorizontal:
+      return 1;
+    case Feature::kHyperbolic:
+      return 2;
+    case Feature::kPolar:
+      return 3;
+    case Feature::kConcentric:
+      return 4;
+    default:
+      return -1;
+  }
+}
+
+// Phase of grating g at patch coordinates (u, v) in [-1, 1]; see features.h.
+double GratingPhase(int g, double u, double v) {
+  constexpr double kTwoPi = 2.0 * std::numbers::pi;
+  switch (g) {
+    case 0:
+      return kTwoPi * 2.0 * u;
+    case 1:
+      return kTwoPi * 2.0 * v;
+    case 2:
+      return kTwoPi * 2.0 * u * v;
+    case 3:
+      return 4.0 * std::atan2(v, u);
+    default:
+      return kTwoPi * 2.0 * std::sqrt(u * u + v * v);
+  }
+}
+
+// Makes `k` zero-mean and unit-norm.
+void Standardise(std::vector<double>& k, int g) {
+  double mean = 0.0;
+  for (double x : k) mean += x;
+  mean /= static_cast<double>(k.size());
+  double norm2 = 0.0;
+  for (double& x : k) {
+    x -= mean;
+    norm2 += x * x;
+  }
+  if (norm2 < 1e-12) {
+    throw std::logic_error("grating kernel " + std::to_string(g) + " vanishes on the patch");
+  }
+  const double inv = 1.0 / std::sqrt(norm2);
+  for (double& x : k) x *= inv;
+}
+
+std::string Upper(std::string s) {
+  for (char& c : s) c = static_cast<char>(std::toupper(static_cast<unsigned char>(c)));
+  return s;
+}
+
+}  // namespace
+
+const char* FeatureName(Feature f) {
+  switch (f) {
+    case Feature::kHue:
+      return "hue";
+    case Feature::kVertical:
+      return "vertical";
+    case Feature::kHorizontal:
+      return "horizontal";
+    case Feature::kHyperbolic:
+      return "hyperbolic";
+    case Feature::kPolar:
+      return "polar";
+    case Feature::kConcentric:
+      return "concentric";
+    case Feature::kIntensity:
+      return "intensity";
+    case Feature::kDepth:
+      return "depth";
+  }
+  return "unknown";
+}
+
+FeatureSet::FeatureSet(std::vector<Feature> features) : features_(std::move(features)) {
+  if (features_.empty()) throw std::invalid_argument("feature set is empty");
+  for (size_t i = 0; i < features_.size(); ++i) {
+    const int kind = static_cast<int>(features_[i]);
+    if (kind < 0 || kind >= kNumFeatureKinds) {
+      throw std::invalid_argument("feature set holds an unknown feature " + std::to_string(kind));
+    }
+    for (size_t j = 0; j < i; ++j) {
+      if (features_[j] == features_[i]) {
+        throw std::invalid_argument(std::string("feature set repeats ") +
+                                    FeatureName(features_[i]));
+      }
+    }
+  }
+}
+
+FeatureSet FeatureSet::Thesis(int l, bool with_intensity) {
+  const std::vector<Feature> l1 = {Feature::kHue, Feature::kVertical, Feature::kHorizontal};
+  const std::vector<Feature> non_cartesian = {Feature::kHyperbolic, Feature::kPolar,
+                                              Feature::kConcentric};
+  std::vector<Feature> f;
+  switch (l) {
+    case 1:  // hue + Cartesian
+      f = l1;
+      break;
+    case 2:  // L1 + non-Cartesian
+      f = l1;
+      f.insert(f.end(), non_cartesian.begin(), non_cartesian.end());
+      break;
+    case 3:  // depth only
+      f = {Feature::kDepth};
+      break;
+    case 4:  // L1 + depth
+      f = l1;
+      f.push_back(Feature::kDepth);
+      break;
+    case 5:  // L2 + depth
+      f = l1;
+      f.insert(f.end(), non_cartesian.begin(), non_cartesian.end());
+      f.push_back(Feature::kDepth);
+      break;
+    default:
+      throw std::invalid_argument("thesis feature set l must be 1..5, got " + std::to_string(l));
+  }
+  if (with_intensity) f.push_back(Feature::kIntensity);
+  return FeatureSet(std::move(f));
+}
+
+FeatureSet FeatureSet::Parse(const std::string& name) {
+  const std::string s = Upper(name);
+  if (s.size() >= 2 && s[0] == 'L' && s[1] >= '1' && s[1] <= '5') {
+    const int l = s[1] - '0';
+    const std::string rest = s.substr(2);
+    if (rest.empty() || rest == "+I") return Thesis(l, true);
+    if (rest == "-I") return Thesis(l, false);
+  }
+  throw std::invalid_argument("feature set name must be L1..L5 with optional +I or -I, got '" +
+                              name + "'");
+}
+
+int FeatureSet::IndexOf(Feature f) const {
+  for (size_t i = 0; i < features_.size(); ++i) {
+    if (features_[i] == f) return static_cast<int>(i);
+  }
+  return -1;
+}
+
+std::string FeatureSet::ToString() const {
+  for (int l = 1; l <= 5; ++l) {
+    for (bool with_intensity : {true, false}) {
+      if (Thesis(l, with_intensity).features_ == features_) {
+        return "L" + std::to_string(l) + (with_intensity ? "+I" : "-I");
+      }
+    }
+  }
+  std::string s = "[";
+  for (size_t i = 0; i < features_.size(); ++i) {
+    if (i > 0) s += ",";
+    s += FeatureName(features_[i]);
+  }
+  return s + "]";
+}
+
+PatchFeatureExtractor::PatchFeatureExtractor(int patch_px) : patch_px_(patch_px) {
+  if (patch_px < kMinPatchPx || patch_px > kMaxPatchPx) {
+    throw std::invalid_argument("patch_px must be in [" + std::to_string(kMinPatchPx) + ", " +
+                                std::to_string(kMaxPatchPx) + "], got " + std::to_string(patch_px));
+  }
+  const int n = patch_px;
+  for (int g = 0; g < 5; ++g) {
+    std::vector<double> c(static_cast<size_t>(n * n)), s(c.size());
+    for (int y = 0; y < n; ++y) {
+      const double v = (2.0 * y + 1.0) / n - 1.0;  // pixel centres, in (-1, 1)
+      for (int x = 0; x < n; ++x) {
+        const double u = (2.0 * x + 1.0) / n - 1.0;
+        const double phase = GratingPhase(g, u, v);
+        c[y * n + x] = std::cos(phase);
+        s[y * n + x] = std::sin(phase);
+      }
+    }
+    Standardise(c, g);
+    Standardise(s, g);
+    kernels_[2 * g].assign(c.begin(), c.end());
+    kernels_[2 * g + 1].assign(s.begin(), s.end());
+  }
+}
+
+void PatchFeatureExtractor::Compute(const FeatureSet& set, const cv::Mat& grey,
+                                    const cv::Mat& hue_cos, const cv::Mat& hue_sin,
+                                    const cv::Mat& depth, int x0, int y0, float* out) const {
+  const int n = patch_px_;
+  const int n2 = n * n;
+  const float inv_area = 1.0f / static_cast<float>(n2);
+  // Largest response of a zero-mean unit-norm kernel to a [0,1] patch is below n/2.
+  const float inv_max_response = 2.0f / static_cast<float>(n);
+
+  // The grey patch, gathered once into a contiguous buffer for the kernel dot products.
+  std::array<float, kMaxPatchPx * kMaxPatchPx> buffer;
+  Eigen::Map<const Eigen::VectorXf> patch(buffer.data(), n2);
+  bool gathered = false;
+  auto gather_grey = [&]() {
+    if (gathered) return;
+    for (int y = 0; y < n; ++y) {
+      const float* row = grey.ptr<float>(y0 + y) + x0;
+      std::copy(row, row + n, buffer.data() + y * n);
+    }
+    gathered = true;
+  };
+  auto patch_sum = [&](const cv::Mat& m) {
+    using RowMajor = Eigen::Matrix<float, Eigen::Dynamic, Eigen::Dynamic, Eigen::RowMajor>;
+    const Eigen::Map<const RowMajor, 0, Eigen::OuterStride<>> block(
+        m.ptr<float>(y0) + x0, n, n, Eigen::OuterStride<>(static_cast<Eigen::Index>(m.step1())));
+    return block.sum();
+  };
+
+  for (int k = 0; k < set.size(); ++k) {
+    const Feature f = set.features()[k];
+    const int g = GratingIndex(f);
+    if (g >= 0) {
+      gather_grey();
+      const auto& kc = kernels_[2 * g];
+      const auto& ks = kernels_[2 * g + 1];
+      const float c = Eigen::Map<const Eigen::VectorXf>(kc.data(), n2).dot(patch);
+      const float s = Eigen::Map<const Eigen::VectorXf>(ks.data(), n2).dot(patch);
+      out[k] = std::min(1.0f, std::sqrt(c * c + s * s) * inv_max_response);
+      continue;
+    }
+    switch (f) {
+      case Feature::kHue: {
+        // Circular mean of the saturation-weighted hue vectors; 0 for a grey patch.
+        const float c = patch_sum(hue_cos);
+        const float s = patch_sum(hue_sin);
+        if (std::sqrt(c * c + s * s) * inv_area < 1e-3f) {
+          out[k] = 0.0f;
+        } else {
+          float a = std::atan2(s, c) * static_cast<float>(0.5 * std::numbers::inv_pi);
+          if (a < 0.0f) a += 1.0f;
+          out[k] = std::clamp(a, 0.0f, 1.0f);
+        }
+        break;
+      }
+      case Feature::kIntensity:
+        out[k] = std::clamp(patch_sum(grey) * inv_area, 0.0f, 1.0f);
+        break;
+      case Feature::kDepth: {
+        if (depth.empty()) throw std::invalid_argument("depth feature needs a depth image");
+        // Mean of the valid (non-zero) readings; 0 when the patch has none.
+        float sum = 0.0f;
+        int count = 0;
+        for (int y = 0; y < n; ++y) {
+          const float* row = depth.ptr<float>(y0 + y) + x0;
+          for (int x = 0; x < n; ++x) {
+            if (row[x] > 0.0f) {
+              sum += row[x];
+              ++count;
+            }
+          }
+        }
+        out[k] = count > 0 ? std::clamp(sum / static_cast<float>(count), 0.0f, 1.0f) : 0.0f;
+        break;
+      }
+      default:
+        break;
+    }
+  }
+}
+
+}  // namespace tsc

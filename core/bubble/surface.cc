@@ -1,0 +1,264 @@
+#include "core/bubble/surface.h"
+
+#include <algorithm>
+#include <array>
+#include <cmath>
+#include <numbers>
+#include <opencv2/imgproc.hpp>
+#include <stdexcept>
+#include <string>
+
+namespace tsc {
+namespace {
+
+constexpr double kDegToRad = std::numbers::pi / 180.0;
+// Patch site lists kept for distinct camera directions (a PTZ sweep revisits a few).
+constexpr size_t kSiteCacheSize = 16;
+
+// Number of d_phi steps in 180 degrees; throws unless it is a whole number.
+int StepsIn180(double d_phi_deg) {
+  if (!(std::isfinite(d_phi_deg) && d_phi_deg > 0.0 && d_phi_deg <= 90.0)) {
+    throw std::invalid_argument("bubble.d_phi_deg must be in (0, 90], got " +
+                                std::to_string(d_phi_deg));
+  }
+  const double steps = 180.0 / d_phi_deg;
+  const double whole = std::round(steps);
+  if (std::abs(steps - whole) > 1e-9 * steps) {
+    throw std::invalid_argument("bubble.d_phi_deg must divide 180 into whole steps, got " +
+                                std::to_string(d_phi_deg));
+  }
+  return static_cast<int>(whole);
+}
+
+// Size of the image resized so that d_phi spans patch_px pixels in both directions.
+cv::Size ResizedSize(const CameraIntrinsics& camera, const BubbleSurfaceOptions& options) {
+  const double d_phi = options.d_phi_deg * kDegToRad;
+  const double sx = options.patch_px / (camera.fx() * d_phi);
+  const double sy = options.patch_px / (camera.fy() * d_phi);
+  return cv::Size(std::max(1, static_cast<int>(std::lround(camera.width() * sx))),
+                  std::max(1, static_cast<int>(std::lround(camera.height() * sy))));
+}
+
+const BubbleSurfaceOptions& Validated(const BubbleSurfaceOptions& options) {
+  options.Validate();
+  return options;
+}
+
+// cos and sin of the 8-bit OpenCV hue (H in [0, 180), 2 degrees per step).
+struct HueTable {
+  std::array<float, 256> cos_h{}, sin_h{};
+  HueTable() {
+    for (int h = 0; h < 256; ++h) {
+      const double a = 2.0 * h * kDegToRad;
+      cos_h[h] = static_cast<float>(std::cos(a));
+      sin_h[h] = static_cast<float>(std::sin(a));
+    }
+  }
+};
+
+}  // namespace
+
+ViewingGrid::ViewingGrid(double d_phi_deg)
+    : d_phi_rad_(d_phi_deg * kDegToRad),
+      n_pan_(2 * StepsIn180(d_phi_deg)),
+      n_tilt_(StepsIn180(d_phi_deg)) {}
+
+void BubbleSurfaceOptions::Validate() const {
+  StepsIn180(d_phi_deg);
+  if (!(std::isfinite(rest_radius) && rest_radius >= 0.0f)) {
+    throw std::invalid_argument("bubble.rest_radius must be finite and >= 0, got " +
+                                std::to_string(rest_radius));
+  }
+  if (!(std::isfinite(max_depth_m) && max_depth_m > 0.0)) {
+    throw std::invalid_argument("bubble.max_depth_m must be positive, got " +
+                                std::to_string(max_depth_m));
+  }
+  if (patch_px < 6 || patch_px > 64) {
+    throw std::invalid_argument("bubble.patch_px must be in [6, 64], got " +
+                                std::to_string(patch_px));
+  }
+}
+
+BubbleSurface::BubbleSurface(FeatureSet features, CameraIntrinsics camera,
+                             BubbleSurfaceOptions options)
+    : features_(std::move(features)),
+      camera_(camera),
+      options_(Validated(options)),
+      grid_(options_.d_phi_deg),
+      extractor_(options_.patch_px),
+      resized_size_(ResizedSize(camera_, options_)),
+      resized_camera_(camera_.Scaled(resized_size_.width, resized_size_.height)) {
+  rho_.assign(features_.size(),
+              Eigen::MatrixXf::Constant(grid_.n_tilt(), grid_.n_pan(), options_.rest_radius));
+  observed_.setZero(grid_.n_tilt(), grid_.n_pan());
+}
+
+void BubbleSurface::Reset() {
+  for (auto& r : rho_) r.setConstant(options_.rest_radius);
+  observed_.setZero();
+}
+
+int BubbleSurface::ObservedCount() const { return observed_.cast<int>().sum(); }
+
+std::vector<BubbleSurface::PatchSite> BubbleSurface::ComputeSites(const PanTilt& pan_tilt) const {
+  const int n = options_.patch_px;
+  const double half = 0.5 * (n - 1);  // patch centre relative to its top-left pixel
+  const double fx = resized_camera_.fx(), fy = resized_camera_.fy();
+  const double cx = resized_camera_.cx(), cy = resized_camera_.cy();
+  const double ct = std::cos(pan_tilt.tilt_rad), st = std::sin(pan_tilt.tilt_rad);
+  std::vector<PatchSite> sites;
+  for (int i = 0; i < grid_.n_pan(); ++i) {
+    // Azimuth relative to the optical axis, positive to the left.
+    const double a = grid_.f1(i) - pan_tilt.pan_rad;
+    const double ca = std::cos(a), sa = std::sin(a);
+    if (ca <= 0.0) continue;  // behind the camera's pan direction (beyond ±90°)
+    for (int j = 0; j < grid_.n_tilt(); ++j) {
+      const double elevation = 0.5 * std::numbers::pi - grid_.f2(j);
+      const double ce = std::cos(elevation), se = std::sin(elevation);
+      // Direction in the panned base frame (x forward, y left, z up), then tilted camera.
+      const double vx = ce * ca, vy = ce * sa, vz = se;
+      const double forward = vx * ct + vz * st;
+      const double up = -vx * st + vz * ct;
+      if (forward <= 1e-6) continue;
+      const double x = cx - fx * vy / forward;  // left → smaller image x
+      const double y = cy - fy * up / forward;  // up → smaller image y
+      const long x0 = std::lround(x - half);
+      const long y0 = std::lround(y - half);
+      if (x0 < 0 || y0 < 0 || x0 + n > resized_size_.width || y0 + n > resized_size_.height) {
+        continue;
+      }
+      sites.push_back(
+          PatchSite{i * grid_.n_tilt() + j, static_cast<int>(x0), static_cast<int>(y0)});
+    }
+  }
+  return sites;
+}
+
+const std::vector<BubbleSurface::PatchSite>& BubbleSurface::Sites(const PanTilt& pan_tilt) {
+  for (const SiteList& s : site_cache_) {
+    if (s.pan_tilt.pan_rad == pan_tilt.pan_rad && s.pan_tilt.tilt_rad == pan_tilt.tilt_rad) {
+      return s.sites;
+    }
+  }
+  if (site_cache_.size() >= kSiteCacheSize) site_cache_.erase(site_cache_.begin());
+  site_cache_.push_back(SiteList{pan_tilt, ComputeSites(pan_tilt)});
+  return site_cache_.back().sites;
+}
+
+void BubbleSurface::Resize(const cv::Mat& in, cv::Mat& out) {
+  // Area averaging against aliasing. OpenCV's area resize (INTER_AREA) is fast only for whole
+  // factors, so shrink by the largest whole factor k first and finish with a bilinear step
+  // whose ratio lies in (1/2, 1] (or enlarges), where bilinear barely aliases. Every step maps
+  // the image edges onto each other, so the geometry is that of one resize (resized_camera_).
+  const int k = std::min(in.cols / resized_size_.width, in.rows / resized_size_.height);
+  const cv::Mat* src = &in;
+  if (k >= 2) {
+    const cv::Size whole(in.cols / k, in.rows / k);
+    if (whole == resized_size_) {
+      cv::resize(in, out, resized_size_, 0, 0, cv::INTER_AREA);
+      return;
+    }
+    cv::resize(in, scratch_.shrunk, whole, 0, 0, cv::INTER_AREA);
+    src = &scratch_.shrunk;
+  }
+  cv::resize(*src, out, resized_size_, 0, 0, cv::INTER_LINEAR);
+}
+
+void BubbleSurface::Observe(const Observation& obs) {
+  if (obs.bgr.empty() || obs.bgr.type() != CV_8UC3) {
+    throw std::invalid_argument("observation bgr must be a non-empty CV_8UC3 image");
+  }
+  if (obs.bgr.cols != camera_.width() || obs.bgr.rows != camera_.height()) {
+    throw std::invalid_argument("observation image is " + std::to_string(obs.bgr.cols) + "x" +
+                                std::to_string(obs.bgr.rows) + ", camera is " +
+                                std::to_string(camera_.width()) + "x" +
+                                std::to_string(camera_.height()));
+  }
+  if (!(std::isfinite(obs.pan_tilt.pan_rad) && std::isfinite(obs.pan_tilt.tilt_rad))) {
+    throw std::invalid_argument("observation pan/tilt must be finite");
+  }
+  const bool need_depth = features_.NeedsDepth();
+  if (need_depth) {
+    if (obs.depth_m.empty() || obs.depth_m.type() != CV_32F) {
+      throw std::invalid_argument("feature set " + features_.ToString() +
+                                  " needs a CV_32F depth image");
+    }
+    if (obs.depth_m.size() != obs.bgr.size()) {
+      throw std::invalid_argument("depth image is " + std::to_string(obs.depth_m.cols) + "x" +
+                                  std::to_string(obs.depth_m.rows) + ", colour image is " +
+                                  std::to_string(obs.bgr.cols) + "x" +
+                                  std::to_string(obs.bgr.rows));
+    }
+  }
+  bool need_grey = false;
+  for (Feature f : features_.features()) need_grey |= f != Feature::kHue && f != Feature::kDepth;
+  const bool need_hue = features_.Contains(Feature::kHue);
+
+  // One resize so that every d_phi x d_phi patch is patch_px x patch_px pixels.
+  Resize(obs.bgr, scratch_.small_bgr);
+  if (need_grey) {
+    cv::cvtColor(scratch_.small_bgr, scratch_.grey8, cv::COLOR_BGR2GRAY);
+    scratch_.grey8.convertTo(scratch_.grey, CV_32F, 1.0 / 255.0);
+  }
+  if (need_hue) {
+    // Unit hue vectors weighted by saturation, averaged per patch (circular mean).
+    static const HueTable kHue;
+    cv::cvtColor(scratch_.small_bgr, scratch_.hsv, cv::COLOR_BGR2HSV);
+    scratch_.hue_cos.create(scratch_.hsv.size(), CV_32F);
+    scratch_.hue_sin.create(scratch_.hsv.size(), CV_32F);
+    for (int y = 0; y < scratch_.hsv.rows; ++y) {
+      const uint8_t* p = scratch_.hsv.ptr<uint8_t>(y);
+      float* c = scratch_.hue_cos.ptr<float>(y);
+      float* s = scratch_.hue_sin.ptr<float>(y);
+      for (int x = 0; x < scratch_.hsv.cols; ++x) {
+        const float sat = p[3 * x + 1] * (1.0f / 255.0f);
+        c[x] = kHue.cos_h[p[3 * x]] * sat;
+        s[x] = kHue.sin_h[p[3 * x]] * sat;
+      }
+    }
+  }
+  if (need_depth) {
+    // Range / max range, clamped to [0, 1]; zero (no reading) and non-finite values are
+    // invalid and excluded from the area averages through a validity mask.
+    scratch_.depth_norm.create(obs.depth_m.size(), CV_32F);
+    scratch_.depth_valid.create(obs.depth_m.size(), CV_32F);
+    const float inv_max = static_cast<float>(1.0 / options_.max_depth_m);
+    for (int y = 0; y < obs.depth_m.rows; ++y) {
+      const float* d = obs.depth_m.ptr<float>(y);
+      float* nd = scratch_.depth_norm.ptr<float>(y);
+      float* v = scratch_.depth_valid.ptr<float>(y);
+      for (int x = 0; x < obs.depth_m.cols; ++x) {
+        const bool valid = std::isfinite(d[x]) && d[x] > 0.0f;
+        nd[x] = valid ? std::min(1.0f, d[x] * inv_max) : 0.0f;
+        v[x] = valid ? 1.0f : 0.0f;
+      }
+    }
+    cv::Mat sum, weight;
+    Resize(scratch_.depth_norm, sum);
+    Resize(scratch_.depth_valid, weight);
+    scratch_.depth.create(resized_size_, CV_32F);
+    for (int y = 0; y < scratch_.depth.rows; ++y) {
+      const float* s = sum.ptr<float>(y);
+      const float* w = weight.ptr<float>(y);
+      float* out = scratch_.depth.ptr<float>(y);
+      for (int x = 0; x < scratch_.depth.cols; ++x) {
+        // Mean of the valid readings under the pixel; 0 marks "no reading".
+        out[x] = w[x] > 1e-6f ? std::clamp(s[x] / w[x], 1e-6f, 1.0f) : 0.0f;
+      }
+    }
+  }
+
+  // (A.2): each observed direction takes the new feature values.
+  const cv::Mat empty;
+  const int nv = features_.size();
+  std::array<float, kNumFeatureKinds> q{};
+  for (const PatchSite& site : Sites(obs.pan_tilt)) {
+    extractor_.Compute(features_, need_grey ? scratch_.grey : empty,
+                       need_hue ? scratch_.hue_cos : empty, need_hue ? scratch_.hue_sin : empty,
+                       need_depth ? scratch_.depth : empty, site.x0, site.y0, q.data());
+    for (int k = 0; k < nv; ++k) rho_[k](site.cell) = q[k];
+    observed_(site.cell) = 1;
+  }
+}
+
+}  // namespace tsc

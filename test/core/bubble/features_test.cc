@@ -1,0 +1,207 @@
+#include "core/bubble/features.h"
+
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <functional>
+#include <numbers>
+#include <stdexcept>
+
+#include "core/bubble/surface.h"
+
+namespace tsc {
+namespace {
+
+constexpr double kTwoPi = 2.0 * std::numbers::pi;
+
+TEST(FeatureSet, ThesisSetsHaveTheThesisSizes) {
+  const int sizes[] = {3, 6, 1, 4, 7};
+  for (int l = 1; l <= 5; ++l) {
+    EXPECT_EQ(FeatureSet::Thesis(l, false).size(), sizes[l - 1]) << "L" << l;
+    EXPECT_EQ(FeatureSet::Thesis(l, true).size(), sizes[l - 1] + 1) << "L" << l;
+    EXPECT_EQ(FeatureSet::Thesis(l, true).features().back(), Feature::kIntensity);
+    EXPECT_FALSE(FeatureSet::Thesis(l, false).Contains(Feature::kIntensity));
+  }
+  EXPECT_EQ(FeatureSet::Thesis(2).IndexOf(Feature::kHue), 0);
+  EXPECT_EQ(FeatureSet::Thesis(2).IndexOf(Feature::kDepth), -1);
+  EXPECT_TRUE(FeatureSet::Thesis(3).NeedsDepth());
+  EXPECT_TRUE(FeatureSet::Thesis(5).NeedsDepth());
+  EXPECT_FALSE(FeatureSet::Thesis(2).NeedsDepth());
+  EXPECT_THROW(FeatureSet::Thesis(0), std::invalid_argument);
+  EXPECT_THROW(FeatureSet::Thesis(6), std::invalid_argument);
+}
+
+TEST(FeatureSet, ParsesThesisNamesWithAndWithoutIntensity) {
+  EXPECT_EQ(FeatureSet::Parse("L2").features(), FeatureSet::Thesis(2, true).features());
+  EXPECT_EQ(FeatureSet::Parse("L2+I").features(), FeatureSet::Thesis(2, true).features());
+  EXPECT_EQ(FeatureSet::Parse("L2-I").features(), FeatureSet::Thesis(2, false).features());
+  EXPECT_EQ(FeatureSet::Parse("l5+i").features(), FeatureSet::Thesis(5, true).features());
+  for (const char* bad : {"", "L", "L0", "L6", "L2+", "L2+X", "X2", "L12"}) {
+    EXPECT_THROW(FeatureSet::Parse(bad), std::invalid_argument) << "'" << bad << "'";
+  }
+  for (int l = 1; l <= 5; ++l) {
+    for (bool with_intensity : {true, false}) {
+      const FeatureSet set = FeatureSet::Thesis(l, with_intensity);
+      EXPECT_EQ(FeatureSet::Parse(set.ToString()).features(), set.features()) << set.ToString();
+    }
+  }
+}
+
+TEST(FeatureSet, RejectsDuplicatesAndEmptyLists) {
+  EXPECT_THROW(FeatureSet({Feature::kHue, Feature::kVertical, Feature::kHue}),
+               std::invalid_argument);
+  EXPECT_THROW(FeatureSet({}), std::invalid_argument);
+  const FeatureSet custom({Feature::kIntensity, Feature::kPolar});
+  EXPECT_EQ(custom.IndexOf(Feature::kPolar), 1);
+  EXPECT_EQ(custom.ToString(), "[intensity,polar]");
+}
+
+// A 24 x 24 image whose 12 x 12 patch at (kX0, kY0) is value(u, v), (u, v) in [-1, 1].
+class PatchFeatureExtractorTest : public ::testing::Test {
+ protected:
+  static constexpr int kX0 = 5, kY0 = 7;
+
+  PatchFeatureExtractorTest()
+      : set_({Feature::kVertical, Feature::kHorizontal, Feature::kHyperbolic, Feature::kPolar,
+              Feature::kConcentric, Feature::kIntensity, Feature::kHue}),
+        grey_(24, 24, CV_32F, cv::Scalar(0.0f)),
+        hue_cos_(24, 24, CV_32F, cv::Scalar(0.0f)),
+        hue_sin_(24, 24, CV_32F, cv::Scalar(0.0f)) {}
+
+  void Paint(const std::function<double(double, double)>& value) {
+    const int n = dut_.patch_px();
+    for (int y = 0; y < n; ++y) {
+      for (int x = 0; x < n; ++x) {
+        const double u = (2.0 * x + 1.0) / n - 1.0, v = (2.0 * y + 1.0) / n - 1.0;
+        grey_.at<float>(kY0 + y, kX0 + x) = static_cast<float>(value(u, v));
+      }
+    }
+  }
+  // Feature values in the order of set_.
+  std::vector<float> Values() {
+    std::vector<float> out(set_.size());
+    dut_.Compute(set_, grey_, hue_cos_, hue_sin_, cv::Mat(), kX0, kY0, out.data());
+    return out;
+  }
+
+  PatchFeatureExtractor dut_{12};
+  FeatureSet set_;
+  cv::Mat grey_, hue_cos_, hue_sin_;
+};
+
+TEST_F(PatchFeatureExtractorTest, VerticalGratingRespondsToVerticalKernelMore) {
+  Paint([](double u, double) { return 0.5 + 0.5 * std::cos(kTwoPi * 2.0 * u); });
+  const std::vector<float> q = Values();
+  EXPECT_GT(q[0], 0.5f);
+  EXPECT_LT(q[1], 0.05f);
+  EXPECT_GT(q[0], 10.0f * q[1]);
+  EXPECT_NEAR(q[5], 0.5f, 0.02f);
+  // The response is a quadrature magnitude: the phase of the grating does not matter.
+  Paint([](double u, double) { return 0.5 + 0.5 * std::sin(kTwoPi * 2.0 * u + 0.7); });
+  EXPECT_NEAR(Values()[0], q[0], 0.02f);
+}
+
+TEST_F(PatchFeatureExtractorTest, HorizontalGratingRespondsToHorizontalKernelMore) {
+  Paint([](double, double v) { return 0.5 + 0.5 * std::cos(kTwoPi * 2.0 * v); });
+  const std::vector<float> q = Values();
+  EXPECT_GT(q[1], 0.5f);
+  EXPECT_GT(q[1], 10.0f * q[0]);
+}
+
+TEST_F(PatchFeatureExtractorTest, NonCartesianGratingsRespondToTheirOwnPattern) {
+  Paint([](double u, double v) { return 0.5 + 0.5 * std::cos(kTwoPi * 2.0 * std::hypot(u, v)); });
+  std::vector<float> q = Values();
+  EXPECT_GT(q[4], q[0]);
+  EXPECT_GT(q[4], q[3]);
+  Paint([](double u, double v) { return 0.5 + 0.5 * std::cos(4.0 * std::atan2(v, u)); });
+  q = Values();
+  EXPECT_GT(q[3], q[0]);
+  EXPECT_GT(q[3], q[4]);
+  Paint([](double u, double v) { return 0.5 + 0.5 * std::cos(kTwoPi * 2.0 * u * v); });
+  q = Values();
+  EXPECT_GT(q[2], q[0]);
+  EXPECT_GT(q[2], q[1]);
+}
+
+TEST_F(PatchFeatureExtractorTest, FlatPatchHasNoGratingResponse) {
+  grey_.setTo(cv::Scalar(0.37f));
+  const std::vector<float> q = Values();
+  for (int k = 0; k < 5; ++k) EXPECT_NEAR(q[k], 0.0f, 1e-5f) << FeatureName(set_.features()[k]);
+  EXPECT_NEAR(q[5], 0.37f, 1e-6f);
+  EXPECT_EQ(q[6], 0.0f) << "no saturation, no hue";
+}
+
+TEST_F(PatchFeatureExtractorTest, ResponsesStayInUnitRangeForExtremePatches) {
+  Paint([](double u, double) { return u > 0.0 ? 1.0 : 0.0; });
+  for (float q : Values()) {
+    EXPECT_GE(q, 0.0f);
+    EXPECT_LE(q, 1.0f);
+  }
+  Paint([](double u, double) { return std::cos(kTwoPi * 2.0 * u) > 0.0 ? 1.0 : 0.0; });
+  for (float q : Values()) {
+    EXPECT_GE(q, 0.0f);
+    EXPECT_LE(q, 1.0f);
+  }
+}
+
+TEST_F(PatchFeatureExtractorTest, HueIsTheCircularMeanScaledToUnitRange) {
+  const double angle = kTwoPi / 3.0;  // green
+  hue_cos_.setTo(cv::Scalar(std::cos(angle)));
+  hue_sin_.setTo(cv::Scalar(std::sin(angle)));
+  EXPECT_NEAR(Values()[6], 1.0 / 3.0, 1e-5);
+  // Hues either side of red average to red, not to cyan.
+  for (int y = 0; y < 24; ++y) {
+    for (int x = 0; x < 24; ++x) {
+      const double a = (x % 2 == 0 ? 0.1 : -0.1);
+      hue_cos_.at<float>(y, x) = static_cast<float>(std::cos(a));
+      hue_sin_.at<float>(y, x) = static_cast<float>(std::sin(a));
+    }
+  }
+  const float red = Values()[6];
+  EXPECT_TRUE(red < 1e-4f || red > 1.0f - 1e-4f) << red;
+}
+
+TEST(PatchFeatureExtractor, RejectsPatchesTooSmallForTheGratings) {
+  EXPECT_THROW(PatchFeatureExtractor(4), std::invalid_argument);
+  EXPECT_NO_THROW(PatchFeatureExtractor(6));
+}
+
+// Observes a uniform colour frame and returns the mean of feature `f` over observed directions.
+double MeanOverObserved(const FeatureSet& set, const cv::Scalar& bgr, const cv::Mat& depth,
+                        Feature f) {
+  BubbleSurface surface(set, CameraIntrinsics::FromHorizontalFov(320, 240, 60.0));
+  surface.Observe(Observation{cv::Mat(240, 320, CV_8UC3, bgr), depth, PanTilt{}});
+  const Eigen::MatrixXf& rho = surface.radius(set.IndexOf(f));
+  double sum = 0.0;
+  for (Eigen::Index k = 0; k < rho.size(); ++k) sum += surface.observed()(k) ? rho(k) : 0.0;
+  return sum / surface.ObservedCount();
+}
+
+TEST(BubbleSurfaceFeatures, HueOfRedAndGreenFramesDiffer) {
+  const FeatureSet set = FeatureSet::Thesis(1, true);
+  const double red = MeanOverObserved(set, cv::Scalar(0, 0, 255), cv::Mat(), Feature::kHue);
+  const double green = MeanOverObserved(set, cv::Scalar(0, 255, 0), cv::Mat(), Feature::kHue);
+  const double blue = MeanOverObserved(set, cv::Scalar(255, 0, 0), cv::Mat(), Feature::kHue);
+  EXPECT_NEAR(red, 0.0, 1e-3);
+  EXPECT_NEAR(green, 1.0 / 3.0, 0.01);
+  EXPECT_NEAR(blue, 2.0 / 3.0, 0.01);
+  EXPECT_NEAR(MeanOverObserved(set, cv::Scalar(128, 128, 128), cv::Mat(), Feature::kIntensity),
+              128.0 / 255.0, 1e-3);
+}
+
+TEST(BubbleSurfaceFeatures, DepthIsMeanValidRangeOverMaxRange) {
+  const FeatureSet set = FeatureSet::Thesis(3, true);
+  // Every other column has no reading (0): those are ignored, not averaged in.
+  cv::Mat depth(240, 320, CV_32F, cv::Scalar(0.0f));
+  for (int y = 0; y < depth.rows; ++y) {
+    for (int x = 0; x < depth.cols; x += 2) depth.at<float>(y, x) = 4.0f;
+  }
+  EXPECT_NEAR(MeanOverObserved(set, cv::Scalar(50, 50, 50), depth, Feature::kDepth), 0.4, 1e-4);
+  // Beyond the maximum range saturates at 1.
+  EXPECT_NEAR(MeanOverObserved(set, cv::Scalar(50, 50, 50),
+                               cv::Mat(240, 320, CV_32F, cv::Scalar(25.0f)), Feature::kDepth),
+              1.0, 1e-6);
+}
+
+}  // namespace
+}  // namespace tsc

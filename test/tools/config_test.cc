@@ -1,0 +1,187 @@
+#include "tools/config.h"
+
+#include <gtest/gtest.h>
+#include <unistd.h>
+
+#include <fstream>
+#include <set>
+#include <sstream>
+
+namespace tsc {
+namespace {
+namespace fs = std::filesystem;
+
+class ConfigTest : public ::testing::Test {
+ protected:
+  void SetUp() override {
+    const auto* info = ::testing::UnitTest::GetInstance()->current_test_info();
+    dir_ = fs::temp_directory_path() /
+           ("tscd_config_test_" + std::string(info->name()) + "_" + std::to_string(getpid()));
+    fs::create_directories(dir_);
+  }
+  void TearDown() override { fs::remove_all(dir_); }
+  fs::path Write(const std::string& text) {
+    const fs::path p = dir_ / "test.ini";
+    std::ofstream(p) << text;
+    return p;
+  }
+  /// The ConfigError message of loading `text`, or "" when it loads.
+  std::string ErrorOf(const std::string& text, const std::vector<std::string>& overrides = {}) {
+    try {
+      LoadPipelineOptions(Write(text), overrides);
+    } catch (const ConfigError& e) {
+      return e.what();
+    }
+    return "";
+  }
+  fs::path dir_;
+};
+
+TEST_F(ConfigTest, DefaultsValidate) {
+  const PipelineOptions dut = LoadPipelineOptions(std::nullopt, {});
+  EXPECT_NO_THROW(dut.Validate());
+  // Every key's default lies in its own range: re-applying it is accepted.
+  PipelineOptions copy;
+  for (const ConfigKey& k : ConfigTable()) {
+    EXPECT_NO_THROW(k.set(copy, k.get(PipelineOptions{}))) << k.key;
+  }
+}
+
+TEST_F(ConfigTest, TableKeysAreUniqueAndDocumented) {
+  std::set<std::string> keys;
+  for (const ConfigKey& k : ConfigTable()) {
+    EXPECT_TRUE(keys.insert(k.key).second) << k.key;
+    EXPECT_NE(k.key.find('.'), std::string::npos) << k.key;
+    EXPECT_FALSE(k.description.empty()) << k.key;
+    EXPECT_FALSE(k.RangeText().empty()) << k.key;
+  }
+  for (const char* required : {"robot.id",
+                               "bubble.features",
+                               "bubble.d_phi_deg",
+                               "bubble.rest_radius",
+                               "bubble.max_depth_m",
+                               "bubble.patch_px",
+                               "descriptor.harmonics_pan",
+                               "descriptor.harmonics_tilt",
+                               "descriptor.amplitude",
+                               "detection.tau_mu",
+                               "detection.tau_sigma",
+                               "detection.tau_kappa",
+                               "detection.tau_n",
+                               "detection.tau_w",
+                               "detection.tau_p",
+                               "memory.tau_r",
+                               "memory.tau_l",
+                               "memory.tau_h",
+                               "memory.max_samples_per_place",
+                               "memory.max_vote_points",
+                               "memory.svm_nu",
+                               "memory.svm_gamma",
+                               "memory.svm_max_training",
+                               "pipeline.recognize_partial"}) {
+    EXPECT_TRUE(keys.count(required)) << required;
+  }
+}
+
+TEST_F(ConfigTest, FileSetsValues) {
+  const fs::path file = Write(
+      "# comment\n[robot]\nid = 7\n[bubble]\nfeatures = L1+I\nd_phi_deg = 5\n"
+      "[detection]\ntau_kappa = 0.5\ntau_p = 2\n[memory]\ntau_r = 0.75\n"
+      "[pipeline]\nrecognize_partial = false\n");
+  const PipelineOptions dut = LoadPipelineOptions(file, {});
+  EXPECT_EQ(dut.robot, 7u);
+  EXPECT_EQ(dut.features.ToString(), FeatureSet::Parse("L1+I").ToString());
+  EXPECT_DOUBLE_EQ(dut.surface.d_phi_deg, 5.0);
+  EXPECT_DOUBLE_EQ(dut.reliability.tau_kappa, 0.5);
+  EXPECT_EQ(dut.detector.tau_p, 2);
+  EXPECT_DOUBLE_EQ(dut.memory.tau_r, 0.75);
+  EXPECT_FALSE(dut.recognize_partial);
+}
+
+TEST_F(ConfigTest, OverrideWinsOverFile) {
+  const fs::path file = Write("[memory]\ntau_r = 0.75\n");
+  const PipelineOptions dut =
+      LoadPipelineOptions(file, {"memory.tau_r=2.5", "detection.tau_n = 4"});
+  EXPECT_DOUBLE_EQ(dut.memory.tau_r, 2.5);
+  EXPECT_EQ(dut.detector.tau_n, 4);
+}
+
+TEST_F(ConfigTest, UnknownKeyNamesFileAndKey) {
+  const std::string msg = ErrorOf("[memory]\ntau_q = 1\n");
+  EXPECT_NE(msg.find("test.ini"), std::string::npos) << msg;
+  EXPECT_NE(msg.find("memory.tau_q"), std::string::npos) << msg;
+}
+
+TEST_F(ConfigTest, UnknownOverrideNamesKey) {
+  const std::string msg = ErrorOf("", {"detection.nope=1"});
+  EXPECT_NE(msg.find("--set"), std::string::npos) << msg;
+  EXPECT_NE(msg.find("detection.nope"), std::string::npos) << msg;
+}
+
+TEST_F(ConfigTest, OutOfRangeNamesKeyAndRange) {
+  const std::string msg = ErrorOf("[detection]\ntau_kappa = 2\n");
+  EXPECT_NE(msg.find("test.ini"), std::string::npos) << msg;
+  EXPECT_NE(msg.find("detection.tau_kappa"), std::string::npos) << msg;
+  EXPECT_NE(msg.find("[0, 1]"), std::string::npos) << msg;
+  const std::string open = ErrorOf("[memory]\ntau_h = 1\n");
+  EXPECT_NE(open.find("memory.tau_h"), std::string::npos) << open;
+  EXPECT_NE(open.find("[0, 1)"), std::string::npos) << open;
+}
+
+TEST_F(ConfigTest, MalformedValuesNameKey) {
+  for (const char* text :
+       {"[detection]\ntau_n = 2.5\n", "[detection]\ntau_n = three\n", "[memory]\ntau_r = \n",
+        "[pipeline]\nrecognize_partial = maybe\n", "[bubble]\nfeatures = L9\n"}) {
+    const std::string msg = ErrorOf(text);
+    EXPECT_FALSE(msg.empty()) << text;
+    const std::string key = std::string(text).substr(1, std::string(text).find(']') - 1);
+    EXPECT_NE(msg.find(key + "."), std::string::npos) << msg;
+  }
+}
+
+TEST_F(ConfigTest, RepeatedKeyIsAnError) {
+  const std::string msg = ErrorOf("[memory]\ntau_r = 1\ntau_r = 2\n");
+  EXPECT_NE(msg.find("memory.tau_r"), std::string::npos) << msg;
+}
+
+TEST_F(ConfigTest, MissingFileNamesIt) {
+  try {
+    LoadPipelineOptions(dir_ / "absent.ini", {});
+    FAIL();
+  } catch (const ConfigError& e) {
+    EXPECT_NE(std::string(e.what()).find("absent.ini"), std::string::npos) << e.what();
+  }
+}
+
+TEST_F(ConfigTest, DumpLoadsBackToTheSameOptions) {
+  PipelineOptions changed;
+  ApplyOverride("memory.tau_r=0.333", changed);
+  ApplyOverride("bubble.rest_radius=0.1", changed);
+  const std::string dump = DumpConfig(changed);
+  const PipelineOptions dut = LoadPipelineOptions(Write(dump), {});
+  for (const ConfigKey& k : ConfigTable()) EXPECT_EQ(k.get(dut), k.get(changed)) << k.key;
+  EXPECT_NE(dump.find("[detection]"), std::string::npos);
+  EXPECT_NE(dump.find("range: [0, 1]"), std::string::npos);
+}
+
+// config/tscd.ini documents the defaults; it must list every key with the built-in default.
+// After changing a default in an Options struct, regenerate it:
+//   build/bin/tsc config > config/tscd.ini
+TEST_F(ConfigTest, ShippedFileMatchesTheDefaults) {
+  const fs::path shipped = fs::path(TSCD_SOURCE_DIR) / "config" / "tscd.ini";
+  const PipelineOptions dut = LoadPipelineOptions(shipped, {});
+  const PipelineOptions defaults;
+  std::ifstream in(shipped);
+  std::stringstream text;
+  text << in.rdbuf();
+  for (const ConfigKey& k : ConfigTable()) {
+    EXPECT_EQ(k.get(dut), k.get(defaults))
+        << k.key << " in config/tscd.ini differs from the built-in default; regenerate it with "
+        << "`build/bin/tsc config > config/tscd.ini`";
+    const std::string name = k.key.substr(k.key.find('.') + 1);
+    EXPECT_NE(text.str().find("\n" + name + " = "), std::string::npos) << k.key;
+  }
+}
+
+}  // namespace
+}  // namespace tsc

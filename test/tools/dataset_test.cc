@@ -1,0 +1,233 @@
+#include "tools/dataset.h"
+
+#include <gtest/gtest.h>
+#include <unistd.h>
+
+#include <cmath>
+#include <fstream>
+#include <numbers>
+#include <opencv2/imgcodecs.hpp>
+#include <random>
+#include <string>
+
+namespace tsc {
+namespace {
+namespace fs = std::filesystem;
+
+/// A fresh temporary folder per test, removed afterwards.
+class DatasetTest : public ::testing::Test {
+ protected:
+  void SetUp() override {
+    const auto* info = ::testing::UnitTest::GetInstance()->current_test_info();
+    dir_ = fs::temp_directory_path() /
+           ("tscd_dataset_test_" + std::string(info->name()) + "_" + std::to_string(getpid()));
+    fs::remove_all(dir_);
+    fs::create_directories(dir_);
+  }
+  void TearDown() override { fs::remove_all(dir_); }
+
+  /// A small image whose top-left pixel encodes `tag`, so tests can tell frames apart.
+  static cv::Mat Image(int tag, int w = 32, int h = 24) {
+    cv::Mat img(h, w, CV_8UC3, cv::Scalar(40, 80, 120));
+    img.at<cv::Vec3b>(0, 0) = cv::Vec3b(static_cast<uint8_t>(tag), 0, 0);
+    return img;
+  }
+  void WriteImage(const fs::path& p, const cv::Mat& img) {
+    fs::create_directories(p.parent_path());
+    ASSERT_TRUE(cv::imwrite(p.string(), img)) << p;
+  }
+  void WriteText(const fs::path& p, const std::string& text) { std::ofstream(p) << text; }
+  /// Expects Dataset::Open (or `fn`) to throw DatasetError whose message contains `needle`.
+  template <typename Fn>
+  void ExpectErrorNaming(Fn fn, const std::string& needle) {
+    try {
+      fn();
+      FAIL() << "no DatasetError; expected one naming " << needle;
+    } catch (const DatasetError& e) {
+      EXPECT_NE(std::string(e.what()).find(needle), std::string::npos)
+          << "message '" << e.what() << "' does not name " << needle;
+    }
+  }
+
+  fs::path dir_;
+};
+
+TEST(NaturalLess, NumbersCompareByValue) {
+  EXPECT_TRUE(NaturalLess("2.jpg", "10.jpg"));
+  EXPECT_FALSE(NaturalLess("10.jpg", "2.jpg"));
+  EXPECT_TRUE(NaturalLess("frame_9.png", "frame_10.png"));
+  EXPECT_TRUE(NaturalLess("a.png", "b.png"));
+  EXPECT_TRUE(NaturalLess("img007.png", "img10.png"));
+  EXPECT_FALSE(NaturalLess("x.png", "x.png"));
+}
+
+TEST_F(DatasetTest, FramesAreInNaturalOrder) {
+  for (int i : {10, 2, 1, 33}) WriteImage(dir_ / (std::to_string(i) + ".png"), Image(i));
+  WriteText(dir_ / "notes.txt", "not an image");
+  const Dataset ds = Dataset::Open(dir_);
+  ASSERT_EQ(ds.size(), 4);
+  EXPECT_EQ(ds.image_path(0).filename(), "1.png");
+  EXPECT_EQ(ds.image_path(1).filename(), "2.png");
+  EXPECT_EQ(ds.image_path(2).filename(), "10.png");
+  EXPECT_EQ(ds.image_path(3).filename(), "33.png");
+  const Observation obs = ds.Load(2);
+  ASSERT_EQ(obs.bgr.type(), CV_8UC3);
+  EXPECT_EQ(obs.bgr.at<cv::Vec3b>(0, 0)[0], 10);
+  EXPECT_TRUE(obs.depth_m.empty());
+  EXPECT_FALSE(ds.has_depth());
+  EXPECT_TRUE(ds.labels().empty());
+  EXPECT_TRUE(ds.revisits().empty());
+}
+
+TEST_F(DatasetTest, DefaultCameraIs60DegreesAtTheFirstImageSize) {
+  WriteImage(dir_ / "1.png", Image(1, 40, 30));
+  const Dataset ds = Dataset::Open(dir_);
+  EXPECT_EQ(ds.camera().width(), 40);
+  EXPECT_EQ(ds.camera().height(), 30);
+  // hfov = 2 atan(w / 2 fx)
+  EXPECT_NEAR(2 * std::atan(20.0 / ds.camera().fx()) * 180 / std::numbers::pi, 60.0, 1e-6);
+}
+
+TEST_F(DatasetTest, FramesInRgbSubfolderWithDepth) {
+  for (int i = 1; i <= 3; ++i) {
+    WriteImage(dir_ / "rgb" / (std::to_string(i) + ".jpg"), Image(i));
+    WriteImage(dir_ / "depth" / (std::to_string(i) + ".png"),
+               cv::Mat(24, 32, CV_16UC1, cv::Scalar(1500 * i)));
+  }
+  const Dataset ds = Dataset::Open(dir_);
+  ASSERT_EQ(ds.size(), 3);
+  EXPECT_EQ(ds.image_path(0).parent_path().filename(), "rgb");
+  ASSERT_TRUE(ds.has_depth());
+  const Observation obs = ds.Load(1);
+  ASSERT_EQ(obs.depth_m.type(), CV_32F);
+  EXPECT_FLOAT_EQ(obs.depth_m.at<float>(5, 5), 3.0f);  // 3000 mm
+}
+
+TEST_F(DatasetTest, CameraJsonWithFieldOfView) {
+  WriteImage(dir_ / "1.png", Image(1, 40, 30));
+  WriteText(dir_ / "camera.json", R"({ "width": 40, "height": 30, "hfov_deg": 90, "model": "x" })");
+  const Dataset ds = Dataset::Open(dir_);
+  EXPECT_NEAR(ds.camera().fx(), 20.0, 1e-9);  // tan(45°) = 20 / fx
+}
+
+TEST_F(DatasetTest, CameraJsonWithIntrinsicsScaledToTheImages) {
+  WriteImage(dir_ / "1.png", Image(1, 40, 30));
+  WriteText(dir_ / "camera.json", R"({"width":80,"height":60,"fx":70.5,"fy":71,"cx":40,"cy":30})");
+  const Dataset ds = Dataset::Open(dir_);
+  EXPECT_NEAR(ds.camera().fx(), 35.25, 1e-9);
+  EXPECT_NEAR(ds.camera().cy(), 14.75, 1e-9);  // pixel-centre convention
+}
+
+TEST_F(DatasetTest, BadCameraJsonNamesTheFile) {
+  WriteImage(dir_ / "1.png", Image(1));
+  WriteText(dir_ / "camera.json", R"({"width": 32, "height": )");
+  ExpectErrorNaming([&] { Dataset::Open(dir_); }, "camera.json");
+  WriteText(dir_ / "camera.json", R"({"width": 32, "height": 24})");
+  ExpectErrorNaming([&] { Dataset::Open(dir_); }, "camera.json");
+}
+
+TEST_F(DatasetTest, GroundTruthAndRevisits) {
+  for (int i = 1; i <= 5; ++i) WriteImage(dir_ / (std::to_string(i) + ".png"), Image(i));
+  WriteText(dir_ / "groundtruth.csv",
+            "frame,place,x,y,heading\n1,kitchen,0,0,0\n2,kitchen,1.5,0,0.1\n3,,2,0,0\n"
+            "5,hall,3,1,1.57\n");
+  WriteText(dir_ / "revisits.csv", "frame,revisits\n1,\n2,\n3,\n4,1 2\n5,3\n");
+  const Dataset ds = Dataset::Open(dir_);
+  ASSERT_EQ(ds.labels().size(), 5u);
+  EXPECT_EQ(ds.labels()[0], "kitchen");
+  EXPECT_EQ(ds.labels()[2], "");
+  EXPECT_EQ(ds.labels()[3], "");  // not listed
+  EXPECT_EQ(ds.labels()[4], "hall");
+  ASSERT_EQ(ds.poses().size(), 5u);
+  ASSERT_TRUE(ds.poses()[1].has_value());
+  EXPECT_DOUBLE_EQ(ds.poses()[1]->x, 1.5);
+  EXPECT_FALSE(ds.poses()[3].has_value());
+  ASSERT_EQ(ds.revisits().size(), 5u);
+  EXPECT_TRUE(ds.revisits()[0].empty());
+  EXPECT_EQ(ds.revisits()[3], (std::vector<int>{0, 1}));
+  EXPECT_EQ(ds.revisits()[4], (std::vector<int>{2}));
+}
+
+TEST_F(DatasetTest, LabelsOnlyGroundTruth) {
+  for (int i = 1; i <= 2; ++i) WriteImage(dir_ / (std::to_string(i) + ".png"), Image(i));
+  WriteText(dir_ / "groundtruth.csv", "1,room a\n2,room b\n");  // no header
+  const Dataset ds = Dataset::Open(dir_);
+  EXPECT_EQ(ds.labels(), (std::vector<std::string>{"room a", "room b"}));
+  EXPECT_TRUE(ds.poses().empty());
+}
+
+TEST_F(DatasetTest, GroundTruthFrameOutOfRangeNamesTheFile) {
+  WriteImage(dir_ / "1.png", Image(1));
+  WriteText(dir_ / "groundtruth.csv", "frame,place\n7,kitchen\n");
+  ExpectErrorNaming([&] { Dataset::Open(dir_); }, "groundtruth.csv");
+}
+
+TEST_F(DatasetTest, RevisitOfALaterFrameNamesTheFile) {
+  for (int i = 1; i <= 3; ++i) WriteImage(dir_ / (std::to_string(i) + ".png"), Image(i));
+  WriteText(dir_ / "revisits.csv", "frame,revisits\n2,3\n");
+  ExpectErrorNaming([&] { Dataset::Open(dir_); }, "revisits.csv");
+}
+
+TEST_F(DatasetTest, MissingFolderNamesIt) {
+  const fs::path missing = dir_ / "nowhere";
+  ExpectErrorNaming([&] { Dataset::Open(missing); }, missing.string());
+}
+
+TEST_F(DatasetTest, FileInsteadOfFolderNamesIt) {
+  WriteText(dir_ / "file.txt", "x");
+  ExpectErrorNaming([&] { Dataset::Open(dir_ / "file.txt"); }, "file.txt");
+}
+
+TEST_F(DatasetTest, EmptyFolderNamesIt) {
+  ExpectErrorNaming([&] { Dataset::Open(dir_); }, dir_.string());
+}
+
+TEST_F(DatasetTest, ZeroSizeImageNamesTheFile) {
+  WriteImage(dir_ / "1.png", Image(1));
+  WriteText(dir_ / "2.png", "");
+  ExpectErrorNaming([&] { Dataset::Open(dir_); }, "2.png");
+}
+
+TEST_F(DatasetTest, UnreadableImageNamesTheFile) {
+  WriteImage(dir_ / "1.jpg", Image(1));
+  std::mt19937 rng(7);
+  std::string garbage(600, '\0');
+  for (char& c : garbage) c = static_cast<char>(rng() & 0xff);
+  WriteText(dir_ / "2.jpg", garbage);
+  const Dataset ds = Dataset::Open(dir_);  // only the first image is decoded when opening
+  EXPECT_NO_THROW(ds.Load(0));
+  ExpectErrorNaming([&] { ds.Load(1); }, "2.jpg");
+  // As the first frame it fails at once.
+  fs::remove(dir_ / "1.jpg");
+  ExpectErrorNaming([&] { Dataset::Open(dir_); }, "2.jpg");
+}
+
+TEST_F(DatasetTest, ImageOfAnotherSizeNamesTheFile) {
+  WriteImage(dir_ / "1.png", Image(1, 32, 24));
+  WriteImage(dir_ / "2.png", Image(2, 48, 24));
+  const Dataset ds = Dataset::Open(dir_);
+  ExpectErrorNaming([&] { ds.Load(1); }, "2.png");
+}
+
+TEST_F(DatasetTest, MissingDepthNamesTheFile) {
+  for (int i = 1; i <= 2; ++i) WriteImage(dir_ / (std::to_string(i) + ".jpg"), Image(i));
+  WriteImage(dir_ / "depth" / "1.png", cv::Mat(24, 32, CV_16UC1, cv::Scalar(1000)));
+  ExpectErrorNaming([&] { Dataset::Open(dir_); }, (fs::path("depth") / "2.png").string());
+}
+
+TEST_F(DatasetTest, DepthOfAnotherSizeNamesTheFile) {
+  WriteImage(dir_ / "1.jpg", Image(1));
+  WriteImage(dir_ / "depth" / "1.png", cv::Mat(12, 16, CV_16UC1, cv::Scalar(1000)));
+  const Dataset ds = Dataset::Open(dir_);
+  ExpectErrorNaming([&] { ds.Load(0); }, (fs::path("depth") / "1.png").string());
+}
+
+TEST_F(DatasetTest, EightBitDepthNamesTheFile) {
+  WriteImage(dir_ / "1.jpg", Image(1));
+  WriteImage(dir_ / "depth" / "1.png", cv::Mat(24, 32, CV_8UC1, cv::Scalar(10)));
+  const Dataset ds = Dataset::Open(dir_);
+  ExpectErrorNaming([&] { ds.Load(0); }, (fs::path("depth") / "1.png").string());
+}
+
+}  // namespace
+}  // namespace tsc

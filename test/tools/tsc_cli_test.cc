@@ -1,0 +1,209 @@
+// Runs the real `tsc` binary (build/bin/tsc) as a subprocess and checks its contract
+// (DESIGN §7.2): exit codes 0/1/2/78 and error messages that name the file or key at fault.
+
+#include <gtest/gtest.h>
+#include <sys/wait.h>
+#include <unistd.h>
+
+#include <cstdlib>
+#include <filesystem>
+#include <fstream>
+#include <opencv2/imgcodecs.hpp>
+#include <random>
+#include <sstream>
+#include <string>
+
+namespace tsc {
+namespace {
+namespace fs = std::filesystem;
+
+struct Outcome {
+  int code = -1;
+  std::string out;
+  std::string err;
+};
+
+std::string Quote(const std::string& s) {
+  std::string q = "'";
+  for (char c : s) q += c == '\'' ? std::string("'\\''") : std::string(1, c);
+  return q + "'";
+}
+
+std::string ReadFile(const fs::path& p) {
+  std::ifstream in(p);
+  std::stringstream s;
+  s << in.rdbuf();
+  return s.str();
+}
+
+class TscCliTest : public ::testing::Test {
+ protected:
+  void SetUp() override {
+    const auto* info = ::testing::UnitTest::GetInstance()->current_test_info();
+    dir_ = fs::temp_directory_path() /
+           ("tscd_cli_test_" + std::string(info->name()) + "_" + std::to_string(getpid()));
+    fs::remove_all(dir_);
+    fs::create_directories(dir_);
+  }
+  void TearDown() override { fs::remove_all(dir_); }
+
+  /// Runs `tsc ARGS` (already quoted) with stdout and stderr captured.
+  Outcome Tsc(const std::string& args) {
+    const fs::path out = dir_ / "stdout.txt", err = dir_ / "stderr.txt";
+    const std::string cmd = Quote(std::string(TSCD_BIN_DIR) + "/tsc") + " " + args + " >" +
+                            Quote(out.string()) + " 2>" + Quote(err.string()) + " </dev/null";
+    const int status = std::system(cmd.c_str());
+    Outcome o;
+    o.code = WIFEXITED(status) ? WEXITSTATUS(status) : -1;
+    o.out = ReadFile(out);
+    o.err = ReadFile(err);
+    return o;
+  }
+
+  /// `n` frames of a slowly panning textured scene, as a dataset folder.
+  fs::path MakeDataset(int n) {
+    const fs::path ds = dir_ / "dataset";
+    fs::create_directories(ds);
+    std::mt19937 rng(42);
+    std::uniform_int_distribution<int> value(40, 215);
+    cv::Mat scene(120, 400, CV_8UC3);
+    for (int y = 0; y < scene.rows; y += 4) {
+      for (int x = 0; x < scene.cols; x += 4) {
+        const cv::Vec3b c(static_cast<uint8_t>(value(rng)), static_cast<uint8_t>(value(rng)),
+                          static_cast<uint8_t>(value(rng)));
+        scene(cv::Rect(x, y, 4, 4)).setTo(cv::Scalar(c[0], c[1], c[2]));
+      }
+    }
+    for (int i = 0; i < n; ++i) {
+      const cv::Mat frame = scene(cv::Rect(2 * i, 0, 160, 120)).clone();
+      EXPECT_TRUE(cv::imwrite((ds / (std::to_string(i + 1) + ".png")).string(), frame));
+    }
+    return ds;
+  }
+
+  fs::path dir_;
+};
+
+TEST_F(TscCliTest, HelpExitsZero) {
+  for (const char* args : {"--help", "run --help", "inspect --help", "config --help"}) {
+    const Outcome o = Tsc(args);
+    EXPECT_EQ(o.code, 0) << args << ": " << o.err;
+    EXPECT_NE(o.out.find("usage: tsc"), std::string::npos) << args;
+  }
+}
+
+TEST_F(TscCliTest, NoCommandIsAUsageError) {
+  EXPECT_EQ(Tsc("").code, 2);
+  EXPECT_EQ(Tsc("frobnicate").code, 2);
+}
+
+TEST_F(TscCliTest, MissingDatasetFolderExits1NamingIt) {
+  const fs::path missing = dir_ / "no_such_dataset";
+  const Outcome o =
+      Tsc("run " + Quote(missing.string()) + " --db " + Quote((dir_ / "x.db").string()));
+  EXPECT_EQ(o.code, 1) << o.err;
+  EXPECT_EQ(o.err.rfind("tsc: ", 0), 0u) << o.err;
+  EXPECT_NE(o.err.find(missing.string()), std::string::npos) << o.err;
+}
+
+TEST_F(TscCliTest, EmptyFolderExits1NamingIt) {
+  const fs::path empty = dir_ / "empty";
+  fs::create_directories(empty);
+  const Outcome o =
+      Tsc("run " + Quote(empty.string()) + " --db " + Quote((dir_ / "x.db").string()));
+  EXPECT_EQ(o.code, 1) << o.err;
+  EXPECT_NE(o.err.find(empty.string()), std::string::npos) << o.err;
+}
+
+TEST_F(TscCliTest, ZeroSizeImageExits1NamingIt) {
+  const fs::path ds = MakeDataset(3);
+  std::ofstream(ds / "4.png").close();
+  const Outcome o = Tsc("run " + Quote(ds.string()) + " --db " + Quote((dir_ / "x.db").string()));
+  EXPECT_EQ(o.code, 1) << o.err;
+  EXPECT_NE(o.err.find("4.png"), std::string::npos) << o.err;
+}
+
+TEST_F(TscCliTest, UnknownOptionExits2) {
+  const Outcome o = Tsc("run --frobnicate " + Quote(dir_.string()));
+  EXPECT_EQ(o.code, 2) << o.err;
+  EXPECT_NE(o.err.find("frobnicate"), std::string::npos) << o.err;
+  EXPECT_EQ(Tsc("run " + Quote(dir_.string())).code, 2);  // --db missing
+}
+
+TEST_F(TscCliTest, BadConfigKeyExits78NamingFileAndKey) {
+  const fs::path ds = MakeDataset(2);
+  const fs::path ini = dir_ / "bad.ini";
+  std::ofstream(ini) << "[detection]\ntau_bogus = 3\n";
+  const Outcome o = Tsc("run " + Quote(ds.string()) + " --db " + Quote((dir_ / "x.db").string()) +
+                        " --config " + Quote(ini.string()));
+  EXPECT_EQ(o.code, 78) << o.err;
+  EXPECT_NE(o.err.find("bad.ini"), std::string::npos) << o.err;
+  EXPECT_NE(o.err.find("detection.tau_bogus"), std::string::npos) << o.err;
+  EXPECT_FALSE(fs::exists(dir_ / "x.db"));  // nothing created before the configuration is good
+
+  const Outcome range = Tsc("config --set memory.tau_h=3");
+  EXPECT_EQ(range.code, 78) << range.err;
+  EXPECT_NE(range.err.find("memory.tau_h"), std::string::npos) << range.err;
+}
+
+TEST_F(TscCliTest, RunThenInspect) {
+  const fs::path ds = MakeDataset(12);
+  const fs::path db = dir_ / "run.db", events = dir_ / "events.jsonl";
+  const Outcome run = Tsc("run " + Quote(ds.string()) + " --db " + Quote(db.string()) +
+                          " --events " + Quote(events.string()));
+  ASSERT_EQ(run.code, 0) << run.err;
+  EXPECT_NE(run.out.find("12 frames"), std::string::npos) << run.out;
+  EXPECT_TRUE(run.err.empty()) << run.err;  // no progress bar: stderr is not a terminal
+
+  const std::string lines = ReadFile(events);
+  EXPECT_NE(lines.find("\"event\":\"learned\""), std::string::npos) << lines;
+  std::istringstream in(lines);
+  for (std::string line; std::getline(in, line);) {
+    EXPECT_EQ(line.rfind("{\"frame\":", 0), 0u) << line;
+    EXPECT_EQ(line.back(), '}') << line;
+  }
+
+  const Outcome inspect = Tsc("inspect --json --db " + Quote(db.string()));
+  ASSERT_EQ(inspect.code, 0) << inspect.err;
+  const std::string& json = inspect.out;
+  ASSERT_FALSE(json.empty());
+  EXPECT_EQ(json.front(), '{') << json;
+  EXPECT_EQ(json[json.find_last_not_of(" \n")], '}') << json;
+  const size_t at = json.find("\"learned_places\":");
+  ASSERT_NE(at, std::string::npos) << json;
+  EXPECT_GE(std::atoi(json.c_str() + at + 17), 1) << json;
+  EXPECT_NE(json.find("\"base_points\":12"), std::string::npos) << json;
+
+  const fs::path dot = dir_ / "memory.dot";
+  const Outcome text = Tsc("inspect --db " + Quote(db.string()) + " --dot " + Quote(dot.string()));
+  ASSERT_EQ(text.code, 0) << text.err;
+  EXPECT_NE(text.out.find("learned places"), std::string::npos) << text.out;
+  EXPECT_NE(ReadFile(dot).find("digraph"), std::string::npos);
+
+  // Running again continues the same store.
+  const Outcome again = Tsc("run " + Quote(ds.string()) + " --db " + Quote(db.string()));
+  ASSERT_EQ(again.code, 0) << again.err;
+  const Outcome after = Tsc("inspect --json --db " + Quote(db.string()));
+  EXPECT_NE(after.out.find("\"base_points\":24"), std::string::npos) << after.out;
+}
+
+TEST_F(TscCliTest, InspectMissingStoreExits1NamingIt) {
+  const fs::path db = dir_ / "absent.db";
+  const Outcome o = Tsc("inspect --db " + Quote(db.string()));
+  EXPECT_EQ(o.code, 1) << o.err;
+  EXPECT_NE(o.err.find("absent.db"), std::string::npos) << o.err;
+  EXPECT_FALSE(fs::exists(db));
+}
+
+TEST_F(TscCliTest, StoreOfAnotherRobotExits1) {
+  const fs::path ds = MakeDataset(3);
+  const fs::path db = dir_ / "r.db";
+  ASSERT_EQ(Tsc("run " + Quote(ds.string()) + " --db " + Quote(db.string()) + " --robot 3").code,
+            0);
+  const Outcome o = Tsc("run " + Quote(ds.string()) + " --db " + Quote(db.string()) + " --robot 4");
+  EXPECT_EQ(o.code, 1) << o.err;
+  EXPECT_NE(o.err.find("r.db"), std::string::npos) << o.err;
+}
+
+}  // namespace
+}  // namespace tsc

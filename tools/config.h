@@ -1,0 +1,66 @@
+#pragma once
+// Configuration of the TSC pipeline: an INI file (Boost.Program_options' config-file syntax,
+// '#' comments, [section] headers) plus command-line overrides `--set section.key=value`.
+// Every parameter is one named key of ConfigTable(), with its unit and valid range; the
+// defaults are those of the Options structs (PipelineOptions{}), never repeated here.
+
+#include <filesystem>
+#include <functional>
+#include <optional>
+#include <stdexcept>
+#include <string>
+#include <vector>
+
+#include "core/pipeline/pipeline.h"
+
+namespace tsc {
+
+/// A bad configuration: unknown key, malformed or out-of-range value, unreadable file.
+/// The message names the file (or "--set") and the key.
+class ConfigError : public std::runtime_error {
+ public:
+  using std::runtime_error::runtime_error;
+};
+
+/// One row of the configuration table.
+struct ConfigKey {
+  enum class Kind { kInteger, kReal, kBool, kText };
+  std::string key;          ///< "section.name"
+  std::string description;  ///< what it sets, with the thesis symbol
+  std::string unit;         ///< "" when dimensionless
+  Kind kind = Kind::kReal;
+  double min = 0.0;  ///< range of numeric keys
+  double max = 0.0;
+  bool min_open = false;   ///< the range excludes min
+  bool max_open = false;   ///< the range excludes max
+  std::string text_range;  ///< the accepted values of text keys
+  /// Current value, formatted as the INI file would hold it.
+  std::function<std::string(const PipelineOptions&)> get;
+  /// Parses and checks `value`, then stores it. Throws std::invalid_argument with the reason.
+  std::function<void(PipelineOptions&, const std::string& value)> set;
+
+  /// "[0, 1]", "(0, 1]", "L1..L5 ...", "true|false".
+  std::string RangeText() const;
+};
+
+/// Every configuration key, in file order. The single place keys are defined.
+const std::vector<ConfigKey>& ConfigTable();
+/// The row of `key` ("section.name"), or nullptr.
+const ConfigKey* FindConfigKey(const std::string& key);
+
+/// Applies an INI file on top of `options`. Throws ConfigError naming the file and key on an
+/// unreadable file, a syntax error, an unknown or repeated key, or a bad value.
+void ApplyConfigFile(const std::filesystem::path& file, PipelineOptions& options);
+/// Applies one `section.key=value` override. Throws ConfigError naming "--set" and the key.
+void ApplyOverride(const std::string& assignment, PipelineOptions& options);
+
+/// Defaults, then `file` when given, then the overrides in order; validates the result
+/// (PipelineOptions::Validate) and throws ConfigError naming the source on failure.
+PipelineOptions LoadPipelineOptions(const std::optional<std::filesystem::path>& file,
+                                    const std::vector<std::string>& overrides);
+
+/// `options` as a commented INI file: each key with its description, unit, range and the
+/// built-in default. Loading the output gives back `options`.
+std::string DumpConfig(const PipelineOptions& options);
+
+}  // namespace tsc

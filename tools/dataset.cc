@@ -1,0 +1,396 @@
+#include "tools/dataset.h"
+
+#include <algorithm>
+#include <cctype>
+#include <cerrno>
+#include <cmath>
+#include <cstdlib>
+#include <fstream>
+#include <map>
+#include <opencv2/imgcodecs.hpp>
+#include <sstream>
+#include <system_error>
+#include <utility>
+
+namespace tsc {
+namespace fs = std::filesystem;
+
+namespace {
+
+constexpr double kDefaultHfovDeg = 60.0;
+
+[[noreturn]] void Fail(const fs::path& where, const std::string& what) {
+  throw DatasetError(where.string() + ": " + what);
+}
+
+std::string Lower(std::string s) {
+  std::transform(s.begin(), s.end(), s.begin(),
+                 [](unsigned char c) { return static_cast<char>(std::tolower(c)); });
+  return s;
+}
+
+bool IsImageFile(const fs::directory_entry& entry) {
+  std::error_code ec;
+  if (!entry.is_regular_file(ec)) return false;
+  const std::string ext = Lower(entry.path().extension().string());
+  return ext == ".jpg" || ext == ".jpeg" || ext == ".png";
+}
+
+std::vector<fs::path> ListImages(const fs::path& dir) {
+  std::vector<fs::path> out;
+  std::error_code ec;
+  fs::directory_iterator it(dir, ec);
+  if (ec) Fail(dir, "cannot list folder: " + ec.message());
+  for (const fs::directory_entry& entry : it) {
+    if (IsImageFile(entry)) out.push_back(entry.path());
+  }
+  std::sort(out.begin(), out.end(), [](const fs::path& a, const fs::path& b) {
+    return NaturalLess(a.filename().string(), b.filename().string());
+  });
+  return out;
+}
+
+std::string Trim(const std::string& s) {
+  size_t b = 0, e = s.size();
+  while (b < e && std::isspace(static_cast<unsigned char>(s[b]))) ++b;
+  while (e > b && std::isspace(static_cast<unsigned char>(s[e - 1]))) --e;
+  return s.substr(b, e - b);
+}
+
+std::string Unquote(const std::string& s) {
+  if (s.size() >= 2 && s.front() == '"' && s.back() == '"') return s.substr(1, s.size() - 2);
+  return s;
+}
+
+std::vector<std::string> SplitCsv(const std::string& line) {
+  std::vector<std::string> fields;
+  std::string field;
+  std::istringstream in(line);
+  while (std::getline(in, field, ',')) fields.push_back(Unquote(Trim(field)));
+  if (!line.empty() && line.back() == ',') fields.emplace_back();
+  return fields;
+}
+
+bool ParseInt(const std::string& s, long* out) {
+  if (s.empty()) return false;
+  char* end = nullptr;
+  errno = 0;
+  const long v = std::strtol(s.c_str(), &end, 10);
+  if (errno != 0 || end != s.c_str() + s.size()) return false;
+  *out = v;
+  return true;
+}
+
+bool ParseDouble(const std::string& s, double* out) {
+  if (s.empty()) return false;
+  char* end = nullptr;
+  const double v = std::strtod(s.c_str(), &end);
+  if (end != s.c_str() + s.size() || !std::isfinite(v)) return false;
+  *out = v;
+  return true;
+}
+
+/// Reads the non-empty lines of a CSV file; drops a header line (first field not a number).
+std::vector<std::pair<int, std::vector<std::string>>> ReadCsv(const fs::path& file) {
+  std::ifstream in(file);
+  if (!in) Fail(file, "cannot open");
+  std::vector<std::pair<int, std::vector<std::string>>> rows;
+  std::string line;
+  int number = 0;
+  bool first = true;
+  while (std::getline(in, line)) {
+    ++number;
+    if (!line.empty() && line.back() == '\r') line.pop_back();
+    if (Trim(line).empty() || Trim(line)[0] == '#') continue;
+    std::vector<std::string> fields = SplitCsv(line);
+    long ignored;
+    if (first && !ParseInt(fields.front(), &ignored)) {  // header line
+      first = false;
+      continue;
+    }
+    first = false;
+    rows.emplace_back(number, std::move(fields));
+  }
+  return rows;
+}
+
+/// The 1-based frame number in `field` as a 0-based index, checked against the frame count.
+int FrameIndex(const fs::path& file, int line, const std::string& field, int frames) {
+  long v;
+  if (!ParseInt(field, &v)) {
+    Fail(file, "line " + std::to_string(line) + ": frame '" + field + "' is not a number");
+  }
+  if (v < 1 || v > frames) {
+    Fail(file, "line " + std::to_string(line) + ": frame " + field + " outside 1.." +
+                   std::to_string(frames) + " (the dataset's frames)");
+  }
+  return static_cast<int>(v - 1);
+}
+
+// ---- camera.json: a flat JSON object of numbers (strings, booleans and null are skipped).
+
+class FlatJson {
+ public:
+  FlatJson(const fs::path& file, std::string text) : file_(file), s_(std::move(text)) {}
+
+  std::map<std::string, double> Parse() {
+    std::map<std::string, double> out;
+    Expect('{');
+    if (Peek() == '}') {
+      ++i_;
+      return out;
+    }
+    while (true) {
+      const std::string key = String();
+      Expect(':');
+      const char c = Peek();
+      if (c == '"') {
+        String();
+      } else if (c == 't' || c == 'f' || c == 'n') {
+        Word();
+      } else {
+        out[key] = Number();
+      }
+      const char sep = Next();
+      if (sep == '}') break;
+      if (sep != ',') Error("expected ',' or '}'");
+    }
+    if (Peek() != '\0') Error("text after the closing '}'");
+    return out;
+  }
+
+ private:
+  [[noreturn]] void Error(const std::string& what) const {
+    Fail(file_, "invalid JSON at byte " + std::to_string(i_) + ": " + what);
+  }
+  void SkipSpace() {
+    while (i_ < s_.size() && std::isspace(static_cast<unsigned char>(s_[i_]))) ++i_;
+  }
+  char Peek() {
+    SkipSpace();
+    return i_ < s_.size() ? s_[i_] : '\0';
+  }
+  char Next() {
+    const char c = Peek();
+    if (c == '\0') Error("unexpected end");
+    ++i_;
+    return c;
+  }
+  void Expect(char c) {
+    if (Next() != c) Error(std::string("expected '") + c + "'");
+  }
+  std::string String() {
+    Expect('"');
+    std::string out;
+    while (i_ < s_.size() && s_[i_] != '"') {
+      if (s_[i_] == '\\') ++i_;
+      if (i_ < s_.size()) out += s_[i_++];
+    }
+    if (i_ >= s_.size()) Error("unterminated string");
+    ++i_;
+    return out;
+  }
+  void Word() {
+    for (const char* w : {"true", "false", "null"}) {
+      if (s_.compare(i_, std::char_traits<char>::length(w), w) == 0) {
+        i_ += std::char_traits<char>::length(w);
+        return;
+      }
+    }
+    Error("expected a value");
+  }
+  double Number() {
+    const char* begin = s_.c_str() + i_;
+    char* end = nullptr;
+    const double v = std::strtod(begin, &end);
+    if (end == begin) Error("expected a number");
+    i_ += static_cast<size_t>(end - begin);
+    if (!std::isfinite(v)) Error("number out of range");
+    return v;
+  }
+
+  fs::path file_;
+  std::string s_;
+  size_t i_ = 0;
+};
+
+CameraIntrinsics ReadCamera(const fs::path& file, int width, int height) {
+  std::ifstream in(file);
+  if (!in) Fail(file, "cannot open");
+  std::stringstream text;
+  text << in.rdbuf();
+  const std::map<std::string, double> v = FlatJson(file, text.str()).Parse();
+  const auto has = [&](const char* k) { return v.count(k) > 0; };
+  const int cam_w = has("width") ? static_cast<int>(v.at("width")) : width;
+  const int cam_h = has("height") ? static_cast<int>(v.at("height")) : height;
+  try {
+    std::optional<CameraIntrinsics> camera;
+    if (has("fx") && has("fy") && has("cx") && has("cy")) {
+      camera.emplace(cam_w, cam_h, v.at("fx"), v.at("fy"), v.at("cx"), v.at("cy"));
+    } else if (has("hfov_deg")) {
+      camera = CameraIntrinsics::FromHorizontalFov(cam_w, cam_h, v.at("hfov_deg"));
+    } else {
+      Fail(file, "needs \"hfov_deg\" or all of \"fx\", \"fy\", \"cx\", \"cy\"");
+    }
+    if (cam_w == width && cam_h == height) return *camera;
+    // Calibrated at another resolution: scale when the aspect ratio is the same.
+    const double ratio =
+        (static_cast<double>(cam_w) / cam_h) / (static_cast<double>(width) / height);
+    if (std::abs(ratio - 1.0) > 0.01) {
+      Fail(file, "camera is " + std::to_string(cam_w) + "x" + std::to_string(cam_h) +
+                     " but the images are " + std::to_string(width) + "x" + std::to_string(height));
+    }
+    return camera->Scaled(width, height);
+  } catch (const std::invalid_argument& e) {
+    Fail(file, e.what());
+  }
+}
+
+}  // namespace
+
+bool NaturalLess(const std::string& a, const std::string& b) {
+  size_t i = 0, j = 0;
+  while (i < a.size() && j < b.size()) {
+    const bool da = std::isdigit(static_cast<unsigned char>(a[i])) != 0;
+    const bool db = std::isdigit(static_cast<unsigned char>(b[j])) != 0;
+    if (da && db) {
+      size_t ei = i, ej = j;
+      while (ei < a.size() && std::isdigit(static_cast<unsigned char>(a[ei]))) ++ei;
+      while (ej < b.size() && std::isdigit(static_cast<unsigned char>(b[ej]))) ++ej;
+      // Compare by value: skip leading zeros, then the longer run is larger.
+      size_t zi = i, zj = j;
+      while (zi + 1 < ei && a[zi] == '0') ++zi;
+      while (zj + 1 < ej && b[zj] == '0') ++zj;
+      if (ei - zi != ej - zj) return ei - zi < ej - zj;
+      const int c = a.compare(zi, ei - zi, b, zj, ej - zj);
+      if (c != 0) return c < 0;
+      i = ei;
+      j = ej;
+    } else {
+      if (a[i] != b[j]) return static_cast<unsigned char>(a[i]) < static_cast<unsigned char>(b[j]);
+      ++i;
+      ++j;
+    }
+  }
+  if ((a.size() - i) != (b.size() - j)) return a.size() - i < b.size() - j;
+  return a < b;  // equal by value ("01" vs "1"): a total order all the same
+}
+
+Dataset::Dataset(fs::path folder, std::vector<fs::path> images, std::vector<fs::path> depths,
+                 CameraIntrinsics camera)
+    : folder_(std::move(folder)),
+      images_(std::move(images)),
+      depths_(std::move(depths)),
+      camera_(camera) {}
+
+Dataset Dataset::Open(const fs::path& folder) {
+  std::error_code ec;
+  if (!fs::exists(folder, ec)) Fail(folder, "no such dataset folder");
+  if (!fs::is_directory(folder, ec)) Fail(folder, "not a folder (a dataset is a folder of images)");
+
+  const fs::path rgb = folder / "rgb";
+  const fs::path frame_dir = fs::is_directory(rgb, ec) ? rgb : folder;
+  std::vector<fs::path> images = ListImages(frame_dir);
+  if (images.empty()) Fail(frame_dir, "no images (*.jpg, *.jpeg, *.png) in the folder");
+  for (const fs::path& p : images) {
+    const auto bytes = fs::file_size(p, ec);
+    if (ec) Fail(p, "cannot read: " + ec.message());
+    if (bytes == 0) Fail(p, "empty image file (0 bytes)");
+  }
+
+  const cv::Mat first = cv::imread(images.front().string(), cv::IMREAD_COLOR);
+  if (first.empty()) Fail(images.front(), "unreadable image (not a JPEG/PNG OpenCV can decode)");
+
+  std::vector<fs::path> depths;
+  const fs::path depth_dir = folder / "depth";
+  if (fs::is_directory(depth_dir, ec)) {
+    depths.reserve(images.size());
+    for (const fs::path& p : images) {
+      fs::path d = depth_dir / p.filename().replace_extension(".png");
+      if (!fs::is_regular_file(d, ec)) {
+        Fail(d, "missing depth image for frame " + p.filename().string());
+      }
+      depths.push_back(std::move(d));
+    }
+  }
+
+  const fs::path camera_file = folder / "camera.json";
+  CameraIntrinsics camera =
+      fs::exists(camera_file, ec)
+          ? ReadCamera(camera_file, first.cols, first.rows)
+          : CameraIntrinsics::FromHorizontalFov(first.cols, first.rows, kDefaultHfovDeg);
+
+  Dataset ds(folder, std::move(images), std::move(depths), camera);
+  const int n = ds.size();
+
+  const fs::path truth_file = folder / "groundtruth.csv";
+  if (fs::exists(truth_file, ec)) {
+    ds.labels_.assign(n, "");
+    for (const auto& [line, fields] : ReadCsv(truth_file)) {
+      const int f = FrameIndex(truth_file, line, fields[0], n);
+      if (fields.size() >= 2) ds.labels_[f] = fields[1];
+      if (fields.size() >= 5) {
+        GroundTruthPose pose;
+        if (!ParseDouble(fields[2], &pose.x) || !ParseDouble(fields[3], &pose.y) ||
+            !ParseDouble(fields[4], &pose.heading)) {
+          Fail(truth_file, "line " + std::to_string(line) + ": x,y,heading must be numbers");
+        }
+        if (ds.poses_.empty()) ds.poses_.assign(n, std::nullopt);
+        ds.poses_[f] = pose;
+      } else if (fields.size() > 2 && !(fields.size() == 3 && fields[2].empty())) {
+        Fail(truth_file,
+             "line " + std::to_string(line) + ": expected frame,place or frame,place,x,y,heading");
+      }
+    }
+  }
+
+  const fs::path revisits_file = folder / "revisits.csv";
+  if (fs::exists(revisits_file, ec)) {
+    ds.revisits_.assign(n, {});
+    for (const auto& [line, fields] : ReadCsv(revisits_file)) {
+      const int f = FrameIndex(revisits_file, line, fields[0], n);
+      if (fields.size() < 2) continue;
+      std::istringstream in(fields[1]);
+      std::string token;
+      while (in >> token) {
+        const int r = FrameIndex(revisits_file, line, token, n);
+        if (r >= f) {
+          Fail(revisits_file, "line " + std::to_string(line) + ": frame " + token +
+                                  " is not earlier than frame " + fields[0]);
+        }
+        ds.revisits_[f].push_back(r);
+      }
+    }
+  }
+  return ds;
+}
+
+Observation Dataset::Load(int i) const {
+  if (i < 0 || i >= size()) {
+    throw DatasetError(folder_.string() + ": frame index " + std::to_string(i) + " out of range");
+  }
+  const fs::path& file = images_[i];
+  Observation obs;
+  obs.bgr = cv::imread(file.string(), cv::IMREAD_COLOR);
+  if (obs.bgr.empty()) Fail(file, "unreadable image (missing, empty or not a JPEG/PNG)");
+  if (obs.bgr.cols != camera_.width() || obs.bgr.rows != camera_.height()) {
+    Fail(file, "image is " + std::to_string(obs.bgr.cols) + "x" + std::to_string(obs.bgr.rows) +
+                   " but the dataset's frames are " + std::to_string(camera_.width()) + "x" +
+                   std::to_string(camera_.height()));
+  }
+  if (has_depth()) {
+    const fs::path& dfile = depths_[i];
+    const cv::Mat raw = cv::imread(dfile.string(), cv::IMREAD_UNCHANGED);
+    if (raw.empty()) Fail(dfile, "unreadable depth image");
+    if (raw.type() != CV_16UC1) Fail(dfile, "depth must be a single-channel 16-bit PNG (mm)");
+    if (raw.size() != obs.bgr.size()) {
+      Fail(dfile, "depth is " + std::to_string(raw.cols) + "x" + std::to_string(raw.rows) +
+                      " but its frame " + file.filename().string() + " is " +
+                      std::to_string(obs.bgr.cols) + "x" + std::to_string(obs.bgr.rows));
+    }
+    raw.convertTo(obs.depth_m, CV_32F, 0.001);  // mm → m; 0 stays "no reading"
+  }
+  return obs;
+}
+
+}  // namespace tsc

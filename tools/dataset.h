@@ -1,0 +1,86 @@
+#pragma once
+// A dataset folder, the input of the offline tools (DESIGN §7.1): colour frames in natural
+// name order, optional depth, optional camera intrinsics and optional ground truth.
+//
+//   DATASET/            frames (*.jpg, *.jpeg, *.png) here, or in DATASET/rgb/ when it exists
+//   DATASET/depth/      optional: <stem>.png per frame, 16-bit, millimetres (0 = no reading)
+//   DATASET/camera.json optional: {"width":W,"height":H,"hfov_deg":F} or fx, fy, cx, cy
+//                       (default: 60° horizontal field of view at the first image's size)
+//   DATASET/groundtruth.csv  optional: frame,place[,x,y,heading]   (frame 1-based)
+//   DATASET/revisits.csv     optional: frame,revisits              (1-based, space separated)
+//
+// Frames are read one at a time by Load(): a dataset of 10⁴ frames costs a list of paths.
+
+#include <filesystem>
+#include <optional>
+#include <stdexcept>
+#include <string>
+#include <vector>
+
+#include "core/bubble/camera.h"
+#include "core/bubble/surface.h"
+
+namespace tsc {
+
+/// Any problem with a dataset folder. The message names the file or folder at fault.
+class DatasetError : public std::runtime_error {
+ public:
+  using std::runtime_error::runtime_error;
+};
+
+/// Planar pose of the camera from groundtruth.csv (units as the dataset gives them; heading
+/// in radians by convention).
+struct GroundTruthPose {
+  double x = 0.0;
+  double y = 0.0;
+  double heading = 0.0;
+};
+
+/// "2.jpg" < "10.jpg": runs of digits compare by value, everything else byte-wise.
+bool NaturalLess(const std::string& a, const std::string& b);
+
+class Dataset {
+ public:
+  /// Lists the frames and reads the side files. Checks at once what is cheap to check: the
+  /// folder, the presence of images, zero-size image files, the first image (for the size),
+  /// one depth file per frame, camera.json, groundtruth.csv and revisits.csv.
+  /// Throws DatasetError naming the file or folder at fault.
+  static Dataset Open(const std::filesystem::path& folder);
+
+  const std::filesystem::path& folder() const { return folder_; }
+  /// Number of frames.
+  int size() const { return static_cast<int>(images_.size()); }
+  /// Frame i (0-based, natural name order).
+  const std::filesystem::path& image_path(int i) const { return images_.at(i); }
+  bool has_depth() const { return !depths_.empty(); }
+  /// Depth file of frame i; precondition: has_depth().
+  const std::filesystem::path& depth_path(int i) const { return depths_.at(i); }
+  /// Intrinsics for the frames' size (from camera.json or the 60° default).
+  const CameraIntrinsics& camera() const { return camera_; }
+  /// Reads frame i: CV_8UC3 colour and, with depth, CV_32F metres; pan/tilt zero.
+  /// Throws DatasetError naming the file when it cannot be read or has another size than
+  /// the first frame.
+  Observation Load(int i) const;
+
+  /// Per-frame place label (0-based frames, "" where unlabelled); empty without
+  /// groundtruth.csv.
+  const std::vector<std::string>& labels() const { return labels_; }
+  /// Per-frame pose when groundtruth.csv has x,y,heading; empty otherwise.
+  const std::vector<std::optional<GroundTruthPose>>& poses() const { return poses_; }
+  /// Per-frame earlier frames showing the same place (0-based); empty without revisits.csv.
+  const std::vector<std::vector<int>>& revisits() const { return revisits_; }
+
+ private:
+  Dataset(std::filesystem::path folder, std::vector<std::filesystem::path> images,
+          std::vector<std::filesystem::path> depths, CameraIntrinsics camera);
+
+  std::filesystem::path folder_;
+  std::vector<std::filesystem::path> images_;
+  std::vector<std::filesystem::path> depths_;
+  CameraIntrinsics camera_;
+  std::vector<std::string> labels_;
+  std::vector<std::optional<GroundTruthPose>> poses_;
+  std::vector<std::vector<int>> revisits_;
+};
+
+}  // namespace tsc

@@ -1,0 +1,372 @@
+// tsc — the offline tool: `tsc run` runs the TSC pipeline over a dataset folder into a store,
+// `tsc inspect` shows what a store learned, `tsc config` prints the configuration keys.
+// Exit codes (DESIGN §7.2): 0 ok, 1 runtime failure, 2 usage error, 78 configuration error.
+
+#include <algorithm>
+#include <boost/program_options.hpp>
+#include <chrono>
+#include <cstdio>
+#include <fstream>
+#include <iostream>
+#include <optional>
+#include <string>
+#include <vector>
+
+#include "store/store.h"
+#include "tools/config.h"
+#include "tools/dataset.h"
+#include "tools/events_json.h"
+#include "tools/inspect.h"
+#include "tools/progress.h"
+
+namespace tsc {
+namespace {
+namespace fs = std::filesystem;
+namespace po = boost::program_options;
+
+constexpr int kExitOk = 0;
+constexpr int kExitFailure = 1;
+constexpr int kExitUsage = 2;
+constexpr int kExitConfig = 78;  // EX_CONFIG of sysexits.h
+
+/// Bad command line; the message is printed after "tsc <command>: ".
+class UsageError : public std::runtime_error {
+ public:
+  using std::runtime_error::runtime_error;
+};
+
+constexpr const char* kMainHelp =
+    R"(usage: tsc <command> [options]
+
+Topological spatial cognition, offline. Commands:
+  run      run the TSC pipeline over a dataset folder, storing what it learns
+  inspect  summarise a store; export its place memory and map as JSON, DOT or PNG
+  config   print the configuration keys with units, ranges and values as an INI file
+
+'tsc <command> --help' describes each command.
+
+Exit codes: 0 ok, 1 runtime failure (dataset, store, I/O), 2 usage error,
+78 configuration error. Every error names the file, key or frame at fault.
+)";
+
+constexpr const char* kRunHelp =
+    R"(usage: tsc run DATASET --db FILE [--config F] [--set section.key=value]...
+               [--events FILE.jsonl] [--robot ID] [--no-progress]
+
+Runs the TSC loop (bubble descriptor, reliability, place detection, recognition or learning,
+mapping) over every frame of DATASET in natural name order and commits each result to the
+SQLite store FILE. A store that already holds a memory is continued.
+
+DATASET is a folder of frames (*.jpg, *.jpeg, *.png, directly or in rgb/) with optional
+depth/ (16-bit PNG, mm), camera.json ({"width","height","hfov_deg"} or fx,fy,cx,cy; default
+60 degrees horizontal field of view), groundtruth.csv and revisits.csv (see README.md).
+
+Events are written as JSON lines, one per event:
+  {"frame":k,"event":"detected|recognized|learned|mapped|pruned","detected_place":m,
+   "place":"<robot>:<id>", ...}
+where k is the base point index (0-based).
+
+Options)";
+
+constexpr const char* kInspectHelp =
+    R"(usage: tsc inspect --db FILE [--json] [--dot PATH] [--png PATH] [--robot ID]
+                   [--config F] [--set section.key=value]...
+
+Prints what a store holds: robot, base points (good / uninformative / incoherent), detected
+places, learned places with their member counts, the depth of the place memory tree and the
+size of the topological map. --json prints the same as one JSON object.
+
+--dot and --png write ONE Graphviz graph with two clusters: "place memory" (the tree, root
+on top, terminals = learned places) and "topological map" (places and their edges, labelled
+with traversal counts). --png runs Graphviz's `dot` command (package graphviz).
+The configuration only matters for how discriminants missing from the store are retrained.
+
+Options)";
+
+constexpr const char* kConfigHelp =
+    R"(usage: tsc config [--config F] [--set section.key=value]...
+
+Prints the configuration as a commented INI file: every key with its meaning, unit, valid
+range and built-in default, set to the value F and the overrides give (the defaults without
+them). 'tsc config > my.ini' starts a configuration file.
+
+Options)";
+
+po::variables_map Parse(const std::vector<std::string>& args, const po::options_description& desc,
+                        const po::positional_options_description* positional = nullptr) {
+  po::variables_map vm;
+  try {
+    po::command_line_parser parser(args);
+    parser.options(desc);
+    if (positional != nullptr) parser.positional(*positional);
+    po::store(parser.run(), vm);
+    if (vm.count("help") == 0) po::notify(vm);
+  } catch (const po::error& e) {
+    throw UsageError(e.what());
+  }
+  return vm;
+}
+
+void AddConfigOptions(po::options_description& desc) {
+  desc.add_options()("config", po::value<std::string>()->value_name("F"),
+                     "configuration file (INI; 'tsc config' lists the keys)")(
+      "set", po::value<std::vector<std::string>>()->composing()->value_name("KEY=VALUE"),
+      "override one configuration key, e.g. --set memory.tau_r=1.5 (repeatable)");
+}
+
+PipelineOptions ConfigFrom(const po::variables_map& vm) {
+  std::optional<fs::path> file;
+  if (vm.count("config")) file = vm["config"].as<std::string>();
+  std::vector<std::string> overrides;
+  if (vm.count("set")) overrides = vm["set"].as<std::vector<std::string>>();
+  // --robot is robot.id, given last so it wins; checked like every other key.
+  if (vm.count("robot")) overrides.push_back("robot.id=" + vm["robot"].as<std::string>());
+  return LoadPipelineOptions(file, overrides);
+}
+
+double Median(std::vector<double> v) {
+  if (v.empty()) return 0.0;
+  const size_t mid = v.size() / 2;
+  std::nth_element(v.begin(), v.begin() + static_cast<std::ptrdiff_t>(mid), v.end());
+  double m = v[mid];
+  if (v.size() % 2 == 0) {
+    m = (m + *std::max_element(v.begin(), v.begin() + static_cast<std::ptrdiff_t>(mid))) / 2;
+  }
+  return m;
+}
+
+struct RunCounts {
+  int64_t frames = 0, good = 0, uninformative = 0, incoherent = 0;
+  int64_t detected = 0, pruned = 0, learned = 0, recognized = 0, partial = 0, mapped = 0;
+  ProgressCounts progress() const { return {detected, learned, recognized}; }
+  void Add(const FrameResult& r) {
+    if (r.has_base) {
+      ++frames;
+      switch (r.base.status) {
+        case BaseStatus::kGood:
+          ++good;
+          break;
+        case BaseStatus::kUninformative:
+          ++uninformative;
+          break;
+        case BaseStatus::kIncoherent:
+          ++incoherent;
+          break;
+      }
+    }
+    for (const PlaceEvent& e : r.events) {
+      switch (e.kind) {
+        case EventKind::kDetected:
+          ++detected;
+          break;
+        case EventKind::kPruned:
+          ++pruned;
+          break;
+        case EventKind::kLearned:
+          ++learned;
+          break;
+        case EventKind::kRecognized:
+          ++(e.partial ? partial : recognized);
+          break;
+        case EventKind::kMapped:
+          ++mapped;
+          break;
+      }
+    }
+  }
+};
+
+int Run(const std::vector<std::string>& args) {
+  po::options_description desc(kRunHelp);
+  desc.add_options()("help,h", "show this help")(
+      "dataset", po::value<std::string>()->required()->value_name("DATASET"),
+      "dataset folder (also the first positional argument)")(
+      "db", po::value<std::string>()->required()->value_name("FILE"),
+      "SQLite store to create or continue")("events",
+                                            po::value<std::string>()->value_name("FILE.jsonl"),
+                                            "write the events as JSON lines to this file")(
+      "robot", po::value<std::string>()->value_name("ID"), "robot id (same as --set robot.id=ID)")(
+      "no-progress", "no progress bar (it is shown only when stderr is a terminal anyway)");
+  AddConfigOptions(desc);
+  po::positional_options_description pos;
+  pos.add("dataset", 1);
+  const po::variables_map vm = Parse(args, desc, &pos);
+  if (vm.count("help")) {
+    std::cout << desc << "\n";
+    return kExitOk;
+  }
+
+  const PipelineOptions options = ConfigFrom(vm);
+  const fs::path dataset_dir = vm["dataset"].as<std::string>();
+  const fs::path db_path = vm["db"].as<std::string>();
+  const Dataset dataset = Dataset::Open(dataset_dir);
+  if (options.features.NeedsDepth() && !dataset.has_depth()) {
+    throw DatasetError(dataset_dir.string() + ": bubble.features = " + options.features.ToString() +
+                       " needs depth, but the dataset has no depth/ folder");
+  }
+
+  std::ofstream events;
+  if (vm.count("events")) {
+    const fs::path events_path = vm["events"].as<std::string>();
+    events.open(events_path, std::ios::trunc);
+    if (!events) throw std::runtime_error(events_path.string() + ": cannot write events file");
+  }
+
+  Store store = Store::Open(db_path);
+  StoredState stored = store.Load(options.robot, options.memory);
+  const int64_t learned_before = static_cast<int64_t>(stored.memory.places().size());
+  Pipeline pipeline(dataset.camera(), options, std::move(stored.memory), std::move(stored.map),
+                    stored.pipeline);
+
+  RunCounts counts;
+  std::vector<double> pipeline_ms, total_ms;
+  pipeline_ms.reserve(static_cast<size_t>(dataset.size()));
+  total_ms.reserve(static_cast<size_t>(dataset.size()));
+  ProgressBar progress(dataset.size(), stderr, vm.count("no-progress") > 0);
+  using Clock = std::chrono::steady_clock;
+  const auto ms = [](Clock::duration d) {
+    return std::chrono::duration<double, std::milli>(d).count();
+  };
+  const auto emit = [&](const FrameResult& result, const std::string& where) {
+    try {
+      store.Commit(result, pipeline);
+    } catch (const StoreError& e) {
+      throw StoreError(where + ": " + e.what());
+    }
+    if (events.is_open()) {
+      WriteEvents(events, result);
+      if (!events) throw std::runtime_error(vm["events"].as<std::string>() + ": write failed");
+    }
+    counts.Add(result);
+  };
+
+  for (int i = 0; i < dataset.size(); ++i) {
+    const Clock::time_point t0 = Clock::now();
+    const std::string where =
+        "frame " + std::to_string(i + 1) + " (" + dataset.image_path(i).string() + ")";
+    Observation obs;
+    try {
+      obs = dataset.Load(i);
+    } catch (const DatasetError& e) {  // names the file already
+      throw DatasetError("frame " + std::to_string(i + 1) + ": " + e.what());
+    }
+    const Clock::time_point t1 = Clock::now();
+    FrameResult result;
+    try {
+      result = pipeline.Process(obs);
+    } catch (const std::exception& e) {
+      throw std::runtime_error(where + ": " + e.what());
+    }
+    pipeline_ms.push_back(ms(Clock::now() - t1));
+    emit(result, where);
+    total_ms.push_back(ms(Clock::now() - t0));
+    progress.Update(i + 1, counts.progress());
+  }
+  emit(pipeline.Finish(), "end of " + dataset_dir.string());
+  progress.Finish();
+  if (events.is_open()) events.close();
+
+  const int64_t learned_now = static_cast<int64_t>(pipeline.memory().places().size());
+  std::printf(
+      "tsc run: %lld frames of %s into %s\n"
+      "  base points      %lld (good %lld, uninformative %lld, incoherent %lld)\n"
+      "  detected places  %lld (and %lld pruned)\n"
+      "  learned places   %lld new, %lld in memory (tree depth %d)\n"
+      "  recognitions     %lld (and %lld on partial places)\n"
+      "  map              %zu places, %zu edges (%lld transitions mapped)\n"
+      "  median per frame %.2f ms pipeline, %.2f ms with decoding and commit\n",
+      static_cast<long long>(counts.frames), dataset_dir.c_str(), db_path.c_str(),
+      static_cast<long long>(counts.frames), static_cast<long long>(counts.good),
+      static_cast<long long>(counts.uninformative), static_cast<long long>(counts.incoherent),
+      static_cast<long long>(counts.detected), static_cast<long long>(counts.pruned),
+      static_cast<long long>(learned_now - learned_before), static_cast<long long>(learned_now),
+      pipeline.memory().empty() ? 0 : pipeline.memory().Depth(),
+      static_cast<long long>(counts.recognized), static_cast<long long>(counts.partial),
+      pipeline.map().places().size(), pipeline.map().edges().size(),
+      static_cast<long long>(counts.mapped), Median(pipeline_ms), Median(total_ms));
+  return kExitOk;
+}
+
+int Inspect(const std::vector<std::string>& args) {
+  po::options_description desc(kInspectHelp);
+  desc.add_options()("help,h", "show this help")(
+      "db", po::value<std::string>()->required()->value_name("FILE"), "SQLite store to read")(
+      "json", "print the summary as one JSON object")(
+      "dot", po::value<std::string>()->value_name("PATH"), "write the Graphviz DOT file")(
+      "png", po::value<std::string>()->value_name("PATH"), "render the graph to PNG with `dot`")(
+      "robot", po::value<std::string>()->value_name("ID"),
+      "robot whose memory to read (default: the store's)");
+  AddConfigOptions(desc);
+  const po::variables_map vm = Parse(args, desc);
+  if (vm.count("help")) {
+    std::cout << desc << "\n";
+    return kExitOk;
+  }
+  const PipelineOptions options = ConfigFrom(vm);
+  std::optional<uint32_t> robot;
+  if (vm.count("robot")) robot = options.robot;
+  const InspectedStore st = InspectStore(vm["db"].as<std::string>(), options.memory, robot);
+  if (vm.count("json")) {
+    PrintSummaryJson(std::cout, st.summary);
+  } else {
+    PrintSummary(std::cout, st.summary);
+  }
+  if (vm.count("dot") || vm.count("png")) {
+    const std::string dot = ToDot(st.memory, st.map);
+    if (vm.count("dot")) WriteTextFile(vm["dot"].as<std::string>(), dot);
+    if (vm.count("png")) RenderPng(dot, vm["png"].as<std::string>());
+  }
+  return kExitOk;
+}
+
+int Config(const std::vector<std::string>& args) {
+  po::options_description desc(kConfigHelp);
+  desc.add_options()("help,h", "show this help");
+  AddConfigOptions(desc);
+  const po::variables_map vm = Parse(args, desc);
+  if (vm.count("help")) {
+    std::cout << desc << "\n";
+    return kExitOk;
+  }
+  std::cout << DumpConfig(ConfigFrom(vm));
+  return kExitOk;
+}
+
+int Main(int argc, char** argv) {
+  if (argc < 2) {
+    std::cerr << kMainHelp;
+    return kExitUsage;
+  }
+  const std::string command = argv[1];
+  if (command == "--help" || command == "-h" || command == "help") {
+    std::cout << kMainHelp;
+    return kExitOk;
+  }
+  using Command = int (*)(const std::vector<std::string>&);
+  Command fn = nullptr;
+  if (command == "run") fn = Run;
+  if (command == "inspect") fn = Inspect;
+  if (command == "config") fn = Config;
+  if (fn == nullptr) {
+    std::cerr << "tsc: unknown command '" << command << "' (try 'tsc --help')\n";
+    return kExitUsage;
+  }
+  const std::vector<std::string> args(argv + 2, argv + argc);
+  try {
+    return fn(args);
+  } catch (const UsageError& e) {
+    std::cerr << "tsc: " << e.what() << " (try 'tsc " << command << " --help')\n";
+    return kExitUsage;
+  } catch (const ConfigError& e) {
+    std::cerr << "tsc: " << e.what() << "\n";
+    return kExitConfig;
+  } catch (const std::exception& e) {  // DatasetError, StoreError, InspectError, I/O
+    std::cerr << "tsc: " << e.what() << "\n";
+    return kExitFailure;
+  }
+}
+
+}  // namespace
+}  // namespace tsc
+
+int main(int argc, char** argv) { return tsc::Main(argc, argv); }
