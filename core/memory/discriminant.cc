@@ -72,25 +72,31 @@ OneClassDiscriminant OneClassDiscriminant::Train(const Eigen::MatrixXf& samples,
   static std::once_flag quiet;
   std::call_once(quiet, [] { svm_set_print_string_function(&Quiet); });
 
-  // libsvm's sparse format: one node per non-zero entry, index 1-based, −1 terminates.
+  // The Gram matrix is computed here with one matrix product and handed to libsvm as a
+  // precomputed kernel: libsvm's own sparse dot products cost ~20x more on dense descriptors.
+  // Row i is [0: serial i+1, 1..n: K(i, ·)], terminated by index −1.
+  const Eigen::VectorXf sq = samples.colwise().squaredNorm().transpose();
+  Eigen::MatrixXf d2 = -2.0f * (samples.transpose() * samples);
+  d2.colwise() += sq;
+  d2.rowwise() += sq.transpose();
+  const Eigen::MatrixXd gram = (-gamma * d2.cast<double>().array().max(0.0)).exp().matrix();
   std::vector<std::vector<svm_node>> nodes(n);
   std::vector<svm_node*> rows(n);
   std::vector<double> labels(n, 1.0);
   for (Eigen::Index i = 0; i < n; ++i) {
-    for (Eigen::Index d = 0; d < dim; ++d) {
-      const float v = samples(d, i);
-      if (v != 0.0f) nodes[i].push_back({static_cast<int>(d + 1), v});
-    }
+    nodes[i].reserve(n + 2);
+    nodes[i].push_back({0, static_cast<double>(i + 1)});
+    for (Eigen::Index j = 0; j < n; ++j) nodes[i].push_back({static_cast<int>(j + 1), gram(i, j)});
     nodes[i].push_back({-1, 0.0});
     rows[i] = nodes[i].data();
   }
   svm_problem problem{static_cast<int>(n), labels.data(), rows.data()};
   svm_parameter param{};
   param.svm_type = ONE_CLASS;
-  param.kernel_type = RBF;
+  param.kernel_type = PRECOMPUTED;
   param.gamma = gamma;
   param.nu = options.nu;
-  param.cache_size = 64;
+  param.cache_size = 16;
   param.eps = 1e-3;
   param.shrinking = 1;
   if (const char* err = svm_check_parameter(&problem, &param)) {
@@ -99,12 +105,11 @@ OneClassDiscriminant OneClassDiscriminant::Train(const Eigen::MatrixXf& samples,
   std::unique_ptr<svm_model, void (*)(svm_model*)> model(
       svm_train(&problem, &param), [](svm_model* m) { svm_free_and_destroy_model(&m); });
   const int n_sv = model->l;
-  Eigen::MatrixXf support = Eigen::MatrixXf::Zero(dim, n_sv);
+  Eigen::MatrixXf support(dim, n_sv);
   Eigen::VectorXf coef(n_sv);
   for (int s = 0; s < n_sv; ++s) {
-    for (const svm_node* node = model->SV[s]; node->index != -1; ++node) {
-      support(node->index - 1, s) = static_cast<float>(node->value);
-    }
+    const auto serial = static_cast<Eigen::Index>(model->SV[s][0].value);  // 1-based
+    support.col(s) = samples.col(serial - 1);
     coef[s] = static_cast<float>(model->sv_coef[0][s]);
   }
   return OneClassDiscriminant(std::move(support), std::move(coef), model->rho[0], gamma);

@@ -61,7 +61,9 @@ std::optional<int> PlaceMemory::Find(PlaceId id) const {
 }
 
 Eigen::VectorXf PlaceMemory::Centroid(int node) const {
-  return centroid_sums_[node] / static_cast<float>(nodes_[node].num_places());
+  const MemoryNode& nd = nodes_[node];
+  if (nd.terminal()) return places_[nd.place].mean;
+  return centroid_sums_[node] / static_cast<float>(nd.num_places());
 }
 
 int PlaceMemory::Depth() const {
@@ -186,7 +188,8 @@ void PlaceMemory::Update(int place, const DetectedPlace& d) {
   p.members.insert(p.members.end(), d.members.begin(), d.members.end());
   // The place's path to the root: centroids move, discriminants see new members.
   const Eigen::VectorXf delta = p.mean - old_mean;
-  for (int n = place; n >= 0; n = nodes_[n].parent) {
+  RetrainDiscriminant(place);
+  for (int n = nodes_[place].parent; n >= 0; n = nodes_[n].parent) {
     centroid_sums_[n] += delta;
     if (n != root_) RetrainDiscriminant(n);
   }
@@ -221,7 +224,10 @@ void PlaceMemory::RebuildTree(const std::unordered_map<uint64_t, OneClassDiscrim
   const int n = static_cast<int>(places_.size());
   // Keep the discriminants of nodes whose place set does not change.
   std::unordered_map<uint64_t, OneClassDiscriminant> previous = saved;
+  std::unordered_map<uint64_t, Eigen::VectorXf> previous_sums;
   for (size_t i = 0; i < nodes_.size(); ++i) {
+    if (!nodes_[i].terminal())
+      previous_sums.emplace(nodes_[i].set_key, std::move(centroid_sums_[i]));
     if (discriminants_[i].trained()) {
       previous.emplace(nodes_[i].set_key, std::move(discriminants_[i]));
     }
@@ -295,20 +301,26 @@ void PlaceMemory::RebuildTree(const std::unordered_map<uint64_t, OneClassDiscrim
     for (auto it = nd.children.rbegin(); it != nd.children.rend(); ++it)
       stack.push_back({*it, false});
   }
-  // Children precede parents in index order, so one forward pass fills keys and sums.
-  centroid_sums_.assign(nodes_.size(), Eigen::VectorXf());
+  // Children precede parents in index order, so one forward pass fills keys and the sums of
+  // place means of inner nodes; a node whose place set existed before keeps its sum.
+  centroid_sums_.resize(nodes_.size());
   for (size_t i = 0; i < nodes_.size(); ++i) {
     MemoryNode& nd = nodes_[i];
     if (nd.terminal()) {
       nd.set_key = PlaceKey(places_[nd.place].id);
-      centroid_sums_[i] = places_[nd.place].mean;
+      centroid_sums_[i] = Eigen::VectorXf();  // terminals use their place's mean
       continue;
     }
     nd.set_key = 0;
+    for (int c : nd.children) nd.set_key += nodes_[c].set_key;  // order-free wrapping sum
+    auto it = previous_sums.find(nd.set_key);
+    if (it != previous_sums.end() && it->second.size() > 0) {
+      centroid_sums_[i] = std::move(it->second);
+      continue;
+    }
     centroid_sums_[i] = Eigen::VectorXf::Zero(places_.front().mean.size());
     for (int c : nd.children) {
-      nd.set_key += nodes_[c].set_key;  // order-free: wrapping sum of per-place hashes
-      centroid_sums_[i] += centroid_sums_[c];
+      centroid_sums_[i] += nodes_[c].terminal() ? places_[nodes_[c].place].mean : centroid_sums_[c];
     }
   }
   // Only nodes whose place set is new are trained; the root's d_N is never consulted.

@@ -120,7 +120,7 @@ class PlaceMemory {
   Slink slink_;
   std::vector<MemoryNode> nodes_;
   std::vector<OneClassDiscriminant> discriminants_;  // per node; root's is unused
-  std::vector<Eigen::VectorXf> centroid_sums_;       // per node: Σ place means
+  std::vector<Eigen::VectorXf> centroid_sums_;       // per inner node: Σ place means
   std::vector<int> leaf_order_;
   int root_ = -1;
   uint32_t next_local_ = 1;
