@@ -12,6 +12,8 @@
 #include <string>
 #include <vector>
 
+#include "test/support/temp_dir.h"
+
 namespace tsc {
 namespace {
 
@@ -196,19 +198,7 @@ void ExpectSameState(const PipelineState& want, const PipelineState& got) {
 
 class StoreTest : public ::testing::Test {
  protected:
-  StoreTest() {
-    const std::string name =
-        std::string("tscd_store_test_") + std::to_string(::getpid()) + "_" +
-        ::testing::UnitTest::GetInstance()->current_test_info()->name() + "_" +
-        std::to_string(std::chrono::steady_clock::now().time_since_epoch().count());
-    dir_ = fs::temp_directory_path() / name;
-    fs::create_directories(dir_);
-    path_ = dir_ / "tscd.db";
-  }
-  ~StoreTest() override {
-    std::error_code ec;
-    fs::remove_all(dir_, ec);
-  }
+  StoreTest() : temp_("tscd_store_test"), dir_(temp_.path()), path_(dir_ / "tscd.db") {}
 
   /// A pipeline continuing from what `store` holds.
   static Pipeline Continue(Store& store) {
@@ -216,6 +206,7 @@ class StoreTest : public ::testing::Test {
     return Pipeline(Camera(), Options(), std::move(s.memory), std::move(s.map), s.pipeline);
   }
 
+  testing_support::TempDir temp_;
   fs::path dir_;
   fs::path path_;
 };

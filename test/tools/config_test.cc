@@ -7,19 +7,14 @@
 #include <set>
 #include <sstream>
 
+#include "test/support/temp_dir.h"
+
 namespace tsc {
 namespace {
 namespace fs = std::filesystem;
 
 class ConfigTest : public ::testing::Test {
  protected:
-  void SetUp() override {
-    const auto* info = ::testing::UnitTest::GetInstance()->current_test_info();
-    dir_ = fs::temp_directory_path() /
-           ("tscd_config_test_" + std::string(info->name()) + "_" + std::to_string(getpid()));
-    fs::create_directories(dir_);
-  }
-  void TearDown() override { fs::remove_all(dir_); }
   fs::path Write(const std::string& text) {
     const fs::path p = dir_ / "test.ini";
     std::ofstream(p) << text;
@@ -34,7 +29,8 @@ class ConfigTest : public ::testing::Test {
     }
     return "";
   }
-  fs::path dir_;
+  testing_support::TempDir temp_{"tscd_config_test"};
+  fs::path dir_ = temp_.path();
 };
 
 TEST_F(ConfigTest, DefaultsValidate) {

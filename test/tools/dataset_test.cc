@@ -10,6 +10,8 @@
 #include <random>
 #include <string>
 
+#include "test/support/temp_dir.h"
+
 namespace tsc {
 namespace {
 namespace fs = std::filesystem;
@@ -17,15 +19,6 @@ namespace fs = std::filesystem;
 /// A fresh temporary folder per test, removed afterwards.
 class DatasetTest : public ::testing::Test {
  protected:
-  void SetUp() override {
-    const auto* info = ::testing::UnitTest::GetInstance()->current_test_info();
-    dir_ = fs::temp_directory_path() /
-           ("tscd_dataset_test_" + std::string(info->name()) + "_" + std::to_string(getpid()));
-    fs::remove_all(dir_);
-    fs::create_directories(dir_);
-  }
-  void TearDown() override { fs::remove_all(dir_); }
-
   /// A small image whose top-left pixel encodes `tag`, so tests can tell frames apart.
   static cv::Mat Image(int tag, int w = 32, int h = 24) {
     cv::Mat img(h, w, CV_8UC3, cv::Scalar(40, 80, 120));
@@ -49,7 +42,8 @@ class DatasetTest : public ::testing::Test {
     }
   }
 
-  fs::path dir_;
+  testing_support::TempDir temp_{"tscd_dataset_test"};
+  fs::path dir_ = temp_.path();
 };
 
 TEST(NaturalLess, NumbersCompareByValue) {

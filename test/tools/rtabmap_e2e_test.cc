@@ -2,13 +2,13 @@
 // 41-84 revisit 1-40). Default configuration, scored with the rules of DESIGN §7.1b.
 
 #include <gtest/gtest.h>
-#include <unistd.h>
 
 #include <filesystem>
 #include <map>
 
 #include "core/pipeline/pipeline.h"
 #include "store/store.h"
+#include "test/support/temp_dir.h"
 #include "tools/dataset.h"
 #include "tools/scoring.h"
 
@@ -22,9 +22,8 @@ TEST(RtabmapLoop, LearnsPlacesAndRecognisesRevisitsWithoutMistakes) {
   ASSERT_EQ(dataset.size(), 84);
   ASSERT_FALSE(dataset.revisits().empty());
 
-  const std::filesystem::path db =
-      std::filesystem::temp_directory_path() / ("tscd_e2e_" + std::to_string(::getpid()) + ".db");
-  std::filesystem::remove(db);
+  const testing_support::TempDir temp("tscd_e2e_test");
+  const std::filesystem::path db = temp.path() / "rtabmap.db";
   PipelineOptions options;  // the shipped defaults
   Store store = Store::Open(db);
   StoredState state = store.Load(options.robot, options.memory);
@@ -64,7 +63,6 @@ TEST(RtabmapLoop, LearnsPlacesAndRecognisesRevisitsWithoutMistakes) {
   const StoredState loaded = reopened.Load(options.robot, options.memory);
   EXPECT_EQ(loaded.memory.places().size(), pipeline.memory().places().size());
   EXPECT_EQ(loaded.map.edges().size(), pipeline.map().edges().size());
-  std::filesystem::remove(db);
 }
 
 }  // namespace
