@@ -1,8 +1,10 @@
 #include "tools/scoring.h"
 
 #include <algorithm>
+#include <cmath>
 #include <map>
 #include <set>
+#include <tuple>
 
 namespace tsc {
 
@@ -68,6 +70,107 @@ RecognitionScore ScoreRecognition(const GroundTruth& truth, const std::vector<As
     s.recall = static_cast<double>(s.correct) / s.should_be_recognized;
   }
   return s;
+}
+
+int SpanDistance(const FrameSpan& a, const FrameSpan& b) {
+  return std::max(0, std::max(a.first, b.first) - std::min(a.last, b.last));
+}
+
+std::vector<FrameSpan> TrueBoundaries(const std::vector<std::string>& labels) {
+  std::vector<FrameSpan> out;
+  int previous = -1;  // last labelled frame
+  for (int i = 0; i < static_cast<int>(labels.size()); ++i) {
+    if (labels[i].empty()) continue;
+    if (previous >= 0 && labels[i] != labels[previous]) out.push_back({previous + 1, i});
+    previous = i;
+  }
+  return out;
+}
+
+std::vector<FrameSpan> DetectedBoundaries(const std::vector<std::vector<int>>& places) {
+  std::vector<FrameSpan> out;
+  for (size_t m = 1; m < places.size(); ++m) {
+    if (places[m - 1].empty() || places[m].empty()) continue;
+    const int closed = places[m - 1].back(), opened = places[m].front();
+    out.push_back({std::min(closed, opened), std::max(closed, opened)});
+  }
+  return out;
+}
+
+BoundaryScore ScoreBoundaries(const std::vector<FrameSpan>& truth,
+                              const std::vector<FrameSpan>& detected, int frames) {
+  BoundaryScore s;
+  s.true_boundaries = static_cast<int>(truth.size());
+  s.detected_boundaries = static_cast<int>(detected.size());
+  s.tolerance = std::max(3, static_cast<int>(std::lround(0.02 * frames)));
+  struct Pair {
+    int distance, t, d;
+  };
+  std::vector<Pair> pairs;
+  for (int t = 0; t < s.true_boundaries; ++t) {
+    for (int d = 0; d < s.detected_boundaries; ++d) {
+      const int dist =
+          SpanDistance(truth[static_cast<size_t>(t)], detected[static_cast<size_t>(d)]);
+      if (dist <= s.tolerance) pairs.push_back({dist, t, d});
+    }
+  }
+  std::sort(pairs.begin(), pairs.end(), [](const Pair& a, const Pair& b) {
+    return std::tie(a.distance, a.t, a.d) < std::tie(b.distance, b.t, b.d);
+  });
+  std::vector<bool> t_used(truth.size(), false), d_used(detected.size(), false);
+  for (const Pair& p : pairs) {
+    if (t_used[static_cast<size_t>(p.t)] || d_used[static_cast<size_t>(p.d)]) continue;
+    t_used[static_cast<size_t>(p.t)] = d_used[static_cast<size_t>(p.d)] = true;
+    ++s.matched;
+  }
+  if (s.detected_boundaries > 0)
+    s.precision = static_cast<double>(s.matched) / s.detected_boundaries;
+  if (s.true_boundaries > 0) s.recall = static_cast<double>(s.matched) / s.true_boundaries;
+  if (s.precision + s.recall > 0) s.f1 = 2 * s.precision * s.recall / (s.precision + s.recall);
+  return s;
+}
+
+std::vector<std::pair<std::string, std::string>> AdjacentLabels(
+    const std::vector<std::string>& labels) {
+  std::set<std::pair<std::string, std::string>> pairs;
+  const std::string* previous = nullptr;
+  for (const std::string& l : labels) {
+    if (l.empty()) continue;
+    if (previous != nullptr && *previous != l)
+      pairs.insert(std::pair<std::string, std::string>(std::minmax(*previous, l)));
+    previous = &l;
+  }
+  return {pairs.begin(), pairs.end()};
+}
+
+EdgeScore ScoreMapEdges(const GroundTruth& truth,
+                        const std::map<PlaceId, std::vector<int>>& frames_of,
+                        const TopologicalMap& map) {
+  const auto adjacent = AdjacentLabels(truth.labels);
+  const auto label_of = [&](const PlaceId& p) {
+    const auto it = frames_of.find(p);
+    return it == frames_of.end() ? std::string() : MajorityLabel(truth, it->second);
+  };
+  EdgeScore s;
+  for (const auto& [key, edge] : map.edges()) {
+    ++s.edges;
+    const std::string a = label_of(edge.a), b = label_of(edge.b);
+    if (a.empty() || b.empty()) continue;
+    if (a == b || std::binary_search(adjacent.begin(), adjacent.end(),
+                                     std::pair<std::string, std::string>(std::minmax(a, b)))) {
+      ++s.correct;
+    }
+  }
+  if (s.edges > 0) s.precision = static_cast<double>(s.correct) / s.edges;
+  return s;
+}
+
+double RecallAtFullPrecision(const std::vector<PrPoint>& curve) {
+  double best = 0.0;
+  for (const PrPoint& p : curve) {
+    if (p.precision >= 1.0) best = std::max(best, p.recall);
+  }
+  return best;
 }
 
 }  // namespace tsc

@@ -1,10 +1,13 @@
 #pragma once
 // Scoring rules of DESIGN §7.1b, so every number means the same everywhere.
 
+#include <map>
 #include <optional>
 #include <string>
+#include <utility>
 #include <vector>
 
+#include "core/map/topological_map.h"
 #include "core/memory/place_id.h"
 
 namespace tsc {
@@ -41,5 +44,69 @@ struct RecognitionScore {
 /// recognition is correct when the learned place it went to (the frames assigned to that
 /// place before it) matches it.
 RecognitionScore ScoreRecognition(const GroundTruth& truth, const std::vector<Assignment>& seq);
+
+/// An inclusive range of 0-based frames.
+struct FrameSpan {
+  int first = 0;
+  int last = 0;
+  bool operator==(const FrameSpan&) const = default;
+};
+/// Frames between two spans: 0 when they overlap or touch.
+int SpanDistance(const FrameSpan& a, const FrameSpan& b);
+
+/// True boundaries (labels): between two consecutive labelled frames with different labels.
+/// A transition (unlabelled frames between them) counts once: the boundary is the span from
+/// the first unlabelled frame to the first frame of the new label; without unlabelled frames
+/// it is that single frame. Leading and trailing unlabelled frames are no boundary, and a
+/// place left and re-entered through unlabelled frames (a, "", a) has none.
+std::vector<FrameSpan> TrueBoundaries(const std::vector<std::string>& labels);
+/// Detected boundaries: between consecutive detected places (each a non-empty, sorted frame
+/// set, in detection order), the span from the frame the earlier place closed on (its last
+/// member) to the frame the next one opened on (its first member). Counted once.
+std::vector<FrameSpan> DetectedBoundaries(const std::vector<std::vector<int>>& places);
+
+struct BoundaryScore {
+  int true_boundaries = 0;
+  int detected_boundaries = 0;
+  int matched = 0;         ///< one-to-one matched pairs
+  int tolerance = 0;       ///< frames, max(3, round(2 % of frames))
+  double precision = 1.0;  ///< matched / detected (1 when nothing was detected)
+  double recall = 1.0;     ///< matched / true (1 when there is no true boundary)
+  double f1 = 0.0;         ///< 2PR / (P + R), 0 when P + R = 0
+};
+/// Boundary F1 (DESIGN §7.1b). A detected boundary hits a true one when the spans are at most
+/// `tolerance` frames apart (SpanDistance). Matching is one-to-one and greedy: candidate
+/// pairs in increasing distance (ties: earlier true, then earlier detected boundary) are taken
+/// when neither side is matched yet; so one true boundary is never counted twice.
+/// `frames` is the length of the sequence (sets the tolerance).
+BoundaryScore ScoreBoundaries(const std::vector<FrameSpan>& truth,
+                              const std::vector<FrameSpan>& detected, int frames);
+
+/// Unordered pairs of labels adjacent in the ground truth: consecutive distinct labels of
+/// the per-frame sequence once unlabelled frames are dropped (so a -> "" -> b is adjacent).
+/// Each pair is stored with first < second.
+std::vector<std::pair<std::string, std::string>> AdjacentLabels(
+    const std::vector<std::string>& labels);
+
+struct EdgeScore {
+  int edges = 0;
+  int correct = 0;
+  double precision = 1.0;  ///< correct / edges (1 for a map without edges)
+};
+/// Map edge precision (DESIGN §7.1b): an edge is correct when the majority labels of its two
+/// places (over the frames assigned to each, `frames_of`) are equal or adjacent in the ground
+/// truth (AdjacentLabels). An edge with an unlabelled or unknown place is wrong.
+EdgeScore ScoreMapEdges(const GroundTruth& truth,
+                        const std::map<PlaceId, std::vector<int>>& frames_of,
+                        const TopologicalMap& map);
+
+/// One point of the PR sweep.
+struct PrPoint {
+  double tau_r = 0.0;
+  double precision = 1.0;
+  double recall = 0.0;
+};
+/// The largest recall over the sweep whose precision is 1.0 (0 when none is).
+double RecallAtFullPrecision(const std::vector<PrPoint>& curve);
 
 }  // namespace tsc

@@ -1,5 +1,6 @@
 // tsc — the offline tool: `tsc run` runs the TSC pipeline over a dataset folder into a store,
-// `tsc inspect` shows what a store learned, `tsc config` prints the configuration keys.
+// `tsc eval` scores it against the dataset's ground truth, `tsc inspect` shows what a store
+// learned, `tsc config` prints the configuration keys, `tsc sim` writes simulated datasets.
 // Exit codes (DESIGN §7.2): 0 ok, 1 runtime failure, 2 usage error, 78 configuration error.
 
 #include <algorithm>
@@ -15,9 +16,12 @@
 #include "store/store.h"
 #include "tools/config.h"
 #include "tools/dataset.h"
+#include "tools/eval.h"
 #include "tools/events_json.h"
 #include "tools/inspect.h"
+#include "tools/plots.h"
 #include "tools/progress.h"
+#include "tools/sim_command.h"
 
 namespace tsc {
 namespace {
@@ -40,8 +44,11 @@ constexpr const char* kMainHelp =
 
 Topological spatial cognition, offline. Commands:
   run      run the TSC pipeline over a dataset folder, storing what it learns
+  eval     run the pipeline on a fresh memory and score it against the ground truth
+           (JSON figures, PR curve over tau_r, PNG plots)
   inspect  summarise a store; export its place memory and map as JSON, DOT or PNG
   config   print the configuration keys with units, ranges and values as an INI file
+  sim      write a simulated dataset (frames and ground truth) from a generated world
 
 'tsc <command> --help' describes each command.
 
@@ -65,6 +72,26 @@ Events are written as JSON lines, one per event:
   {"frame":k,"event":"detected|recognized|learned|mapped|pruned","detected_place":m,
    "place":"<robot>:<id>", ...}
 where k is the base point index (0-based).
+
+Options)";
+
+constexpr const char* kEvalHelp =
+    R"(usage: tsc eval DATASET --json FILE [--plots DIR] [--sweep FROM:TO:STEP]
+                [--config F] [--set section.key=value]...
+
+Runs the TSC loop over every frame of DATASET on a fresh memory (nothing is stored) and
+scores it with the rules of DESIGN section 7.1b against groundtruth.csv (place labels)
+and/or revisits.csv. Each frame's descriptor is computed once; the pipeline is then replayed
+at the configured memory.tau_r (the main figures) and at each tau_r of the sweep (the PR
+curve; default 1.0:2.0:0.05, STEP 0 = no sweep).
+
+--json FILE gets one JSON object: frames, base_points, detected_places, learned_places,
+detection.{boundary_f1,precision,recall} (with labels), recognition.{precision,recall,
+recall_at_full_precision,pr_curve:[[tau_r,precision,recall],...]}, map.{edges,
+edge_precision (with labels)}, timing.{descriptor_ms_median,frame_ms_median}, config, sweep.
+--plots DIR writes timeline.png (detection timeline), pr_curve.png, memory_map.png (place
+memory tree and topological map, needs Graphviz's `dot`) and, when the ground truth has
+poses, floor_plan.png.
 
 Options)";
 
@@ -287,6 +314,106 @@ int Run(const std::vector<std::string>& args) {
   return kExitOk;
 }
 
+EvalOptions ParseSweep(const std::string& text) {
+  EvalOptions e;
+  double v[3];
+  size_t start = 0;
+  for (int i = 0; i < 3; ++i) {
+    const size_t colon = text.find(':', start);
+    if ((i < 2) != (colon != std::string::npos)) {
+      throw UsageError("--sweep " + text + ": expected FROM:TO:STEP, e.g. 1.0:2.0:0.05");
+    }
+    const std::string part = text.substr(start, i < 2 ? colon - start : std::string::npos);
+    size_t used = 0;
+    try {
+      v[i] = std::stod(part, &used);
+    } catch (const std::exception&) {
+      used = 0;
+    }
+    if (used == 0 || used != part.size()) {
+      throw UsageError("--sweep " + text + ": '" + part + "' is not a number");
+    }
+    start = colon + 1;
+  }
+  e.sweep_from = v[0], e.sweep_to = v[1], e.sweep_step = v[2];
+  try {
+    e.Validate();
+  } catch (const std::invalid_argument& ex) {
+    throw UsageError("--sweep " + text + ": " + ex.what());
+  }
+  return e;
+}
+
+int Eval(const std::vector<std::string>& args) {
+  po::options_description desc(kEvalHelp);
+  desc.add_options()("help,h", "show this help")(
+      "dataset", po::value<std::string>()->required()->value_name("DATASET"),
+      "dataset folder (also the first positional argument)")(
+      "json", po::value<std::string>()->required()->value_name("FILE"),
+      "write the figures as one JSON object to FILE")(
+      "plots", po::value<std::string>()->value_name("DIR"), "write PNG plots into DIR")(
+      "sweep", po::value<std::string>()->value_name("FROM:TO:STEP"),
+      "tau_r values of the PR curve (default 1.0:2.0:0.05)");
+  AddConfigOptions(desc);
+  po::positional_options_description pos;
+  pos.add("dataset", 1);
+  const po::variables_map vm = Parse(args, desc, &pos);
+  if (vm.count("help")) {
+    std::cout << desc << "\n";
+    return kExitOk;
+  }
+  const EvalOptions eval =
+      vm.count("sweep") ? ParseSweep(vm["sweep"].as<std::string>()) : EvalOptions{};
+  const PipelineOptions options = ConfigFrom(vm);
+  const fs::path dataset_dir = vm["dataset"].as<std::string>();
+  const fs::path json_path = vm["json"].as<std::string>();
+  const Dataset dataset = Dataset::Open(dataset_dir);
+  if (options.features.NeedsDepth() && !dataset.has_depth()) {
+    throw DatasetError(dataset_dir.string() + ": bubble.features = " + options.features.ToString() +
+                       " needs depth, but the dataset has no depth/ folder");
+  }
+  const EvalResult r = Evaluate(dataset, options, eval);
+  {
+    std::ofstream out(json_path, std::ios::trunc);
+    if (!out) throw std::runtime_error(json_path.string() + ": cannot write JSON file");
+    WriteEvalJson(out, r);
+    out.close();
+    if (!out) throw std::runtime_error(json_path.string() + ": write failed");
+  }
+  std::vector<fs::path> plots;
+  if (vm.count("plots")) plots = WritePlots(r, dataset, vm["plots"].as<std::string>());
+
+  const RecognitionScore& s = r.main.recognition;
+  std::printf(
+      "tsc eval: %d frames of %s (ground truth: %s)\n"
+      "  base points      good %d, uninformative %d, incoherent %d\n"
+      "  detected places  %zu, learned places %d\n",
+      r.frames, dataset_dir.c_str(),
+      r.truth.has_labels() ? (r.truth.has_revisits() ? "labels, revisits" : "labels")
+                           : (r.truth.has_revisits() ? "revisits" : "none"),
+      r.good, r.uninformative, r.incoherent, r.main.detected.size(), r.main.learned_places);
+  if (r.boundaries) {
+    std::printf("  boundaries       F1 %.3f (precision %.3f, recall %.3f; %d true, %d detected)\n",
+                r.boundaries->f1, r.boundaries->precision, r.boundaries->recall,
+                r.boundaries->true_boundaries, r.boundaries->detected_boundaries);
+  }
+  std::printf(
+      "  recognition      tau_r %.2f: precision %.3f, recall %.3f (%d of %d correct, %d should "
+      "be recognised)\n"
+      "  PR sweep         %zu points, recall at full precision %.3f\n",
+      r.main.tau_r, s.precision, s.recall, s.correct, s.recognitions, s.should_be_recognized,
+      r.pr_curve.size(), r.recall_at_full_precision);
+  std::printf("  map              %zu edges", r.main.map.edges().size());
+  if (r.edges) std::printf(", edge precision %.3f", r.edges->precision);
+  std::printf(
+      "\n  median per frame %.2f ms descriptor, %.2f ms with the pipeline step\n"
+      "  wrote            %s",
+      r.descriptor_ms_median, r.frame_ms_median, json_path.c_str());
+  for (const fs::path& p : plots) std::printf(", %s", p.c_str());
+  std::printf("\n");
+  return kExitOk;
+}
+
 int Inspect(const std::vector<std::string>& args) {
   po::options_description desc(kInspectHelp);
   desc.add_options()("help,h", "show this help")(
@@ -345,8 +472,10 @@ int Main(int argc, char** argv) {
   using Command = int (*)(const std::vector<std::string>&);
   Command fn = nullptr;
   if (command == "run") fn = Run;
+  if (command == "eval") fn = Eval;
   if (command == "inspect") fn = Inspect;
   if (command == "config") fn = Config;
+  if (command == "sim") fn = RunSimCommand;  // reports its own errors and exit codes
   if (fn == nullptr) {
     std::cerr << "tsc: unknown command '" << command << "' (try 'tsc --help')\n";
     return kExitUsage;

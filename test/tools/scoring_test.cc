@@ -42,5 +42,89 @@ TEST(Scoring, PrecisionAndRecallFollowDesignRules) {
   EXPECT_DOUBLE_EQ(s.recall, 0.5);
 }
 
+TEST(Scoring, RecognitionCorrectWrongAndMissed) {
+  GroundTruth truth;
+  truth.labels = {"a", "a", "b", "b", "a", "a", "b", "b"};
+  const PlaceId p1{1, 1}, p2{1, 2}, p3{1, 3};
+  // a learned, b learned, a recognised correctly, b missed (learned again as p3).
+  const RecognitionScore correct_and_missed = ScoreRecognition(
+      truth, {{{0, 1}, p1, false}, {{2, 3}, p2, false}, {{4, 5}, p1, true}, {{6, 7}, p3, false}});
+  EXPECT_EQ(correct_and_missed.recognitions, 1);
+  EXPECT_EQ(correct_and_missed.correct, 1);
+  EXPECT_EQ(correct_and_missed.should_be_recognized, 2);
+  EXPECT_DOUBLE_EQ(correct_and_missed.precision, 1.0);
+  EXPECT_DOUBLE_EQ(correct_and_missed.recall, 0.5);
+  // b recognised as a: a wrong recognition.
+  const RecognitionScore wrong = ScoreRecognition(truth, {{{0, 1}, p1, false}, {{2, 3}, p1, true}});
+  EXPECT_EQ(wrong.recognitions, 1);
+  EXPECT_EQ(wrong.correct, 0);
+  EXPECT_EQ(wrong.should_be_recognized, 0);
+  EXPECT_DOUBLE_EQ(wrong.precision, 0.0);
+}
+
+TEST(Scoring, TrueBoundariesCountTransitionsOnce) {
+  const std::vector<std::string> labels = {"", "a", "a", "", "", "b", "b", "c", "", "c", ""};
+  const std::vector<FrameSpan> t = TrueBoundaries(labels);
+  ASSERT_EQ(t.size(), 2u);
+  EXPECT_EQ(t[0], (FrameSpan{3, 5}));  // a -> "" "" -> b: once, the transition span
+  EXPECT_EQ(t[1], (FrameSpan{7, 7}));  // b -> c directly; c -> "" -> c is none
+}
+
+TEST(Scoring, DetectedBoundariesSpanClosedToOpened) {
+  const std::vector<FrameSpan> d = DetectedBoundaries({{0, 1, 2}, {6, 7}, {8, 9}});
+  ASSERT_EQ(d.size(), 2u);
+  EXPECT_EQ(d[0], (FrameSpan{2, 6}));
+  EXPECT_EQ(d[1], (FrameSpan{7, 8}));
+}
+
+TEST(Scoring, BoundaryHitWithinToleranceAndMissOutside) {
+  // 100 frames: tolerance max(3, 2) = 3.
+  const std::vector<FrameSpan> truth = {{20, 20}, {60, 62}};
+  const BoundaryScore s = ScoreBoundaries(truth, {{23, 24}, {70, 71}}, 100);
+  EXPECT_EQ(s.tolerance, 3);
+  EXPECT_EQ(s.matched, 1);  // 23 is 3 from 20: hit; 70 is 8 from 62: miss
+  EXPECT_DOUBLE_EQ(s.precision, 0.5);
+  EXPECT_DOUBLE_EQ(s.recall, 0.5);
+  EXPECT_DOUBLE_EQ(s.f1, 0.5);
+  // One-to-one: two detections next to one true boundary match it once.
+  const BoundaryScore twice = ScoreBoundaries({{20, 20}}, {{19, 19}, {21, 21}}, 100);
+  EXPECT_EQ(twice.matched, 1);
+  EXPECT_DOUBLE_EQ(twice.precision, 0.5);
+  EXPECT_DOUBLE_EQ(twice.recall, 1.0);
+  // 1000 frames: tolerance 20.
+  EXPECT_EQ(ScoreBoundaries({{500, 500}}, {{519, 519}}, 1000).matched, 1);
+  EXPECT_DOUBLE_EQ(ScoreBoundaries({{500, 500}}, {}, 1000).f1, 0.0);
+}
+
+TEST(Scoring, EdgePrecisionOnHandMadeMap) {
+  GroundTruth truth;
+  // Route a -> b -> c -> b: adjacent pairs {a,b} and {b,c}; a and c never touch.
+  truth.labels = {"a", "a", "", "b", "b", "c", "c", "", "b", "b"};
+  const auto adjacent = AdjacentLabels(truth.labels);
+  ASSERT_EQ(adjacent.size(), 2u);
+  EXPECT_EQ(adjacent[0], (std::pair<std::string, std::string>("a", "b")));
+  EXPECT_EQ(adjacent[1], (std::pair<std::string, std::string>("b", "c")));
+
+  const PlaceId pa{1, 1}, pb{1, 2}, pc{1, 3}, pb2{1, 4}, pu{1, 5};
+  const std::map<PlaceId, std::vector<int>> frames_of = {
+      {pa, {0, 1}}, {pb, {3, 4}}, {pc, {5, 6}}, {pb2, {8, 9}}, {pu, {2}}};
+  TopologicalMap map;
+  map.RecordTransition(pa, pb, {});   // a-b adjacent: correct
+  map.RecordTransition(pb, pc, {});   // b-c adjacent: correct
+  map.RecordTransition(pb, pb2, {});  // b-b same label: correct
+  map.RecordTransition(pa, pc, {});   // a-c: wrong
+  map.RecordTransition(pc, pu, {});   // unlabelled place: wrong
+  const EdgeScore s = ScoreMapEdges(truth, frames_of, map);
+  EXPECT_EQ(s.edges, 5);
+  EXPECT_EQ(s.correct, 3);
+  EXPECT_DOUBLE_EQ(s.precision, 0.6);
+}
+
+TEST(Scoring, RecallAtFullPrecisionIsBestRecallWithPrecisionOne) {
+  EXPECT_DOUBLE_EQ(RecallAtFullPrecision({{1.0, 1.0, 0.2}, {1.2, 1.0, 0.5}, {1.4, 0.8, 0.9}}), 0.5);
+  EXPECT_DOUBLE_EQ(RecallAtFullPrecision({{1.0, 0.9, 0.2}}), 0.0);
+  EXPECT_DOUBLE_EQ(RecallAtFullPrecision({}), 0.0);
+}
+
 }  // namespace
 }  // namespace tsc

@@ -85,7 +85,8 @@ class TscCliTest : public ::testing::Test {
 };
 
 TEST_F(TscCliTest, HelpExitsZero) {
-  for (const char* args : {"--help", "run --help", "inspect --help", "config --help"}) {
+  for (const char* args :
+       {"--help", "run --help", "eval --help", "inspect --help", "config --help"}) {
     const Outcome o = Tsc(args);
     EXPECT_EQ(o.code, 0) << args << ": " << o.err;
     EXPECT_NE(o.out.find("usage: tsc"), std::string::npos) << args;
@@ -203,6 +204,41 @@ TEST_F(TscCliTest, StoreOfAnotherRobotExits1) {
   const Outcome o = Tsc("run " + Quote(ds.string()) + " --db " + Quote(db.string()) + " --robot 4");
   EXPECT_EQ(o.code, 1) << o.err;
   EXPECT_NE(o.err.find("r.db"), std::string::npos) << o.err;
+}
+
+TEST_F(TscCliTest, EvalMissingDatasetExits1NamingIt) {
+  const fs::path missing = dir_ / "no_such_dataset";
+  const Outcome o =
+      Tsc("eval " + Quote(missing.string()) + " --json " + Quote((dir_ / "e.json").string()));
+  EXPECT_EQ(o.code, 1) << o.err;
+  EXPECT_EQ(o.err.rfind("tsc: ", 0), 0u) << o.err;
+  EXPECT_NE(o.err.find(missing.string()), std::string::npos) << o.err;
+}
+
+TEST_F(TscCliTest, EvalBadOptionExits2) {
+  const fs::path ds = MakeDataset(2);
+  const std::string json = " --json " + Quote((dir_ / "e.json").string());
+  const Outcome unknown = Tsc("eval --frobnicate " + Quote(ds.string()) + json);
+  EXPECT_EQ(unknown.code, 2) << unknown.err;
+  EXPECT_NE(unknown.err.find("frobnicate"), std::string::npos) << unknown.err;
+  EXPECT_EQ(Tsc("eval " + Quote(ds.string())).code, 2);  // --json missing
+  const Outcome sweep = Tsc("eval " + Quote(ds.string()) + json + " --sweep 1.0:x:0.1");
+  EXPECT_EQ(sweep.code, 2) << sweep.err;
+  EXPECT_NE(sweep.err.find("--sweep"), std::string::npos) << sweep.err;
+}
+
+TEST_F(TscCliTest, EvalWritesJsonAndPlots) {
+  const fs::path ds = MakeDataset(12);
+  const fs::path json = dir_ / "e.json", plots = dir_ / "plots";
+  const Outcome o = Tsc("eval " + Quote(ds.string()) + " --json " + Quote(json.string()) +
+                        " --plots " + Quote(plots.string()) + " --sweep 1.0:1.5:0.25");
+  ASSERT_EQ(o.code, 0) << o.err;
+  EXPECT_NE(o.out.find("tsc eval: 12 frames"), std::string::npos) << o.out;
+  const std::string text = ReadFile(json);
+  EXPECT_NE(text.find("\"frames\":12"), std::string::npos) << text;
+  EXPECT_NE(text.find("\"pr_curve\":[[1,"), std::string::npos) << text;
+  EXPECT_TRUE(fs::exists(plots / "timeline.png"));
+  EXPECT_TRUE(fs::exists(plots / "pr_curve.png"));
 }
 
 }  // namespace

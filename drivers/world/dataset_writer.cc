@@ -1,0 +1,169 @@
+#include "drivers/world/dataset_writer.h"
+
+#include <cmath>
+#include <cstdio>
+#include <fstream>
+#include <numbers>
+#include <opencv2/imgcodecs.hpp>
+#include <opencv2/imgproc.hpp>
+#include <stdexcept>
+
+namespace tsc::sim {
+namespace fs = std::filesystem;
+namespace {
+
+void WriteText(const fs::path& path, const std::string& text) {
+  std::ofstream out(path, std::ios::binary);
+  out << text;
+  if (!out) throw std::runtime_error("cannot write " + path.string());
+}
+
+std::string Stem(int frame_1based) {
+  char buf[16];
+  std::snprintf(buf, sizeof buf, "%06d", frame_1based);
+  return buf;
+}
+
+}  // namespace
+
+LightingMode ParseLightingMode(const std::string& name) {
+  if (name == "day") return LightingMode::kDay;
+  if (name == "dim") return LightingMode::kDim;
+  if (name == "flicker") return LightingMode::kFlicker;
+  if (name == "mixed") return LightingMode::kMixed;
+  throw std::invalid_argument("unknown lighting '" + name + "' (day, dim, flicker or mixed)");
+}
+
+void SimOptions::Validate() const {
+  render.Validate();
+  route.Validate();
+  if (robots < 1 || robots > 64) {
+    throw std::invalid_argument("robots " + std::to_string(robots) + " must be in [1, 64]");
+  }
+  if (!(jitter_heading_deg >= 0.0 && jitter_heading_deg <= 10.0) ||
+      !(jitter_position_m >= 0.0 && jitter_position_m <= 0.2)) {
+    throw std::invalid_argument("camera jitter must be within 10° and 0.2 m");
+  }
+  if (!(glitch_probability >= 0.0 && glitch_probability <= 1.0)) {
+    throw std::invalid_argument("glitch probability " + std::to_string(glitch_probability) +
+                                " must be in [0, 1]");
+  }
+  if (max_frames < 0) {
+    throw std::invalid_argument("max frames " + std::to_string(max_frames) + " must be ≥ 0");
+  }
+}
+
+int WriteRobotDataset(const fs::path& folder, const World& world,
+                      const std::vector<RouteFrame>& route, const SimOptions& options,
+                      std::mt19937& rng) {
+  options.Validate();
+  std::error_code ec;
+  fs::create_directories(folder, ec);
+  if (options.depth) fs::create_directories(folder / "depth", ec);
+  if (ec) throw std::runtime_error("cannot create " + folder.string() + ": " + ec.message());
+
+  const RenderOptions& ro = options.render;
+  WriteText(folder / "camera.json", "{\"width\":" + std::to_string(ro.width) +
+                                        ",\"height\":" + std::to_string(ro.height) +
+                                        ",\"hfov_deg\":" + std::to_string(ro.hfov_deg) + "}\n");
+  WriteText(folder / "world.json", world.ToJson());
+
+  const Renderer renderer(world, ro, static_cast<std::uint32_t>(rng()));
+  const int n = options.max_frames > 0
+                    ? std::min(options.max_frames, static_cast<int>(route.size()))
+                    : static_cast<int>(route.size());
+  std::ofstream gt(folder / "groundtruth.csv");
+  gt << "frame,place,x,y,heading\n";
+  gt.precision(6);
+  std::normal_distribution<double> normal(0.0, 1.0);
+  std::uniform_real_distribution<double> unit(0.0, 1.0);
+  const std::vector<int> jpeg = {cv::IMWRITE_JPEG_QUALITY, 90};
+  cv::Mat bgr, depth, depth_mm;
+  for (int i = 0; i < n; ++i) {
+    const RouteFrame& rf = route[static_cast<size_t>(i)];
+    // The same number of draws per frame whatever the options, so frames stay comparable.
+    const double jx = normal(rng), jy = normal(rng), jh = normal(rng);
+    const double flicker = unit(rng), glitch = unit(rng), glitch_kind = unit(rng);
+    Pose2 pose = rf.pose;
+    pose.x += options.jitter_position_m * jx;
+    pose.y += options.jitter_position_m * jy;
+    pose.heading += options.jitter_heading_deg * std::numbers::pi / 180.0 * jh;
+    if (world.RoomAt(pose.x, pose.y) < 0) pose = rf.pose;  // never through a wall
+
+    renderer.Render(pose, &bgr, options.depth ? &depth : nullptr);
+    Lighting light = Lighting::Day();
+    switch (options.lighting) {
+      case LightingMode::kDay:
+        break;
+      case LightingMode::kDim:
+        light = Lighting::Dim();
+        break;
+      case LightingMode::kFlicker:
+        light.gain *= 0.75 + 0.5 * flicker;
+        break;
+      case LightingMode::kMixed:
+        if (rf.revisit) light = Lighting::Dim();
+        break;
+    }
+    const bool glitched = glitch < options.glitch_probability;
+    if (glitched && glitch_kind >= 0.5) light.gain *= 0.2;  // a dark frame
+    if (glitched && glitch_kind < 0.5) {                    // a blurred frame
+      cv::GaussianBlur(bgr, bgr, cv::Size(0, 0), ro.width / 80.0);
+    }
+    renderer.ApplyLighting(light, rng, &bgr);
+
+    const std::string stem = Stem(i + 1);
+    const fs::path image = folder / (stem + (options.png ? ".png" : ".jpg"));
+    if (!cv::imwrite(image.string(), bgr, options.png ? std::vector<int>{} : jpeg)) {
+      throw std::runtime_error("cannot write " + image.string());
+    }
+    if (options.depth) {
+      depth.convertTo(depth_mm, CV_16U, 1000.0);
+      const fs::path dpath = folder / "depth" / (stem + ".png");
+      if (!cv::imwrite(dpath.string(), depth_mm)) {
+        throw std::runtime_error("cannot write " + dpath.string());
+      }
+    }
+    gt << (i + 1) << "," << world.LabelAt(pose.x, pose.y) << "," << pose.x << "," << pose.y << ","
+       << pose.heading << "\n";
+  }
+  gt.flush();
+  if (!gt) throw std::runtime_error("cannot write " + (folder / "groundtruth.csv").string());
+  return n;
+}
+
+SimSummary WriteSimulatedDataset(const fs::path& out, const SimOptions& options) {
+  options.Validate();
+  std::error_code ec;
+  if (fs::exists(out, ec) && !fs::is_empty(out, ec)) {
+    throw std::runtime_error("output folder " + out.string() + " is not empty");
+  }
+  fs::create_directories(out, ec);
+  if (ec) throw std::runtime_error("cannot create " + out.string() + ": " + ec.message());
+
+  std::mt19937 world_rng(options.seed);
+  const World world = World::Generate(options.world, world_rng);
+  std::mt19937 route_rng(options.seed ^ 0x9e3779b9u);
+  std::mt19937 frame_rng(options.seed ^ 0x85ebca6bu);
+  SimSummary summary;
+  for (const Room& r : world.rooms()) summary.labels.push_back(r.label);
+  if (options.robots == 1) {
+    const std::vector<RouteFrame> route =
+        FollowRooms(world, SingleRobotTargets(world, options.route, route_rng), options.route);
+    summary.frames.push_back(WriteRobotDataset(out, world, route, options, frame_rng));
+    summary.datasets.push_back(out);
+    return summary;
+  }
+  WriteText(out / "world.json", world.ToJson());
+  const auto targets = TeamTargets(world, options.robots, options.route, route_rng);
+  for (int k = 0; k < options.robots; ++k) {
+    const fs::path folder = out / "robots" / std::to_string(k + 1);
+    const std::vector<RouteFrame> route =
+        FollowRooms(world, targets[static_cast<size_t>(k)], options.route);
+    summary.frames.push_back(WriteRobotDataset(folder, world, route, options, frame_rng));
+    summary.datasets.push_back(folder);
+  }
+  return summary;
+}
+
+}  // namespace tsc::sim

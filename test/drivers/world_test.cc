@@ -1,0 +1,280 @@
+#include "drivers/world/world.h"
+
+#include <gtest/gtest.h>
+#include <unistd.h>
+
+#include <cmath>
+#include <filesystem>
+#include <fstream>
+#include <map>
+#include <numbers>
+#include <random>
+#include <set>
+#include <string>
+#include <vector>
+
+#include "drivers/world/dataset_writer.h"
+#include "drivers/world/renderer.h"
+#include "drivers/world/routes.h"
+#include "tools/dataset.h"
+#include "tools/sim_command.h"
+
+namespace tsc::sim {
+namespace {
+namespace fs = std::filesystem;
+
+RenderOptions Small() {
+  RenderOptions o;
+  o.width = 160;
+  o.height = 120;
+  return o;
+}
+
+/// Labels in visiting order, consecutive repeats and doorways ("") removed.
+std::vector<std::string> Visits(const std::vector<std::string>& labels) {
+  std::vector<std::string> out;
+  for (const std::string& l : labels) {
+    if (!l.empty() && (out.empty() || out.back() != l)) out.push_back(l);
+  }
+  return out;
+}
+
+std::vector<std::string> LabelsOf(const std::vector<RouteFrame>& route) {
+  std::vector<std::string> out;
+  for (const RouteFrame& f : route) out.push_back(f.label);
+  return out;
+}
+
+class WorldTest : public ::testing::Test {
+ protected:
+  void SetUp() override {
+    const auto* info = ::testing::UnitTest::GetInstance()->current_test_info();
+    dir_ = fs::temp_directory_path() /
+           ("tscd_world_test_" + std::string(info->name()) + "_" + std::to_string(getpid()));
+    fs::remove_all(dir_);
+  }
+  void TearDown() override { fs::remove_all(dir_); }
+
+  fs::path dir_;
+};
+
+TEST_F(WorldTest, SameSeedGivesIdenticalFramesAndOtherSeedDiffers) {
+  auto frame = [](std::uint32_t seed) {
+    std::mt19937 rng(seed);
+    const World world = World::Generate(WorldKind::kOffice, rng);
+    const Renderer dut(world, Small(), seed);
+    const Room& r = world.rooms()[1];
+    cv::Mat bgr;
+    dut.Render(Pose2{r.cx(), r.cy(), 0.3}, &bgr, nullptr);
+    dut.ApplyLighting(Lighting::Day(), rng, &bgr);
+    return bgr;
+  };
+  const cv::Mat a = frame(5), b = frame(5), c = frame(6);
+  ASSERT_EQ(a.size(), b.size());
+  EXPECT_EQ(cv::norm(a, b, cv::NORM_INF), 0.0);
+  EXPECT_GT(cv::norm(a, c, cv::NORM_L1), 0.0);
+}
+
+TEST_F(WorldTest, SingleRobotRouteVisitsEveryRoomAndRevisitsHalf) {
+  for (WorldKind kind : {WorldKind::kOffice, WorldKind::kCorridors, WorldKind::kOutdoor}) {
+    std::mt19937 rng(3);
+    const World world = World::Generate(kind, rng);
+    const RouteOptions options;
+    const auto route = FollowRooms(world, SingleRobotTargets(world, options, rng), options);
+    std::map<std::string, int> visits;
+    for (const std::string& l : Visits(LabelsOf(route))) ++visits[l];
+    int revisited = 0;
+    for (const Room& r : world.rooms()) {
+      EXPECT_GE(visits[r.label], 1) << WorldKindName(kind) << " " << r.label;
+      if (visits[r.label] >= 2) ++revisited;
+    }
+    EXPECT_GE(2 * revisited, static_cast<int>(world.rooms().size())) << WorldKindName(kind);
+    // A room visit is many frames.
+    EXPECT_GT(route.size(), 20 * world.rooms().size()) << WorldKindName(kind);
+  }
+}
+
+TEST_F(WorldTest, LabelIsEmptyExactlyInsideDoorways) {
+  std::mt19937 rng(9);
+  const World dut = World::Generate(WorldKind::kCorridors, rng);
+  std::uniform_real_distribution<double> ux(-8.0, 32.0), uy(-8.0, 24.0);
+  int in_doorway = 0;
+  for (int i = 0; i < 20000; ++i) {
+    const double x = ux(rng), y = uy(rng);
+    const bool inside = dut.RoomAt(x, y) >= 0;
+    if (!inside) continue;
+    const cv::Vec4d* zone = nullptr;
+    std::vector<cv::Vec4d> zones;
+    for (int d = 0; d < static_cast<int>(dut.doors().size()); ++d) {
+      zones.push_back(dut.DoorwayZone(d));
+    }
+    for (const cv::Vec4d& z : zones) {
+      if (x >= z[0] && x <= z[2] && y >= z[1] && y <= z[3]) zone = &z;
+    }
+    EXPECT_EQ(dut.LabelAt(x, y).empty(), zone != nullptr) << x << "," << y;
+    if (zone != nullptr) ++in_doorway;
+  }
+  EXPECT_GT(in_doorway, 0);
+  // Each door's centre is a doorway, points 1 m either side are in its two rooms.
+  for (const Door& d : dut.doors()) {
+    EXPECT_EQ(dut.LabelAt(d.cx(), d.cy()), "");
+    const double ox = d.vertical_wall ? 1.0 : 0.0, oy = d.vertical_wall ? 0.0 : 1.0;
+    std::set<std::string> sides = {dut.LabelAt(d.cx() - ox, d.cy() - oy),
+                                   dut.LabelAt(d.cx() + ox, d.cy() + oy)};
+    EXPECT_EQ(sides, (std::set<std::string>{dut.rooms()[static_cast<size_t>(d.room_a)].label,
+                                            dut.rooms()[static_cast<size_t>(d.room_b)].label}));
+  }
+}
+
+TEST_F(WorldTest, DepthIsDistanceToFacedWall) {
+  Room room;
+  room.label = "box";
+  room.x0 = 0, room.y0 = 0, room.x1 = 10, room.y1 = 8;
+  const World world(WorldKind::kOffice, {room}, {});
+  const Renderer dut(world, Small(), 1);
+  cv::Mat bgr, depth;
+  for (double d : {1.5, 3.0, 6.0}) {
+    dut.Render(Pose2{10.0 - d, 4.0, 0.0}, &bgr, &depth);
+    ASSERT_EQ(depth.type(), CV_32F);
+    const float centre = depth.at<float>(60, 80);
+    EXPECT_NEAR(centre, d, 0.03 * d);
+    // Off-axis columns of a fronto-parallel wall have the same optical depth.
+    EXPECT_NEAR(depth.at<float>(60, 10), d, 0.03 * d);
+  }
+}
+
+TEST_F(WorldTest, DimFrameIsDarkerThanDay) {
+  std::mt19937 rng(4);
+  const World world = World::Generate(WorldKind::kOffice, rng);
+  const Renderer dut(world, Small(), 2);
+  const Room& r = world.rooms()[2];
+  cv::Mat day, dim;
+  dut.Render(Pose2{r.cx(), r.cy(), 1.0}, &day, nullptr);
+  dim = day.clone();
+  dut.ApplyLighting(Lighting::Day(), rng, &day);
+  dut.ApplyLighting(Lighting::Dim(), rng, &dim);
+  EXPECT_LT(cv::mean(dim)[0] + cv::mean(dim)[1] + cv::mean(dim)[2],
+            0.7 * (cv::mean(day)[0] + cv::mean(day)[1] + cv::mean(day)[2]));
+}
+
+TEST_F(WorldTest, WrittenDatasetLoadsWithFramesCameraAndLabels) {
+  SimOptions options;
+  options.seed = 12;
+  options.render = Small();
+  options.depth = true;
+  options.max_frames = 40;
+  const SimSummary summary = WriteSimulatedDataset(dir_, options);
+  ASSERT_EQ(summary.frames, std::vector<int>{40});
+  const Dataset ds = Dataset::Open(dir_);
+  EXPECT_EQ(ds.size(), 40);
+  EXPECT_TRUE(ds.has_depth());
+  EXPECT_EQ(ds.camera().width(), 160);
+  EXPECT_EQ(ds.camera().height(), 120);
+  EXPECT_NEAR(ds.camera().fx(), 80.0 / std::tan(29.0 * std::numbers::pi / 180.0), 0.1);
+  ASSERT_EQ(ds.labels().size(), 40u);
+  EXPECT_FALSE(ds.labels()[0].empty());
+  ASSERT_EQ(ds.poses().size(), 40u);
+  EXPECT_TRUE(ds.poses()[0].has_value());
+  const Observation obs = ds.Load(0);
+  EXPECT_EQ(obs.bgr.cols, 160);
+  EXPECT_TRUE(fs::exists(dir_ / "world.json"));
+  // The same seed writes the same bytes.
+  const fs::path again = dir_.string() + "_again";
+  fs::remove_all(again);
+  WriteSimulatedDataset(again, options);
+  auto bytes = [](const fs::path& p) {
+    std::ifstream in(p, std::ios::binary);
+    return std::string(std::istreambuf_iterator<char>(in), {});
+  };
+  EXPECT_EQ(bytes(dir_ / "000017.jpg"), bytes(again / "000017.jpg"));
+  EXPECT_EQ(bytes(dir_ / "groundtruth.csv"), bytes(again / "groundtruth.csv"));
+  fs::remove_all(again);
+}
+
+TEST_F(WorldTest, MixedLightingDimsRevisits) {
+  SimOptions options;
+  options.seed = 8;
+  options.render.width = 64;
+  options.render.height = 48;
+  options.route.dwell_frames = 4;
+  options.lighting = LightingMode::kMixed;
+  options.glitch_probability = 0.0;
+  WriteSimulatedDataset(dir_, options);
+  const Dataset ds = Dataset::Open(dir_);
+  // First visits against revisits, by the ground-truth labels.
+  std::set<std::string> done;
+  std::string current;
+  double sum[2] = {0, 0};
+  int count[2] = {0, 0};
+  for (int i = 0; i < ds.size(); ++i) {
+    const std::string& l = ds.labels()[static_cast<size_t>(i)];
+    if (l.empty()) continue;
+    if (l != current) {
+      if (!current.empty()) done.insert(current);
+      current = l;
+    }
+    const int revisit = done.count(l) ? 1 : 0;
+    const cv::Scalar m = cv::mean(ds.Load(i).bgr);
+    sum[revisit] += m[0] + m[1] + m[2];
+    ++count[revisit];
+  }
+  ASSERT_GT(count[0], 0);
+  ASSERT_GT(count[1], 0);
+  EXPECT_LT(sum[1] / count[1], 0.7 * sum[0] / count[0]);
+}
+
+TEST_F(WorldTest, TeamRoutesShareARoom) {
+  std::mt19937 rng(21);
+  const World world = World::Generate(WorldKind::kOffice, rng);
+  RouteOptions options;
+  const auto targets = TeamTargets(world, 3, options, rng);
+  ASSERT_EQ(targets.size(), 3u);
+  std::vector<std::set<std::string>> labels;
+  for (const auto& t : targets) {
+    const auto route = FollowRooms(world, t, options);
+    std::set<std::string> s;
+    for (const RouteFrame& f : route) {
+      if (!f.label.empty() && f.label != "corridor") s.insert(f.label);
+    }
+    labels.push_back(s);
+  }
+  std::set<std::string> common = labels[0];
+  for (const auto& s : labels) {
+    std::set<std::string> next;
+    for (const std::string& l : s) {
+      if (common.count(l)) next.insert(l);
+    }
+    common = next;
+  }
+  EXPECT_FALSE(common.empty());
+  EXPECT_NE(labels[0], labels[1]);  // partly different
+}
+
+TEST_F(WorldTest, SimCommandWritesTeamFolders) {
+  const int rc = RunSimCommand({"--out", dir_.string(), "--seed", "4", "--robots", "2", "--size",
+                                "96x72", "--max-frames", "15", "--world", "outdoor"});
+  ASSERT_EQ(rc, 0);
+  for (const char* id : {"1", "2"}) {
+    const Dataset ds = Dataset::Open(dir_ / "robots" / id);
+    EXPECT_EQ(ds.size(), 15);
+    EXPECT_EQ(ds.camera().width(), 96);
+  }
+  EXPECT_TRUE(fs::exists(dir_ / "world.json"));
+  // Not empty any more: a runtime failure.
+  EXPECT_EQ(RunSimCommand({"--out", dir_.string(), "--seed", "4"}), 1);
+}
+
+TEST_F(WorldTest, SimCommandRejectsBadUsage) {
+  EXPECT_EQ(RunSimCommand({"--seed", "4"}), 2);  // no --out
+  EXPECT_EQ(RunSimCommand({"--out", dir_.string(), "--seed", "4", "--world", "moon"}), 2);
+  EXPECT_EQ(RunSimCommand({"--out", dir_.string(), "--seed", "4", "--size", "big"}), 2);
+  EXPECT_EQ(RunSimCommand({"--out", dir_.string(), "--seed", "4", "--lighting", "x"}), 2);
+  EXPECT_EQ(RunSimCommand({"--out", dir_.string(), "--seed", "4", "--revisit-fraction", "2"}), 2);
+  EXPECT_EQ(RunSimCommand({"--out", dir_.string(), "--seed", "-1"}), 2);
+  EXPECT_EQ(RunSimCommand({"--out", dir_.string(), "--seed", "4", "--robots", "0"}), 2);
+  EXPECT_EQ(RunSimCommand({"--help"}), 0);
+  EXPECT_FALSE(fs::exists(dir_));
+}
+
+}  // namespace
+}  // namespace tsc::sim

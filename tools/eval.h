@@ -1,0 +1,95 @@
+#pragma once
+// `tsc eval`: runs the TSC pipeline over a dataset on a fresh memory and scores it with the
+// rules of DESIGN §7.1b (tools/scoring.h): place detection (boundary F1, with labels),
+// recognition precision / recall at the configured τ_r and over a sweep of τ_r (PR curve,
+// recall at full precision), map edge precision (with labels) and timing.
+//
+// Each frame's descriptor and intensity statistics are computed once (BubbleSurface +
+// DescriptorComputer + IntensityStatistics, timed); then a fresh Pipeline replays them with
+// ProcessDescriptor for the configured τ_r (the main figures) and for each τ_r of the sweep.
+// Frames are 0-based: on a fresh pipeline base point k is frame k of the dataset.
+
+#include <map>
+#include <optional>
+#include <ostream>
+#include <string>
+#include <vector>
+
+#include "core/pipeline/pipeline.h"
+#include "tools/dataset.h"
+#include "tools/scoring.h"
+
+namespace tsc {
+
+struct EvalOptions {
+  /// τ_r values of the PR sweep: from, from + step, ... up to `sweep_to` (inclusive, within
+  /// step/1000). An empty sweep (sweep_step = 0) uses only the configured τ_r.
+  double sweep_from = 1.0;
+  double sweep_to = 2.0;
+  double sweep_step = 0.05;
+  /// Throws std::invalid_argument naming the bad field (negative values, from > to, a step
+  /// that gives more than 10⁴ points).
+  void Validate() const;
+  /// The τ_r values of the sweep, in increasing order.
+  std::vector<double> SweepValues() const;
+};
+
+/// A detected place of one run, in detection order.
+struct EvalDetectedPlace {
+  DetectedPlaceIndex index = 0;
+  std::vector<int> frames;  ///< 0-based member frames, increasing
+  PlaceId place;            ///< learned place it was assigned to
+  bool recognized = false;  ///< recognised (true) or learned (false)
+};
+
+/// One pass of the pipeline over the stored descriptors, at one τ_r.
+struct EvalRun {
+  double tau_r = 0.0;
+  std::vector<EvalDetectedPlace> detected;
+  std::vector<TransitionRegion> transitions;      ///< regions between detected places
+  std::map<PlaceId, std::vector<int>> frames_of;  ///< frames assigned to each learned place
+  RecognitionScore recognition;
+  int learned_places = 0;
+  TopologicalMap map;
+  std::optional<PlaceMemory> memory;  ///< kept for the main run only
+};
+
+struct EvalResult {
+  std::string dataset;
+  int frames = 0;
+  PipelineOptions options;
+  EvalOptions eval;
+  std::vector<BaseStatus> status;  ///< per frame
+  int good = 0, uninformative = 0, incoherent = 0;
+  EvalRun main;                   ///< at options.memory.tau_r
+  std::vector<PrPoint> pr_curve;  ///< one point per sweep value, in τ_r order
+  double recall_at_full_precision = 0.0;
+  std::optional<BoundaryScore> boundaries;  ///< with labels
+  std::optional<EdgeScore> edges;           ///< with labels
+  GroundTruth truth;
+  double descriptor_ms_median = 0.0;  ///< bubble surface + descriptor + intensity, per frame
+  double frame_ms_median = 0.0;       ///< descriptor + pipeline step of the main run, per frame
+};
+
+/// Runs and scores. Throws DatasetError (naming the frame and file) for unreadable frames,
+/// std::invalid_argument for bad options.
+EvalResult Evaluate(const Dataset& dataset, const PipelineOptions& options,
+                    const EvalOptions& eval);
+
+/// The result as one JSON object with nested objects (keys of DESIGN §7.2):
+///   {"dataset", "frames", "base_points": {"good","uninformative","incoherent"},
+///    "detected_places", "learned_places",
+///    "detection": {"boundary_f1","precision","recall","true_boundaries",
+///                  "detected_boundaries","tolerance_frames"}   (with labels),
+///    "recognition": {"tau_r","recognitions","correct","should_be_recognized","precision",
+///                    "recall","recall_at_full_precision","pr_curve": [[τ_r,P,R],...]},
+///    "map": {"places","edges","edge_precision","correct_edges" (with labels)},
+///    "timing": {"descriptor_ms_median","frame_ms_median"},
+///    "config": {every configuration key: value}, "sweep": {"from","to","step"}}
+/// Non-finite numbers are written as null.
+void WriteEvalJson(std::ostream& out, const EvalResult& result);
+
+/// Median of `v` (0 for an empty vector).
+double MedianOf(std::vector<double> v);
+
+}  // namespace tsc

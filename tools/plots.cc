@@ -1,0 +1,412 @@
+#include "tools/plots.h"
+
+#include <algorithm>
+#include <cmath>
+#include <cstdio>
+#include <map>
+#include <opencv2/imgcodecs.hpp>
+#include <opencv2/imgproc.hpp>
+#include <set>
+#include <stdexcept>
+#include <string>
+
+#include "tools/inspect.h"
+
+namespace tsc {
+namespace fs = std::filesystem;
+
+namespace {
+
+const cv::Scalar kWhite(255, 255, 255);
+const cv::Scalar kText(30, 30, 30);
+const cv::Scalar kGrid(225, 225, 225);
+const cv::Scalar kAxis(90, 90, 90);
+const cv::Scalar kUninformative(240, 200, 150);  // light blue (BGR)
+const cv::Scalar kIncoherent(190, 110, 40);      // dark blue
+const cv::Scalar kTransition(70, 70, 225);       // red
+const cv::Scalar kRevisit(120, 120, 120);
+constexpr int kFont = cv::FONT_HERSHEY_SIMPLEX;
+
+// Qualitative palette, BGR, without the blues and reds that mark status and transitions.
+cv::Scalar Palette(size_t i) {
+  static const cv::Scalar colours[] = {
+      {14, 127, 255},  {44, 160, 44},  {189, 103, 148}, {34, 189, 188},  {75, 86, 140},
+      {194, 119, 227}, {207, 190, 23}, {120, 187, 255}, {138, 223, 152}, {213, 176, 197},
+      {148, 156, 196}, {0, 200, 255},  {141, 219, 219}, {229, 218, 158}, {127, 127, 127},
+      {60, 120, 60},   {160, 60, 120}, {0, 140, 200},   {100, 160, 140}, {199, 199, 199}};
+  return colours[i % (sizeof(colours) / sizeof(colours[0]))];
+}
+
+// Dark text on light colours, white text on dark ones.
+cv::Scalar TextOn(const cv::Scalar& bg) {
+  const double luma = 0.114 * bg[0] + 0.587 * bg[1] + 0.299 * bg[2];
+  return luma > 140 ? kText : kWhite;
+}
+
+void Text(cv::Mat& img, const std::string& s, cv::Point at, double scale = 0.45,
+          const cv::Scalar& colour = kText, int thickness = 1) {
+  cv::putText(img, s, at, kFont, scale, colour, thickness, cv::LINE_AA);
+}
+
+cv::Size TextSize(const std::string& s, double scale = 0.45, int thickness = 1) {
+  int baseline = 0;
+  return cv::getTextSize(s, kFont, scale, thickness, &baseline);
+}
+
+// Text centred in `box` when it fits.
+void CentredText(cv::Mat& img, const std::string& s, const cv::Rect& box, const cv::Scalar& bg,
+                 double scale = 0.4) {
+  const cv::Size t = TextSize(s, scale);
+  if (t.width + 4 > box.width) return;
+  Text(img, s, {box.x + (box.width - t.width) / 2, box.y + (box.height + t.height) / 2}, scale,
+       TextOn(bg));
+}
+
+std::string Fixed(double v, int decimals) {
+  char buf[32];
+  std::snprintf(buf, sizeof buf, "%.*f", decimals, v);
+  return buf;
+}
+
+// 1, 2, 5, 10, 20, 50, ... so that about `target` ticks cover `range`.
+int TickStep(int range, int target) {
+  int step = 1;
+  for (int scale = 1;; scale *= 10) {
+    for (int m : {1, 2, 5}) {
+      step = m * scale;
+      if (range / step <= target) return step;
+    }
+  }
+}
+
+// Text rotated by 90° counter-clockwise, drawn with its top-left corner at `at`.
+void VerticalText(cv::Mat& img, const std::string& s, cv::Point at, double scale = 0.5) {
+  const cv::Size t = TextSize(s, scale);
+  cv::Mat patch(t.height + 8, t.width + 4, CV_8UC3, kWhite);
+  Text(patch, s, {2, t.height + 2}, scale);
+  cv::Mat rotated;
+  cv::rotate(patch, rotated, cv::ROTATE_90_COUNTERCLOCKWISE);
+  const cv::Rect roi(at.x, at.y, rotated.cols, rotated.rows);
+  if ((roi & cv::Rect(0, 0, img.cols, img.rows)) == roi) rotated.copyTo(img(roi));
+}
+
+// Index of each learned place (by id order) for its colour.
+std::map<PlaceId, size_t> PlaceColours(const EvalRun& run) {
+  std::map<PlaceId, size_t> out;
+  for (const auto& [id, frames] : run.frames_of) {
+    const size_t i = out.size();
+    out[id] = i;
+  }
+  return out;
+}
+
+// A legend entry at `at`, which moves on; wraps to a new line starting at `line_x` when the
+// entry would leave the image.
+void Swatch(cv::Mat& img, cv::Point& at, const cv::Scalar& colour, const std::string& label,
+            int line_x) {
+  if (at.x + 50 + TextSize(label).width > img.cols && at.x > line_x) at = {line_x, at.y + 24};
+  const cv::Rect box(at.x, at.y - 11, 22, 14);
+  cv::rectangle(img, box, colour, cv::FILLED);
+  cv::rectangle(img, box, kAxis, 1);
+  Text(img, label, {at.x + 28, at.y});
+  at.x += 28 + TextSize(label).width + 22;
+}
+
+void Write(const fs::path& path, const cv::Mat& img) {
+  bool ok = false;
+  try {
+    ok = cv::imwrite(path.string(), img);
+  } catch (const cv::Exception& e) {
+    throw std::runtime_error(path.string() + ": cannot write PNG: " + e.what());
+  }
+  if (!ok) throw std::runtime_error(path.string() + ": cannot write PNG");
+}
+
+}  // namespace
+
+cv::Mat DrawTimeline(const EvalResult& r) {
+  const int n = std::max(1, r.frames);
+  const int left = 120, right = 30;
+  const int plot_w = std::clamp(n * 12, 900, 2400);
+  const int width = left + plot_w + right;
+  const auto x_of = [&](int f) {
+    return left + static_cast<int>(std::lround(1.0 * f * plot_w / n));
+  };
+  const auto col = [&](int first, int last, int y, int h) {  // inclusive frame range
+    return cv::Rect(x_of(first), y, std::max(1, x_of(last + 1) - x_of(first)), h);
+  };
+
+  const int row_h = 26, gap = 8, top = 60;
+  const bool labels = r.truth.has_labels(), revisits = r.truth.has_revisits();
+  const int rows = 4 + (labels ? 1 : 0) + (revisits ? 1 : 0);
+  const int axis_y = top + rows * (row_h + gap) + 2;
+  const int height = axis_y + 120;
+  cv::Mat img(height, width, CV_8UC3, kWhite);
+
+  Text(img,
+       "detection timeline: " + fs::path(r.dataset).filename().string() + " (" +
+           std::to_string(r.frames) + " frames, tau_r = " + Fixed(r.main.tau_r, 2) + ", " +
+           std::to_string(r.main.detected.size()) + " detected, " +
+           std::to_string(r.main.learned_places) + " learned places)",
+       {left, 28}, 0.6, kText, 1);
+
+  int y = top;
+  const auto row_label = [&](const std::string& s) {
+    Text(img, s, {10, y + row_h / 2 + 5}, 0.45);
+    cv::rectangle(img, cv::Rect(left, y, plot_w, row_h), kGrid, 1);
+  };
+
+  // Learned / recognised place of each detected place.
+  const std::map<PlaceId, size_t> colour_of = PlaceColours(r.main);
+  row_label("place (L/R)");
+  for (const EvalDetectedPlace& d : r.main.detected) {
+    if (d.frames.empty()) continue;
+    const cv::Scalar c = Palette(colour_of.at(d.place));
+    const cv::Rect box = col(d.frames.front(), d.frames.back(), y, row_h);
+    cv::rectangle(img, box, c, cv::FILLED);
+    CentredText(img, std::string(d.recognized ? "R " : "L ") + d.place.ToString(), box, c);
+  }
+  y += row_h + gap;
+
+  // Detected places: their member frames, one colour per detected place.
+  row_label("detected");
+  for (size_t m = 0; m < r.main.detected.size(); ++m) {
+    const EvalDetectedPlace& d = r.main.detected[m];
+    const cv::Scalar c = Palette(m + 7);
+    for (int f : d.frames) cv::rectangle(img, col(f, f, y, row_h), c, cv::FILLED);
+    if (d.frames.empty()) continue;
+    CentredText(img, "D" + std::to_string(d.index),
+                col(d.frames.front(), d.frames.back(), y, row_h), c);
+  }
+  y += row_h + gap;
+
+  row_label("status");
+  for (int f = 0; f < static_cast<int>(r.status.size()); ++f) {
+    if (r.status[static_cast<size_t>(f)] == BaseStatus::kGood) continue;
+    const bool uninformative = r.status[static_cast<size_t>(f)] == BaseStatus::kUninformative;
+    cv::rectangle(img, col(f, f, y, row_h), uninformative ? kUninformative : kIncoherent,
+                  cv::FILLED);
+  }
+  y += row_h + gap;
+
+  row_label("transitions");
+  for (const TransitionRegion& t : r.main.transitions) {
+    if (t.empty()) continue;
+    cv::rectangle(img, col(static_cast<int>(t.first), static_cast<int>(t.last), y, row_h),
+                  kTransition, cv::FILLED);
+  }
+  y += row_h + gap;
+
+  if (labels) {
+    row_label("truth: labels");
+    std::map<std::string, size_t> label_colour;
+    for (const std::string& l : r.truth.labels) {
+      if (!l.empty() && !label_colour.count(l)) {
+        const size_t i = label_colour.size();
+        label_colour[l] = i;
+      }
+    }
+    const auto& ls = r.truth.labels;
+    for (int f = 0; f < static_cast<int>(ls.size());) {
+      int g = f;
+      while (g + 1 < static_cast<int>(ls.size()) &&
+             ls[static_cast<size_t>(g + 1)] == ls[static_cast<size_t>(f)])
+        ++g;
+      const std::string& l = ls[static_cast<size_t>(f)];
+      if (!l.empty()) {
+        const cv::Scalar c = Palette(label_colour.at(l) + 2);
+        const cv::Rect box = col(f, g, y, row_h);
+        cv::rectangle(img, box, c, cv::FILLED);
+        CentredText(img, l, box, c);
+      }
+      f = g + 1;
+    }
+    y += row_h + gap;
+  }
+  if (revisits) {
+    row_label("truth: revisit");
+    const auto& rv = r.truth.revisits;
+    for (int f = 0; f < static_cast<int>(rv.size()); ++f) {
+      if (!rv[static_cast<size_t>(f)].empty()) {
+        cv::rectangle(img, col(f, f, y, row_h), kRevisit, cv::FILLED);
+      }
+    }
+    y += row_h + gap;
+  }
+
+  // Frame axis.
+  cv::line(img, {left, axis_y}, {left + plot_w, axis_y}, kAxis, 1);
+  const int step = TickStep(n, std::max(5, plot_w / 70));
+  for (int f = 0; f <= n; f += step) {
+    const int x = x_of(f);
+    cv::line(img, {x, axis_y}, {x, axis_y + 6}, kAxis, 1);
+    const std::string s = std::to_string(f);
+    Text(img, s, {x - TextSize(s, 0.4).width / 2, axis_y + 22}, 0.4);
+  }
+  Text(img, "frame (0-based)", {left + plot_w / 2 - 60, axis_y + 44}, 0.45);
+
+  // Legend.
+  cv::Point at(left, axis_y + 80);
+  Swatch(img, at, kWhite, "good", left);
+  Swatch(img, at, kUninformative, "uninformative", left);
+  Swatch(img, at, kIncoherent, "incoherent", left);
+  Swatch(img, at, kTransition, "transition region", left);
+  Swatch(img, at, Palette(7), "detected place Dm (its good frames)", left);
+  Swatch(img, at, Palette(0), "place it went to: L learned, R recognised", left);
+  if (revisits) Swatch(img, at, kRevisit, "frame revisits an earlier one", left);
+  return img;
+}
+
+cv::Mat DrawPrCurve(const EvalResult& r) {
+  const int x0 = 80, y0 = 60, size = 440;
+  cv::Mat img(y0 + size + 120, x0 + size + 80, CV_8UC3, kWhite);
+  const auto px = [&](double recall, double precision) {
+    return cv::Point(x0 + static_cast<int>(std::lround(recall * size)),
+                     y0 + size - static_cast<int>(std::lround(precision * size)));
+  };
+  Text(img, "recognition PR curve over tau_r", {x0, 26}, 0.6);
+  Text(img,
+       "sweep " + Fixed(r.eval.sweep_from, 2) + ".." + Fixed(r.eval.sweep_to, 2) + " step " +
+           Fixed(r.eval.sweep_step, 2) + ", recall at full precision " +
+           Fixed(r.recall_at_full_precision, 3),
+       {x0, 46}, 0.42);
+  for (int i = 0; i <= 5; ++i) {
+    const double v = i / 5.0;
+    cv::line(img, px(v, 0), px(v, 1), kGrid, 1);
+    cv::line(img, px(0, v), px(1, v), kGrid, 1);
+    const std::string s = Fixed(v, 1);
+    Text(img, s, px(v, 0) + cv::Point(-TextSize(s, 0.4).width / 2, 20), 0.4);
+    Text(img, s, px(0, v) + cv::Point(-TextSize(s, 0.4).width - 8, 5), 0.4);
+  }
+  cv::rectangle(img, px(0, 1), px(1, 0), kAxis, 1);
+  Text(img, "recall", px(0.5, 0) + cv::Point(-25, 44), 0.5);
+  VerticalText(img, "precision", {12, y0 + size / 2 - 40}, 0.5);
+
+  const cv::Scalar curve(180, 119, 31);
+  for (size_t i = 1; i < r.pr_curve.size(); ++i) {
+    cv::line(img, px(r.pr_curve[i - 1].recall, r.pr_curve[i - 1].precision),
+             px(r.pr_curve[i].recall, r.pr_curve[i].precision), curve, 2, cv::LINE_AA);
+  }
+  for (const PrPoint& p : r.pr_curve) {
+    cv::circle(img, px(p.recall, p.precision), 4, curve, cv::FILLED, cv::LINE_AA);
+  }
+  // Each run of sweep points with the same precision and recall, labelled with its τ_r range
+  // under its point.
+  for (size_t i = 0; i < r.pr_curve.size();) {
+    size_t j = i;
+    while (j + 1 < r.pr_curve.size() && r.pr_curve[j + 1].precision == r.pr_curve[i].precision &&
+           r.pr_curve[j + 1].recall == r.pr_curve[i].recall) {
+      ++j;
+    }
+    const PrPoint& p = r.pr_curve[i];
+    const std::string s =
+        j > i ? Fixed(p.tau_r, 2) + "-" + Fixed(r.pr_curve[j].tau_r, 2) : Fixed(p.tau_r, 2);
+    const cv::Size t = TextSize(s, 0.38);
+    cv::Point at = px(p.recall, p.precision) + cv::Point(-t.width / 2, 20);
+    at.x = std::clamp(at.x, x0 + 2, x0 + size + 78 - t.width);
+    at.y = std::min(at.y, y0 + size - 4);
+    Text(img, s, at, 0.38, curve);
+    i = j + 1;
+  }
+  const RecognitionScore& s = r.main.recognition;
+  cv::circle(img, px(s.recall, s.precision), 9, kTransition, 2, cv::LINE_AA);
+
+  cv::Point legend(x0, y0 + size + 72);
+  Swatch(img, legend, curve, "sweep points, labelled with tau_r", x0);
+  legend = {x0, legend.y + 24};
+  Swatch(img, legend, kTransition,
+         "configured tau_r = " + Fixed(r.main.tau_r, 2) + ": precision " + Fixed(s.precision, 2) +
+             ", recall " + Fixed(s.recall, 2),
+         x0);
+  return img;
+}
+
+cv::Mat DrawFloorPlan(const EvalResult& r, const Dataset& dataset) {
+  const auto& poses = dataset.poses();
+  double min_x = 1e300, max_x = -1e300, min_y = 1e300, max_y = -1e300;
+  for (const auto& p : poses) {
+    if (!p) continue;
+    min_x = std::min(min_x, p->x), max_x = std::max(max_x, p->x);
+    min_y = std::min(min_y, p->y), max_y = std::max(max_y, p->y);
+  }
+  if (min_x > max_x) return {};
+  const int margin = 60, area = 700;
+  const double span = std::max({max_x - min_x, max_y - min_y, 1e-9});
+  const double scale = area / span;
+  const int w = static_cast<int>((max_x - min_x) * scale) + 2 * margin;
+  const int h = static_cast<int>((max_y - min_y) * scale) + 2 * margin + 90;
+  cv::Mat img(h, std::max(w, 520), CV_8UC3, kWhite);
+  const auto px = [&](double x, double y) {
+    return cv::Point(margin + static_cast<int>(std::lround((x - min_x) * scale)),
+                     h - margin - 50 - static_cast<int>(std::lround((y - min_y) * scale)));
+  };
+  Text(img,
+       "topological map over the trajectory (" + std::to_string(r.main.learned_places) +
+           " places, " + std::to_string(r.main.map.edges().size()) + " edges)",
+       {20, 28}, 0.55);
+
+  // Trajectory.
+  std::vector<cv::Point> path;
+  for (const auto& p : poses) {
+    if (p) path.push_back(px(p->x, p->y));
+  }
+  cv::polylines(img, path, false, cv::Scalar(200, 200, 200), 2, cv::LINE_AA);
+
+  // Places at the mean pose of their frames.
+  std::map<PlaceId, cv::Point> where;
+  for (const auto& [id, frames] : r.main.frames_of) {
+    double sx = 0, sy = 0;
+    int k = 0;
+    for (int f : frames) {
+      if (f < 0 || f >= static_cast<int>(poses.size()) || !poses[static_cast<size_t>(f)]) continue;
+      sx += poses[static_cast<size_t>(f)]->x, sy += poses[static_cast<size_t>(f)]->y, ++k;
+    }
+    if (k > 0) where[id] = px(sx / k, sy / k);
+  }
+  for (const auto& [key, e] : r.main.map.edges()) {
+    if (!where.count(e.a) || !where.count(e.b)) continue;
+    cv::line(img, where[e.a], where[e.b], kAxis,
+             static_cast<int>(std::min<int64_t>(1 + e.traversals, 5)), cv::LINE_AA);
+  }
+  const std::map<PlaceId, size_t> colour_of = PlaceColours(r.main);
+  for (const auto& [id, at] : where) {
+    const cv::Scalar c = Palette(colour_of.at(id));
+    cv::circle(img, at, 14, c, cv::FILLED, cv::LINE_AA);
+    cv::circle(img, at, 14, kText, 1, cv::LINE_AA);
+    std::string label = id.ToString();
+    const std::string truth = MajorityLabel(r.truth, r.main.frames_of.at(id));
+    if (!truth.empty()) label += " " + truth;
+    const cv::Size t = TextSize(label);
+    const cv::Point corner = at + cv::Point(17, 5);
+    cv::rectangle(img, cv::Rect(corner.x - 2, corner.y - t.height - 3, t.width + 4, t.height + 7),
+                  kWhite, cv::FILLED);
+    Text(img, label, corner, 0.45);
+  }
+  cv::Point legend(20, h - 40);
+  Swatch(img, legend, cv::Scalar(200, 200, 200), "trajectory", 20);
+  Swatch(img, legend, kAxis, "map edge (thicker: more traversals)", 20);
+  Swatch(img, legend, Palette(0), "learned place at its mean pose", 20);
+  return img;
+}
+
+std::vector<fs::path> WritePlots(const EvalResult& r, const Dataset& dataset, const fs::path& dir) {
+  std::error_code ec;
+  fs::create_directories(dir, ec);
+  if (ec) throw std::runtime_error(dir.string() + ": cannot create folder: " + ec.message());
+  std::vector<fs::path> written;
+  const auto save = [&](const std::string& name, const cv::Mat& img) {
+    if (img.empty()) return;
+    Write(dir / name, img);
+    written.push_back(dir / name);
+  };
+  save("timeline.png", DrawTimeline(r));
+  save("pr_curve.png", DrawPrCurve(r));
+  save("floor_plan.png", DrawFloorPlan(r, dataset));
+  if (r.main.memory) {
+    RenderPng(ToDot(*r.main.memory, r.main.map), dir / "memory_map.png");
+    written.push_back(dir / "memory_map.png");
+  }
+  return written;
+}
+
+}  // namespace tsc
