@@ -189,6 +189,10 @@ std::vector<ConfigKey> BuildTable() {
       "descriptor.amplitude",
       "true: entries sqrt(z^T z) (amplitude); false: z^T z as in (A.7) (energy)",
       [](auto& o) -> auto& { return o.descriptor.amplitude; }));
+  t.push_back(Bool(
+      "descriptor.block_sum",
+      "true: each feature block sums to 1/N_v; false: fixed scale keeping feature levels",
+      [](auto& o) -> auto& { return o.descriptor.block_sum; }));
   // [detection] — section 3.4, appendix C
   t.push_back(Number(
       "detection.tau_mu", "tau_mu, mean intensity at or below which a base point is uninformative",

@@ -72,6 +72,9 @@ DescriptorComputer::DescriptorComputer(const ViewingGrid& grid, DescriptorOption
       sin1_(h, i) = static_cast<float>(std::sin(angle));
     }
   }
+  // I_{00} of ρ ≡ 1 on the whole sphere: z_00 = (1/π²)·Σ d_phi² = 2 (the grid covers 2π × π).
+  const double full_dc = 2.0;
+  full_sphere_dc_ = options_.amplitude ? full_dc : full_dc * full_dc;
   cos2_.resize(options_.h2 + 1, n_tilt);
   sin2_.resize(options_.h2 + 1, n_tilt);
   for (int j = 0; j < n_tilt; ++j) {
@@ -168,8 +171,12 @@ Descriptor DescriptorComputer::Compute(const BubbleSurface& surface) const {
     if (options_.amplitude) block = block.cwiseSqrt();
     // Normalisation (docs/decisions.md): each feature block sums to 1/N_v, so the whole
     // descriptor sums to 1 and χ² lies in [0, 1]; a block that saw nothing stays zero.
-    const double sum = block.sum();
-    if (sum > 0.0) block *= 1.0 / (nv * sum);
+    if (options_.block_sum) {
+      const double sum = block.sum();
+      if (sum > 0.0) block *= 1.0 / (nv * sum);
+    } else {
+      block *= 1.0 / (nv * full_sphere_dc_);
+    }
     values.segment(i * b, b) = block.cast<float>();
   }
   return Descriptor(std::move(values));

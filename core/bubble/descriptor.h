@@ -34,6 +34,10 @@ struct DescriptorOptions {
   /// true: entries are sqrt(z^T z) (amplitude); false: z^T z as in (A.7) (energy).
   /// Normalisation per block follows either way. See docs/decisions.md.
   bool amplitude = true;
+  /// true: each feature block scaled to sum 1/N_v (drops each feature's absolute level);
+  /// false: a fixed scale, the (0,0) entry of a unit sphere, over N_v, so the level of a
+  /// feature (a room's colour) stays in the descriptor. See docs/decisions.md.
+  bool block_sum = true;
   void Validate() const;
 };
 
@@ -53,6 +57,7 @@ class DescriptorComputer {
   DescriptorOptions options_;
   Eigen::MatrixXf cos1_, sin1_;  // (H1+1) x n_pan
   Eigen::MatrixXf cos2_, sin2_;  // (H2+1) x n_tilt
+  double full_sphere_dc_ = 1.0;  // I_00 of a unit sphere, the fixed scale without block_sum
 };
 
 }  // namespace tsc

@@ -98,6 +98,25 @@ TEST_F(DescriptorTest, IsInvariantWhenShiftedWithEnergyEntriesAndRestRadius) {
   }
 }
 
+TEST_F(DescriptorTest, KeepsFeatureLevelOnlyWithFixedScale) {
+  FillRandom(surface_, rng_);
+  BubbleSurface brighter = surface_;
+  brighter.mutable_radius(0) *= 0.5f;  // the same hue pattern at half the level
+  const Eigen::VectorXf block_sum = dut_.Compute(surface_).values();
+  EXPECT_LT(RelativeError(block_sum, dut_.Compute(brighter).values()), 1e-5);
+
+  DescriptorOptions fixed;
+  fixed.block_sum = false;
+  const DescriptorComputer computer(surface_.grid(), fixed);
+  const Eigen::VectorXf a = computer.Compute(surface_).values();
+  const Eigen::VectorXf b = computer.Compute(brighter).values();
+  EXPECT_GT(RelativeError(a, b), 0.01);
+  EXPECT_NEAR(b.head(dut_.block_size()).sum(), 0.5f * a.head(dut_.block_size()).sum(), 1e-6);
+  for (int k : {1, 37, 143}) {
+    EXPECT_LT(RelativeError(a, computer.Compute(RotatedInPan(surface_, k)).values()), 1e-5);
+  }
+}
+
 TEST_F(DescriptorTest, IsAlsoInvariantWhenObservationsShiftInTiltAwayFromThePoles) {
   // z holds both cos(h2 f2) and sin(h2 f2) terms, so a shift in f2 only rotates each pair
   // and zᵀz (A.7) keeps it, as long as nothing crosses f2 = 0 or π.
