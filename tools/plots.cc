@@ -1,14 +1,20 @@
 #include "tools/plots.h"
 
 #include <algorithm>
+#include <cctype>
 #include <cmath>
 #include <cstdio>
+#include <cstdlib>
+#include <fstream>
+#include <iostream>
 #include <map>
 #include <opencv2/imgcodecs.hpp>
 #include <opencv2/imgproc.hpp>
 #include <set>
+#include <sstream>
 #include <stdexcept>
 #include <string>
+#include <utility>
 
 #include "tools/inspect.h"
 
@@ -112,6 +118,145 @@ void Swatch(cv::Mat& img, cv::Point& at, const cv::Scalar& colour, const std::st
   at.x += 28 + TextSize(label).width + 22;
 }
 
+// ---- world.json: a small reader for plain JSON (no \u escapes decoded, nesting ≤ 64).
+
+struct JsonValue {
+  enum class Kind { kNull, kBool, kNumber, kString, kArray, kObject };
+  Kind kind = Kind::kNull;
+  double number = 0.0;
+  bool boolean = false;
+  std::string text;
+  std::vector<JsonValue> items;   ///< array elements or object values
+  std::vector<std::string> keys;  ///< object keys, parallel to items
+
+  const JsonValue* Find(const std::string& key) const {
+    for (size_t i = 0; i < keys.size(); ++i) {
+      if (keys[i] == key) return &items[i];
+    }
+    return nullptr;
+  }
+};
+
+class JsonReader {
+ public:
+  explicit JsonReader(const std::string& text) : s_(text) {}
+
+  /// Throws std::runtime_error("invalid JSON at byte N: ...").
+  JsonValue Parse() {
+    JsonValue v = Value(0);
+    if (Peek() != '\0') Error("text after the value");
+    return v;
+  }
+
+ private:
+  [[noreturn]] void Error(const std::string& what) const {
+    throw std::runtime_error("invalid JSON at byte " + std::to_string(i_) + ": " + what);
+  }
+  char Peek() {
+    while (i_ < s_.size() && std::isspace(static_cast<unsigned char>(s_[i_]))) ++i_;
+    return i_ < s_.size() ? s_[i_] : '\0';
+  }
+  void Expect(char c) {
+    if (Peek() != c) Error(std::string("expected '") + c + "'");
+    ++i_;
+  }
+  JsonValue Value(int depth) {
+    if (depth > 64) Error("nested too deeply");
+    JsonValue v;
+    const char c = Peek();
+    if (c == '{') {
+      v.kind = JsonValue::Kind::kObject;
+      ++i_;
+      if (Peek() == '}') {
+        ++i_;
+        return v;
+      }
+      while (true) {
+        v.keys.push_back(String());
+        Expect(':');
+        v.items.push_back(Value(depth + 1));
+        if (Peek() == '}') break;
+        Expect(',');
+      }
+      ++i_;
+    } else if (c == '[') {
+      v.kind = JsonValue::Kind::kArray;
+      ++i_;
+      if (Peek() == ']') {
+        ++i_;
+        return v;
+      }
+      while (true) {
+        v.items.push_back(Value(depth + 1));
+        if (Peek() == ']') break;
+        Expect(',');
+      }
+      ++i_;
+    } else if (c == '"') {
+      v.kind = JsonValue::Kind::kString;
+      v.text = String();
+    } else if (c == 't' || c == 'f' || c == 'n') {
+      for (const char* w : {"true", "false", "null"}) {
+        const size_t n = std::char_traits<char>::length(w);
+        if (s_.compare(i_, n, w) == 0) {
+          i_ += n;
+          v.kind = w[0] == 'n' ? JsonValue::Kind::kNull : JsonValue::Kind::kBool;
+          v.boolean = w[0] == 't';
+          return v;
+        }
+      }
+      Error("expected a value");
+    } else {
+      v.kind = JsonValue::Kind::kNumber;
+      v.number = Number();
+    }
+    return v;
+  }
+  std::string String() {
+    Expect('"');
+    std::string out;
+    while (i_ < s_.size() && s_[i_] != '"') {
+      if (s_[i_] == '\\') ++i_;
+      if (i_ < s_.size()) out += s_[i_++];
+    }
+    if (i_ >= s_.size()) Error("unterminated string");
+    ++i_;
+    return out;
+  }
+  double Number() {
+    const char* begin = s_.c_str() + i_;
+    char* end = nullptr;
+    const double v = std::strtod(begin, &end);
+    if (end == begin) Error("expected a value");
+    i_ += static_cast<size_t>(end - begin);
+    if (!std::isfinite(v)) Error("number out of range");
+    return v;
+  }
+
+  const std::string& s_;
+  size_t i_ = 0;
+};
+
+// Field access for ParseWorldPlan; `where` names the element, e.g. "rooms[2]".
+const JsonValue& Field(const JsonValue& obj, const std::string& key, const std::string& where,
+                       JsonValue::Kind kind, const char* type) {
+  const JsonValue* v = obj.kind == JsonValue::Kind::kObject ? obj.Find(key) : nullptr;
+  if (!v) throw std::runtime_error(where + ": missing \"" + key + "\"");
+  if (v->kind != kind) throw std::runtime_error(where + ": \"" + key + "\" is not " + type);
+  return *v;
+}
+double NumberField(const JsonValue& obj, const std::string& key, const std::string& where) {
+  return Field(obj, key, where, JsonValue::Kind::kNumber, "a number").number;
+}
+const std::vector<JsonValue>& ArrayField(const JsonValue& obj, const std::string& key,
+                                         const std::string& where) {
+  return Field(obj, key, where, JsonValue::Kind::kArray, "an array").items;
+}
+WorldPlan::Rect RectOf(const JsonValue& obj, const std::string& where) {
+  return {NumberField(obj, "x0", where), NumberField(obj, "y0", where),
+          NumberField(obj, "x1", where), NumberField(obj, "y1", where)};
+}
+
 void Write(const fs::path& path, const cv::Mat& img) {
   bool ok = false;
   try {
@@ -123,6 +268,61 @@ void Write(const fs::path& path, const cv::Mat& img) {
 }
 
 }  // namespace
+
+WorldPlan ParseWorldPlan(const std::string& text, const fs::path& file) {
+  try {
+    const JsonValue root = JsonReader(text).Parse();
+    if (root.kind != JsonValue::Kind::kObject) throw std::runtime_error("not a JSON object");
+    WorldPlan plan;
+    if (const JsonValue* kind = root.Find("kind"); kind && kind->kind == JsonValue::Kind::kString) {
+      plan.kind = kind->text;
+    }
+    const std::vector<JsonValue>& rooms = ArrayField(root, "rooms", "top level");
+    for (size_t i = 0; i < rooms.size(); ++i) {
+      const std::string where = "rooms[" + std::to_string(i) + "]";
+      WorldPlan::Room room;
+      room.label = Field(rooms[i], "label", where, JsonValue::Kind::kString, "a string").text;
+      room.rect = RectOf(rooms[i], where);
+      if (const JsonValue* o = rooms[i].Find("outdoor")) room.outdoor = o->boolean;
+      if (rooms[i].Find("boxes")) {
+        const std::vector<JsonValue>& boxes = ArrayField(rooms[i], "boxes", where);
+        for (size_t j = 0; j < boxes.size(); ++j) {
+          room.boxes.push_back(RectOf(boxes[j], where + ".boxes[" + std::to_string(j) + "]"));
+        }
+      }
+      plan.rooms.push_back(std::move(room));
+    }
+    if (plan.rooms.empty()) throw std::runtime_error("\"rooms\" is empty");
+    const std::vector<JsonValue>& walls = ArrayField(root, "walls", "top level");
+    for (size_t i = 0; i < walls.size(); ++i) {
+      plan.walls.push_back(RectOf(walls[i], "walls[" + std::to_string(i) + "]"));
+    }
+    if (root.Find("doors")) {
+      const std::vector<JsonValue>& doors = ArrayField(root, "doors", "top level");
+      for (size_t i = 0; i < doors.size(); ++i) {
+        plan.doors.push_back(RectOf(doors[i], "doors[" + std::to_string(i) + "]"));
+      }
+    }
+    return plan;
+  } catch (const std::runtime_error& e) {
+    throw std::runtime_error(file.string() + ": " + e.what());
+  }
+}
+
+std::optional<WorldPlan> ReadWorldPlan(const fs::path& file, std::ostream& warnings) {
+  std::error_code ec;
+  if (!fs::exists(file, ec)) return std::nullopt;
+  try {
+    std::ifstream in(file);
+    if (!in) throw std::runtime_error(file.string() + ": cannot open");
+    std::stringstream text;
+    text << in.rdbuf();
+    return ParseWorldPlan(text.str(), file);
+  } catch (const std::runtime_error& e) {
+    warnings << "warning: " << e.what() << "; floor_plan.png is drawn without the walls\n";
+    return std::nullopt;
+  }
+}
 
 cv::Mat DrawTimeline(const EvalResult& r) {
   const int n = std::max(1, r.frames);
@@ -321,36 +521,91 @@ cv::Mat DrawPrCurve(const EvalResult& r) {
   return img;
 }
 
-cv::Mat DrawFloorPlan(const EvalResult& r, const Dataset& dataset) {
+cv::Mat DrawFloorPlan(const EvalResult& r, const Dataset& dataset, const WorldPlan* world) {
   const auto& poses = dataset.poses();
   double min_x = 1e300, max_x = -1e300, min_y = 1e300, max_y = -1e300;
+  const auto extend = [&](double x, double y) {
+    min_x = std::min(min_x, x), max_x = std::max(max_x, x);
+    min_y = std::min(min_y, y), max_y = std::max(max_y, y);
+  };
   for (const auto& p : poses) {
-    if (!p) continue;
-    min_x = std::min(min_x, p->x), max_x = std::max(max_x, p->x);
-    min_y = std::min(min_y, p->y), max_y = std::max(max_y, p->y);
+    if (p) extend(p->x, p->y);
   }
   if (min_x > max_x) return {};
-  const int margin = 60, area = 700;
+  if (world) {
+    for (const WorldPlan::Room& room : world->rooms) {
+      extend(room.rect.x0, room.rect.y0), extend(room.rect.x1, room.rect.y1);
+    }
+    for (const WorldPlan::Rect& w : world->walls) extend(w.x0, w.y0), extend(w.x1, w.y1);
+  }
+  const int margin = 40, area = 760, top = 70, bottom = 110, min_width = 680;
   const double span = std::max({max_x - min_x, max_y - min_y, 1e-9});
-  const double scale = area / span;
-  const int w = static_cast<int>((max_x - min_x) * scale) + 2 * margin;
-  const int h = static_cast<int>((max_y - min_y) * scale) + 2 * margin + 90;
-  cv::Mat img(h, std::max(w, 520), CV_8UC3, kWhite);
-  const auto px = [&](double x, double y) {
-    return cv::Point(margin + static_cast<int>(std::lround((x - min_x) * scale)),
-                     h - margin - 50 - static_cast<int>(std::lround((y - min_y) * scale)));
+  const double scale = area / span;  // pixels per unit, the same along x and y
+  const int plan_w = static_cast<int>(std::lround((max_x - min_x) * scale));
+  const int plan_h = static_cast<int>(std::lround((max_y - min_y) * scale));
+  const int w = std::max(plan_w + 2 * margin, min_width);
+  const int h = top + plan_h + 2 * margin + bottom;
+  const int x_off = (w - plan_w) / 2;  // centre the plan horizontally
+  cv::Mat img(h, w, CV_8UC3, kWhite);
+  const auto px = [&](double x, double y) {  // y up
+    return cv::Point(x_off + static_cast<int>(std::lround((x - min_x) * scale)),
+                     top + margin + plan_h - static_cast<int>(std::lround((y - min_y) * scale)));
   };
+  const auto rect_px = [&](const WorldPlan::Rect& rc) {
+    return cv::Rect(px(std::min(rc.x0, rc.x1), std::max(rc.y0, rc.y1)),
+                    px(std::max(rc.x0, rc.x1), std::min(rc.y0, rc.y1)));
+  };
+
+  const std::string name = fs::path(r.dataset).filename().string();
   Text(img,
-       "topological map over the trajectory (" + std::to_string(r.main.learned_places) +
-           " places, " + std::to_string(r.main.map.edges().size()) + " edges)",
-       {20, 28}, 0.55);
+       world ? "floor plan of " + name + " (" + (world->kind.empty() ? "" : world->kind + " ") +
+                   "world, " + std::to_string(world->rooms.size()) + " rooms)"
+             : "trajectory of " + name,
+       {20, 28}, 0.6);
+  Text(img,
+       "topological map over the trajectory: " + std::to_string(r.main.learned_places) +
+           " learned places, " + std::to_string(r.main.map.edges().size()) + " edges",
+       {20, 52}, 0.45);
+
+  const cv::Scalar kRoomFloor(247, 247, 247), kOutdoorFloor(240, 247, 240);
+  const cv::Scalar kBox(205, 205, 205), kWall(70, 70, 70), kDoor(150, 205, 240);
+  const cv::Scalar kRoomLabel(160, 160, 160), kTrajectory(225, 185, 140);
+  // Map edges in purple over a world, so that they do not look like walls.
+  const cv::Scalar kEdge = world ? cv::Scalar(150, 70, 130) : kAxis;
+  if (world) {
+    for (const WorldPlan::Room& room : world->rooms) {
+      cv::rectangle(img, rect_px(room.rect), room.outdoor ? kOutdoorFloor : kRoomFloor, cv::FILLED);
+    }
+    for (const WorldPlan::Room& room : world->rooms) {
+      for (const WorldPlan::Rect& b : room.boxes) {
+        cv::rectangle(img, rect_px(b), kBox, cv::FILLED);
+        cv::rectangle(img, rect_px(b), cv::Scalar(175, 175, 175), 1);
+      }
+    }
+    const int wall_px = std::clamp(static_cast<int>(std::lround(0.12 * scale)), 3, 6);
+    for (const WorldPlan::Rect& d : world->doors) {
+      cv::line(img, px(d.x0, d.y0), px(d.x1, d.y1), kDoor, 2, cv::LINE_AA);
+    }
+    for (const WorldPlan::Rect& wl : world->walls) {
+      cv::line(img, px(wl.x0, wl.y0), px(wl.x1, wl.y1), kWall, wall_px, cv::LINE_AA);
+    }
+    // Room labels: centred, a little above the centre where the place markers usually sit.
+    for (const WorldPlan::Room& room : world->rooms) {
+      const cv::Rect box = rect_px(room.rect);
+      const double label_scale = 0.65;
+      const cv::Size t = TextSize(room.label, label_scale);
+      cv::Point at(box.x + (box.width - t.width) / 2, box.y + (box.height + t.height) / 2);
+      if (box.height > 4 * t.height + 60) at.y -= 30;
+      Text(img, room.label, at, label_scale, kRoomLabel, 2);
+    }
+  }
 
   // Trajectory.
   std::vector<cv::Point> path;
   for (const auto& p : poses) {
     if (p) path.push_back(px(p->x, p->y));
   }
-  cv::polylines(img, path, false, cv::Scalar(200, 200, 200), 2, cv::LINE_AA);
+  cv::polylines(img, path, false, kTrajectory, 2, cv::LINE_AA);
 
   // Places at the mean pose of their frames.
   std::map<PlaceId, cv::Point> where;
@@ -365,31 +620,55 @@ cv::Mat DrawFloorPlan(const EvalResult& r, const Dataset& dataset) {
   }
   for (const auto& [key, e] : r.main.map.edges()) {
     if (!where.count(e.a) || !where.count(e.b)) continue;
-    cv::line(img, where[e.a], where[e.b], kAxis,
-             static_cast<int>(std::min<int64_t>(1 + e.traversals, 5)), cv::LINE_AA);
+    cv::line(img, where[e.a], where[e.b], kEdge,
+             static_cast<int>(std::min<int64_t>(1 + e.traversals, 4)), cv::LINE_AA);
   }
   const std::map<PlaceId, size_t> colour_of = PlaceColours(r.main);
   for (const auto& [id, at] : where) {
     const cv::Scalar c = Palette(colour_of.at(id));
-    cv::circle(img, at, 14, c, cv::FILLED, cv::LINE_AA);
-    cv::circle(img, at, 14, kText, 1, cv::LINE_AA);
+    cv::circle(img, at, 12, c, cv::FILLED, cv::LINE_AA);
+    cv::circle(img, at, 12, kText, 1, cv::LINE_AA);
     std::string label = id.ToString();
     const std::string truth = MajorityLabel(r.truth, r.main.frames_of.at(id));
     if (!truth.empty()) label += " " + truth;
-    const cv::Size t = TextSize(label);
-    const cv::Point corner = at + cv::Point(17, 5);
+    const cv::Size t = TextSize(label, 0.42);
+    const cv::Point corner = at + cv::Point(15, 5);
     cv::rectangle(img, cv::Rect(corner.x - 2, corner.y - t.height - 3, t.width + 4, t.height + 7),
                   kWhite, cv::FILLED);
-    Text(img, label, corner, 0.45);
+    Text(img, label, corner, 0.42);
   }
-  cv::Point legend(20, h - 40);
-  Swatch(img, legend, cv::Scalar(200, 200, 200), "trajectory", 20);
-  Swatch(img, legend, kAxis, "map edge (thicker: more traversals)", 20);
-  Swatch(img, legend, Palette(0), "learned place at its mean pose", 20);
+
+  // Scale bar: 1, 2, 5, 10, ... units, about 100-250 pixels long.
+  double bar = 1e-6;
+  for (double unit = 1e-6; bar * scale < 100; unit *= 10) {
+    for (double m : {1.0, 2.0, 5.0}) {
+      bar = m * unit;
+      if (bar * scale >= 100) break;
+    }
+  }
+  const int bar_px = static_cast<int>(std::lround(bar * scale));
+  const int bar_y = h - bottom + 28;
+  cv::line(img, {20, bar_y}, {20 + bar_px, bar_y}, kText, 2);
+  for (int x : {20, 20 + bar_px}) cv::line(img, {x, bar_y - 6}, {x, bar_y + 6}, kText, 2);
+  std::ostringstream bar_text;
+  bar_text << bar << (world ? " m" : " (dataset units)");
+  Text(img, bar_text.str(), {30 + bar_px, bar_y + 5}, 0.45);
+  Text(img, "north up", {w - 20 - TextSize("north up").width, bar_y + 5}, 0.45, kAxis);
+
+  cv::Point legend(20, bar_y + 36);
+  if (world) {
+    Swatch(img, legend, kWall, "wall", 20);
+    Swatch(img, legend, kDoor, "door", 20);
+    Swatch(img, legend, kBox, "box", 20);
+  }
+  Swatch(img, legend, kTrajectory, "trajectory", 20);
+  Swatch(img, legend, kEdge, "map edge (thicker: more traversals)", 20);
+  Swatch(img, legend, Palette(0), "learned place at its mean pose (id, truth label)", 20);
   return img;
 }
 
-std::vector<fs::path> WritePlots(const EvalResult& r, const Dataset& dataset, const fs::path& dir) {
+std::vector<fs::path> WritePlots(const EvalResult& r, const Dataset& dataset, const fs::path& dir,
+                                 std::ostream& warnings) {
   std::error_code ec;
   fs::create_directories(dir, ec);
   if (ec) throw std::runtime_error(dir.string() + ": cannot create folder: " + ec.message());
@@ -401,12 +680,19 @@ std::vector<fs::path> WritePlots(const EvalResult& r, const Dataset& dataset, co
   };
   save("timeline.png", DrawTimeline(r));
   save("pr_curve.png", DrawPrCurve(r));
-  save("floor_plan.png", DrawFloorPlan(r, dataset));
+  if (!dataset.poses().empty()) {
+    const std::optional<WorldPlan> world = ReadWorldPlan(dataset.folder() / "world.json", warnings);
+    save("floor_plan.png", DrawFloorPlan(r, dataset, world ? &*world : nullptr));
+  }
   if (r.main.memory) {
     RenderPng(ToDot(*r.main.memory, r.main.map), dir / "memory_map.png");
     written.push_back(dir / "memory_map.png");
   }
   return written;
+}
+
+std::vector<fs::path> WritePlots(const EvalResult& r, const Dataset& dataset, const fs::path& dir) {
+  return WritePlots(r, dataset, dir, std::cerr);
 }
 
 }  // namespace tsc

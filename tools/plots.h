@@ -11,10 +11,15 @@
 //   memory_map.png  the place memory tree and the topological map (tools/inspect's ToDot,
 //                   rendered by Graphviz's `dot`).
 //   floor_plan.png  only when the dataset has poses: the trajectory, each learned place at
-//                   the mean pose of its frames and the map's edges.
+//                   the mean pose of its frames and the map's edges; over the simulator's
+//                   floor plan (walls, doors, boxes, room labels, scale bar in metres) when
+//                   DATASET/world.json exists (drivers/world/world.h, World::ToJson).
 
 #include <filesystem>
 #include <opencv2/core.hpp>
+#include <optional>
+#include <ostream>
+#include <string>
 #include <vector>
 
 #include "tools/dataset.h"
@@ -22,15 +27,49 @@
 
 namespace tsc {
 
+/// What the floor-plan plot needs of a world.json (drivers/world/world.h, World::ToJson):
+/// metres, x east, y north.
+struct WorldPlan {
+  struct Rect {
+    double x0 = 0.0, y0 = 0.0, x1 = 0.0, y1 = 0.0;
+  };
+  struct Room {
+    std::string label;
+    Rect rect;
+    bool outdoor = false;
+    std::vector<Rect> boxes;
+  };
+  std::string kind;         ///< "office", "corridors", "outdoor"
+  std::vector<Room> rooms;  ///< at least one
+  std::vector<Rect> walls;  ///< segments (x0, y0) - (x1, y1)
+  std::vector<Rect> doors;  ///< the gap segments
+};
+
+/// Parses the text of a world.json with a small JSON reader limited to plain JSON (objects,
+/// arrays, strings, numbers, true/false/null). Throws std::runtime_error starting with `file`
+/// and saying what is wrong (bad JSON with its byte offset, a missing or mistyped field).
+WorldPlan ParseWorldPlan(const std::string& text, const std::filesystem::path& file);
+
+/// Reads `file`: nullopt when it does not exist; when it cannot be read or parsed, writes a
+/// warning naming it to `warnings` and returns nullopt.
+std::optional<WorldPlan> ReadWorldPlan(const std::filesystem::path& file, std::ostream& warnings);
+
 cv::Mat DrawTimeline(const EvalResult& result);
 cv::Mat DrawPrCurve(const EvalResult& result);
-/// Empty when the dataset has no poses.
-cv::Mat DrawFloorPlan(const EvalResult& result, const Dataset& dataset);
+/// Empty when the dataset has no poses. With `world`, the walls, doors, boxes and room labels
+/// are drawn under the trajectory and the places.
+cv::Mat DrawFloorPlan(const EvalResult& result, const Dataset& dataset,
+                      const WorldPlan* world = nullptr);
 
-/// Writes the pictures above into `dir` (created when missing) and returns their paths.
+/// Writes the pictures above into `dir` (created when missing) and returns their paths. The
+/// floor plan uses DATASET/world.json when it exists; a bad one is reported on `warnings`
+/// (the plot is then drawn without it).
 /// Throws std::runtime_error naming the file that could not be written, InspectError when
 /// Graphviz's `dot` is missing or fails.
 std::vector<std::filesystem::path> WritePlots(const EvalResult& result, const Dataset& dataset,
-                                              const std::filesystem::path& dir);
+                                              const std::filesystem::path& dir,
+                                              std::ostream& warnings);
+std::vector<std::filesystem::path> WritePlots(const EvalResult& result, const Dataset& dataset,
+                                              const std::filesystem::path& dir);  ///< std::cerr
 
 }  // namespace tsc

@@ -9,9 +9,11 @@
 #include <filesystem>
 #include <fstream>
 #include <opencv2/imgcodecs.hpp>
+#include <opencv2/imgproc.hpp>
 #include <random>
 #include <sstream>
 
+#include "drivers/world/dataset_writer.h"
 #include "tools/plots.h"
 
 namespace tsc {
@@ -157,6 +159,91 @@ TEST_F(EvalTest, LabelledDatasetScoresBoundariesEdgesAndDrawsFloorPlan) {
   EXPECT_EQ(written.size(), 4u);
   ExpectPng(dir_ / "plots" / "floor_plan.png", 500, 200);
   ExpectPng(dir_ / "plots" / "timeline.png", 900, 250);
+}
+
+// Pixels darker than the trajectory, the places' outlines and text: mostly walls.
+int DarkPixels(const fs::path& png) {
+  const cv::Mat img = cv::imread(png.string(), cv::IMREAD_GRAYSCALE);
+  if (img.empty()) return -1;
+  cv::Mat dark;
+  cv::threshold(img, dark, 100, 255, cv::THRESH_BINARY_INV);
+  return cv::countNonZero(dark);
+}
+
+TEST_F(EvalTest, FloorPlanDrawsTheSimulatedWorldAndSurvivesABadWorldJson) {
+  sim::SimOptions options;
+  options.seed = 3;
+  options.render.width = 160;
+  options.render.height = 120;
+  options.route.dwell_frames = 4;
+  options.max_frames = 40;
+  options.glitch_probability = 0.0;
+  const fs::path ds = dir_ / "sim";
+  sim::WriteSimulatedDataset(ds, options);
+  ASSERT_TRUE(fs::exists(ds / "world.json"));
+  const std::string world_json = [&] {
+    std::ifstream in(ds / "world.json");
+    std::stringstream text;
+    text << in.rdbuf();
+    return text.str();
+  }();
+
+  const WorldPlan plan = ParseWorldPlan(world_json, ds / "world.json");
+  EXPECT_EQ(plan.kind, "office");
+  EXPECT_GE(plan.rooms.size(), 3u);
+  EXPECT_FALSE(plan.walls.empty());
+  EXPECT_FALSE(plan.doors.empty());
+  EXPECT_FALSE(plan.rooms.front().label.empty());
+
+  const Dataset dataset = Dataset::Open(ds);
+  ASSERT_EQ(dataset.size(), 40);
+  EvalOptions eval;
+  eval.sweep_from = 1.2, eval.sweep_to = 1.4, eval.sweep_step = 0.2;
+  const EvalResult r = Evaluate(dataset, PipelineOptions{}, eval);
+
+  std::ostringstream warnings;
+  WritePlots(r, dataset, dir_ / "with", warnings);
+  EXPECT_EQ(warnings.str(), "");
+  ExpectPng(dir_ / "with" / "floor_plan.png", 600, 400);
+
+  fs::remove(ds / "world.json");
+  WritePlots(r, dataset, dir_ / "without", warnings);
+  EXPECT_EQ(warnings.str(), "");  // absent: no warning
+  ExpectPng(dir_ / "without" / "floor_plan.png", 600, 400);
+  const int with = DarkPixels(dir_ / "with" / "floor_plan.png");
+  const int without = DarkPixels(dir_ / "without" / "floor_plan.png");
+  EXPECT_GT(with, without + 1000) << "walls should add dark pixels";
+
+  // Malformed: a warning naming the file, the trajectory-only plot, no failure.
+  std::ofstream(ds / "world.json") << world_json.substr(0, world_json.size() / 2);
+  WritePlots(r, dataset, dir_ / "bad", warnings);
+  EXPECT_NE(warnings.str().find((ds / "world.json").string()), std::string::npos) << warnings.str();
+  EXPECT_NE(warnings.str().find("invalid JSON"), std::string::npos) << warnings.str();
+  ExpectPng(dir_ / "bad" / "floor_plan.png", 600, 400);
+  EXPECT_EQ(DarkPixels(dir_ / "bad" / "floor_plan.png"), without);
+}
+
+TEST(WorldPlan, RejectsMissingFieldsNamingTheFileAndElement) {
+  try {
+    ParseWorldPlan(R"({"rooms":[{"label":"a","x0":0,"y0":0,"x1":1}],"walls":[]})", "w.json");
+    FAIL() << "no exception";
+  } catch (const std::runtime_error& e) {
+    EXPECT_NE(std::string(e.what()).find("w.json: rooms[0]: missing \"y1\""), std::string::npos)
+        << e.what();
+  }
+  EXPECT_THROW(ParseWorldPlan(R"({"rooms":[],"walls":[]})", "w.json"), std::runtime_error);
+  EXPECT_THROW(ParseWorldPlan(R"([1,2])", "w.json"), std::runtime_error);
+  const WorldPlan p = ParseWorldPlan(
+      R"( {"kind":"x","rooms":[{"label":"a\"b","x0":0,"y0":0,"x1":2,"y1":1.5e0,)"
+      R"("transit":true,"wall_bgr":[1,2,3],"boxes":[{"x0":0.1,"y0":0,"x1":1,"y1":1}]}],)"
+      R"("walls":[{"x0":0,"y0":0,"x1":2,"y1":0}],"doors":[]} )",
+      "w.json");
+  ASSERT_EQ(p.rooms.size(), 1u);
+  EXPECT_EQ(p.rooms[0].label, "a\"b");
+  EXPECT_DOUBLE_EQ(p.rooms[0].rect.y1, 1.5);
+  ASSERT_EQ(p.rooms[0].boxes.size(), 1u);
+  EXPECT_DOUBLE_EQ(p.rooms[0].boxes[0].x0, 0.1);
+  EXPECT_EQ(p.walls.size(), 1u);
 }
 
 TEST(EvalOptions, SweepValuesAreInclusiveAndValidated) {
