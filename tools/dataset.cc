@@ -12,6 +12,8 @@
 #include <system_error>
 #include <utility>
 
+#include "tools/json_reader.h"
+
 namespace tsc {
 namespace fs = std::filesystem;
 
@@ -127,99 +129,29 @@ int FrameIndex(const fs::path& file, int line, const std::string& field, int fra
   return static_cast<int>(v - 1);
 }
 
-// ---- camera.json: a flat JSON object of numbers (strings, booleans and null are skipped).
+// ---- camera.json: a JSON object whose numeric members are read (others are ignored).
 
-class FlatJson {
- public:
-  FlatJson(const fs::path& file, std::string text) : file_(file), s_(std::move(text)) {}
-
-  std::map<std::string, double> Parse() {
-    std::map<std::string, double> out;
-    Expect('{');
-    if (Peek() == '}') {
-      ++i_;
-      return out;
-    }
-    while (true) {
-      const std::string key = String();
-      Expect(':');
-      const char c = Peek();
-      if (c == '"') {
-        String();
-      } else if (c == 't' || c == 'f' || c == 'n') {
-        Word();
-      } else {
-        out[key] = Number();
-      }
-      const char sep = Next();
-      if (sep == '}') break;
-      if (sep != ',') Error("expected ',' or '}'");
-    }
-    if (Peek() != '\0') Error("text after the closing '}'");
-    return out;
+std::map<std::string, double> ReadNumbers(const fs::path& file, const std::string& text) {
+  JsonValue root;
+  try {
+    root = ParseJson(text);
+  } catch (const std::runtime_error& e) {
+    Fail(file, e.what());
   }
-
- private:
-  [[noreturn]] void Error(const std::string& what) const {
-    Fail(file_, "invalid JSON at byte " + std::to_string(i_) + ": " + what);
+  if (root.kind != JsonValue::Kind::kObject) Fail(file, "expected a JSON object");
+  std::map<std::string, double> out;
+  for (size_t i = 0; i < root.keys.size(); ++i) {
+    if (root.items[i].kind == JsonValue::Kind::kNumber) out[root.keys[i]] = root.items[i].number;
   }
-  void SkipSpace() {
-    while (i_ < s_.size() && std::isspace(static_cast<unsigned char>(s_[i_]))) ++i_;
-  }
-  char Peek() {
-    SkipSpace();
-    return i_ < s_.size() ? s_[i_] : '\0';
-  }
-  char Next() {
-    const char c = Peek();
-    if (c == '\0') Error("unexpected end");
-    ++i_;
-    return c;
-  }
-  void Expect(char c) {
-    if (Next() != c) Error(std::string("expected '") + c + "'");
-  }
-  std::string String() {
-    Expect('"');
-    std::string out;
-    while (i_ < s_.size() && s_[i_] != '"') {
-      if (s_[i_] == '\\') ++i_;
-      if (i_ < s_.size()) out += s_[i_++];
-    }
-    if (i_ >= s_.size()) Error("unterminated string");
-    ++i_;
-    return out;
-  }
-  void Word() {
-    for (const char* w : {"true", "false", "null"}) {
-      if (s_.compare(i_, std::char_traits<char>::length(w), w) == 0) {
-        i_ += std::char_traits<char>::length(w);
-        return;
-      }
-    }
-    Error("expected a value");
-  }
-  double Number() {
-    const char* begin = s_.c_str() + i_;
-    char* end = nullptr;
-    const double v = std::strtod(begin, &end);
-    if (end == begin) Error("expected a number");
-    i_ += static_cast<size_t>(end - begin);
-    if (!std::isfinite(v)) Error("number out of range");
-    return v;
-  }
-
-  fs::path file_;
-  std::string s_;
-  size_t i_ = 0;
-};
+  return out;
+}
 
 CameraIntrinsics ReadCamera(const fs::path& file, int width, int height) {
   std::ifstream in(file);
   if (!in) Fail(file, "cannot open");
   std::stringstream text;
   text << in.rdbuf();
-  const std::map<std::string, double> v = FlatJson(file, text.str()).Parse();
+  const std::map<std::string, double> v = ReadNumbers(file, text.str());
   const auto has = [&](const char* k) { return v.count(k) > 0; };
   const int cam_w = has("width") ? static_cast<int>(v.at("width")) : width;
   const int cam_h = has("height") ? static_cast<int>(v.at("height")) : height;
