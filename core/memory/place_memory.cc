@@ -161,13 +161,20 @@ int PlaceMemory::Learn(const DetectedPlace& d) {
   p.samples = EvenlySpaced(d.descriptors, options_.max_samples_per_place);
   p.detected = {d.index};
   p.members = d.members;
-  // γ of (3.12) between the new place and every learned place.
-  std::vector<double> distances(places_.size());
+  // γ of (3.12) between the new place and every learned place, streamed from the contiguous
+  // copy of the means; each column is read as an aligned vector so the value is the same as
+  // (places_[i].mean − p.mean).squaredNorm().
+  const Eigen::Index dim = p.mean.size();
+  const Eigen::Index stride = means_.rows();
+  distances_.resize(places_.size());
   for (size_t i = 0; i < places_.size(); ++i) {
-    distances[i] = (places_[i].mean - p.mean).squaredNorm();
+    const Eigen::Map<const Eigen::VectorXf, Eigen::AlignedMax> m(
+        means_.data() + static_cast<Eigen::Index>(i) * stride, dim);
+    distances_[i] = (m - p.mean).squaredNorm();
   }
-  slink_.Insert(distances);
+  slink_.Insert(distances_);
   places_.push_back(std::move(p));
+  StoreMean(static_cast<int>(places_.size()) - 1);
   ++next_local_;
   RebuildTree({});
   return static_cast<int>(places_.size()) - 1;
@@ -186,6 +193,7 @@ void PlaceMemory::Update(int place, const DetectedPlace& d) {
   p.samples = EvenlySpaced(both, options_.max_samples_per_place);
   p.detected.push_back(d.index);
   p.members.insert(p.members.end(), d.members.begin(), d.members.end());
+  StoreMean(place);
   // The place's path to the root: centroids move, discriminants see new members.
   const Eigen::VectorXf delta = p.mean - old_mean;
   RetrainDiscriminant(place);
@@ -216,76 +224,134 @@ Eigen::MatrixXf PlaceMemory::TrainingSet(int node) const {
   return out;
 }
 
+void PlaceMemory::StoreMean(int place) {
+  const Eigen::VectorXf& mean = places_[place].mean;
+  // Columns padded to a multiple of 16 floats (64 bytes ≥ EIGEN_MAX_ALIGN_BYTES).
+  const Eigen::Index stride = (mean.size() + 15) / 16 * 16;
+  if (means_.rows() != stride) means_.resize(stride, 0);
+  if (place >= means_.cols()) {
+    // Grows by half: the cache costs dim·4 bytes per place plus at most 50 % slack.
+    const Eigen::Index capacity = std::max<Eigen::Index>(64, means_.cols() + means_.cols() / 2);
+    Eigen::MatrixXf grown(stride, std::max<Eigen::Index>(capacity, place + 1));
+    grown.leftCols(means_.cols()) = means_;
+    grown.rightCols(grown.cols() - means_.cols()).setZero();
+    means_.swap(grown);
+  }
+  means_.col(place).head(mean.size()) = mean;
+}
+
 void PlaceMemory::RetrainDiscriminant(int node) {
   discriminants_[node] = OneClassDiscriminant::Train(TrainingSet(node), options_.discriminant);
 }
 
+void PlaceMemory::IndexOldNodes() {
+  size_t size = 16;
+  while (size < 2 * nodes_.size()) size *= 2;
+  key_table_.assign(size, KeySlot{});
+  const size_t mask = size - 1;
+  auto slot_of = [&](uint64_t key) -> KeySlot& {
+    for (size_t h = SplitMix64(key) & mask;; h = (h + 1) & mask) {
+      KeySlot& s = key_table_[h];
+      if (!s.used() || s.key == key) return s;
+    }
+  };
+  // The first node with a given key wins, as with unordered_map::emplace in node order.
+  for (size_t i = 0; i < nodes_.size(); ++i) {
+    const bool inner = !nodes_[i].terminal(), trained = discriminants_[i].trained();
+    if (!inner && !trained) continue;
+    KeySlot& s = slot_of(nodes_[i].set_key);
+    s.key = nodes_[i].set_key;
+    if (inner && s.sum < 0) s.sum = static_cast<int>(i);
+    if (trained && s.discriminant < 0) s.discriminant = static_cast<int>(i);
+  }
+}
+
+const PlaceMemory::KeySlot* PlaceMemory::FindOldNode(uint64_t key) const {
+  if (key_table_.empty()) return nullptr;
+  const size_t mask = key_table_.size() - 1;
+  for (size_t h = SplitMix64(key) & mask;; h = (h + 1) & mask) {
+    const KeySlot& s = key_table_[h];
+    if (!s.used()) return nullptr;
+    if (s.key == key) return &s;
+  }
+}
+
 void PlaceMemory::RebuildTree(const std::unordered_map<uint64_t, OneClassDiscriminant>& saved) {
   const int n = static_cast<int>(places_.size());
-  // Keep the discriminants of nodes whose place set does not change.
-  std::unordered_map<uint64_t, OneClassDiscriminant> previous = saved;
-  std::unordered_map<uint64_t, Eigen::VectorXf> previous_sums;
-  for (size_t i = 0; i < nodes_.size(); ++i) {
-    if (!nodes_[i].terminal())
-      previous_sums.emplace(nodes_[i].set_key, std::move(centroid_sums_[i]));
-    if (discriminants_[i].trained()) {
-      previous.emplace(nodes_[i].set_key, std::move(discriminants_[i]));
-    }
-  }
-  std::vector<MemoryNode> nodes(n);
-  for (int i = 0; i < n; ++i) nodes[i].place = i;
+  // Keep the discriminants and centroid sums of nodes whose place set does not change: index
+  // the old nodes by set key, then move their state out of the old per-node vectors.
+  IndexOldNodes();
+  old_sums_.swap(centroid_sums_);
+  old_discriminants_.swap(discriminants_);
+  // `saved` (Restore) takes precedence over the old nodes.
+  std::unordered_map<uint64_t, OneClassDiscriminant> previous_saved = saved;
 
-  const std::vector<DendrogramMerge> merges = ToDendrogram(slink_);
+  // nodes_ is rebuilt in place: children vectors keep their capacity.
+  auto reset = [](MemoryNode& node) {
+    node.parent = -1;
+    node.children.clear();
+    node.place = -1;
+    node.height = 0.0;
+    node.first_leaf = 0;
+    node.end_leaf = 0;
+    node.set_key = 0;
+  };
   if (n == 1) {
-    nodes.push_back(MemoryNode{});
-    nodes[1].children = {0};
-    nodes[0].parent = 1;
+    nodes_.resize(2);
+    for (MemoryNode& node : nodes_) reset(node);
+    nodes_[0].place = 0;
+    nodes_[1].children.push_back(0);
+    nodes_[0].parent = 1;
   } else {
+    const std::vector<DendrogramMerge> merges = ToDendrogram(slink_);
     // Binary dendrogram: clusters 0..n−1 are places, n+i is merge i (heights increase).
     const int total = 2 * n - 1;
-    std::vector<int> bin_parent(total, -1);
+    bin_parent_.assign(total, -1);
     for (int i = 0; i < n - 1; ++i) {
-      bin_parent[merges[i].a] = n + i;
-      bin_parent[merges[i].b] = n + i;
+      bin_parent_[merges[i].a] = n + i;
+      bin_parent_[merges[i].b] = n + i;
     }
     // Simplification (section 3.6): merge node N folds into its parent P when
     // h(P) − h(N) ≤ τ_h·h(P); folding is transitive, the root never folds.
-    std::vector<int> target(total, -1);
+    target_.assign(total, -1);
     for (int c = total - 1; c >= n; --c) {
-      const int p = bin_parent[c];
+      const int p = bin_parent_[c];
       if (p < 0) {
-        target[c] = c;
+        target_[c] = c;
         continue;
       }
       const double hp = merges[p - n].height, hc = merges[c - n].height;
-      target[c] = hp - hc <= options_.tau_h * hp ? target[p] : c;
+      target_[c] = hp - hc <= options_.tau_h * hp ? target_[p] : c;
     }
-    std::vector<int> index(total, -1);
-    for (int i = 0; i < n; ++i) index[i] = i;
+    index_.assign(total, -1);
+    for (int i = 0; i < n; ++i) index_[i] = i;
+    int count = n;
     for (int c = n; c < total; ++c) {
-      if (target[c] != c) continue;
-      index[c] = static_cast<int>(nodes.size());
-      MemoryNode node;
-      node.height = merges[c - n].height;
-      nodes.push_back(node);
+      if (target_[c] == c) index_[c] = count++;
+    }
+    nodes_.resize(count);
+    for (MemoryNode& node : nodes_) reset(node);
+    for (int i = 0; i < n; ++i) nodes_[i].place = i;
+    for (int c = n; c < total; ++c) {
+      if (index_[c] >= 0) nodes_[index_[c]].height = merges[c - n].height;
     }
     for (int c = 0; c < total; ++c) {
-      if (index[c] < 0 || bin_parent[c] < 0) continue;
-      const int parent = index[target[bin_parent[c]]];
-      nodes[index[c]].parent = parent;
-      nodes[parent].children.push_back(index[c]);
+      if (index_[c] < 0 || bin_parent_[c] < 0) continue;
+      const int parent = index_[target_[bin_parent_[c]]];
+      nodes_[index_[c]].parent = parent;
+      nodes_[parent].children.push_back(index_[c]);
     }
   }
-  nodes_ = std::move(nodes);
   root_ = static_cast<int>(nodes_.size()) - 1;
 
   // Leaf order by depth-first traversal: each node's places are one contiguous range.
   leaf_order_.clear();
   leaf_order_.reserve(n);
-  std::vector<std::pair<int, bool>> stack{{root_, false}};
-  while (!stack.empty()) {
-    auto [node, done] = stack.back();
-    stack.pop_back();
+  stack_.clear();
+  stack_.push_back({root_, false});
+  while (!stack_.empty()) {
+    auto [node, done] = stack_.back();
+    stack_.pop_back();
     MemoryNode& nd = nodes_[node];
     if (done) {
       nd.end_leaf = static_cast<int>(leaf_order_.size());
@@ -297,25 +363,25 @@ void PlaceMemory::RebuildTree(const std::unordered_map<uint64_t, OneClassDiscrim
       nd.end_leaf = nd.first_leaf + 1;
       continue;
     }
-    stack.push_back({node, true});
+    stack_.push_back({node, true});
     for (auto it = nd.children.rbegin(); it != nd.children.rend(); ++it)
-      stack.push_back({*it, false});
+      stack_.push_back({*it, false});
   }
   // Children precede parents in index order, so one forward pass fills keys and the sums of
   // place means of inner nodes; a node whose place set existed before keeps its sum.
-  centroid_sums_.resize(nodes_.size());
+  centroid_sums_.clear();
+  centroid_sums_.resize(nodes_.size());  // terminals use their place's mean
   for (size_t i = 0; i < nodes_.size(); ++i) {
     MemoryNode& nd = nodes_[i];
     if (nd.terminal()) {
       nd.set_key = PlaceKey(places_[nd.place].id);
-      centroid_sums_[i] = Eigen::VectorXf();  // terminals use their place's mean
       continue;
     }
     nd.set_key = 0;
     for (int c : nd.children) nd.set_key += nodes_[c].set_key;  // order-free wrapping sum
-    auto it = previous_sums.find(nd.set_key);
-    if (it != previous_sums.end() && it->second.size() > 0) {
-      centroid_sums_[i] = std::move(it->second);
+    const KeySlot* old = FindOldNode(nd.set_key);
+    if (old != nullptr && old->sum >= 0 && old_sums_[old->sum].size() > 0) {
+      centroid_sums_[i] = std::move(old_sums_[old->sum]);
       continue;
     }
     centroid_sums_[i] = Eigen::VectorXf::Zero(places_.front().mean.size());
@@ -324,12 +390,21 @@ void PlaceMemory::RebuildTree(const std::unordered_map<uint64_t, OneClassDiscrim
     }
   }
   // Only nodes whose place set is new are trained; the root's d_N is never consulted.
-  discriminants_.assign(nodes_.size(), OneClassDiscriminant());
+  discriminants_.clear();
+  discriminants_.resize(nodes_.size());
   for (size_t i = 0; i < nodes_.size(); ++i) {
     if (static_cast<int>(i) == root_) continue;
-    auto it = previous.find(nodes_[i].set_key);
-    if (it != previous.end()) {
-      discriminants_[i] = std::move(it->second);
+    const uint64_t key = nodes_[i].set_key;
+    if (!previous_saved.empty()) {
+      auto it = previous_saved.find(key);
+      if (it != previous_saved.end()) {
+        discriminants_[i] = std::move(it->second);
+        continue;
+      }
+    }
+    const KeySlot* old = FindOldNode(key);
+    if (old != nullptr && old->discriminant >= 0) {
+      discriminants_[i] = std::move(old_discriminants_[old->discriminant]);
     } else {
       RetrainDiscriminant(static_cast<int>(i));
     }
@@ -357,6 +432,7 @@ PlaceMemory PlaceMemory::Restore(uint32_t robot, PlaceMemoryOptions options,
   memory.places_ = std::move(places);
   memory.slink_ = std::move(slink);
   memory.next_local_ = next_local;
+  for (size_t i = 0; i < memory.places_.size(); ++i) memory.StoreMean(static_cast<int>(i));
   if (!memory.places_.empty()) memory.RebuildTree(saved);
   return memory;
 }

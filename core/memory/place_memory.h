@@ -108,11 +108,23 @@ class PlaceMemory {
                              const std::unordered_map<uint64_t, OneClassDiscriminant>& saved);
 
  private:
+  // An old node's index by set key: the first inner node (its centroid sum) and the first
+  // node with a trained discriminant, −1 when there is none. Open addressing, linear probing.
+  struct KeySlot {
+    uint64_t key = 0;
+    int sum = -1;
+    int discriminant = -1;
+    bool used() const { return sum >= 0 || discriminant >= 0; }
+  };
+
   void RebuildTree(const std::unordered_map<uint64_t, OneClassDiscriminant>& saved);
-  void ComputeCentroidSums();
+  void IndexOldNodes();
+  const KeySlot* FindOldNode(uint64_t key) const;
   void RetrainDiscriminant(int node);
   Eigen::MatrixXf TrainingSet(int node) const;
   Eigen::MatrixXf VotePoints(const DetectedPlace& d) const;
+  /// Copies place `place`'s mean into column `place` of `means_` (growing it as needed).
+  void StoreMean(int place);
 
   uint32_t robot_;
   PlaceMemoryOptions options_;
@@ -124,6 +136,20 @@ class PlaceMemory {
   std::vector<int> leaf_order_;
   int root_ = -1;
   uint32_t next_local_ = 1;
+
+  // Place means in one contiguous matrix (a cache of places_[i].mean, kept in sync by Learn,
+  // Update and Restore) so the SLINK distance pass streams memory. Column i holds place i in
+  // rows [0, dim); the stride is padded so every column is aligned like a VectorXf, which
+  // keeps the distances bit-identical to (places_[i].mean − x).squaredNorm().
+  Eigen::MatrixXf means_;
+
+  // Scratch reused across rebuilds (no per-learn allocation).
+  std::vector<KeySlot> key_table_;
+  std::vector<Eigen::VectorXf> old_sums_;
+  std::vector<OneClassDiscriminant> old_discriminants_;
+  std::vector<int> bin_parent_, target_, index_;
+  std::vector<std::pair<int, bool>> stack_;
+  std::vector<double> distances_;
 };
 
 }  // namespace tsc

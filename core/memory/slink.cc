@@ -5,6 +5,7 @@
 #include <numeric>
 #include <stdexcept>
 #include <string>
+#include <utility>
 
 namespace tsc {
 
@@ -22,6 +23,11 @@ Slink::Slink(std::vector<int> pi, std::vector<double> lambda)
       throw std::invalid_argument("SLINK state: invalid pointer at " + std::to_string(i));
     }
   }
+  if (n > 1) {
+    order_.resize(n - 1);
+    for (int i = 0; i < n - 1; ++i) order_[i] = {lambda_[i], i};
+    std::sort(order_.begin(), order_.end());
+  }
 }
 
 void Slink::Insert(const std::vector<double>& distances) {
@@ -38,10 +44,12 @@ void Slink::Insert(const std::vector<double>& distances) {
   m_.push_back(kInfinity);
   pi_.push_back(n);
   lambda_.push_back(kInfinity);
+  fresh_.clear();
   for (int i = 0; i < n; ++i) {
     const int p = pi_[i];
     if (lambda_[i] >= m_[i]) {
       m_[p] = std::min(m_[p], lambda_[i]);
+      if (lambda_[i] != m_[i]) fresh_.push_back({m_[i], i});  // includes the old last point
       lambda_[i] = m_[i];
       pi_[i] = n;
     } else {
@@ -51,15 +59,22 @@ void Slink::Insert(const std::vector<double>& distances) {
   for (int i = 0; i < n; ++i) {
     if (lambda_[i] >= lambda_[pi_[i]]) pi_[i] = n;
   }
+  // order_: drop the entries whose λ changed, merge in their new values.
+  order_.erase(
+      std::remove_if(order_.begin(), order_.end(),
+                     [&](const std::pair<double, int>& e) { return lambda_[e.second] != e.first; }),
+      order_.end());
+  std::sort(fresh_.begin(), fresh_.end());
+  merged_.resize(order_.size() + fresh_.size());
+  std::merge(order_.begin(), order_.end(), fresh_.begin(), fresh_.end(), merged_.begin());
+  order_.swap(merged_);
 }
 
 std::vector<DendrogramMerge> ToDendrogram(const Slink& slink) {
   const int n = slink.size();
   if (n < 2) return {};
-  std::vector<int> order(n - 1);
-  std::iota(order.begin(), order.end(), 0);
-  std::stable_sort(order.begin(), order.end(),
-                   [&](int a, int b) { return slink.lambda()[a] < slink.lambda()[b]; });
+  // Increasing λ, ties by point index (the order of a stable sort on λ), kept by Slink.
+  const std::vector<std::pair<double, int>>& order = slink.order();
   // Union-find over points; each set remembers the dendrogram cluster that represents it.
   std::vector<int> parent(n), cluster(n);
   std::iota(parent.begin(), parent.end(), 0);
@@ -70,9 +85,9 @@ std::vector<DendrogramMerge> ToDendrogram(const Slink& slink) {
   };
   std::vector<DendrogramMerge> merges;
   merges.reserve(n - 1);
-  for (int i : order) {
+  for (const auto& [height, i] : order) {
     const int ra = find(i), rb = find(slink.pi()[i]);
-    merges.push_back({cluster[ra], cluster[rb], slink.lambda()[i]});
+    merges.push_back({cluster[ra], cluster[rb], height});
     parent[ra] = rb;
     cluster[rb] = n + static_cast<int>(merges.size()) - 1;
   }

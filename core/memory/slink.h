@@ -4,6 +4,7 @@
 
 #include <Eigen/Core>
 #include <limits>
+#include <utility>
 #include <vector>
 
 namespace tsc {
@@ -25,11 +26,17 @@ class Slink {
   const std::vector<int>& pi() const { return pi_; }
   /// λ(i): the height at which i stops being the last point of its cluster (∞ for the last).
   const std::vector<double>& lambda() const { return lambda_; }
+  /// (λ(i), i) for the points i < n−1 (finite λ), in increasing λ, ties by index. Kept up
+  /// to date by Insert in O(n + k log k) for the k heights an insertion changes.
+  const std::vector<std::pair<double, int>>& order() const { return order_; }
 
  private:
   std::vector<int> pi_;
   std::vector<double> lambda_;
-  std::vector<double> m_;  // scratch
+  std::vector<std::pair<double, int>> order_;
+  std::vector<double> m_;                       // scratch
+  std::vector<std::pair<double, int>> fresh_;   // scratch: entries whose λ changed
+  std::vector<std::pair<double, int>> merged_;  // scratch
 };
 
 /// A binary merge of the single-linkage dendrogram: clusters a and b join at `height`.

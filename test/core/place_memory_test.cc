@@ -3,6 +3,7 @@
 #include <gtest/gtest.h>
 
 #include <algorithm>
+#include <limits>
 #include <random>
 
 namespace tsc {
@@ -157,6 +158,37 @@ TEST_F(PlaceMemoryTest, RestoreReproducesTreeWithoutRetraining) {
   }
   EXPECT_THROW(PlaceMemory::Restore(1, Options(), dut_.places(), Slink(), 6, saved),
                std::invalid_argument);
+}
+
+TEST_F(PlaceMemoryTest, LearningAfterUpdateAndRestoreMatchesTheOriginal) {
+  // The SLINK distances come from a contiguous copy of the place means that Update and
+  // Restore keep in sync: after an update and a restore, learning the same place gives the
+  // same distances (λ), tree and discriminants as the original memory.
+  dut_.Update(1, MakePlace(71, centres_[1] + Centre({0, 0.1f, 0, 0, 0, 0}), rng_));
+  std::unordered_map<uint64_t, OneClassDiscriminant> saved;
+  for (size_t n = 0; n < dut_.nodes().size(); ++n) {
+    if (dut_.discriminants()[n].trained())
+      saved.emplace(dut_.nodes()[n].set_key, dut_.discriminants()[n]);
+  }
+  PlaceMemory copy =
+      PlaceMemory::Restore(1, Options(), dut_.places(), dut_.slink(), dut_.next_local_id(), saved);
+  const DetectedPlace d = MakePlace(72, Centre({1.0f, 0.3f, 0, 0, 0, 0}), rng_);
+  EXPECT_EQ(copy.Learn(d), dut_.Learn(d));
+  EXPECT_EQ(copy.slink().lambda(), dut_.slink().lambda());
+  EXPECT_EQ(copy.slink().pi(), dut_.slink().pi());
+  ASSERT_EQ(copy.nodes().size(), dut_.nodes().size());
+  for (size_t n = 0; n < copy.nodes().size(); ++n) {
+    EXPECT_EQ(copy.nodes()[n].children, dut_.nodes()[n].children);
+    EXPECT_EQ(copy.nodes()[n].set_key, dut_.nodes()[n].set_key);
+    EXPECT_EQ(copy.discriminants()[n].rho(), dut_.discriminants()[n].rho());
+  }
+  // λ of the new place's distances equal a direct computation from the place means.
+  const Eigen::VectorXf mean = d.Mean();
+  double nearest = std::numeric_limits<double>::infinity();
+  for (size_t p = 0; p + 1 < dut_.places().size(); ++p)
+    nearest = std::min<double>(nearest, (dut_.places()[p].mean - mean).squaredNorm());
+  const auto& lambda = dut_.slink().lambda();
+  EXPECT_NE(std::find(lambda.begin(), lambda.end(), nearest), lambda.end());
 }
 
 TEST(OneClassDiscriminant, AcceptsTrainingCloudAndRejectsFarPoints) {

@@ -4,6 +4,7 @@
 
 #include <algorithm>
 #include <random>
+#include <utility>
 #include <vector>
 
 namespace tsc {
@@ -64,6 +65,25 @@ TEST(Slink, DendrogramMergesFormOneTree) {
   EXPECT_DOUBLE_EQ(merges[1].height, 2.0);
   // The second merge joins point 2 with cluster 3 (the first merge).
   EXPECT_TRUE((merges[1].a == 2 && merges[1].b == 3) || (merges[1].a == 3 && merges[1].b == 2));
+}
+
+TEST(Slink, IncrementalOrderMatchesSortedHeightsAndRestore) {
+  // order() is maintained incrementally by Insert; it must equal a full sort of (λ(i), i)
+  // after every insertion (ties included: distances are small integers) and the order a
+  // restored state builds from scratch.
+  std::mt19937 rng(7);
+  std::uniform_int_distribution<int> dist(0, 6);
+  Slink dut;
+  for (int n = 0; n < 120; ++n) {
+    std::vector<double> d(n);
+    for (double& x : d) x = dist(rng);
+    dut.Insert(d);
+    std::vector<std::pair<double, int>> want;
+    for (int i = 0; i + 1 < dut.size(); ++i) want.push_back({dut.lambda()[i], i});
+    std::sort(want.begin(), want.end());
+    ASSERT_EQ(dut.order(), want) << "after point " << n;
+    ASSERT_EQ(Slink(dut.pi(), dut.lambda()).order(), want) << "after point " << n;
+  }
 }
 
 TEST(Slink, RestoreRejectsInvalidPointerRepresentation) {
