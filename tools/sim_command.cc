@@ -20,7 +20,8 @@ constexpr int kExitUsage = 2;
 constexpr const char* kSimHelp =
     R"(usage: tsc sim --out DIR --seed N [--world office|corridors|outdoor] [--robots K]
                [--revisit-fraction F] [--lighting day|dim|flicker|mixed] [--depth]
-               [--size WxH] [--frames-per-room N] [--png] [--max-frames N]
+               [--size WxH] [--frames-per-room N] [--turn-step-deg D] [--png]
+               [--max-frames N]
 
 Writes a simulated dataset (DESIGN §7.1): frames rendered from a generated floor plan along a
 scripted route that tours every room and revisits some of them, camera.json, groundtruth.csv
@@ -67,7 +68,9 @@ int Sim(const std::vector<std::string>& args) {
       "size", po::value<std::string>()->default_value("640x480")->value_name("WxH"),
       "image size in pixels")("frames-per-room",
                               po::value<int>()->default_value(24)->value_name("N"),
-                              "frames turning in place (15°/frame) at each visited room's centre")(
+                              "frames turning in place at each visited room's centre")(
+      "turn-step-deg", po::value<double>()->default_value(15.0)->value_name("D"),
+      "turning in place between frames, degrees (a robot at 30 fps turns a few degrees)")(
       "png", "write PNG frames instead of JPEG (quality 90)")(
       "max-frames", po::value<int>()->default_value(0)->value_name("N"),
       "cut each robot's route after N frames (0 = whole route)");
@@ -98,6 +101,7 @@ int Sim(const std::vector<std::string>& args) {
   options.robots = vm["robots"].as<int>();
   options.route.revisit_fraction = vm["revisit-fraction"].as<double>();
   options.route.dwell_frames = vm["frames-per-room"].as<int>();
+  options.route.turn_step_deg = vm["turn-step-deg"].as<double>();
   options.depth = vm.count("depth") > 0;
   options.png = vm.count("png") > 0;
   options.max_frames = vm["max-frames"].as<int>();

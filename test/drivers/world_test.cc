@@ -250,6 +250,23 @@ TEST_F(WorldTest, TeamRoutesShareARoom) {
   EXPECT_NE(labels[0], labels[1]);  // partly different
 }
 
+TEST_F(WorldTest, SlowerTurnsSpreadTheSameRouteOverMoreFrames) {
+  std::mt19937 rng(3);
+  const World world = World::Generate(WorldKind::kOffice, rng);
+  RouteOptions fast;
+  RouteOptions slow;
+  slow.turn_step_deg = 5.0;
+  const std::vector<int> targets = SingleRobotTargets(world, fast, rng);
+  const auto a = FollowRooms(world, targets, fast);
+  const auto b = FollowRooms(world, targets, slow);
+  EXPECT_GT(b.size(), a.size());
+  // Consecutive headings never differ by more than the turn step (plus walking turns of 0).
+  for (size_t i = 1; i < b.size(); ++i) {
+    const double d = std::remainder(b[i].pose.heading - b[i - 1].pose.heading, 2 * M_PI);
+    EXPECT_LE(std::abs(d), 5.0 * M_PI / 180.0 + 1e-9) << "frame " << i;
+  }
+}
+
 TEST_F(WorldTest, SimCommandWritesTeamFolders) {
   const int rc = RunSimCommand({"--out", dir_.string(), "--seed", "4", "--robots", "2", "--size",
                                 "96x72", "--max-frames", "15", "--world", "outdoor"});
