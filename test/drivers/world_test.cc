@@ -16,6 +16,7 @@
 #include "drivers/world/dataset_writer.h"
 #include "drivers/world/renderer.h"
 #include "drivers/world/routes.h"
+#include "test/support/temp_dir.h"
 #include "tools/dataset.h"
 #include "tools/sim_command.h"
 
@@ -47,15 +48,8 @@ std::vector<std::string> LabelsOf(const std::vector<RouteFrame>& route) {
 
 class WorldTest : public ::testing::Test {
  protected:
-  void SetUp() override {
-    const auto* info = ::testing::UnitTest::GetInstance()->current_test_info();
-    dir_ = fs::temp_directory_path() /
-           ("tscd_world_test_" + std::string(info->name()) + "_" + std::to_string(getpid()));
-    fs::remove_all(dir_);
-  }
-  void TearDown() override { fs::remove_all(dir_); }
-
-  fs::path dir_;
+  testing_support::TempDir temp_{"tscd_world_test"};
+  fs::path dir_ = temp_.path() / "out";
 };
 
 TEST_F(WorldTest, SameSeedGivesIdenticalFramesAndOtherSeedDiffers) {

@@ -14,6 +14,7 @@
 #include <sstream>
 
 #include "drivers/world/dataset_writer.h"
+#include "test/support/temp_dir.h"
 #include "tools/plots.h"
 
 namespace tsc {
@@ -22,15 +23,6 @@ namespace fs = std::filesystem;
 
 class EvalTest : public ::testing::Test {
  protected:
-  void SetUp() override {
-    const auto* info = ::testing::UnitTest::GetInstance()->current_test_info();
-    dir_ = fs::temp_directory_path() /
-           ("tscd_eval_test_" + std::string(info->name()) + "_" + std::to_string(getpid()));
-    fs::remove_all(dir_);
-    fs::create_directories(dir_);
-  }
-  void TearDown() override { fs::remove_all(dir_); }
-
   // Rooms a, b, c visited along a -> b -> c -> b -> a, 10 panning frames each, separated by
   // 3 dark frames (unlabelled transitions); poses along a line, rooms 5 m apart.
   fs::path MakeLabelledDataset() {
@@ -77,7 +69,8 @@ class EvalTest : public ::testing::Test {
     return ds;
   }
 
-  fs::path dir_;
+  testing_support::TempDir temp_{"tscd_eval_test"};
+  fs::path dir_ = temp_.path();
 };
 
 void ExpectPng(const fs::path& p, int min_width, int min_height) {

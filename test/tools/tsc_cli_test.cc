@@ -13,6 +13,8 @@
 #include <sstream>
 #include <string>
 
+#include "test/support/temp_dir.h"
+
 namespace tsc {
 namespace {
 namespace fs = std::filesystem;
@@ -38,15 +40,6 @@ std::string ReadFile(const fs::path& p) {
 
 class TscCliTest : public ::testing::Test {
  protected:
-  void SetUp() override {
-    const auto* info = ::testing::UnitTest::GetInstance()->current_test_info();
-    dir_ = fs::temp_directory_path() /
-           ("tscd_cli_test_" + std::string(info->name()) + "_" + std::to_string(getpid()));
-    fs::remove_all(dir_);
-    fs::create_directories(dir_);
-  }
-  void TearDown() override { fs::remove_all(dir_); }
-
   /// Runs `tsc ARGS` (already quoted) with stdout and stderr captured.
   Outcome Tsc(const std::string& args) {
     const fs::path out = dir_ / "stdout.txt", err = dir_ / "stderr.txt";
@@ -81,7 +74,8 @@ class TscCliTest : public ::testing::Test {
     return ds;
   }
 
-  fs::path dir_;
+  testing_support::TempDir temp_{"tscd_cli_test"};
+  fs::path dir_ = temp_.path();
 };
 
 TEST_F(TscCliTest, HelpExitsZero) {
