@@ -16,15 +16,10 @@ using Clock = std::chrono::steady_clock;
 
 double Ms(Clock::duration d) { return std::chrono::duration<double, std::milli>(d).count(); }
 
-struct FrameInput {
-  Descriptor descriptor;
-  IntensityStats intensity;
-};
-
 // One pass of a fresh pipeline over the stored descriptors. `step_ms` (optional) receives the
 // time of each ProcessDescriptor call; `status` (optional) the status of each base point.
 EvalRun Replay(const Dataset& dataset, const PipelineOptions& options,
-               const std::vector<FrameInput>& inputs, const GroundTruth& truth, bool keep_memory,
+               const std::vector<BasePointView>& inputs, const GroundTruth& truth, bool keep_memory,
                std::vector<double>* step_ms, std::vector<BaseStatus>* status) {
   Pipeline pipeline(dataset.camera(), options, PlaceMemory(options.robot, options.memory),
                     TopologicalMap{});
@@ -121,7 +116,7 @@ EvalResult Evaluate(const Dataset& dataset, const PipelineOptions& options,
   // Descriptors once per frame.
   BubbleSurface surface(options.features, dataset.camera(), options.surface);
   const DescriptorComputer computer(surface.grid(), options.descriptor);
-  std::vector<FrameInput> inputs;
+  std::vector<BasePointView> inputs;
   inputs.reserve(static_cast<size_t>(dataset.size()));
   std::vector<double> descriptor_ms;
   for (int i = 0; i < dataset.size(); ++i) {
@@ -134,9 +129,7 @@ EvalResult Evaluate(const Dataset& dataset, const PipelineOptions& options,
     const Clock::time_point t0 = Clock::now();
     try {
       surface.Observe(obs);
-      FrameInput in{computer.Compute(surface), IntensityStatistics(surface)};
-      surface.Reset();
-      inputs.push_back(std::move(in));
+      inputs.push_back(FinishBasePoint(surface, computer));
     } catch (const std::exception& e) {
       throw std::runtime_error("frame " + std::to_string(i + 1) + " (" +
                                dataset.image_path(i).string() + "): " + e.what());

@@ -64,12 +64,16 @@ PipelineState Pipeline::state() const {
 
 void Pipeline::AccumulateView(const Observation& obs) { surface_.Observe(obs); }
 
+BasePointView FinishBasePoint(BubbleSurface& surface, const DescriptorComputer& computer) {
+  BasePointView view{computer.Compute(surface), IntensityStatistics(surface)};
+  surface.Reset();
+  return view;
+}
+
 FrameResult Pipeline::Process(const Observation& obs) {
   surface_.Observe(obs);
-  const Descriptor descriptor = computer_.Compute(surface_);
-  const IntensityStats intensity = IntensityStatistics(surface_);
-  surface_.Reset();  // the next frame is the next base point
-  return ProcessDescriptor(descriptor, intensity);
+  const BasePointView view = FinishBasePoint(surface_, computer_);  // one frame, one base point
+  return ProcessDescriptor(view.descriptor, view.intensity);
 }
 
 FrameResult Pipeline::ProcessDescriptor(const Descriptor& descriptor,

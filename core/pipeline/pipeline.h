@@ -52,6 +52,15 @@ struct FrameResult {
   bool memory_changed = false;                ///< tree / discriminants changed
 };
 
+/// What the pipeline needs of one base point: its descriptor and its intensity statistics.
+struct BasePointView {
+  Descriptor descriptor;
+  IntensityStats intensity;
+};
+/// Computes the view of the base point observed in `surface`, then resets the surface for the
+/// next base point.
+BasePointView FinishBasePoint(BubbleSurface& surface, const DescriptorComputer& computer);
+
 struct PipelineOptions {
   uint32_t robot = 1;
   FeatureSet features = FeatureSet::Thesis(2, true);
