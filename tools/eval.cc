@@ -6,7 +6,7 @@
 #include <cstdlib>
 #include <stdexcept>
 
-#include "tools/config.h"
+#include "daemon/settings.h"
 #include "tools/events_json.h"
 
 namespace tsc {
@@ -273,8 +273,10 @@ void WriteEvalJson(std::ostream& out, const EvalResult& r) {
   w.Key("step").Number(r.eval.sweep_step);
   w.End('}');
   w.Key("config").Begin('{');
+  const Settings settings{r.options, DaemonOptions{}};
   for (const ConfigKey& k : ConfigTable()) {
-    const std::string v = k.get(r.options);
+    if (k.scope != ConfigKey::Scope::kPipeline) continue;
+    const std::string v = k.get(settings);
     w.Key(k.key);
     if (k.kind == ConfigKey::Kind::kBool) {
       w.Bool(v == "true");

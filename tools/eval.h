@@ -16,7 +16,7 @@
 #include <vector>
 
 #include "core/pipeline/pipeline.h"
-#include "tools/dataset.h"
+#include "drivers/dataset/dataset.h"
 #include "tools/scoring.h"
 
 namespace tsc {

@@ -17,7 +17,7 @@
 #include <utility>
 
 #include "tools/inspect.h"
-#include "tools/json_reader.h"
+#include "drivers/dataset/json_reader.h"
 
 namespace tsc {
 namespace fs = std::filesystem;

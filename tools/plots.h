@@ -22,7 +22,7 @@
 #include <string>
 #include <vector>
 
-#include "tools/dataset.h"
+#include "drivers/dataset/dataset.h"
 #include "tools/eval.h"
 
 namespace tsc {

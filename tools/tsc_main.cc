@@ -14,8 +14,8 @@
 #include <vector>
 
 #include "store/store.h"
-#include "tools/config.h"
-#include "tools/dataset.h"
+#include "daemon/settings.h"
+#include "drivers/dataset/dataset.h"
 #include "tools/eval.h"
 #include "tools/events_json.h"
 #include "tools/inspect.h"
@@ -141,14 +141,14 @@ void AddConfigOptions(po::options_description& desc) {
       "override one configuration key, e.g. --set memory.tau_r=1.5 (repeatable)");
 }
 
-PipelineOptions ConfigFrom(const po::variables_map& vm) {
+Settings ConfigFrom(const po::variables_map& vm) {
   std::optional<fs::path> file;
   if (vm.count("config")) file = vm["config"].as<std::string>();
   std::vector<std::string> overrides;
   if (vm.count("set")) overrides = vm["set"].as<std::vector<std::string>>();
   // --robot is robot.id, given last so it wins; checked like every other key.
   if (vm.count("robot")) overrides.push_back("robot.id=" + vm["robot"].as<std::string>());
-  return LoadPipelineOptions(file, overrides);
+  return LoadSettings(file, overrides);
 }
 
 double Median(std::vector<double> v) {
@@ -223,7 +223,7 @@ int Run(const std::vector<std::string>& args) {
     return kExitOk;
   }
 
-  const PipelineOptions options = ConfigFrom(vm);
+  const PipelineOptions options = ConfigFrom(vm).pipeline;
   const fs::path dataset_dir = vm["dataset"].as<std::string>();
   const fs::path db_path = vm["db"].as<std::string>();
   const Dataset dataset = Dataset::Open(dataset_dir);
@@ -364,7 +364,7 @@ int Eval(const std::vector<std::string>& args) {
   }
   const EvalOptions eval =
       vm.count("sweep") ? ParseSweep(vm["sweep"].as<std::string>()) : EvalOptions{};
-  const PipelineOptions options = ConfigFrom(vm);
+  const PipelineOptions options = ConfigFrom(vm).pipeline;
   const fs::path dataset_dir = vm["dataset"].as<std::string>();
   const fs::path json_path = vm["json"].as<std::string>();
   const Dataset dataset = Dataset::Open(dataset_dir);
@@ -429,7 +429,7 @@ int Inspect(const std::vector<std::string>& args) {
     std::cout << desc << "\n";
     return kExitOk;
   }
-  const PipelineOptions options = ConfigFrom(vm);
+  const PipelineOptions options = ConfigFrom(vm).pipeline;
   std::optional<uint32_t> robot;
   if (vm.count("robot")) robot = options.robot;
   const InspectedStore st = InspectStore(vm["db"].as<std::string>(), options.memory, robot);

@@ -17,7 +17,7 @@
 #include "drivers/world/renderer.h"
 #include "drivers/world/routes.h"
 #include "test/support/temp_dir.h"
-#include "tools/dataset.h"
+#include "drivers/dataset/dataset.h"
 #include "tools/sim_command.h"
 
 namespace tsc::sim {

@@ -1,4 +1,4 @@
-#include "tools/config.h"
+#include "daemon/settings.h"
 
 #include <gtest/gtest.h>
 #include <unistd.h>
@@ -23,7 +23,7 @@ class ConfigTest : public ::testing::Test {
   /// The ConfigError message of loading `text`, or "" when it loads.
   std::string ErrorOf(const std::string& text, const std::vector<std::string>& overrides = {}) {
     try {
-      LoadPipelineOptions(Write(text), overrides);
+      LoadSettings(Write(text), overrides);
     } catch (const ConfigError& e) {
       return e.what();
     }
@@ -34,12 +34,12 @@ class ConfigTest : public ::testing::Test {
 };
 
 TEST_F(ConfigTest, DefaultsValidate) {
-  const PipelineOptions dut = LoadPipelineOptions(std::nullopt, {});
-  EXPECT_NO_THROW(dut.Validate());
+  const Settings dut = LoadSettings(std::nullopt, {});
+  EXPECT_NO_THROW(dut.pipeline.Validate());
   // Every key's default lies in its own range: re-applying it is accepted.
-  PipelineOptions copy;
+  Settings copy;
   for (const ConfigKey& k : ConfigTable()) {
-    EXPECT_NO_THROW(k.set(copy, k.get(PipelineOptions{}))) << k.key;
+    EXPECT_NO_THROW(k.set(copy, k.get(Settings{}))) << k.key;
   }
 }
 
@@ -84,22 +84,22 @@ TEST_F(ConfigTest, FileSetsValues) {
       "# comment\n[robot]\nid = 7\n[bubble]\nfeatures = L1+I\nd_phi_deg = 5\n"
       "[detection]\ntau_kappa = 0.5\ntau_p = 2\n[memory]\ntau_r = 0.75\n"
       "[pipeline]\nrecognize_partial = false\n");
-  const PipelineOptions dut = LoadPipelineOptions(file, {});
-  EXPECT_EQ(dut.robot, 7u);
-  EXPECT_EQ(dut.features.ToString(), FeatureSet::Parse("L1+I").ToString());
-  EXPECT_DOUBLE_EQ(dut.surface.d_phi_deg, 5.0);
-  EXPECT_DOUBLE_EQ(dut.reliability.tau_kappa, 0.5);
-  EXPECT_EQ(dut.detector.tau_p, 2);
-  EXPECT_DOUBLE_EQ(dut.memory.tau_r, 0.75);
-  EXPECT_FALSE(dut.recognize_partial);
+  const Settings dut = LoadSettings(file, {});
+  EXPECT_EQ(dut.pipeline.robot, 7u);
+  EXPECT_EQ(dut.pipeline.features.ToString(), FeatureSet::Parse("L1+I").ToString());
+  EXPECT_DOUBLE_EQ(dut.pipeline.surface.d_phi_deg, 5.0);
+  EXPECT_DOUBLE_EQ(dut.pipeline.reliability.tau_kappa, 0.5);
+  EXPECT_EQ(dut.pipeline.detector.tau_p, 2);
+  EXPECT_DOUBLE_EQ(dut.pipeline.memory.tau_r, 0.75);
+  EXPECT_FALSE(dut.pipeline.recognize_partial);
 }
 
 TEST_F(ConfigTest, OverrideWinsOverFile) {
   const fs::path file = Write("[memory]\ntau_r = 0.75\n");
-  const PipelineOptions dut =
-      LoadPipelineOptions(file, {"memory.tau_r=2.5", "detection.tau_n = 4"});
-  EXPECT_DOUBLE_EQ(dut.memory.tau_r, 2.5);
-  EXPECT_EQ(dut.detector.tau_n, 4);
+  const Settings dut =
+      LoadSettings(file, {"memory.tau_r=2.5", "detection.tau_n = 4"});
+  EXPECT_DOUBLE_EQ(dut.pipeline.memory.tau_r, 2.5);
+  EXPECT_EQ(dut.pipeline.detector.tau_n, 4);
 }
 
 TEST_F(ConfigTest, UnknownKeyNamesFileAndKey) {
@@ -142,7 +142,7 @@ TEST_F(ConfigTest, RepeatedKeyIsAnError) {
 
 TEST_F(ConfigTest, MissingFileNamesIt) {
   try {
-    LoadPipelineOptions(dir_ / "absent.ini", {});
+    LoadSettings(dir_ / "absent.ini", {});
     FAIL();
   } catch (const ConfigError& e) {
     EXPECT_NE(std::string(e.what()).find("absent.ini"), std::string::npos) << e.what();
@@ -150,11 +150,11 @@ TEST_F(ConfigTest, MissingFileNamesIt) {
 }
 
 TEST_F(ConfigTest, DumpLoadsBackToTheSameOptions) {
-  PipelineOptions changed;
+  Settings changed;
   ApplyOverride("memory.tau_r=0.333", changed);
   ApplyOverride("bubble.rest_radius=0.1", changed);
   const std::string dump = DumpConfig(changed);
-  const PipelineOptions dut = LoadPipelineOptions(Write(dump), {});
+  const Settings dut = LoadSettings(Write(dump), {});
   for (const ConfigKey& k : ConfigTable()) EXPECT_EQ(k.get(dut), k.get(changed)) << k.key;
   EXPECT_NE(dump.find("[detection]"), std::string::npos);
   EXPECT_NE(dump.find("range: [0, 1]"), std::string::npos);
@@ -165,8 +165,8 @@ TEST_F(ConfigTest, DumpLoadsBackToTheSameOptions) {
 //   build/bin/tsc config > config/tscd.ini
 TEST_F(ConfigTest, ShippedFileMatchesTheDefaults) {
   const fs::path shipped = fs::path(TSCD_SOURCE_DIR) / "config" / "tscd.ini";
-  const PipelineOptions dut = LoadPipelineOptions(shipped, {});
-  const PipelineOptions defaults;
+  const Settings dut = LoadSettings(shipped, {});
+  const Settings defaults;
   std::ifstream in(shipped);
   std::stringstream text;
   text << in.rdbuf();

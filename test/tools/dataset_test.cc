@@ -1,4 +1,4 @@
-#include "tools/dataset.h"
+#include "drivers/dataset/dataset.h"
 
 #include <gtest/gtest.h>
 #include <unistd.h>

@@ -9,7 +9,7 @@
 #include "core/pipeline/pipeline.h"
 #include "store/store.h"
 #include "test/support/temp_dir.h"
-#include "tools/dataset.h"
+#include "drivers/dataset/dataset.h"
 #include "tools/scoring.h"
 
 namespace tsc {

@@ -1,4 +1,4 @@
-#include "tools/config.h"
+#include "daemon/settings.h"
 
 #include <boost/program_options/options_description.hpp>
 #include <boost/program_options/parsers.hpp>
@@ -98,12 +98,12 @@ bool ParseBool(const std::string& text) {
   throw std::invalid_argument("'" + s + "' is not true or false");
 }
 
-// `field` is a generic lambda returning a reference to the option inside PipelineOptions
+// `field` is a generic lambda returning a reference to the option inside Settings
 // (const or not), so one accessor serves both get and set.
 template <typename Field>
 ConfigKey Number(std::string key, std::string description, std::string unit, double min, double max,
                  Field field, bool min_open = false, bool max_open = false) {
-  using T = std::remove_cvref_t<decltype(field(std::declval<PipelineOptions&>()))>;
+  using T = std::remove_cvref_t<decltype(field(std::declval<Settings&>()))>;
   ConfigKey k;
   k.key = std::move(key);
   k.description = std::move(description);
@@ -113,9 +113,9 @@ ConfigKey Number(std::string key, std::string description, std::string unit, dou
   k.max = max;
   k.min_open = min_open;
   k.max_open = max_open;
-  k.get = [field](const PipelineOptions& o) { return FormatNumber(field(o)); };
+  k.get = [field](const Settings& o) { return FormatNumber(field(o)); };
   // The row is copied into the setter so the range check can name it.
-  k.set = [field, row = k](PipelineOptions& o, const std::string& v) {
+  k.set = [field, row = k](Settings& o, const std::string& v) {
     field(o) = ParseNumber<T>(row, v);
   };
   return k;
@@ -127,9 +127,39 @@ ConfigKey Bool(std::string key, std::string description, Field field) {
   k.key = std::move(key);
   k.description = std::move(description);
   k.kind = ConfigKey::Kind::kBool;
-  k.get = [field](const PipelineOptions& o) { return std::string(field(o) ? "true" : "false"); };
-  k.set = [field](PipelineOptions& o, const std::string& v) { field(o) = ParseBool(v); };
+  k.get = [field](const Settings& o) { return std::string(field(o) ? "true" : "false"); };
+  k.set = [field](Settings& o, const std::string& v) { field(o) = ParseBool(v); };
   return k;
+}
+
+// A text key; `check` throws std::invalid_argument for a value it refuses.
+template <typename Field>
+ConfigKey Text(std::string key, std::string description, std::string range, Field field,
+               std::function<void(const std::string&)> check = {}) {
+  ConfigKey k;
+  k.key = std::move(key);
+  k.description = std::move(description);
+  k.kind = ConfigKey::Kind::kText;
+  k.text_range = std::move(range);
+  k.get = [field](const Settings& o) { return field(o); };
+  k.set = [field, check](Settings& o, const std::string& v) {
+    const std::string value = Trim(v);
+    if (check) check(value);
+    field(o) = value;
+  };
+  return k;
+}
+
+// A check that accepts exactly one of `choices`.
+std::function<void(const std::string&)> OneOf(std::vector<std::string> choices) {
+  return [choices](const std::string& v) {
+    for (const std::string& c : choices) {
+      if (v == c) return;
+    }
+    std::string list;
+    for (const std::string& c : choices) list += (list.empty() ? "" : " | ") + c;
+    throw std::invalid_argument("'" + v + "' is not one of " + list);
+  };
 }
 
 std::vector<ConfigKey> BuildTable() {
@@ -137,7 +167,7 @@ std::vector<ConfigKey> BuildTable() {
   // [robot]
   t.push_back(Number(
       "robot.id", "robot id, the first part of every place id <robot>:<n>", "", 1, 4294967295.0,
-      [](auto& o) -> auto& { return o.robot; }));
+      [](auto& o) -> auto& { return o.pipeline.robot; }));
   // [bubble] — bubble space, appendix A and chapter 2
   {
     ConfigKey k;
@@ -148,20 +178,20 @@ std::vector<ConfigKey> BuildTable() {
         "default, place detection needs it), -I leaves it out";
     k.kind = ConfigKey::Kind::kText;
     k.text_range = "L1..L5, optionally followed by +I or -I";
-    k.get = [](const PipelineOptions& o) { return o.features.ToString(); };
-    k.set = [](PipelineOptions& o, const std::string& v) {
-      o.features = FeatureSet::Parse(Trim(v));
+    k.get = [](const Settings& o) { return o.pipeline.features.ToString(); };
+    k.set = [](Settings& o, const std::string& v) {
+      o.pipeline.features = FeatureSet::Parse(Trim(v));
     };
     t.push_back(std::move(k));
   }
   {
     ConfigKey k = Number(
         "bubble.d_phi_deg", "d_phi, spacing of the grid of viewing directions; must divide 180",
-        "degrees", 0, 90, [](auto& o) -> auto& { return o.surface.d_phi_deg; },
+        "degrees", 0, 90, [](auto& o) -> auto& { return o.pipeline.surface.d_phi_deg; },
         /*min_open=*/true);
-    k.set = [in_range = k.set](PipelineOptions& o, const std::string& v) {
+    k.set = [in_range = k.set](Settings& o, const std::string& v) {
       in_range(o, v);
-      const double steps = 180.0 / o.surface.d_phi_deg;
+      const double steps = 180.0 / o.pipeline.surface.d_phi_deg;
       if (std::abs(steps - std::round(steps)) > 1e-9 * steps) {
         throw std::invalid_argument("does not divide 180 into whole steps (e.g. 1, 2.5, 5)");
       }
@@ -170,99 +200,184 @@ std::vector<ConfigKey> BuildTable() {
   }
   t.push_back(Number(
       "bubble.rest_radius", "rho_0, radius of directions never observed", "feature value", 0, 1,
-      [](auto& o) -> auto& { return o.surface.rest_radius; }));
+      [](auto& o) -> auto& { return o.pipeline.surface.rest_radius; }));
   t.push_back(Number(
       "bubble.max_depth_m", "range that maps to depth feature value 1", "m", 0, 1000,
-      [](auto& o) -> auto& { return o.surface.max_depth_m; },
+      [](auto& o) -> auto& { return o.pipeline.surface.max_depth_m; },
       /*min_open=*/true));
   t.push_back(Number(
       "bubble.patch_px", "side of the resampled d_phi x d_phi image patch", "pixels", 6, 64,
-      [](auto& o) -> auto& { return o.surface.patch_px; }));
+      [](auto& o) -> auto& { return o.pipeline.surface.patch_px; }));
   // [descriptor] — (A.3)-(A.7)
   t.push_back(Number(
       "descriptor.harmonics_pan", "H1, harmonics of the Fourier series in pan", "", 0, 64,
-      [](auto& o) -> auto& { return o.descriptor.h1; }));
+      [](auto& o) -> auto& { return o.pipeline.descriptor.h1; }));
   t.push_back(Number(
       "descriptor.harmonics_tilt", "H2, harmonics of the Fourier series in tilt", "", 0, 64,
-      [](auto& o) -> auto& { return o.descriptor.h2; }));
+      [](auto& o) -> auto& { return o.pipeline.descriptor.h2; }));
   t.push_back(Bool(
       "descriptor.amplitude",
       "true: entries sqrt(z^T z) (amplitude); false: z^T z as in (A.7) (energy)",
-      [](auto& o) -> auto& { return o.descriptor.amplitude; }));
+      [](auto& o) -> auto& { return o.pipeline.descriptor.amplitude; }));
   t.push_back(Bool(
       "descriptor.block_sum",
       "true: each feature block sums to 1/N_v; false: fixed scale keeping feature levels",
-      [](auto& o) -> auto& { return o.descriptor.block_sum; }));
+      [](auto& o) -> auto& { return o.pipeline.descriptor.block_sum; }));
   // [detection] — section 3.4, appendix C
   t.push_back(Number(
       "detection.tau_mu", "tau_mu, mean intensity at or below which a base point is uninformative",
-      "intensity", 0, 1, [](auto& o) -> auto& { return o.reliability.tau_mu; }));
+      "intensity", 0, 1, [](auto& o) -> auto& { return o.pipeline.reliability.tau_mu; }));
   t.push_back(Number(
       "detection.tau_sigma",
       "tau_sigma, intensity variance at or below which a base point is "
       "uninformative",
-      "intensity^2", 0, 0.25, [](auto& o) -> auto& { return o.reliability.tau_sigma; }));
+      "intensity^2", 0, 0.25, [](auto& o) -> auto& { return o.pipeline.reliability.tau_sigma; }));
   t.push_back(Number(
       "detection.tau_kappa",
       "tau_kappa, chi^2 to the previous descriptor above which a base point is "
       "incoherent",
-      "chi^2", 0, 1, [](auto& o) -> auto& { return o.reliability.tau_kappa; }));
+      "chi^2", 0, 1, [](auto& o) -> auto& { return o.pipeline.reliability.tau_kappa; }));
   t.push_back(Number(
       "detection.tau_n",
       "tau_n, a bad base point within this many points extends the temporal "
       "window",
-      "base points", 1, 100000, [](auto& o) -> auto& { return o.detector.tau_n; }));
+      "base points", 1, 100000, [](auto& o) -> auto& { return o.pipeline.detector.tau_n; }));
   t.push_back(Number(
       "detection.tau_w",
       "tau_w, temporal windows this long or longer are transitions, shorter ones "
       "noise",
-      "base points", 1, 100000, [](auto& o) -> auto& { return o.detector.tau_w; }));
+      "base points", 1, 100000, [](auto& o) -> auto& { return o.pipeline.detector.tau_w; }));
   t.push_back(Number(
       "detection.tau_p", "tau_p, detected places with this many base points or fewer are pruned",
-      "base points", 0, 100000, [](auto& o) -> auto& { return o.detector.tau_p; }));
+      "base points", 0, 100000, [](auto& o) -> auto& { return o.pipeline.detector.tau_p; }));
   // [memory] — sections 3.3, 3.5, 3.6
   t.push_back(Number(
       "memory.tau_r", "tau_r, recognition threshold on the cost g_N of (3.8)", "", 0, 1000,
-      [](auto& o) -> auto& { return o.memory.tau_r; },
+      [](auto& o) -> auto& { return o.pipeline.memory.tau_r; },
       /*min_open=*/true));
   t.push_back(Number(
       "memory.tau_l", "tau_l, levels the hybrid traversal climbs", "levels", 0, 1000,
-      [](auto& o) -> auto& { return o.memory.tau_l; }));
+      [](auto& o) -> auto& { return o.pipeline.memory.tau_l; }));
   t.push_back(Number(
       "memory.tau_h",
       "tau_h, relative merge-height gap under which the tree simplification folds "
       "a node into its parent",
-      "", 0, 1, [](auto& o) -> auto& { return o.memory.tau_h; }, false,
+      "", 0, 1, [](auto& o) -> auto& { return o.pipeline.memory.tau_h; }, false,
       /*max_open=*/true));
   t.push_back(Number(
       "memory.max_samples_per_place", "representative member descriptors kept per learned place",
-      "descriptors", 1, 100000, [](auto& o) -> auto& { return o.memory.max_samples_per_place; }));
+      "descriptors", 1, 100000,
+      [](auto& o) -> auto& { return o.pipeline.memory.max_samples_per_place; }));
   t.push_back(Number(
       "memory.max_vote_points",
       "base points of a detected place used for the vote V_N (evenly spaced)", "base points", 1,
-      100000, [](auto& o) -> auto& { return o.memory.max_vote_points; }));
+      100000, [](auto& o) -> auto& { return o.pipeline.memory.max_vote_points; }));
   t.push_back(Number(
       "memory.svm_nu", "nu of the one-class SVM discriminants d_N", "", 0, 1,
-      [](auto& o) -> auto& { return o.memory.discriminant.nu; },
+      [](auto& o) -> auto& { return o.pipeline.memory.discriminant.nu; },
       /*min_open=*/true));
   t.push_back(Number(
       "memory.svm_gamma", "RBF gamma of d_N; 0 = 1 / median squared distance of the training set",
       "1/descriptor distance^2", 0, 1e9,
-      [](auto& o) -> auto& { return o.memory.discriminant.gamma; }));
+      [](auto& o) -> auto& { return o.pipeline.memory.discriminant.gamma; }));
   t.push_back(Number(
       "memory.svm_max_training", "cap of training vectors per node (deterministic subsample)",
       "descriptors", 2, 10000000,
-      [](auto& o) -> auto& { return o.memory.discriminant.max_training; }));
+      [](auto& o) -> auto& { return o.pipeline.memory.discriminant.max_training; }));
   // [pipeline]
   t.push_back(Bool(
       "pipeline.recognize_partial",
       "try recognition when a place opens (its extent passes tau_p), before it "
       "closes",
-      [](auto& o) -> auto& { return o.recognize_partial; }));
+      [](auto& o) -> auto& { return o.pipeline.recognize_partial; }));
+  const size_t pipeline_keys = t.size();
+  // [daemon] — tscd itself (DESIGN §6)
+  t.push_back(Text(
+      "daemon.state_dir", "folder of the robot's SQLite memory (memory.db)", "a path",
+      [](auto& o) -> auto& { return o.daemon.state_dir; },
+      [](const std::string& v) {
+        if (v.empty()) throw std::invalid_argument("a folder is required");
+      }));
+  t.push_back(Number(
+      "daemon.queue_frames",
+      "frames waiting for the pipeline; when full the oldest is dropped and counted", "frames", 1,
+      1000, [](auto& o) -> auto& { return o.daemon.queue_frames; }));
+  t.push_back(Text(
+      "daemon.log_level", "least severe log level written", "trace|debug|info|warn|error",
+      [](auto& o) -> auto& { return o.daemon.log_level; },
+      OneOf({"trace", "debug", "info", "warn", "error"})));
+  // [camera] — drivers/camera
+  t.push_back(Text(
+      "camera.source",
+      "where frames come from: the simulated world rendered live, a dataset folder, "
+      "a video file, or a V4L2/USB device",
+      "sim|folder|video|device", [](auto& o) -> auto& { return o.daemon.camera.source; },
+      OneOf({"sim", "folder", "video", "device"})));
+  t.push_back(Text(
+      "camera.path", "folder or video file; for a device /dev/videoN or its number N", "a path",
+      [](auto& o) -> auto& { return o.daemon.camera.path; }));
+  t.push_back(Number(
+      "camera.fps", "frames per second delivered to the pipeline; 0 = as fast as the source", "1/s",
+      0, 1000, [](auto& o) -> auto& { return o.daemon.camera.fps; }));
+  t.push_back(Bool(
+      "camera.loop", "folder and video: start again at the end instead of stopping",
+      [](auto& o) -> auto& { return o.daemon.camera.loop; }));
+  t.push_back(Number(
+      "camera.hfov_deg",
+      "horizontal field of view of video and device frames (folders use camera.json)", "degrees", 0,
+      180, [](auto& o) -> auto& { return o.daemon.camera.hfov_deg; }, true, true));
+  // [sim] — the simulated world camera and base (drivers/world)
+  t.push_back(Number(
+      "sim.world_seed", "seed of the generated world, shared by the whole team", "", 0,
+      4294967295.0, [](auto& o) -> auto& { return o.daemon.sim.world_seed; }));
+  t.push_back(Text(
+      "sim.world", "kind of generated world", "office|corridors|outdoor",
+      [](auto& o) -> auto& { return o.daemon.sim.world; },
+      OneOf({"office", "corridors", "outdoor"})));
+  t.push_back(Number(
+      "sim.team_size", "robots sharing the simulated world (its rooms are dealt among them)",
+      "robots", 1, 64, [](auto& o) -> auto& { return o.daemon.sim.team_size; }));
+  t.push_back(Number(
+      "sim.route", "this robot's route among the team's, 0-based; below sim.team_size", "", 0, 63,
+      [](auto& o) -> auto& { return o.daemon.sim.route; }));
+  t.push_back(Number(
+      "sim.revisit_fraction", "fraction of its rooms a robot revisits after its first tour", "", 0,
+      1, [](auto& o) -> auto& { return o.daemon.sim.revisit_fraction; }));
+  t.push_back(Text(
+      "sim.lighting", "lighting of the simulated world", "day|dim|mixed",
+      [](auto& o) -> auto& { return o.daemon.sim.lighting; }, OneOf({"day", "dim", "mixed"})));
+  t.push_back(Number(
+      "sim.width", "rendered frame width", "pixels", 16, 4096,
+      [](auto& o) -> auto& { return o.daemon.sim.width; }));
+  t.push_back(Number(
+      "sim.height", "rendered frame height", "pixels", 16, 4096,
+      [](auto& o) -> auto& { return o.daemon.sim.height; }));
+  // [lcm] — the bus (DESIGN §4)
+  t.push_back(Text(
+      "lcm.url", "LCM provider URL; ttl=0 keeps multicast on this host", "an LCM URL",
+      [](auto& o) -> auto& { return o.daemon.bus.url; },
+      [](const std::string& v) {
+        if (v.rfind("udpm://", 0) != 0 && v.rfind("memq://", 0) != 0) {
+          throw std::invalid_argument("'" + v + "' is not a udpm:// or memq:// URL");
+        }
+      }));
+  t.push_back(Number(
+      "lcm.announce_period_s", "seconds between announces on TSC_ANNOUNCE", "s", 0.05, 3600,
+      [](auto& o) -> auto& { return o.daemon.bus.announce_period_s; }));
+  t.push_back(Number(
+      "lcm.portion_bytes",
+      "upper bound of one encoded memory portion; keep it below one UDP datagram", "bytes", 4096,
+      65000, [](auto& o) -> auto& { return o.daemon.bus.portion_bytes; }));
+  t.push_back(Text(
+      "lcm.team_key_file",
+      "file holding the team's HMAC key, readable only by tscd's user (mode 0600); "
+      "empty: exchange messages are not signed",
+      "a path or empty", [](auto& o) -> auto& { return o.daemon.bus.team_key_file; }));
+  for (size_t i = pipeline_keys; i < t.size(); ++i) t[i].scope = ConfigKey::Scope::kDaemon;
   return t;
 }
 
-void Apply(const ConfigKey& k, const std::string& value, PipelineOptions& options,
+void Apply(const ConfigKey& k, const std::string& value, Settings& options,
            const std::string& source) {
   try {
     k.set(options, value);
@@ -299,7 +414,7 @@ const ConfigKey* FindConfigKey(const std::string& key) {
   return nullptr;
 }
 
-void ApplyConfigFile(const fs::path& file, PipelineOptions& options) {
+void ApplyConfigFile(const fs::path& file, Settings& options) {
   const std::string name = file.string();
   std::error_code ec;
   if (fs::is_directory(file, ec)) throw ConfigError(name + ": is a folder, not a config file");
@@ -327,7 +442,7 @@ void ApplyConfigFile(const fs::path& file, PipelineOptions& options) {
   }
 }
 
-void ApplyOverride(const std::string& assignment, PipelineOptions& options) {
+void ApplyOverride(const std::string& assignment, Settings& options) {
   const size_t eq = assignment.find('=');
   if (eq == std::string::npos) {
     throw ConfigError("--set " + assignment + ": expected section.key=value");
@@ -340,13 +455,14 @@ void ApplyOverride(const std::string& assignment, PipelineOptions& options) {
   Apply(*k, assignment.substr(eq + 1), options, "--set");
 }
 
-PipelineOptions LoadPipelineOptions(const std::optional<fs::path>& file,
-                                    const std::vector<std::string>& overrides) {
-  PipelineOptions options;
+Settings LoadSettings(const std::optional<fs::path>& file,
+                      const std::vector<std::string>& overrides) {
+  Settings options;
   if (file) ApplyConfigFile(*file, options);
   for (const std::string& o : overrides) ApplyOverride(o, options);
   try {
-    options.Validate();
+    options.pipeline.Validate();
+    options.daemon.Validate();
   } catch (const std::exception& e) {
     std::string source = file ? file->string() : std::string();
     if (!overrides.empty()) source += source.empty() ? "--set" : " with --set";
@@ -356,8 +472,13 @@ PipelineOptions LoadPipelineOptions(const std::optional<fs::path>& file,
   return options;
 }
 
-std::string DumpConfig(const PipelineOptions& options) {
-  const PipelineOptions defaults;
+PipelineOptions LoadPipelineOptions(const std::optional<fs::path>& file,
+                                    const std::vector<std::string>& overrides) {
+  return LoadSettings(file, overrides).pipeline;
+}
+
+std::string DumpConfig(const Settings& options) {
+  const Settings defaults;
   std::ostringstream out;
   out << "# tscd configuration. INI syntax: [section] headers, key = value, '#' comments.\n"
          "# Every key is optional; a key left out keeps its built-in default. Override any\n"

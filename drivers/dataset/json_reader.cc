@@ -1,4 +1,4 @@
-#include "tools/json_reader.h"
+#include "drivers/dataset/json_reader.h"
 
 #include <cctype>
 #include <cmath>

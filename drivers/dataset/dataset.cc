@@ -1,4 +1,4 @@
-#include "tools/dataset.h"
+#include "drivers/dataset/dataset.h"
 
 #include <algorithm>
 #include <cctype>
@@ -12,7 +12,7 @@
 #include <system_error>
 #include <utility>
 
-#include "tools/json_reader.h"
+#include "drivers/dataset/json_reader.h"
 
 namespace tsc {
 namespace fs = std::filesystem;

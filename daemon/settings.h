@@ -1,8 +1,8 @@
 #pragma once
-// Configuration of the TSC pipeline: an INI file (Boost.Program_options' config-file syntax,
+// Configuration of tscd and the tools: an INI file (Boost.Program_options' config-file syntax,
 // '#' comments, [section] headers) plus command-line overrides `--set section.key=value`.
 // Every parameter is one named key of ConfigTable(), with its unit and valid range; the
-// defaults are those of the Options structs (PipelineOptions{}), never repeated here.
+// defaults are those of the Options structs (Settings{}), never repeated here.
 
 #include <filesystem>
 #include <functional>
@@ -12,8 +12,16 @@
 #include <vector>
 
 #include "core/pipeline/pipeline.h"
+#include "daemon/daemon_options.h"
 
 namespace tsc {
+
+/// Everything a configuration file sets: the pipeline (the model's parameters) and the daemon
+/// around it. The offline tools read the same files and use `pipeline`.
+struct Settings {
+  PipelineOptions pipeline;
+  DaemonOptions daemon;
+};
 
 /// A bad configuration: unknown key, malformed or out-of-range value, unreadable file.
 /// The message names the file (or "--set") and the key.
@@ -29,15 +37,18 @@ struct ConfigKey {
   std::string description;  ///< what it sets, with the thesis symbol
   std::string unit;         ///< "" when dimensionless
   Kind kind = Kind::kReal;
+  /// The model's parameters (read by the offline tools too) or the daemon's own.
+  enum class Scope { kPipeline, kDaemon };
+  Scope scope = Scope::kPipeline;
   double min = 0.0;  ///< range of numeric keys
   double max = 0.0;
   bool min_open = false;   ///< the range excludes min
   bool max_open = false;   ///< the range excludes max
   std::string text_range;  ///< the accepted values of text keys
   /// Current value, formatted as the INI file would hold it.
-  std::function<std::string(const PipelineOptions&)> get;
+  std::function<std::string(const Settings&)> get;
   /// Parses and checks `value`, then stores it. Throws std::invalid_argument with the reason.
-  std::function<void(PipelineOptions&, const std::string& value)> set;
+  std::function<void(Settings&, const std::string& value)> set;
 
   /// "[0, 1]", "(0, 1]", "L1..L5 ...", "true|false".
   std::string RangeText() const;
@@ -50,17 +61,21 @@ const ConfigKey* FindConfigKey(const std::string& key);
 
 /// Applies an INI file on top of `options`. Throws ConfigError naming the file and key on an
 /// unreadable file, a syntax error, an unknown or repeated key, or a bad value.
-void ApplyConfigFile(const std::filesystem::path& file, PipelineOptions& options);
+void ApplyConfigFile(const std::filesystem::path& file, Settings& settings);
 /// Applies one `section.key=value` override. Throws ConfigError naming "--set" and the key.
-void ApplyOverride(const std::string& assignment, PipelineOptions& options);
+void ApplyOverride(const std::string& assignment, Settings& options);
 
 /// Defaults, then `file` when given, then the overrides in order; validates the result
-/// (PipelineOptions::Validate) and throws ConfigError naming the source on failure.
+/// (PipelineOptions::Validate, DaemonOptions::Validate) and throws ConfigError naming the
+/// source on failure.
+Settings LoadSettings(const std::optional<std::filesystem::path>& file,
+                      const std::vector<std::string>& overrides);
+/// LoadSettings(file, overrides).pipeline, for the offline tools.
 PipelineOptions LoadPipelineOptions(const std::optional<std::filesystem::path>& file,
                                     const std::vector<std::string>& overrides);
 
 /// `options` as a commented INI file: each key with its description, unit, range and the
 /// built-in default. Loading the output gives back `options`.
-std::string DumpConfig(const PipelineOptions& options);
+std::string DumpConfig(const Settings& settings);
 
 }  // namespace tsc

@@ -1,0 +1,21 @@
+#include "daemon/daemon_options.h"
+
+#include <stdexcept>
+
+namespace tsc {
+
+void DaemonOptions::Validate() const {
+  if (state_dir.empty()) throw std::invalid_argument("daemon.state_dir: a folder is required");
+  if (queue_frames < 1) throw std::invalid_argument("daemon.queue_frames: must be at least 1");
+  if (camera.source != "sim" && camera.path.empty()) {
+    throw std::invalid_argument("camera.path: required for camera.source = " + camera.source);
+  }
+  if (camera.fps < 0) throw std::invalid_argument("camera.fps: must not be negative");
+  if (sim.route < 0 || sim.route >= sim.team_size) {
+    throw std::invalid_argument("sim.route: " + std::to_string(sim.route) +
+                                " is not below sim.team_size = " + std::to_string(sim.team_size));
+  }
+  if (bus.portion_bytes < 4096) throw std::invalid_argument("lcm.portion_bytes: below 4096");
+}
+
+}  // namespace tsc
