@@ -1,0 +1,52 @@
+#pragma once
+// The camera channel of the hardware abstraction layer: one interface for every source of
+// frames tscd can read (dataset folder, video file, V4L2/USB device, the simulated world, and
+// later the Axis PTZ camera). A source is read from one thread (the daemon's camera thread).
+
+#include <cstdint>
+#include <memory>
+#include <optional>
+#include <stdexcept>
+#include <string>
+
+#include "core/bubble/camera.h"
+#include "core/bubble/surface.h"
+
+namespace tsc {
+
+/// A source failed: it could not be opened, it disappeared, or a frame could not be decoded.
+/// The message names the source (path or device) and what went wrong. `recoverable()` says
+/// whether reading again may succeed (a corrupt frame, a device that may come back).
+class CameraError : public std::runtime_error {
+ public:
+  CameraError(const std::string& what, bool recoverable)
+      : std::runtime_error(what), recoverable_(recoverable) {}
+  bool recoverable() const { return recoverable_; }
+
+ private:
+  bool recoverable_;
+};
+
+/// One frame as the pipeline needs it.
+struct CameraFrame {
+  Observation observation;  ///< colour (+ depth), and the pan/tilt it was taken at
+  int64_t utime = 0;        ///< capture time, microseconds since the epoch
+  int64_t sequence = 0;     ///< frames delivered by this source so far, 0-based
+  /// True when this view completes a base point; false while a PTZ sweep continues (the
+  /// pipeline accumulates such views into the bubble surface, AccumulateView).
+  bool ends_base_point = true;
+};
+
+class CameraSource {
+ public:
+  virtual ~CameraSource() = default;
+  /// Blocks until the next frame. nullopt at the end of a finite source (folder, video).
+  /// Paces delivery to the configured rate. Throws CameraError.
+  virtual std::optional<CameraFrame> Next() = 0;
+  /// Intrinsics of the frames Next() returns.
+  virtual const CameraIntrinsics& intrinsics() const = 0;
+  /// "folder:/data/x", "video:/a.mp4", "device:/dev/video0", "sim:office/7/route 2" — for logs.
+  virtual std::string name() const = 0;
+};
+
+}  // namespace tsc
