@@ -22,6 +22,7 @@
 #include "tools/plots.h"
 #include "tools/progress.h"
 #include "tools/sim_command.h"
+#include "tools/team_command.h"
 
 namespace tsc {
 namespace {
@@ -49,6 +50,7 @@ Topological spatial cognition, offline. Commands:
   inspect  summarise a store; export its place memory and map as JSON, DOT or PNG
   config   print the configuration keys with units, ranges and values as an INI file
   sim      write a simulated dataset (frames and ground truth) from a generated world
+  team     run N tscd robots in a private network namespace on the simulated world
 
 'tsc <command> --help' describes each command.
 
@@ -476,6 +478,7 @@ int Main(int argc, char** argv) {
   if (command == "inspect") fn = Inspect;
   if (command == "config") fn = Config;
   if (command == "sim") fn = RunSimCommand;  // reports its own errors and exit codes
+  if (command == "team") fn = RunTeamCommand;
   if (fn == nullptr) {
     std::cerr << "tsc: unknown command '" << command << "' (try 'tsc --help')\n";
     return kExitUsage;

@@ -3,10 +3,10 @@
 #include <cmath>
 #include <cstdio>
 #include <fstream>
-#include <numbers>
 #include <opencv2/imgcodecs.hpp>
-#include <opencv2/imgproc.hpp>
 #include <stdexcept>
+
+#include "drivers/world/scenario.h"
 
 namespace tsc::sim {
 namespace fs = std::filesystem;
@@ -75,42 +75,11 @@ int WriteRobotDataset(const fs::path& folder, const World& world,
   std::ofstream gt(folder / "groundtruth.csv");
   gt << "frame,place,x,y,heading\n";
   gt.precision(6);
-  std::normal_distribution<double> normal(0.0, 1.0);
-  std::uniform_real_distribution<double> unit(0.0, 1.0);
   const std::vector<int> jpeg = {cv::IMWRITE_JPEG_QUALITY, 90};
   cv::Mat bgr, depth, depth_mm;
   for (int i = 0; i < n; ++i) {
-    const RouteFrame& rf = route[static_cast<size_t>(i)];
-    // The same number of draws per frame whatever the options, so frames stay comparable.
-    const double jx = normal(rng), jy = normal(rng), jh = normal(rng);
-    const double flicker = unit(rng), glitch = unit(rng), glitch_kind = unit(rng);
-    Pose2 pose = rf.pose;
-    pose.x += options.jitter_position_m * jx;
-    pose.y += options.jitter_position_m * jy;
-    pose.heading += options.jitter_heading_deg * std::numbers::pi / 180.0 * jh;
-    if (world.RoomAt(pose.x, pose.y) < 0) pose = rf.pose;  // never through a wall
-
-    renderer.Render(pose, &bgr, options.depth ? &depth : nullptr);
-    Lighting light = Lighting::Day();
-    switch (options.lighting) {
-      case LightingMode::kDay:
-        break;
-      case LightingMode::kDim:
-        light = Lighting::Dim();
-        break;
-      case LightingMode::kFlicker:
-        light.gain *= 0.75 + 0.5 * flicker;
-        break;
-      case LightingMode::kMixed:
-        if (rf.revisit) light = Lighting::Dim();
-        break;
-    }
-    const bool glitched = glitch < options.glitch_probability;
-    if (glitched && glitch_kind >= 0.5) light.gain *= 0.2;  // a dark frame
-    if (glitched && glitch_kind < 0.5) {                    // a blurred frame
-      cv::GaussianBlur(bgr, bgr, cv::Size(0, 0), ro.width / 80.0);
-    }
-    renderer.ApplyLighting(light, rng, &bgr);
+    const Pose2 pose = RenderRouteFrame(world, renderer, route[static_cast<size_t>(i)], options,
+                                        rng, &bgr, options.depth ? &depth : nullptr);
 
     const std::string stem = Stem(i + 1);
     const fs::path image = folder / (stem + (options.png ? ".png" : ".jpg"));
@@ -141,26 +110,21 @@ SimSummary WriteSimulatedDataset(const fs::path& out, const SimOptions& options)
   fs::create_directories(out, ec);
   if (ec) throw std::runtime_error("cannot create " + out.string() + ": " + ec.message());
 
-  std::mt19937 world_rng(options.seed);
-  const World world = World::Generate(options.world, world_rng);
-  std::mt19937 route_rng(options.seed ^ 0x9e3779b9u);
-  std::mt19937 frame_rng(options.seed ^ 0x85ebca6bu);
+  const Scenario scenario = MakeScenario(options);
+  std::mt19937 frame_rng(FrameSeed(options.seed));
   SimSummary summary;
-  for (const Room& r : world.rooms()) summary.labels.push_back(r.label);
+  for (const Room& r : scenario.world.rooms()) summary.labels.push_back(r.label);
   if (options.robots == 1) {
-    const std::vector<RouteFrame> route =
-        FollowRooms(world, SingleRobotTargets(world, options.route, route_rng), options.route);
-    summary.frames.push_back(WriteRobotDataset(out, world, route, options, frame_rng));
+    summary.frames.push_back(
+        WriteRobotDataset(out, scenario.world, scenario.routes.front(), options, frame_rng));
     summary.datasets.push_back(out);
     return summary;
   }
-  WriteText(out / "world.json", world.ToJson());
-  const auto targets = TeamTargets(world, options.robots, options.route, route_rng);
+  WriteText(out / "world.json", scenario.world.ToJson());
   for (int k = 0; k < options.robots; ++k) {
     const fs::path folder = out / "robots" / std::to_string(k + 1);
-    const std::vector<RouteFrame> route =
-        FollowRooms(world, targets[static_cast<size_t>(k)], options.route);
-    summary.frames.push_back(WriteRobotDataset(folder, world, route, options, frame_rng));
+    summary.frames.push_back(WriteRobotDataset(
+        folder, scenario.world, scenario.routes[static_cast<size_t>(k)], options, frame_rng));
     summary.datasets.push_back(folder);
   }
   return summary;

@@ -1,0 +1,534 @@
+#include "daemon/daemon.h"
+
+#include <spdlog/spdlog.h>
+#include <unistd.h>
+
+#include <boost/asio/io_context.hpp>
+#include <boost/asio/posix/stream_descriptor.hpp>
+#include <boost/asio/post.hpp>
+#include <boost/asio/signal_set.hpp>
+#include <boost/asio/steady_timer.hpp>
+#include <csignal>
+#include <random>
+#include <system_error>
+
+#include "tsc/announce_t.hpp"
+#include "tsc/memory_request_t.hpp"
+#include "tsc/place_event_t.hpp"
+
+namespace tsc {
+namespace fs = std::filesystem;
+namespace asio = boost::asio;
+using Clock = std::chrono::steady_clock;
+
+namespace {
+
+int64_t NowUtime() {
+  return std::chrono::duration_cast<std::chrono::microseconds>(
+             std::chrono::system_clock::now().time_since_epoch())
+      .count();
+}
+
+int64_t SteadyMs() {
+  return std::chrono::duration_cast<std::chrono::milliseconds>(Clock::now().time_since_epoch())
+      .count();
+}
+
+int64_t RandomBootId() {
+  std::random_device rd;
+  const uint64_t hi = rd();
+  const uint64_t lo = rd();
+  return static_cast<int64_t>((hi << 32) | lo);
+}
+
+// Logs the first occurrences of a repeated problem, then one in every 100, so a flood of bad
+// frames or messages cannot drown the journal but is never silent.
+bool ShouldLog(int64_t occurrence) { return occurrence <= 10 || occurrence % 100 == 0; }
+
+place_ref_t Ref(const PlaceId& id) {
+  place_ref_t r;
+  r.robot = static_cast<int32_t>(id.robot);
+  r.local = static_cast<int32_t>(id.local);
+  return r;
+}
+
+place_event_t ToMessage(const PlaceEvent& e, uint32_t robot, int64_t utime) {
+  place_event_t m;
+  m.utime = utime;
+  m.robot = static_cast<int32_t>(robot);
+  m.frame = e.frame;
+  m.event = EventKindName(e.kind);
+  m.detected_place = static_cast<int32_t>(e.detected_place);
+  m.has_place = e.place.has_value();
+  m.place = e.place ? Ref(*e.place) : place_ref_t{0, 0};
+  m.has_from = e.from.has_value();
+  m.from = e.from ? Ref(*e.from) : place_ref_t{0, 0};
+  m.cost = e.cost;
+  m.partial = e.partial;
+  m.hybrid = e.hybrid;
+  m.members = e.members;
+  m.transition_first = e.transition.empty() ? -1 : e.transition.first;
+  m.transition_last = e.transition.empty() ? -1 : e.transition.last;
+  return m;
+}
+
+std::string Describe(const PlaceEvent& e) {
+  std::string s = std::string(EventKindName(e.kind)) + " at base point " + std::to_string(e.frame) +
+                  ": detected place " + std::to_string(e.detected_place);
+  if (e.place) s += ", place " + e.place->ToString();
+  if (e.from) s += ", from " + e.from->ToString();
+  if (e.kind == EventKind::kRecognized) {
+    s += ", cost " + std::to_string(e.cost) + (e.partial ? " (partial)" : "") +
+         (e.hybrid ? " (hybrid)" : "");
+  }
+  if (e.members > 0) s += ", " + std::to_string(e.members) + " base points";
+  return s;
+}
+
+}  // namespace
+
+struct Daemon::Loop {
+  explicit Loop(asio::io_context& io)
+      : signals(io, SIGTERM, SIGINT, SIGHUP), lcm(io), announce(io), status(io), watchdog(io) {}
+  asio::signal_set signals;
+  asio::posix::stream_descriptor lcm;
+  asio::steady_timer announce;
+  asio::steady_timer status;
+  asio::steady_timer watchdog;
+};
+
+Daemon::Daemon(Settings settings, SettingsSource source, std::unique_ptr<CameraSource> camera)
+    : settings_(std::move(settings)),
+      source_(std::move(source)),
+      camera_(std::move(camera)),
+      robot_(settings_.pipeline.robot),
+      boot_id_(RandomBootId()),
+      db_path_(fs::path(settings_.daemon.state_dir) / "memory.db"),
+      io_(std::make_unique<asio::io_context>()),
+      loop_(std::make_unique<Loop>(*io_)),
+      bus_(settings_.daemon.bus.url),
+      queue_(static_cast<size_t>(settings_.daemon.queue_frames)) {
+  spdlog::info("tscd robot {} starting (camera {}, LCM {}, state {})", robot_, camera_->name(),
+               bus_.url(), db_path_.string());
+  PlaceMemory memory(robot_, settings_.pipeline.memory);
+  TopologicalMap map;
+  PipelineState state;
+  try {
+    std::error_code ec;
+    fs::create_directories(settings_.daemon.state_dir, ec);
+    if (ec) {
+      throw StoreError("cannot create the state directory " + settings_.daemon.state_dir + ": " +
+                       ec.message());
+    }
+    Store store = Store::Open(db_path_);
+    StoredState saved = store.Load(robot_, settings_.pipeline.memory);
+    memory = std::move(saved.memory);
+    map = std::move(saved.map);
+    state = saved.pipeline;
+    store_ = std::move(store);
+    spdlog::info("memory loaded from {}: {} places, {} map edges, continuing at base point {}",
+                 db_path_.string(), memory.places().size(), map.edges().size(), state.next_base);
+  } catch (const std::exception& e) {
+    // Keep running (recognition and learning go on in memory) and keep every result for the
+    // day the store opens; never touch a database we could not read.
+    store_problem_ = e.what();
+    degraded_store_ = true;
+    next_store_retry_ = Clock::now() + std::chrono::seconds(10);
+    spdlog::error(
+        "memory is not persisted: {}; tscd keeps running, keeps its results and "
+        "retries every 10 s",
+        store_problem_);
+  }
+  counters_.places = static_cast<int32_t>(memory.places().size());
+  counters_.edges = static_cast<int32_t>(map.edges().size());
+  counters_.detected_places = static_cast<int32_t>(state.next_detected - 1);
+  counters_.memory_version = 1;
+  worker_heartbeat_ms_ = SteadyMs();
+  pipeline_ = std::make_unique<Pipeline>(camera_->intrinsics(), settings_.pipeline,
+                                         std::move(memory), std::move(map), state);
+}
+
+Daemon::~Daemon() {
+  stopping_ = true;  // normally Run() has stopped everything; this covers a failed start
+  queue_.Close();
+  if (camera_thread_.joinable()) camera_thread_.join();
+  if (worker_thread_.joinable()) worker_thread_.join();
+}
+
+void Daemon::Stop() {
+  asio::post(*io_, [this] { Shutdown(); });
+}
+
+int Daemon::Run() {
+  const std::string me = std::to_string(robot_);
+  bus_.Subscribe("TSC_REQUEST_" + me,
+                 [this](const std::string& c, const uint8_t* d, size_t n) { OnRequest(c, d, n); });
+  bus_.Subscribe("TSC_ANNOUNCE", [this](const std::string& c, const uint8_t* d, size_t n) {
+    OnPeerAnnounce(c, d, n);
+  });
+  loop_->lcm.assign(::dup(bus_.fd()));
+  WaitLcm();
+  loop_->signals.async_wait([this](const boost::system::error_code& ec, int sig) {
+    if (!ec) OnSignal(sig);
+  });
+  worker_thread_ = std::thread([this] { WorkerLoop(); });
+  camera_thread_ = std::thread([this] { CameraLoop(); });
+  StartTimers();
+  OnAnnounceTimer();
+  notifier_.Ready(StatusLine());
+  spdlog::info("ready: {}", StatusLine());
+  io_->run();
+  return 0;
+}
+
+// ---------------------------------------------------------------------------------------------
+// Event loop
+
+void Daemon::StartTimers() {
+  OnStatusTimer();
+  if (notifier_.watchdog_interval()) OnWatchdogTimer();
+}
+
+void Daemon::WaitLcm() {
+  loop_->lcm.async_wait(asio::posix::stream_descriptor::wait_read,
+                        [this](const boost::system::error_code& ec) {
+                          if (ec) return;  // cancelled at shutdown
+                          if (!bus_.HandleReady()) spdlog::warn("LCM: receive error");
+                          WaitLcm();
+                        });
+}
+
+void Daemon::OnAnnounceTimer() {
+  if (stopping_) return;
+  PublishMemoryIfChanged();
+  announce_t a;
+  a.utime = NowUtime();
+  a.protocol = announce_t::PROTOCOL;
+  a.robot = static_cast<int32_t>(robot_);
+  a.boot_id = boot_id_;
+  a.sequence = ++announces_sent_;
+  a.memory_version = snapshot_ ? snapshot_->version : 0;
+  a.memory_digest = snapshot_ ? snapshot_->digest : 0;
+  a.portions = snapshot_ ? static_cast<int32_t>(snapshot_->portions.size()) : 0;
+  a.places = counters_.places;
+  a.edges = counters_.edges;
+  a.detected_places = counters_.detected_places;
+  a.frames = counters_.frames;
+  a.frames_dropped = queue_.dropped();
+  a.messages_rejected = counters_.messages_rejected;
+  a.queue_fill = static_cast<float>(queue_.fill());
+  a.status = StatusLine();
+  a.hmac_size = 0;
+  if (!bus_.Publish("TSC_ANNOUNCE", a)) spdlog::warn("LCM: cannot publish TSC_ANNOUNCE");
+  const auto period = std::chrono::duration<double>(settings_.daemon.bus.announce_period_s);
+  loop_->announce.expires_after(std::chrono::duration_cast<Clock::duration>(period));
+  loop_->announce.async_wait([this](const boost::system::error_code& ec) {
+    if (!ec) OnAnnounceTimer();
+  });
+}
+
+void Daemon::OnStatusTimer() {
+  if (stopping_) return;
+  const std::string line = StatusLine();
+  notifier_.Status(line);
+  spdlog::info("{}", line);
+  const int64_t rejected = counters_.messages_rejected;
+  if (rejected > last_rejected_logged_) {
+    spdlog::warn("{} malformed LCM messages dropped so far", rejected);
+    last_rejected_logged_ = rejected;
+  }
+  loop_->status.expires_after(std::chrono::seconds(10));
+  loop_->status.async_wait([this](const boost::system::error_code& ec) {
+    if (!ec) OnStatusTimer();
+  });
+}
+
+void Daemon::OnWatchdogTimer() {
+  // Pet the watchdog only while the worker is alive: a hung pipeline gets the daemon restarted.
+  const int64_t silent_ms = SteadyMs() - worker_heartbeat_ms_;
+  if (silent_ms < 30000) {
+    notifier_.Watchdog();
+  } else {
+    spdlog::error("pipeline worker silent for {} ms; not petting the systemd watchdog", silent_ms);
+  }
+  loop_->watchdog.expires_after(*notifier_.watchdog_interval());
+  loop_->watchdog.async_wait([this](const boost::system::error_code& ec) {
+    if (!ec) OnWatchdogTimer();
+  });
+}
+
+void Daemon::OnSignal(int signal) {
+  if (signal == SIGHUP) {
+    Reload();
+    loop_->signals.async_wait([this](const boost::system::error_code& ec, int sig) {
+      if (!ec) OnSignal(sig);
+    });
+    return;
+  }
+  spdlog::info("signal {}: stopping", signal == SIGTERM ? "SIGTERM" : "SIGINT");
+  Shutdown();
+}
+
+void Daemon::Shutdown() {
+  if (stopping_.exchange(true)) return;
+  notifier_.Stopping();
+  // Camera first (no new frames), then the worker drains the queue, finishes the stream and
+  // commits; the loop stays alive meanwhile so it could still publish.
+  if (camera_thread_.joinable()) camera_thread_.join();
+  queue_.Push(WorkItem{std::nullopt});  // end of stream: close the open place and commit
+  queue_.Close();
+  if (worker_thread_.joinable()) worker_thread_.join();
+  // The loop runs what is still queued (the worker's last events), then this, then returns.
+  asio::post(*io_, [this] {
+    PublishMemoryIfChanged();
+    spdlog::info("stopped: {}", StatusLine());
+  });
+  boost::system::error_code ignored;
+  loop_->signals.cancel(ignored);
+  loop_->lcm.cancel(ignored);
+  loop_->announce.cancel();
+  loop_->status.cancel();
+  loop_->watchdog.cancel();
+}
+
+void Daemon::Reload() {
+  notifier_.Reloading();
+  try {
+    const Settings fresh = LoadSettings(source_.file, source_.overrides);
+    std::vector<std::string> later;
+    for (const ConfigKey& k : ConfigTable()) {
+      if (k.get(fresh) == k.get(settings_)) continue;
+      if (k.key == "daemon.log_level") {
+        spdlog::set_level(spdlog::level::from_str(fresh.daemon.log_level));
+      } else if (k.key == "lcm.announce_period_s") {
+        settings_.daemon.bus.announce_period_s = fresh.daemon.bus.announce_period_s;
+      } else {
+        later.push_back(k.key);
+        continue;
+      }
+      k.set(settings_, k.get(fresh));
+      spdlog::info("reload: {} = {}", k.key, k.get(fresh));
+    }
+    for (const std::string& key : later) {
+      spdlog::warn("reload: {} changed; it takes effect when tscd restarts", key);
+    }
+  } catch (const std::exception& e) {
+    spdlog::error("reload refused, the running configuration stays: {}", e.what());
+  }
+  notifier_.Ready(StatusLine());
+}
+
+void Daemon::OnRequest(const std::string& channel, const uint8_t* data, size_t size) {
+  const auto req = LcmBus::Decode<memory_request_t>(data, size);
+  if (!req || req->robot != static_cast<int32_t>(robot_)) {
+    const int64_t n = ++counters_.messages_rejected;
+    if (ShouldLog(n)) {
+      spdlog::warn("{}: dropped a malformed memory request ({} bytes)", channel, size);
+    }
+    return;
+  }
+  if (!snapshot_) return;
+  std::vector<int32_t> indices;
+  if (req->version == snapshot_->version) {
+    for (int32_t i : req->missing) {
+      if (i >= 0 && i < static_cast<int32_t>(snapshot_->portions.size())) indices.push_back(i);
+    }
+  }
+  // An older version or an empty list: the whole current snapshot.
+  if (indices.empty()) {
+    for (int32_t i = 0; i < static_cast<int32_t>(snapshot_->portions.size()); ++i) {
+      indices.push_back(i);
+    }
+  }
+  spdlog::debug("robot {} asked for {} portions of version {}", req->requester, indices.size(),
+                req->version);
+  PublishPortions(indices);
+}
+
+void Daemon::OnPeerAnnounce(const std::string& channel, const uint8_t* data, size_t size) {
+  const auto a = LcmBus::Decode<announce_t>(data, size);
+  if (!a) {
+    const int64_t n = ++counters_.messages_rejected;
+    if (ShouldLog(n)) spdlog::warn("{}: dropped a malformed announce ({} bytes)", channel, size);
+    return;
+  }
+  // Peers are merged by the exchange (a later stage); for now they are only seen.
+  if (a->robot != static_cast<int32_t>(robot_)) {
+    spdlog::trace("peer {} at memory version {}", a->robot, a->memory_version);
+  }
+}
+
+void Daemon::PublishEvents(const std::vector<PlaceEvent>& events, int64_t utime) {
+  const std::string channel = "TSC_EVENT_" + std::to_string(robot_);
+  for (const PlaceEvent& e : events) {
+    const auto level = e.kind == EventKind::kPruned ? spdlog::level::debug : spdlog::level::info;
+    spdlog::log(level, "{}", Describe(e));
+    if (!bus_.Publish(channel, ToMessage(e, robot_, utime))) {
+      spdlog::warn("LCM: cannot publish on {}", channel);
+    }
+  }
+}
+
+void Daemon::PublishMemoryIfChanged() {
+  const int64_t version = counters_.memory_version;
+  if (snapshot_ && snapshot_->version == version) return;
+  SnapshotHeader header{static_cast<int32_t>(robot_), boot_id_, version, NowUtime()};
+  {
+    std::lock_guard lock(pipeline_mutex_);
+    snapshot_ = std::make_shared<const MemorySnapshot>(BuildSnapshot(
+        pipeline_->memory(), pipeline_->map(), header, settings_.daemon.bus.portion_bytes));
+  }
+  std::vector<int32_t> all(snapshot_->portions.size());
+  for (size_t i = 0; i < all.size(); ++i) all[i] = static_cast<int32_t>(i);
+  PublishPortions(all);
+}
+
+void Daemon::PublishPortions(const std::vector<int32_t>& indices) {
+  const std::string channel = "TSC_MEMORY_" + std::to_string(robot_);
+  for (int32_t i : indices) {
+    if (!bus_.Publish(channel, snapshot_->portions[static_cast<size_t>(i)])) {
+      spdlog::warn("LCM: cannot publish portion {} on {}", i, channel);
+    }
+  }
+}
+
+std::string Daemon::StatusLine() const {
+  std::string s = "frames " + std::to_string(counters_.frames.load()) + " (dropped " +
+                  std::to_string(queue_.dropped()) + "), places " +
+                  std::to_string(counters_.places.load()) + ", edges " +
+                  std::to_string(counters_.edges.load()) + ", detected " +
+                  std::to_string(counters_.detected_places.load());
+  if (degraded_store_) s += "; degraded: memory not persisted";
+  if (degraded_camera_) s += "; degraded: camera failed";
+  if (camera_ended_) s += "; camera ended";
+  return s;
+}
+
+// ---------------------------------------------------------------------------------------------
+// Camera thread
+
+void Daemon::CameraLoop() {
+  while (!stopping_) {
+    try {
+      std::optional<CameraFrame> frame = camera_->Next();
+      if (!frame) {
+        spdlog::info("camera {} ended; tscd keeps serving its memory", camera_->name());
+        camera_ended_ = true;
+        queue_.Push(WorkItem{std::nullopt});
+        return;
+      }
+      queue_.Push(WorkItem{std::move(frame)});
+    } catch (const CameraError& e) {
+      const int64_t n = ++counters_.camera_errors;
+      if (ShouldLog(n)) spdlog::warn("camera: {} ({} camera errors so far)", e.what(), n);
+      if (!e.recoverable()) {
+        spdlog::error("camera {} failed for good: {}; tscd keeps serving its memory",
+                      camera_->name(), e.what());
+        degraded_camera_ = true;
+        return;
+      }
+    } catch (const std::exception& e) {
+      spdlog::error("camera {}: unexpected failure: {}", camera_->name(), e.what());
+      degraded_camera_ = true;
+      return;
+    }
+  }
+}
+
+// ---------------------------------------------------------------------------------------------
+// Worker thread
+
+void Daemon::WorkerLoop() {
+  for (;;) {
+    worker_heartbeat_ms_ = SteadyMs();
+    std::optional<WorkItem> item = queue_.Pop(std::chrono::milliseconds(500));
+    if (!item) {
+      if (queue_.closed()) return;
+      RetryStore();
+      continue;
+    }
+    try {
+      Handle(*item);
+    } catch (const std::exception& e) {
+      // A frame the pipeline refuses (wrong size, say) is logged and skipped.
+      const int64_t n = ++counters_.camera_errors;
+      if (ShouldLog(n)) spdlog::error("pipeline: frame skipped: {}", e.what());
+    }
+  }
+}
+
+void Daemon::Handle(const WorkItem& item) {
+  FrameResult result;
+  {
+    std::lock_guard lock(pipeline_mutex_);
+    if (!item.frame) {
+      result = pipeline_->Finish();
+    } else if (!item.frame->ends_base_point) {
+      pipeline_->AccumulateView(item.frame->observation);
+      return;
+    } else {
+      result = pipeline_->Process(item.frame->observation);
+      ++counters_.frames;
+    }
+    const PipelineState state = pipeline_->state();
+    counters_.places = static_cast<int32_t>(pipeline_->memory().places().size());
+    counters_.edges = static_cast<int32_t>(pipeline_->map().edges().size());
+    counters_.detected_places = static_cast<int32_t>(state.next_detected - 1);
+  }
+  bool map_changed = false;
+  for (const PlaceEvent& e : result.events) map_changed |= e.kind == EventKind::kMapped;
+  const bool changed = result.memory_changed || !result.changed_places.empty() || map_changed;
+  std::vector<PlaceEvent> events = result.events;
+  CommitOrKeep(std::move(result));
+  if (changed) ++counters_.memory_version;
+  if (!events.empty()) {
+    const int64_t utime = item.frame ? item.frame->utime : NowUtime();
+    asio::post(*io_, [this, events = std::move(events), utime] { PublishEvents(events, utime); });
+  }
+}
+
+void Daemon::CommitOrKeep(FrameResult result) {
+  pending_.push_back(std::move(result));
+  RetryStore();
+}
+
+void Daemon::RetryStore() {
+  if (pending_.empty()) return;
+  if (!store_) {
+    if (Clock::now() < next_store_retry_) return;
+    next_store_retry_ = Clock::now() + std::chrono::seconds(10);
+    try {
+      Store store = Store::Open(db_path_);
+      const StoredState saved = store.Load(robot_, settings_.pipeline.memory);
+      if (!saved.memory.empty() || saved.pipeline.next_base > 0) {
+        throw StoreError(db_path_.string() +
+                         " now holds a memory this process did not load; leaving it untouched");
+      }
+      store_ = std::move(store);
+      spdlog::info("store {} opened; writing {} kept results", db_path_.string(), pending_.size());
+    } catch (const std::exception& e) {
+      if (e.what() != store_problem_) spdlog::error("store still unavailable: {}", e.what());
+      store_problem_ = e.what();
+      return;
+    }
+  }
+  size_t done = 0;
+  try {
+    std::lock_guard lock(pipeline_mutex_);
+    for (; done < pending_.size(); ++done) store_->Commit(pending_[done], *pipeline_);
+    if (degraded_store_)
+      spdlog::info("store {} writable again; nothing was lost", db_path_.string());
+    degraded_store_ = false;
+    store_problem_.clear();
+  } catch (const std::exception& e) {
+    const int64_t n = ++counters_.store_failures;
+    if (ShouldLog(n)) {
+      spdlog::error("commit failed, {} results kept for retry: {}", pending_.size() - done,
+                    e.what());
+    }
+    degraded_store_ = true;
+  }
+  pending_.erase(pending_.begin(), pending_.begin() + static_cast<std::ptrdiff_t>(done));
+}
+
+}  // namespace tsc

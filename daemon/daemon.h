@@ -1,0 +1,137 @@
+#pragma once
+// tscd: one robot's TSC pipeline and spatial memory as a service (DESIGN §6). Three threads:
+//   - the event loop (Boost.Asio, the thread that calls Run): LCM, timers, signals, systemd;
+//   - the camera thread: reads the camera and never blocks on the pipeline (FrameQueue);
+//   - the pipeline worker: runs the TSC loop and commits every result to SQLite.
+// The worker hands events to the loop, which alone talks to LCM.
+
+#include <atomic>
+#include <chrono>
+#include <cstdint>
+#include <filesystem>
+#include <memory>
+#include <mutex>
+#include <optional>
+#include <string>
+#include <thread>
+#include <vector>
+
+#include "core/pipeline/pipeline.h"
+#include "daemon/frame_queue.h"
+#include "daemon/lcm_bus.h"
+#include "daemon/memory_snapshot.h"
+#include "daemon/settings.h"
+#include "daemon/system_notifier.h"
+#include "drivers/camera/camera_source.h"
+#include "store/store.h"
+
+namespace boost::asio {
+class io_context;
+}
+
+namespace tsc {
+
+/// Where the settings came from, so SIGHUP can read them again.
+struct SettingsSource {
+  std::optional<std::filesystem::path> file;
+  std::vector<std::string> overrides;
+};
+
+/// Counters published in announces and status lines.
+struct DaemonCounters {
+  std::atomic<int64_t> frames{0};             ///< base points processed
+  std::atomic<int64_t> camera_errors{0};      ///< frames the camera could not deliver
+  std::atomic<int64_t> store_failures{0};     ///< commits that failed (kept and retried)
+  std::atomic<int64_t> messages_rejected{0};  ///< malformed messages on our channels
+  std::atomic<int64_t> memory_version{0};     ///< bumped on every memory or map change
+  std::atomic<int32_t> places{0};
+  std::atomic<int32_t> edges{0};
+  std::atomic<int32_t> detected_places{0};
+};
+
+class Daemon {
+ public:
+  /// Opens the state directory and the store (loading the saved memory), LCM and the camera.
+  /// A store that cannot be opened does not stop the daemon: it runs without persistence,
+  /// keeps every result, and retries (see Status()). Throws std::runtime_error when LCM
+  /// cannot start.
+  Daemon(Settings settings, SettingsSource source, std::unique_ptr<CameraSource> camera);
+  ~Daemon();
+  Daemon(const Daemon&) = delete;
+  Daemon& operator=(const Daemon&) = delete;
+
+  /// Runs until SIGTERM / SIGINT (or Stop()), then finishes the stream, commits and returns
+  /// the exit code (0).
+  int Run();
+  /// Thread-safe request to stop, as SIGTERM.
+  void Stop();
+
+  const DaemonCounters& counters() const { return counters_; }
+
+ private:
+  struct WorkItem {
+    std::optional<CameraFrame> frame;  // nullopt: the camera ended
+  };
+
+  // Event loop side.
+  void StartTimers();
+  void WaitLcm();
+  void OnAnnounceTimer();
+  void OnStatusTimer();
+  void OnWatchdogTimer();
+  void OnSignal(int signal);
+  void OnRequest(const std::string& channel, const uint8_t* data, size_t size);
+  void OnPeerAnnounce(const std::string& channel, const uint8_t* data, size_t size);
+  void PublishEvents(const std::vector<PlaceEvent>& events, int64_t utime);
+  void PublishMemoryIfChanged();
+  void PublishPortions(const std::vector<int32_t>& indices);
+  void Reload();
+  void Shutdown();
+  std::string StatusLine() const;
+
+  // Camera thread.
+  void CameraLoop();
+  // Worker thread.
+  void WorkerLoop();
+  void Handle(const WorkItem& item);
+  void CommitOrKeep(FrameResult result);
+  void RetryStore();
+
+  Settings settings_;
+  SettingsSource source_;
+  std::unique_ptr<CameraSource> camera_;
+  const uint32_t robot_;
+  const int64_t boot_id_;
+  const std::filesystem::path db_path_;
+
+  std::unique_ptr<boost::asio::io_context> io_;
+  struct Loop;  // Asio objects (signals, timers, LCM descriptor), kept out of this header
+  std::unique_ptr<Loop> loop_;
+  LcmBus bus_;
+  SystemNotifier notifier_;
+
+  // Owned by the worker once it runs; the mutex lets the loop take snapshots.
+  mutable std::mutex pipeline_mutex_;
+  std::unique_ptr<Pipeline> pipeline_;
+  std::optional<Store> store_;
+  std::vector<FrameResult> pending_;  // results not yet committed (store missing or failing)
+  std::string store_problem_;         // "" when the store works
+  std::chrono::steady_clock::time_point next_store_retry_{};
+
+  FrameQueue<WorkItem> queue_;
+  std::atomic<bool> stopping_{false};
+  std::atomic<bool> camera_ended_{false};
+  std::atomic<int64_t> worker_heartbeat_ms_{0};
+  std::atomic<bool> degraded_store_{false};
+  std::atomic<bool> degraded_camera_{false};
+  DaemonCounters counters_;
+
+  std::shared_ptr<const MemorySnapshot> snapshot_;  // loop thread only
+  int64_t announces_sent_ = 0;
+  int64_t last_rejected_logged_ = 0;
+
+  std::thread camera_thread_;
+  std::thread worker_thread_;
+};
+
+}  // namespace tsc

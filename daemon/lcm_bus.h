@@ -1,0 +1,81 @@
+#pragma once
+// The one adapter between tscd and LCM (STYLE 2): owns the lcm_t, exposes its file descriptor
+// for the event loop, publishes generated types and hands raw payloads to subscribers, which
+// decode them with Decode<T>() so a malformed message is a counted value, never an exception
+// inside LCM's C callback.
+
+#include <cstdint>
+#include <functional>
+#include <memory>
+#include <optional>
+#include <string>
+#include <vector>
+
+namespace tsc {
+
+class LcmBus {
+ public:
+  /// Raw payload of one received message.
+  using Handler = std::function<void(const std::string& channel, const uint8_t* data, size_t size)>;
+
+  /// Opens the provider `url` (udpm://..., memq://). Throws std::runtime_error naming the URL
+  /// when LCM cannot start (no multicast route, bad URL).
+  explicit LcmBus(const std::string& url);
+  ~LcmBus();
+  LcmBus(const LcmBus&) = delete;
+  LcmBus& operator=(const LcmBus&) = delete;
+
+  /// Readable when messages wait; the event loop calls HandleReady() then.
+  int fd() const;
+  /// Dispatches the messages waiting now without blocking. Returns false on an LCM error.
+  bool HandleReady();
+  /// Blocks up to `timeout_ms` for one message (tests and tools without an event loop).
+  bool HandleTimeout(int timeout_ms);
+
+  /// Subscribes to a channel (a POSIX regular expression, as LCM takes it). Exceptions the
+  /// handler throws are caught, logged by the caller's `on_error`, and counted.
+  void Subscribe(const std::string& channel_regex, Handler handler);
+
+  /// Publishes encoded bytes. Returns false when LCM refused them (too large, socket error).
+  bool PublishRaw(const std::string& channel, const std::vector<uint8_t>& bytes);
+
+  template <typename T>
+  bool Publish(const std::string& channel, const T& msg) {
+    return PublishRaw(channel, Encode(msg));
+  }
+
+  /// Exceptions thrown by handlers, so a bug in a handler cannot silently stop a channel.
+  int64_t handler_failures() const { return handler_failures_; }
+
+  const std::string& url() const { return url_; }
+
+ private:
+  struct Subscription;
+  static void Dispatch(const void* rbuf, const char* channel, void* user);
+
+  std::string url_;
+  void* lcm_ = nullptr;  // lcm_t*, kept opaque so the header needs no LCM include
+  std::vector<std::unique_ptr<Subscription>> subscriptions_;
+  int64_t handler_failures_ = 0;
+
+ public:
+  /// The encoding of a generated type.
+  template <typename T>
+  static std::vector<uint8_t> Encode(const T& msg) {
+    std::vector<uint8_t> out(static_cast<size_t>(msg.getEncodedSize()));
+    msg.encode(out.data(), 0, static_cast<int>(out.size()));
+    return out;
+  }
+  /// Decodes a generated type; nullopt when the bytes are not exactly one valid T (wrong
+  /// fingerprint, truncated, trailing bytes, negative array length).
+  template <typename T>
+  static std::optional<T> Decode(const uint8_t* data, size_t size) {
+    T msg;
+    if (size > static_cast<size_t>(INT32_MAX)) return std::nullopt;
+    const int n = msg.decode(data, 0, static_cast<int>(size));
+    if (n < 0 || static_cast<size_t>(n) != size) return std::nullopt;
+    return msg;
+  }
+};
+
+}  // namespace tsc

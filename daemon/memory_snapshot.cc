@@ -1,0 +1,140 @@
+#include "daemon/memory_snapshot.h"
+
+#include <openssl/evp.h>
+
+#include <cmath>
+
+#include "daemon/lcm_bus.h"
+
+namespace tsc {
+namespace {
+
+place_ref_t Ref(PlaceId id) {
+  place_ref_t r;
+  r.robot = static_cast<int32_t>(id.robot);
+  r.local = static_cast<int32_t>(id.local);
+  return r;
+}
+
+learned_place_t ToMessage(const LearnedPlace& p, int pi, double lambda) {
+  learned_place_t m;
+  m.id = Ref(p.id);
+  m.member_count = p.member_count;
+  m.slink_pi = pi;
+  m.slink_lambda = std::isinf(lambda) ? -1.0 : lambda;
+  m.dims = static_cast<int32_t>(p.mean.size());
+  m.mean.assign(p.mean.data(), p.mean.data() + p.mean.size());
+  m.num_samples = static_cast<int32_t>(p.samples.cols());
+  m.samples.resize(static_cast<size_t>(m.num_samples));
+  for (int j = 0; j < m.num_samples; ++j) {
+    const float* col = p.samples.col(j).data();
+    m.samples[static_cast<size_t>(j)].assign(col, col + p.samples.rows());
+  }
+  m.num_sources = 0;
+  return m;
+}
+
+memory_node_t ToMessage(const MemoryNode& n, int index) {
+  memory_node_t m;
+  m.index = index;
+  m.parent = n.parent;
+  m.place = n.place;
+  m.height = n.height;
+  m.num_children = static_cast<int32_t>(n.children.size());
+  m.children.assign(n.children.begin(), n.children.end());
+  return m;
+}
+
+map_edge_t ToMessage(const MapEdge& e) {
+  map_edge_t m;
+  m.a = Ref(e.a);
+  m.b = Ref(e.b);
+  m.traversals = e.traversals;
+  return m;
+}
+
+}  // namespace
+
+MemorySnapshot BuildSnapshot(const PlaceMemory& memory, const TopologicalMap& map,
+                             const SnapshotHeader& header, int portion_bytes) {
+  MemorySnapshot snap;
+  snap.version = header.version;
+  snap.places = static_cast<int32_t>(memory.places().size());
+  snap.edges = static_cast<int32_t>(map.edges().size());
+
+  memory_portion_t blank;
+  blank.utime = header.utime;
+  blank.robot = header.robot;
+  blank.boot_id = header.boot_id;
+  blank.version = header.version;
+  blank.total_places = snap.places;
+  blank.total_nodes = static_cast<int32_t>(memory.nodes().size());
+  blank.total_edges = snap.edges;
+  blank.next_local = static_cast<int32_t>(memory.next_local_id());
+  blank.first_place = 0;
+  blank.index = blank.count = 0;
+  blank.digest = 0;
+  blank.num_places = blank.num_nodes = blank.num_edges = 0;
+  blank.hmac_size = 0;
+  // Room left for the HMAC the exchange adds later (issue: merging).
+  const int64_t budget = portion_bytes - 64;
+  const int64_t empty_size = blank.getEncodedSize();
+
+  memory_portion_t current = blank;
+  int64_t size = empty_size;
+  auto flush = [&] {
+    current.num_places = static_cast<int32_t>(current.places.size());
+    current.num_nodes = static_cast<int32_t>(current.nodes.size());
+    current.num_edges = static_cast<int32_t>(current.edges.size());
+    snap.portions.push_back(std::move(current));
+    current = blank;
+    size = empty_size;
+  };
+  auto room_for = [&](int64_t item) {
+    if (size + item > budget && size > empty_size) flush();
+    size += item;
+  };
+
+  const auto& pi = memory.slink().pi();
+  const auto& lambda = memory.slink().lambda();
+  for (size_t i = 0; i < memory.places().size(); ++i) {
+    learned_place_t p = ToMessage(memory.places()[i], pi[i], lambda[i]);
+    room_for(p._getEncodedSizeNoHash());
+    if (current.places.empty()) current.first_place = static_cast<int32_t>(i);
+    current.places.push_back(std::move(p));
+  }
+  for (size_t i = 0; i < memory.nodes().size(); ++i) {
+    memory_node_t n = ToMessage(memory.nodes()[i], static_cast<int>(i));
+    room_for(n._getEncodedSizeNoHash());
+    current.nodes.push_back(std::move(n));
+  }
+  for (const auto& [key, edge] : map.edges()) {
+    map_edge_t e = ToMessage(edge);
+    room_for(e._getEncodedSizeNoHash());
+    current.edges.push_back(std::move(e));
+  }
+  flush();  // the last (or only, for an empty memory) portion
+
+  const int32_t count = static_cast<int32_t>(snap.portions.size());
+  EVP_MD_CTX* sha = EVP_MD_CTX_new();
+  EVP_DigestInit_ex(sha, EVP_sha256(), nullptr);
+  for (int32_t i = 0; i < count; ++i) {
+    memory_portion_t& p = snap.portions[static_cast<size_t>(i)];
+    p.index = i;
+    p.count = count;
+    p.digest = 0;
+    const std::vector<uint8_t> bytes = LcmBus::Encode(p);
+    EVP_DigestUpdate(sha, bytes.data(), bytes.size());
+  }
+  unsigned char md[EVP_MAX_MD_SIZE];
+  unsigned int md_size = 0;
+  EVP_DigestFinal_ex(sha, md, &md_size);
+  EVP_MD_CTX_free(sha);
+  uint64_t digest = 0;
+  for (int i = 0; i < 8; ++i) digest = (digest << 8) | md[i];
+  snap.digest = static_cast<int64_t>(digest);
+  for (auto& p : snap.portions) p.digest = snap.digest;
+  return snap;
+}
+
+}  // namespace tsc

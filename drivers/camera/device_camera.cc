@@ -1,0 +1,165 @@
+#include "drivers/camera/device_camera.h"
+
+#include <algorithm>
+#include <cctype>
+#include <cmath>
+#include <cstdio>
+#include <filesystem>
+#include <opencv2/videoio.hpp>
+#include <stdexcept>
+#include <system_error>
+
+#include "drivers/camera/frame_convert.h"
+
+namespace tsc {
+namespace {
+
+bool IsIndex(const std::string& device) {
+  return !device.empty() && device.size() <= 4 &&
+         std::all_of(device.begin(), device.end(),
+                     [](unsigned char c) { return std::isdigit(c) != 0; });
+}
+
+bool PathMissing(const std::string& device) {
+  std::error_code ec;
+  return !IsIndex(device) && !std::filesystem::exists(device, ec);
+}
+
+class V4l2Device : public VideoDevice {
+ public:
+  explicit V4l2Device(const DeviceCameraOptions& options) : options_(options) {}
+
+  bool Open() override {
+    capture_.release();
+    // V4L2 only: other backends would take a device path for a file or a pipeline. A missing
+    // path is not handed to OpenCV at all (it would log a warning per attempt).
+    if (IsIndex(options_.device)) {
+      capture_.open(std::stoi(options_.device), cv::CAP_V4L2);
+    } else if (!PathMissing(options_.device)) {
+      capture_.open(options_.device, cv::CAP_V4L2);
+    }
+    if (!capture_.isOpened()) return false;
+    if (options_.width > 0) capture_.set(cv::CAP_PROP_FRAME_WIDTH, options_.width);
+    if (options_.height > 0) capture_.set(cv::CAP_PROP_FRAME_HEIGHT, options_.height);
+    if (options_.fps > 0.0) capture_.set(cv::CAP_PROP_FPS, options_.fps);
+    return true;
+  }
+  void Close() override { capture_.release(); }
+  bool IsOpen() const override { return capture_.isOpened(); }
+  bool Grab() override { return capture_.grab(); }
+  bool Retrieve(cv::Mat* frame) override { return capture_.retrieve(*frame) && !frame->empty(); }
+  cv::Size FrameSize() const override {
+    return {static_cast<int>(capture_.get(cv::CAP_PROP_FRAME_WIDTH)),
+            static_cast<int>(capture_.get(cv::CAP_PROP_FRAME_HEIGHT))};
+  }
+
+ private:
+  DeviceCameraOptions options_;
+  cv::VideoCapture capture_;
+};
+
+VideoDevice& OpenOrThrow(const DeviceCameraOptions& options, VideoDevice& device) {
+  options.Validate();
+  if (!device.Open()) {
+    throw CameraError("device:" + options.device +
+                          (PathMissing(options.device)
+                               ? ": no such device"
+                               : ": cannot open (busy, no permission or not a V4L2 capture "
+                                 "device)"),
+                      false);
+  }
+  return device;
+}
+
+CameraIntrinsics IntrinsicsOf(VideoDevice& device, const DeviceCameraOptions& options) {
+  cv::Size size = device.FrameSize();
+  if (size.width <= 0 || size.height <= 0) {
+    cv::Mat first;
+    if (!device.Grab() || !device.Retrieve(&first)) {
+      throw CameraError("device:" + options.device + ": opened but delivers no frame", false);
+    }
+    size = first.size();
+  }
+  return CameraIntrinsics::FromHorizontalFov(size.width, size.height, options.hfov_deg);
+}
+
+int64_t Micros(double seconds) { return static_cast<int64_t>(std::llround(seconds * 1e6)); }
+
+}  // namespace
+
+std::unique_ptr<VideoDevice> MakeV4l2Device(const DeviceCameraOptions& options) {
+  return std::make_unique<V4l2Device>(options);
+}
+
+void DeviceCameraOptions::Validate() const {
+  if (device.empty()) throw std::invalid_argument("device camera: device is empty");
+  if (!(fps >= 0.0 && fps <= 1000.0)) {
+    throw std::invalid_argument("device camera: fps " + std::to_string(fps) +
+                                " must be in [0, 1000]");
+  }
+  if (!(hfov_deg > 0.0 && hfov_deg < 180.0)) {
+    throw std::invalid_argument("device camera: hfov_deg " + std::to_string(hfov_deg) +
+                                " must be in (0, 180)");
+  }
+  if (width < 0 || height < 0) {
+    throw std::invalid_argument("device camera: requested size " + std::to_string(width) + "x" +
+                                std::to_string(height) + " must not be negative");
+  }
+  if (!(reopen_min_s > 0.0 && reopen_max_s >= reopen_min_s && reopen_max_s <= 3600.0)) {
+    throw std::invalid_argument("device camera: reopen backoff [" + std::to_string(reopen_min_s) +
+                                ", " + std::to_string(reopen_max_s) +
+                                "] s must satisfy 0 < min ≤ max ≤ 3600");
+  }
+}
+
+DeviceCamera::DeviceCamera(const DeviceCameraOptions& options, Clock& clock)
+    : DeviceCamera(options, MakeV4l2Device(options), clock) {}
+
+DeviceCamera::DeviceCamera(const DeviceCameraOptions& options,
+                           std::unique_ptr<VideoDevice> device, Clock& clock)
+    : options_(options),
+      clock_(clock),
+      device_(std::move(device)),
+      intrinsics_(IntrinsicsOf(OpenOrThrow(options, *device_), options)),
+      period_us_(options.fps > 0.0 ? Micros(1.0 / options.fps) : 0),
+      backoff_us_(Micros(options.reopen_min_s)) {}
+
+void DeviceCamera::Lost(const std::string& why) {
+  device_->Close();
+  retry_at_us_ = clock_.SteadyMicros() + backoff_us_;
+  char wait[32];
+  std::snprintf(wait, sizeof wait, "%.1f", static_cast<double>(backoff_us_) * 1e-6);
+  throw CameraError(name() + ": " + why + "; reopening in " + wait + " s", true);
+}
+
+std::optional<CameraFrame> DeviceCamera::Next() {
+  if (!device_->IsOpen()) {
+    clock_.SleepUntil(retry_at_us_);
+    if (!device_->Open()) {
+      backoff_us_ = std::min(2 * backoff_us_, Micros(options_.reopen_max_s));
+      Lost("device not available");
+    }
+    backoff_us_ = Micros(options_.reopen_min_s);
+    due_us_ = 0;
+  }
+  // Grab (cheap, no decode) until a frame is due; deliver the newest one.
+  for (;;) {
+    if (!device_->Grab()) Lost("no frame (device disconnected?)");
+    const int64_t now = clock_.SteadyMicros();
+    if (period_us_ == 0 || now >= due_us_) {
+      due_us_ = now > due_us_ + period_us_ ? now + period_us_ : due_us_ + period_us_;
+      break;
+    }
+  }
+  cv::Mat raw;
+  if (!device_->Retrieve(&raw)) {
+    throw CameraError(name() + ": a frame could not be decoded", true);  // device stays open
+  }
+  CameraFrame frame;
+  frame.observation.bgr = ToBgrOfSize(raw, intrinsics_);
+  frame.utime = clock_.WallMicros();
+  frame.sequence = delivered_++;
+  return frame;
+}
+
+}  // namespace tsc

@@ -1,0 +1,99 @@
+#include "drivers/camera/make_camera.h"
+
+#include <stdexcept>
+#include <string>
+
+#include "drivers/camera/device_camera.h"
+#include "drivers/camera/folder_camera.h"
+#include "drivers/camera/video_camera.h"
+#include "drivers/world/scenario.h"
+
+namespace tsc {
+namespace {
+
+[[noreturn]] void Fail(const std::string& what) { throw CameraError(what, false); }
+
+const std::string& PathOrFail(const CameraOptions& camera, const char* what) {
+  if (camera.path.empty()) {
+    Fail("camera.path is empty: camera.source " + camera.source + " needs " + what);
+  }
+  return camera.path;
+}
+
+}  // namespace
+
+SimCameraOptions ToSimCameraOptions(const CameraOptions& camera, const SimOptions& sim,
+                                    bool depth) {
+  SimCameraOptions out;
+  try {
+    out.scene.world = sim::ParseWorldKind(sim.world);
+  } catch (const std::invalid_argument& e) {
+    throw std::invalid_argument(std::string("sim.world: ") + e.what());
+  }
+  try {
+    out.scene.lighting = sim::ParseLightingMode(sim.lighting);
+  } catch (const std::invalid_argument& e) {
+    throw std::invalid_argument(std::string("sim.lighting: ") + e.what());
+  }
+  out.scene.seed = sim.world_seed;
+  out.scene.robots = sim.team_size;
+  out.scene.depth = depth;
+  out.scene.render.width = sim.width;
+  out.scene.render.height = sim.height;
+  out.scene.route.revisit_fraction = sim.revisit_fraction;
+  out.robot = sim.route;
+  out.fps = camera.fps;
+  out.loop = camera.loop;
+  out.Validate();
+  return out;
+}
+
+SimBaseOptions ToSimBaseOptions(const SimOptions& sim) {
+  const SimCameraOptions camera = ToSimCameraOptions(CameraOptions{}, sim);
+  const sim::Scenario scenario = sim::MakeScenario(camera.scene);
+  const sim::Pose2 start = scenario.routes.at(static_cast<size_t>(camera.robot)).front().pose;
+  SimBaseOptions out;
+  out.start_x_m = start.x;
+  out.start_y_m = start.y;
+  out.start_heading_rad = start.heading;
+  return out;
+}
+
+std::unique_ptr<CameraSource> MakeCamera(const CameraOptions& camera, const SimOptions& sim,
+                                         const MotorBase* base, bool sim_depth, Clock& clock) {
+  try {
+    if (camera.source == "sim") {
+      const SimCameraOptions options = ToSimCameraOptions(camera, sim, sim_depth);
+      if (base != nullptr) return std::make_unique<SimCamera>(options, *base, clock);
+      return std::make_unique<SimCamera>(options, clock);
+    }
+    if (camera.source == "folder") {
+      FolderCameraOptions options;
+      options.folder = PathOrFail(camera, "a dataset folder");
+      options.fps = camera.fps;
+      options.loop = camera.loop;
+      options.hfov_deg = camera.hfov_deg;
+      return std::make_unique<FolderCamera>(options, clock);
+    }
+    if (camera.source == "video") {
+      VideoCameraOptions options;
+      options.file = PathOrFail(camera, "a video file");
+      options.fps = camera.fps;
+      options.loop = camera.loop;
+      options.hfov_deg = camera.hfov_deg;
+      return std::make_unique<VideoCamera>(options, clock);
+    }
+    if (camera.source == "device") {
+      DeviceCameraOptions options;
+      options.device = PathOrFail(camera, "a device, /dev/videoN or N");
+      options.fps = camera.fps;
+      options.hfov_deg = camera.hfov_deg;
+      return std::make_unique<DeviceCamera>(options, clock);
+    }
+  } catch (const std::invalid_argument& e) {
+    Fail(std::string("camera.source ") + camera.source + ": " + e.what());
+  }
+  Fail("camera.source '" + camera.source + "' is not one of sim, folder, video, device");
+}
+
+}  // namespace tsc

@@ -1,0 +1,36 @@
+#pragma once
+// Chooses and opens the camera source the daemon's settings name. The settings' value types
+// (daemon/daemon_options.h) are plain structs; only this factory reads them, the sources take
+// their own Options.
+
+#include <memory>
+
+#include "daemon/daemon_options.h"
+#include "drivers/base/motor_base.h"
+#include "drivers/base/sim_base.h"
+#include "drivers/camera/camera_source.h"
+#include "drivers/camera/sim_camera.h"
+#include "drivers/clock.h"
+
+namespace tsc {
+
+/// The source camera.source names: "sim" (SimCamera on the scripted route of sim.route, or
+/// rendering from `base` when given), "folder" (FolderCamera on camera.path), "video"
+/// (VideoCamera on camera.path), "device" (DeviceCamera on camera.path, "/dev/videoN" or "N").
+/// `sim_depth` renders depth with the simulated camera. `base` and `clock` must outlive the
+/// camera. Throws CameraError(recoverable = false) whose message names the bad setting
+/// (camera.source, camera.path, sim.*) or the file/device that cannot be opened.
+std::unique_ptr<CameraSource> MakeCamera(const CameraOptions& camera, const SimOptions& sim,
+                                         const MotorBase* base = nullptr, bool sim_depth = false,
+                                         Clock& clock = Clock::System());
+
+/// The simulated camera's options for the daemon's settings. Throws std::invalid_argument
+/// naming the bad sim.* value.
+SimCameraOptions ToSimCameraOptions(const CameraOptions& camera, const SimOptions& sim,
+                                    bool depth = false);
+
+/// A simulated base standing at the start of this robot's scripted route (sim.*), default
+/// speed limits and watchdog. Throws std::invalid_argument naming the bad sim.* value.
+SimBaseOptions ToSimBaseOptions(const SimOptions& sim);
+
+}  // namespace tsc

@@ -1,0 +1,92 @@
+#include "drivers/camera/sim_camera.h"
+
+#include <algorithm>
+#include <stdexcept>
+
+namespace tsc {
+
+void SimCameraOptions::Validate() const {
+  scene.Validate();
+  if (robot < 0 || robot >= scene.robots) {
+    throw std::invalid_argument("sim camera: route " + std::to_string(robot) + " must be in [0, " +
+                                std::to_string(scene.robots) + ") (team size " +
+                                std::to_string(scene.robots) + ")");
+  }
+  if (!(fps >= 0.0 && fps <= 1000.0)) {
+    throw std::invalid_argument("sim camera: fps " + std::to_string(fps) + " must be in [0, 1000]");
+  }
+}
+
+SimCamera::SimCamera(const SimCameraOptions& options, Clock& clock)
+    : SimCamera(options, nullptr, clock) {}
+
+SimCamera::SimCamera(const SimCameraOptions& options, const MotorBase& base, Clock& clock)
+    : SimCamera(options, &base, clock) {}
+
+SimCamera::SimCamera(const SimCameraOptions& options, const MotorBase* base, Clock& clock)
+    : options_((options.Validate(), options)),
+      clock_(clock),
+      base_(base),
+      scenario_(sim::MakeScenario(options.scene)),
+      route_(&scenario_.routes.at(static_cast<size_t>(options.robot))),
+      // Robot k's stream; robot 0's is the dataset writer's, so a one-robot camera renders the
+      // frames `tsc sim` writes.
+      rng_(sim::FrameSeed(options.scene.seed) + static_cast<std::uint32_t>(options.robot)),
+      renderer_(scenario_.world, options.scene.render, static_cast<std::uint32_t>(rng_())),
+      intrinsics_(CameraIntrinsics::FromHorizontalFov(
+          options.scene.render.width, options.scene.render.height, options.scene.render.hfov_deg)),
+      pacer_(options.fps, clock) {
+  if (route_->empty()) throw std::invalid_argument("sim camera: " + name() + " has no frames");
+}
+
+std::string SimCamera::name() const {
+  return std::string("sim:") + sim::WorldKindName(options_.scene.world) + "/" +
+         std::to_string(options_.scene.seed) + "/" +
+         (base_ != nullptr ? std::string("base") : "route " + std::to_string(options_.robot));
+}
+
+sim::RouteFrame SimCamera::FrameAtBase() {
+  const Odometry odometry = base_->state();
+  sim::RouteFrame frame;
+  frame.pose = {odometry.x, odometry.y, odometry.heading};
+  frame.label = scenario_.world.LabelAt(odometry.x, odometry.y);
+  // As routes.h: a label is revisited once it appears again after another label.
+  if (!frame.label.empty() && frame.label != current_label_) {
+    if (!current_label_.empty()) done_labels_.insert(current_label_);
+    current_label_ = frame.label;
+    revisit_ = done_labels_.count(current_label_) > 0;
+  }
+  frame.revisit = revisit_;
+  return frame;
+}
+
+std::optional<CameraFrame> SimCamera::Next() {
+  sim::RouteFrame frame;
+  if (base_ == nullptr) {
+    const size_t end =
+        options_.scene.max_frames > 0
+            ? std::min(route_->size(), static_cast<size_t>(options_.scene.max_frames))
+            : route_->size();
+    if (next_index_ >= end) {
+      if (!options_.loop) return std::nullopt;
+      next_index_ = 0;
+    }
+    frame = (*route_)[next_index_++];
+  }
+  pacer_.Wait();
+  if (base_ != nullptr) frame = FrameAtBase();  // the pose at capture time
+
+  CameraFrame out;
+  Observation& obs = out.observation;
+  const sim::Pose2 pose =
+      sim::RenderRouteFrame(scenario_.world, renderer_, frame, options_.scene, rng_, &obs.bgr,
+                            options_.scene.depth ? &obs.depth_m : nullptr);
+  last_ = frame;
+  last_.pose = pose;
+  last_.label = scenario_.world.LabelAt(pose.x, pose.y);
+  out.utime = clock_.WallMicros();
+  out.sequence = delivered_++;
+  return out;
+}
+
+}  // namespace tsc

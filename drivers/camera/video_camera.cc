@@ -1,0 +1,89 @@
+#include "drivers/camera/video_camera.h"
+
+#include <stdexcept>
+#include <system_error>
+
+#include "drivers/camera/frame_convert.h"
+
+namespace tsc {
+namespace fs = std::filesystem;
+namespace {
+
+cv::VideoCapture OpenCapture(const fs::path& file) {
+  std::error_code ec;
+  if (!fs::is_regular_file(file, ec)) {
+    throw CameraError("video:" + file.string() + ": no such file", false);
+  }
+  cv::VideoCapture capture;
+  if (!capture.open(file.string(), cv::CAP_ANY) || !capture.isOpened()) {
+    throw CameraError("video:" + file.string() + ": OpenCV cannot open it (container or codec)",
+                      false);
+  }
+  return capture;
+}
+
+/// Frame size from the container, or from the first frame when the container does not say.
+CameraIntrinsics IntrinsicsOf(const fs::path& file, double hfov_deg) {
+  cv::VideoCapture capture = OpenCapture(file);
+  int width = static_cast<int>(capture.get(cv::CAP_PROP_FRAME_WIDTH));
+  int height = static_cast<int>(capture.get(cv::CAP_PROP_FRAME_HEIGHT));
+  if (width <= 0 || height <= 0) {
+    cv::Mat first;
+    if (!capture.read(first) || first.empty()) {
+      throw CameraError("video:" + file.string() + ": no decodable frame", false);
+    }
+    width = first.cols;
+    height = first.rows;
+  }
+  return CameraIntrinsics::FromHorizontalFov(width, height, hfov_deg);
+}
+
+}  // namespace
+
+void VideoCameraOptions::Validate() const {
+  if (file.empty()) throw std::invalid_argument("video camera: file is empty");
+  if (!(fps >= 0.0 && fps <= 1000.0)) {
+    throw std::invalid_argument("video camera: fps " + std::to_string(fps) +
+                                " must be in [0, 1000]");
+  }
+  if (!(hfov_deg > 0.0 && hfov_deg < 180.0)) {
+    throw std::invalid_argument("video camera: hfov_deg " + std::to_string(hfov_deg) +
+                                " must be in (0, 180)");
+  }
+}
+
+VideoCamera::VideoCamera(const VideoCameraOptions& options, Clock& clock)
+    : options_((options.Validate(), options)),
+      clock_(clock),
+      intrinsics_(IntrinsicsOf(options.file, options.hfov_deg)),
+      pacer_(options.fps, clock) {
+  Open();
+}
+
+void VideoCamera::Open() {
+  capture_ = OpenCapture(options_.file);
+  read_since_open_ = 0;
+}
+
+bool VideoCamera::Read(cv::Mat* bgr) {
+  cv::Mat raw;
+  if (!capture_.read(raw) || raw.empty()) return false;
+  *bgr = ToBgrOfSize(raw, intrinsics_);
+  ++read_since_open_;
+  return true;
+}
+
+std::optional<CameraFrame> VideoCamera::Next() {
+  CameraFrame frame;
+  if (!Read(&frame.observation.bgr)) {
+    if (!options_.loop || read_since_open_ == 0) return std::nullopt;
+    Open();
+    if (!Read(&frame.observation.bgr)) return std::nullopt;
+  }
+  pacer_.Wait();
+  frame.utime = clock_.WallMicros();
+  frame.sequence = delivered_++;
+  return frame;
+}
+
+}  // namespace tsc

@@ -1,0 +1,51 @@
+#pragma once
+// A video file as a camera (any container and codec OpenCV's videoio reads), paced to a frame
+// rate, optionally looping.
+
+#include <filesystem>
+#include <opencv2/videoio.hpp>
+#include <optional>
+#include <string>
+
+#include "drivers/camera/camera_source.h"
+#include "drivers/clock.h"
+
+namespace tsc {
+
+struct VideoCameraOptions {
+  std::filesystem::path file;
+  double fps = 10.0;       ///< frames per second delivered; 0 = as fast as they decode
+  bool loop = false;       ///< start again at the first frame after the last
+  double hfov_deg = 60.0;  ///< horizontal field of view, degrees in (0, 180)
+  /// Throws std::invalid_argument naming the bad field.
+  void Validate() const;
+};
+
+class VideoCamera : public CameraSource {
+ public:
+  /// Opens the file and reads its frame size. Throws CameraError(recoverable = false) naming
+  /// the file when it is missing or OpenCV cannot decode it, std::invalid_argument for bad
+  /// options. `clock` must outlive the camera.
+  explicit VideoCamera(const VideoCameraOptions& options, Clock& clock = Clock::System());
+
+  /// The next decoded frame (CV_8UC3), at most fps per second; nullopt at the end of the file
+  /// unless looping (a file that yields no frame at all ends even when looping).
+  std::optional<CameraFrame> Next() override;
+  const CameraIntrinsics& intrinsics() const override { return intrinsics_; }
+  std::string name() const override { return "video:" + options_.file.string(); }
+
+ private:
+  void Open();
+  /// Reads one frame into `bgr`; false at the end of the file.
+  bool Read(cv::Mat* bgr);
+
+  VideoCameraOptions options_;
+  Clock& clock_;
+  cv::VideoCapture capture_;
+  CameraIntrinsics intrinsics_;
+  Pacer pacer_;
+  int64_t delivered_ = 0;
+  int64_t read_since_open_ = 0;
+};
+
+}  // namespace tsc

@@ -1,0 +1,65 @@
+#include "drivers/world/scenario.h"
+
+#include <numbers>
+#include <opencv2/imgproc.hpp>
+
+namespace tsc::sim {
+
+Scenario MakeScenario(const SimOptions& options) {
+  options.Validate();
+  std::mt19937 world_rng(options.seed);
+  Scenario scenario{World::Generate(options.world, world_rng), {}};
+  std::mt19937 route_rng(options.seed ^ 0x9e3779b9u);
+  if (options.robots == 1) {
+    scenario.routes.push_back(
+        FollowRooms(scenario.world, SingleRobotTargets(scenario.world, options.route, route_rng),
+                    options.route));
+    return scenario;
+  }
+  const auto targets = TeamTargets(scenario.world, options.robots, options.route, route_rng);
+  for (const std::vector<int>& t : targets) {
+    scenario.routes.push_back(FollowRooms(scenario.world, t, options.route));
+  }
+  return scenario;
+}
+
+std::uint32_t FrameSeed(std::uint32_t seed) { return seed ^ 0x85ebca6bu; }
+
+Pose2 RenderRouteFrame(const World& world, const Renderer& renderer, const RouteFrame& frame,
+                       const SimOptions& options, std::mt19937& rng, cv::Mat* bgr, cv::Mat* depth) {
+  // The same number of draws per frame whatever the options, so frames stay comparable.
+  std::normal_distribution<double> normal(0.0, 1.0);
+  std::uniform_real_distribution<double> unit(0.0, 1.0);
+  const double jx = normal(rng), jy = normal(rng), jh = normal(rng);
+  const double flicker = unit(rng), glitch = unit(rng), glitch_kind = unit(rng);
+  Pose2 pose = frame.pose;
+  pose.x += options.jitter_position_m * jx;
+  pose.y += options.jitter_position_m * jy;
+  pose.heading += options.jitter_heading_deg * std::numbers::pi / 180.0 * jh;
+  if (world.RoomAt(pose.x, pose.y) < 0) pose = frame.pose;  // never through a wall
+
+  renderer.Render(pose, bgr, depth);
+  Lighting light = Lighting::Day();
+  switch (options.lighting) {
+    case LightingMode::kDay:
+      break;
+    case LightingMode::kDim:
+      light = Lighting::Dim();
+      break;
+    case LightingMode::kFlicker:
+      light.gain *= 0.75 + 0.5 * flicker;
+      break;
+    case LightingMode::kMixed:
+      if (frame.revisit) light = Lighting::Dim();
+      break;
+  }
+  const bool glitched = glitch < options.glitch_probability;
+  if (glitched && glitch_kind >= 0.5) light.gain *= 0.2;  // a dark frame
+  if (glitched && glitch_kind < 0.5) {                    // a blurred frame
+    cv::GaussianBlur(*bgr, *bgr, cv::Size(0, 0), renderer.options().width / 80.0);
+  }
+  renderer.ApplyLighting(light, rng, bgr);
+  return pose;
+}
+
+}  // namespace tsc::sim

@@ -1,0 +1,397 @@
+#include "tools/team_command.h"
+
+#include <fcntl.h>
+#include <spawn.h>
+#include <sys/wait.h>
+#include <unistd.h>
+
+#include <boost/program_options.hpp>
+#include <chrono>
+#include <csignal>
+#include <cstdlib>
+#include <cstring>
+#include <filesystem>
+#include <fstream>
+#include <iomanip>
+#include <iostream>
+#include <map>
+#include <sstream>
+#include <stdexcept>
+#include <thread>
+
+#include "daemon/lcm_bus.h"
+#include "daemon/settings.h"
+#include "tools/events_json.h"
+#include "tools/inspect.h"
+#include "tsc/announce_t.hpp"
+#include "tsc/place_event_t.hpp"
+
+extern char** environ;
+
+namespace tsc {
+namespace {
+
+namespace fs = std::filesystem;
+namespace po = boost::program_options;
+using Clock = std::chrono::steady_clock;
+
+constexpr int kExitOk = 0;
+constexpr int kExitFailure = 1;
+constexpr int kExitUsage = 2;
+constexpr const char* kNetnsEnv = "TSCD_TEAM_NETNS";
+constexpr const char* kLcmUrl = "udpm://239.255.76.67:7667?ttl=0";
+
+constexpr const char* kTeamHelp =
+    R"(usage: tsc team --robots N --world SEED [--kind office|corridors|outdoor]
+                [--seconds S] [--out DIR] [--fps F] [--config FILE] [--set KEY=VALUE]...
+                [--netns new|current]
+
+Runs a team simulation on this host: N tscd processes (robot ids 1..N) in one private network
+namespace (`unshare -n`, multicast routed on lo only, so no packet leaves the namespace), each
+driving its own route through the simulated world generated from SEED. Shows live progress
+per robot, stops the robots cleanly after S seconds or when every route has ended, prints a
+summary per robot and writes DIR/summary.json, DIR/robot-<id>/memory.db, tscd.log and
+memory.png. --netns current runs in the caller's namespace, which must itself be private
+(tests do this to listen in); it is refused when that namespace has any interface but lo.
+
+Options)";
+
+struct UsageError : std::runtime_error {
+  using std::runtime_error::runtime_error;
+};
+
+struct RobotStats {
+  int id = 0;
+  pid_t pid = -1;
+  fs::path dir;
+  bool exited = false;
+  int exit_status = 0;  // exit code, or 128 + signal
+  // From its announces and events.
+  int64_t frames = 0;
+  int64_t dropped = 0;
+  int32_t places = 0;
+  int32_t edges = 0;
+  int32_t detected = 0;
+  int64_t recognitions = 0;
+  int64_t learned = 0;
+  std::string status;
+  bool route_ended = false;
+};
+
+// Runs a program (no shell) and waits for it. Returns its exit status, or -1 if it could not
+// start.
+int RunProgram(const std::vector<std::string>& argv) {
+  std::vector<char*> args;
+  for (const std::string& a : argv) args.push_back(const_cast<char*>(a.c_str()));
+  args.push_back(nullptr);
+  pid_t pid = -1;
+  if (posix_spawnp(&pid, args[0], nullptr, nullptr, args.data(), environ) != 0) return -1;
+  int status = 0;
+  if (waitpid(pid, &status, 0) < 0) return -1;
+  return WIFEXITED(status) ? WEXITSTATUS(status) : 128 + WTERMSIG(status);
+}
+
+// True when this network namespace has an interface other than lo, i.e. multicast could
+// leave the host. /proc/self/net/dev lists the interfaces of the caller's namespace.
+bool HasNonLoopbackInterface() {
+  std::ifstream dev("/proc/self/net/dev");
+  if (!dev) return true;
+  std::string line;
+  for (int i = 0; std::getline(dev, line); ++i) {
+    if (i < 2) continue;  // two header lines
+    const size_t colon = line.find(':');
+    if (colon == std::string::npos) continue;
+    std::string name = line.substr(0, colon);
+    name.erase(0, name.find_first_not_of(' '));
+    if (name != "lo") return true;
+  }
+  return false;
+}
+
+// Re-executes this command inside a new network namespace. Returns only on failure.
+int ReexecInNewNamespace(const std::vector<std::string>& args) {
+  std::vector<std::string> argv = {"unshare", getuid() == 0 ? "-n" : "-rn", "--",
+                                   fs::read_symlink("/proc/self/exe").string(), "team"};
+  argv.insert(argv.end(), args.begin(), args.end());
+  std::vector<char*> raw;
+  for (const std::string& a : argv) raw.push_back(const_cast<char*>(a.c_str()));
+  raw.push_back(nullptr);
+  setenv(kNetnsEnv, "1", 1);
+  execvp("unshare", raw.data());
+  std::cerr << "tsc: cannot run unshare to create a private network namespace: "
+            << std::strerror(errno) << "\n";
+  return kExitFailure;
+}
+
+// Host-local multicast inside the private namespace: lo up, multicast on, 224.0.0.0/4 on lo.
+void SetUpLoopbackMulticast() {
+  if (RunProgram({"ip", "link", "set", "lo", "up"}) != 0 ||
+      RunProgram({"ip", "link", "set", "lo", "multicast", "on"}) != 0) {
+    throw std::runtime_error("cannot bring up lo with multicast in the private namespace (ip)");
+  }
+  // "File exists" when a caller already added it: fine.
+  RunProgram({"ip", "route", "add", "224.0.0.0/4", "dev", "lo"});
+}
+
+pid_t SpawnRobot(const fs::path& tscd, const std::vector<std::string>& argv, const fs::path& log) {
+  posix_spawn_file_actions_t actions;
+  posix_spawn_file_actions_init(&actions);
+  posix_spawn_file_actions_addopen(&actions, STDOUT_FILENO, log.c_str(),
+                                   O_WRONLY | O_CREAT | O_APPEND, 0644);
+  posix_spawn_file_actions_adddup2(&actions, STDOUT_FILENO, STDERR_FILENO);
+  std::vector<char*> raw;
+  for (const std::string& a : argv) raw.push_back(const_cast<char*>(a.c_str()));
+  raw.push_back(nullptr);
+  pid_t pid = -1;
+  const int rc = posix_spawn(&pid, tscd.c_str(), &actions, nullptr, raw.data(), environ);
+  posix_spawn_file_actions_destroy(&actions);
+  if (rc != 0) {
+    throw std::runtime_error("cannot start " + tscd.string() + ": " + std::strerror(rc));
+  }
+  return pid;
+}
+
+void Reap(RobotStats& r, bool block) {
+  if (r.exited || r.pid < 0) return;
+  int status = 0;
+  const pid_t got = waitpid(r.pid, &status, block ? 0 : WNOHANG);
+  if (got == r.pid) {
+    r.exited = true;
+    r.exit_status = WIFEXITED(status) ? WEXITSTATUS(status) : 128 + WTERMSIG(status);
+  }
+}
+
+void StopRobots(std::vector<RobotStats>& robots) {
+  for (RobotStats& r : robots) {
+    if (!r.exited) kill(r.pid, SIGTERM);
+  }
+  const auto deadline = Clock::now() + std::chrono::seconds(30);
+  for (RobotStats& r : robots) {
+    while (!r.exited && Clock::now() < deadline) {
+      Reap(r, false);
+      if (!r.exited) std::this_thread::sleep_for(std::chrono::milliseconds(50));
+    }
+    if (!r.exited) {
+      std::cerr << "tsc: robot " << r.id << " did not stop within 30 s of SIGTERM; killing it\n";
+      kill(r.pid, SIGKILL);
+      Reap(r, true);
+    }
+  }
+}
+
+std::string ProgressLine(const std::vector<RobotStats>& robots, double elapsed) {
+  std::ostringstream s;
+  s << std::fixed << std::setprecision(0) << elapsed << " s";
+  for (const RobotStats& r : robots) {
+    s << " | robot " << r.id << ": " << r.frames << " frames, " << r.places << " places, "
+      << r.recognitions << " recognised, " << r.edges << " edges";
+    if (r.exited) s << " (exited " << r.exit_status << ")";
+  }
+  return s.str();
+}
+
+int Team(const std::vector<std::string>& args) {
+  po::options_description desc(kTeamHelp);
+  desc.add_options()("help,h", "show this help")(
+      "robots", po::value<int>()->required()->value_name("N"), "robots in the team, 1..16")(
+      "world", po::value<long long>()->required()->value_name("SEED"), "seed of the world")(
+      "kind", po::value<std::string>()->default_value("office"), "office|corridors|outdoor")(
+      "seconds", po::value<double>()->default_value(0.0)->value_name("S"),
+      "stop after S seconds (0: when every route has ended)")(
+      "out", po::value<std::string>()->default_value("team-out")->value_name("DIR"),
+      "output folder (robot state, logs, summary.json)")(
+      "fps", po::value<double>()->default_value(10.0), "camera frames per second per robot")(
+      "config", po::value<std::string>()->value_name("FILE"), "tscd configuration for all")(
+      "set", po::value<std::vector<std::string>>()->composing()->value_name("KEY=VALUE"),
+      "override a key for every robot (repeatable)")(
+      "netns", po::value<std::string>()->default_value("new"), "new|current");
+  po::variables_map vm;
+  try {
+    po::store(po::command_line_parser(args).options(desc).run(), vm);
+    if (vm.count("help")) {
+      std::cout << desc << "\n";
+      return kExitOk;
+    }
+    po::notify(vm);
+  } catch (const po::error& e) {
+    throw UsageError(e.what());
+  }
+  const int n = vm["robots"].as<int>();
+  if (n < 1 || n > 16) throw UsageError("--robots must be in 1..16");
+  const double seconds = vm["seconds"].as<double>();
+  if (seconds < 0) throw UsageError("--seconds must not be negative");
+  const std::string netns = vm["netns"].as<std::string>();
+  if (netns != "new" && netns != "current") throw UsageError("--netns is new or current");
+
+  if (netns == "new" && std::getenv(kNetnsEnv) == nullptr) return ReexecInNewNamespace(args);
+  if (HasNonLoopbackInterface()) {
+    std::cerr << "tsc: refusing to run the team in a network namespace with interfaces other "
+                 "than lo (its multicast could leave this host); use --netns new\n";
+    return kExitFailure;
+  }
+  SetUpLoopbackMulticast();
+
+  const fs::path out = vm["out"].as<std::string>();
+  fs::create_directories(out);
+  const fs::path tscd = fs::read_symlink("/proc/self/exe").parent_path() / "tscd";
+  if (!fs::exists(tscd)) throw std::runtime_error("tscd not found next to tsc: " + tscd.string());
+
+  std::vector<std::string> common;
+  if (vm.count("config")) common = {"--config", vm["config"].as<std::string>()};
+  auto set = [&](const std::string& kv) {
+    common.push_back("--set");
+    common.push_back(kv);
+  };
+  set("camera.source=sim");
+  set("lcm.url=" + std::string(kLcmUrl));
+  set("sim.world_seed=" + std::to_string(vm["world"].as<long long>()));
+  set("sim.world=" + vm["kind"].as<std::string>());
+  set("sim.team_size=" + std::to_string(n));
+  {
+    std::ostringstream fps;
+    fps << vm["fps"].as<double>();
+    set("camera.fps=" + fps.str());
+  }
+  if (vm.count("set")) {
+    for (const std::string& kv : vm["set"].as<std::vector<std::string>>()) set(kv);
+  }
+  // Check the whole configuration once here, so a bad key is one message, not N robot logs.
+  {
+    std::vector<std::string> overrides;
+    for (size_t i = 0; i + 1 < common.size(); ++i) {
+      if (common[i] == "--set") overrides.push_back(common[i + 1]);
+    }
+    overrides.push_back("sim.route=" + std::to_string(n - 1));
+    std::optional<fs::path> file;
+    if (vm.count("config")) file = vm["config"].as<std::string>();
+    LoadSettings(file, overrides);  // throws ConfigError → exit 78
+  }
+
+  LcmBus bus(kLcmUrl);
+  std::map<int, RobotStats*> by_id;
+  std::vector<RobotStats> robots(static_cast<size_t>(n));
+  for (int i = 0; i < n; ++i) {
+    RobotStats& r = robots[static_cast<size_t>(i)];
+    r.id = i + 1;
+    r.dir = out / ("robot-" + std::to_string(r.id));
+    fs::create_directories(r.dir);
+    by_id[r.id] = &r;
+  }
+  bus.Subscribe("TSC_ANNOUNCE", [&](const std::string&, const uint8_t* data, size_t size) {
+    const auto a = LcmBus::Decode<announce_t>(data, size);
+    if (!a || !by_id.count(a->robot)) return;
+    RobotStats& r = *by_id[a->robot];
+    r.frames = a->frames;
+    r.dropped = a->frames_dropped;
+    r.places = a->places;
+    r.edges = a->edges;
+    r.detected = a->detected_places;
+    r.status = a->status;
+    r.route_ended = a->status.find("camera ended") != std::string::npos;
+  });
+  bus.Subscribe("TSC_EVENT_.*", [&](const std::string&, const uint8_t* data, size_t size) {
+    const auto e = LcmBus::Decode<place_event_t>(data, size);
+    if (!e || !by_id.count(e->robot)) return;
+    RobotStats& r = *by_id[e->robot];
+    if (e->event == "recognized" && !e->partial) ++r.recognitions;
+    if (e->event == "learned") ++r.learned;
+  });
+
+  for (RobotStats& r : robots) {
+    std::vector<std::string> argv = {"tscd", "--robot", std::to_string(r.id), "--state-dir",
+                                     r.dir.string()};
+    argv.insert(argv.end(), common.begin(), common.end());
+    argv.push_back("--set");
+    argv.push_back("sim.route=" + std::to_string(r.id - 1));
+    r.pid = SpawnRobot(tscd, argv, r.dir / "tscd.log");
+  }
+  std::cout << "tsc team: " << n << " robots in world " << vm["world"].as<long long>() << " ("
+            << vm["kind"].as<std::string>() << "), output in " << out.string() << "\n";
+
+  const bool tty = isatty(STDOUT_FILENO) != 0;
+  const auto start = Clock::now();
+  auto last_print = start;
+  for (;;) {
+    bus.HandleTimeout(100);
+    const double elapsed = std::chrono::duration<double>(Clock::now() - start).count();
+    bool all_exited = true, all_ended = true;
+    for (RobotStats& r : robots) {
+      Reap(r, false);
+      all_exited &= r.exited;
+      all_ended &= r.route_ended || r.exited;
+    }
+    if (Clock::now() - last_print >= std::chrono::seconds(tty ? 1 : 5)) {
+      last_print = Clock::now();
+      std::cout << (tty ? "\r\033[K" : "") << ProgressLine(robots, elapsed) << (tty ? "" : "\n")
+                << std::flush;
+    }
+    if (all_exited || (seconds > 0 && elapsed >= seconds) || (seconds == 0 && all_ended)) break;
+  }
+  // Let the last announces and events arrive, then stop everyone.
+  for (int i = 0; i < 5; ++i) bus.HandleTimeout(50);
+  StopRobots(robots);
+  if (tty) std::cout << "\n";
+
+  // Summary: the stores are the truth (they survive the processes).
+  bool ok = true;
+  std::ostringstream json;
+  json << "{\"robots\":[";
+  std::cout << "\nrobot  exit  frames  dropped  detected  places  recognised  edges\n";
+  for (size_t i = 0; i < robots.size(); ++i) {
+    RobotStats& r = robots[i];
+    ok &= r.exit_status == 0;
+    int64_t base_points = 0, places = 0, edges = 0, detected = 0;
+    std::string problem;
+    try {
+      const InspectedStore s =
+          InspectStore(r.dir / "memory.db", PlaceMemoryOptions{}, static_cast<uint32_t>(r.id));
+      base_points = s.summary.base_points;
+      places = static_cast<int64_t>(s.summary.learned_places.size());
+      edges = s.summary.map_edges;
+      detected = s.summary.detected_places;
+      try {
+        RenderPng(ToDot(s.memory, s.map), r.dir / "memory.png");
+      } catch (const std::exception& e) {
+        std::cerr << "tsc: robot " << r.id << ": no picture: " << e.what() << "\n";
+      }
+    } catch (const std::exception& e) {
+      problem = e.what();
+      ok = false;
+      std::cerr << "tsc: robot " << r.id << ": cannot read its memory: " << problem << "\n";
+    }
+    std::cout << std::setw(5) << r.id << std::setw(6) << r.exit_status << std::setw(8)
+              << base_points << std::setw(9) << r.dropped << std::setw(10) << detected
+              << std::setw(8) << places << std::setw(12) << r.recognitions << std::setw(7) << edges
+              << "\n";
+    json << (i ? "," : "") << "{\"robot\":" << r.id << ",\"exit_status\":" << r.exit_status
+         << ",\"frames\":" << base_points << ",\"frames_dropped\":" << r.dropped
+         << ",\"detected_places\":" << detected << ",\"places\":" << places
+         << ",\"recognitions\":" << r.recognitions << ",\"edges\":" << edges
+         << ",\"db\":" << JsonString((r.dir / "memory.db").string())
+         << ",\"log\":" << JsonString((r.dir / "tscd.log").string()) << "}";
+  }
+  json << "]}\n";
+  WriteTextFile(out / "summary.json", json.str());
+  std::cout << "summary: " << (out / "summary.json").string() << "\n";
+  if (!ok) std::cerr << "tsc: some robots failed; see their tscd.log\n";
+  return ok ? kExitOk : kExitFailure;
+}
+
+}  // namespace
+
+int RunTeamCommand(const std::vector<std::string>& args) {
+  try {
+    return Team(args);
+  } catch (const UsageError& e) {
+    std::cerr << "tsc: " << e.what() << " (try 'tsc team --help')\n";
+    return kExitUsage;
+  } catch (const ConfigError& e) {
+    std::cerr << "tsc: " << e.what() << "\n";
+    return 78;
+  } catch (const std::exception& e) {
+    std::cerr << "tsc: " << e.what() << "\n";
+    return kExitFailure;
+  }
+}
+
+}  // namespace tsc

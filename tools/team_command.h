@@ -1,0 +1,17 @@
+#pragma once
+// `tsc team`: a team simulation on one host (DESIGN §4, §7.2). N tscd processes share one
+// private network namespace (no packet leaves it), each driving its own route through the same
+// simulated world; live progress per robot from their announces; a clean stop; a summary per
+// robot (frames, places, recognitions, edges) as text and as OUT/summary.json, and a picture
+// of each robot's memory.
+
+#include <string>
+#include <vector>
+
+namespace tsc {
+
+/// Runs `tsc team` with the arguments after the command name. Returns 0 when every robot ran
+/// and stopped cleanly, 1 on a runtime failure, 2 on a usage error. Never throws.
+int RunTeamCommand(const std::vector<std::string>& args);
+
+}  // namespace tsc
