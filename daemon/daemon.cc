@@ -421,7 +421,10 @@ void Daemon::CameraLoop() {
     } catch (const CameraError& e) {
       const int64_t n = ++counters_.camera_errors;
       if (ShouldLog(n)) spdlog::warn("camera: {} ({} camera errors so far)", e.what(), n);
-      if (!e.recoverable()) {
+      if (e.recoverable()) {
+        // A source that fails at once again and again must not spin a core.
+        std::this_thread::sleep_for(std::chrono::milliseconds(100));
+      } else {
         spdlog::error("camera {} failed for good: {}; tscd keeps serving its memory",
                       camera_->name(), e.what());
         degraded_camera_ = true;

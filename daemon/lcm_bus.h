@@ -8,6 +8,7 @@
 #include <functional>
 #include <memory>
 #include <optional>
+#include <stdexcept>
 #include <string>
 #include <vector>
 
@@ -68,13 +69,20 @@ class LcmBus {
   }
   /// Decodes a generated type; nullopt when the bytes are not exactly one valid T (wrong
   /// fingerprint, truncated, trailing bytes, negative array length).
+  // lcm-gen's decoders size a vector from the length field before checking the bytes are
+  // there, so a forged negative length throws from std::vector; that is caught here. (A huge
+  // positive length still allocates before failing: validation of portions has to bound it.)
   template <typename T>
   static std::optional<T> Decode(const uint8_t* data, size_t size) {
-    T msg;
     if (size > static_cast<size_t>(INT32_MAX)) return std::nullopt;
-    const int n = msg.decode(data, 0, static_cast<int>(size));
-    if (n < 0 || static_cast<size_t>(n) != size) return std::nullopt;
-    return msg;
+    try {
+      T msg;
+      const int n = msg.decode(data, 0, static_cast<int>(size));
+      if (n < 0 || static_cast<size_t>(n) != size) return std::nullopt;
+      return msg;
+    } catch (const std::exception&) {
+      return std::nullopt;
+    }
   }
 };
 

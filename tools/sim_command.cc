@@ -20,8 +20,8 @@ constexpr int kExitUsage = 2;
 constexpr const char* kSimHelp =
     R"(usage: tsc sim --out DIR --seed N [--world office|corridors|outdoor] [--robots K]
                [--revisit-fraction F] [--lighting day|dim|flicker|mixed] [--depth]
-               [--size WxH] [--frames-per-room N] [--turn-step-deg D] [--png]
-               [--max-frames N]
+               [--size WxH] [--frames-per-room N] [--turn-step-deg D]
+               [--scan-step-deg D] [--png] [--max-frames N]
 
 Writes a simulated dataset (DESIGN §7.1): frames rendered from a generated floor plan along a
 scripted route that tours every room and revisits some of them, camera.json, groundtruth.csv
@@ -67,10 +67,13 @@ int Sim(const std::vector<std::string>& args) {
       "depth", "also write depth/<stem>.png (16-bit, millimetres)")(
       "size", po::value<std::string>()->default_value("640x480")->value_name("WxH"),
       "image size in pixels")("frames-per-room",
-                              po::value<int>()->default_value(24)->value_name("N"),
-                              "frames turning in place at each visited room's centre")(
-      "turn-step-deg", po::value<double>()->default_value(15.0)->value_name("D"),
-      "turning in place between frames, degrees (a robot at 30 fps turns a few degrees)")(
+                              po::value<int>()->default_value(72)->value_name("N"),
+                              "frames looking around at each visited room's centre")(
+      "turn-step-deg", po::value<double>()->default_value(30.0)->value_name("D"),
+      "turning towards the next waypoint between frames, degrees (frames come every 0.15 m "
+      "of travel, ~3 per second)")(
+      "scan-step-deg", po::value<double>()->default_value(5.0)->value_name("D"),
+      "turning between frames while looking around at a room's centre, degrees")(
       "png", "write PNG frames instead of JPEG (quality 90)")(
       "max-frames", po::value<int>()->default_value(0)->value_name("N"),
       "cut each robot's route after N frames (0 = whole route)");
@@ -102,6 +105,7 @@ int Sim(const std::vector<std::string>& args) {
   options.route.revisit_fraction = vm["revisit-fraction"].as<double>();
   options.route.dwell_frames = vm["frames-per-room"].as<int>();
   options.route.turn_step_deg = vm["turn-step-deg"].as<double>();
+  options.route.scan_step_deg = vm["scan-step-deg"].as<double>();
   options.depth = vm.count("depth") > 0;
   options.png = vm.count("png") > 0;
   options.max_frames = vm["max-frames"].as<int>();

@@ -115,8 +115,8 @@ void DeviceCameraOptions::Validate() const {
 DeviceCamera::DeviceCamera(const DeviceCameraOptions& options, Clock& clock)
     : DeviceCamera(options, MakeV4l2Device(options), clock) {}
 
-DeviceCamera::DeviceCamera(const DeviceCameraOptions& options,
-                           std::unique_ptr<VideoDevice> device, Clock& clock)
+DeviceCamera::DeviceCamera(const DeviceCameraOptions& options, std::unique_ptr<VideoDevice> device,
+                           Clock& clock)
     : options_(options),
       clock_(clock),
       device_(std::move(device)),

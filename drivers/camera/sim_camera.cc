@@ -79,8 +79,8 @@ std::optional<CameraFrame> SimCamera::Next() {
   CameraFrame out;
   Observation& obs = out.observation;
   const sim::Pose2 pose =
-      sim::RenderRouteFrame(scenario_.world, renderer_, frame, options_.scene, rng_, &obs.bgr,
-                            options_.scene.depth ? &obs.depth_m : nullptr);
+      sim::RenderRouteFrame(scenario_.world, renderer_, frame, options_.scene, rng_, draws_,
+                            &obs.bgr, options_.scene.depth ? &obs.depth_m : nullptr);
   last_ = frame;
   last_.pose = pose;
   last_.label = scenario_.world.LabelAt(pose.x, pose.y);

@@ -71,6 +71,7 @@ class SimCamera : public CameraSource {
   sim::Scenario scenario_;
   const std::vector<sim::RouteFrame>* route_;
   std::mt19937 rng_;
+  sim::FrameDistributions draws_;
   sim::Renderer renderer_;  ///< refers to scenario_.world
   CameraIntrinsics intrinsics_;
   Pacer pacer_;

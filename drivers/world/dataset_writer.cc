@@ -44,6 +44,10 @@ void SimOptions::Validate() const {
       !(jitter_position_m >= 0.0 && jitter_position_m <= 0.2)) {
     throw std::invalid_argument("camera jitter must be within 10° and 0.2 m");
   }
+  if (!(shutter_fraction >= 0.0 && shutter_fraction <= 1.0)) {
+    throw std::invalid_argument("shutter fraction " + std::to_string(shutter_fraction) +
+                                " must be in [0, 1]");
+  }
   if (!(glitch_probability >= 0.0 && glitch_probability <= 1.0)) {
     throw std::invalid_argument("glitch probability " + std::to_string(glitch_probability) +
                                 " must be in [0, 1]");
@@ -77,9 +81,10 @@ int WriteRobotDataset(const fs::path& folder, const World& world,
   gt.precision(6);
   const std::vector<int> jpeg = {cv::IMWRITE_JPEG_QUALITY, 90};
   cv::Mat bgr, depth, depth_mm;
+  FrameDistributions draws;
   for (int i = 0; i < n; ++i) {
     const Pose2 pose = RenderRouteFrame(world, renderer, route[static_cast<size_t>(i)], options,
-                                        rng, &bgr, options.depth ? &depth : nullptr);
+                                        rng, draws, &bgr, options.depth ? &depth : nullptr);
 
     const std::string stem = Stem(i + 1);
     const fs::path image = folder / (stem + (options.png ? ".png" : ".jpg"));

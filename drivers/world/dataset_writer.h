@@ -45,7 +45,11 @@ struct SimOptions {
   double jitter_heading_deg = 1.0;   ///< standard deviation of the camera heading noise
   double jitter_position_m = 0.02;   ///< standard deviation of the camera position noise
   double glitch_probability = 0.02;  ///< per frame: a blurred or a dark frame
-  int max_frames = 0;                ///< per robot; 0 = the whole route (tests use short routes)
+  /// Fraction of the time between frames the shutter is open: a frame taken while the robot
+  /// turns by Δ between frames is blurred horizontally over shutter_fraction·Δ of view (box
+  /// kernel). 0.1 at ~3 frames per second is a 30 ms exposure; 0 for no motion blur.
+  double shutter_fraction = 0.1;
+  int max_frames = 0;  ///< per robot; 0 = the whole route (tests use short routes)
   /// Throws std::invalid_argument naming the bad value.
   void Validate() const;
 };

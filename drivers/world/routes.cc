@@ -53,7 +53,7 @@ class Walker {
 
   void Dwell() {
     for (int i = 0; i < options_.dwell_frames; ++i) {
-      pose_.heading = WrapAngle(pose_.heading + options_.turn_step_deg * kDegToRad);
+      pose_.heading = WrapAngle(pose_.heading + options_.scan_step_deg * kDegToRad);
       Emit();
     }
   }
@@ -61,7 +61,11 @@ class Walker {
   std::vector<RouteFrame> Take() { return std::move(frames_); }
 
  private:
-  void Emit() { frames_.push_back(RouteFrame{pose_, world_.LabelAt(pose_.x, pose_.y), false}); }
+  void Emit() {
+    const double turn =
+        frames_.empty() ? 0.0 : std::abs(WrapAngle(pose_.heading - frames_.back().pose.heading));
+    frames_.push_back(RouteFrame{pose_, world_.LabelAt(pose_.x, pose_.y), turn, false});
+  }
 
   const World& world_;
   const RouteOptions& options_;
@@ -175,6 +179,10 @@ void RouteOptions::Validate() const {
   }
   if (!(turn_step_deg > 0.0 && turn_step_deg <= 90.0)) {
     throw std::invalid_argument("turn step " + std::to_string(turn_step_deg) +
+                                "° must be in (0, 90]");
+  }
+  if (!(scan_step_deg > 0.0 && scan_step_deg <= 90.0)) {
+    throw std::invalid_argument("scan step " + std::to_string(scan_step_deg) +
                                 "° must be in (0, 90]");
   }
   if (dwell_frames < 0 || dwell_frames > 10000) {

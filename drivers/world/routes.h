@@ -1,7 +1,9 @@
 #pragma once
 // Scripted routes through a simulated world: waypoints from room to room through the doors,
 // sampled at a fixed step, turning in place at waypoints, and a look-around turn at the centre
-// of every room visited on purpose (so a room visit is many frames).
+// of every room visited on purpose (so a room visit is many frames). Travel turns are brisk
+// (a robot turning towards its next waypoint), the look-around is a slow scan: the frames are
+// those of a camera sampled every step_m of travel, about 3 per second at 0.5 m/s.
 
 #include <random>
 #include <string>
@@ -13,11 +15,15 @@
 namespace tsc::sim {
 
 struct RouteOptions {
-  double step_m = 0.15;         ///< walking distance between frames, metres
-  double turn_step_deg = 15.0;  ///< turning in place between frames, degrees
-  /// Frames spent turning in place at the centre of each room visited on purpose (24 frames
-  /// at 15° = one full turn); 0 for none.
-  int dwell_frames = 24;
+  double step_m = 0.15;  ///< walking distance between frames, metres
+  /// Turning in place towards the next waypoint between frames, degrees (at ~3 frames per
+  /// second, 30° is a turn of 90°/s).
+  double turn_step_deg = 30.0;
+  /// Turning between frames during the look-around at a room's centre, degrees.
+  double scan_step_deg = 5.0;
+  /// Frames spent looking around at the centre of each room visited on purpose (72 frames at
+  /// 5° = one full turn); 0 for none.
+  int dwell_frames = 72;
   /// Fraction of the rooms revisited (in reverse order) after the first tour, in [0, 1].
   double revisit_fraction = 0.5;
   /// Throws std::invalid_argument naming the bad value.
@@ -27,9 +33,10 @@ struct RouteOptions {
 /// One sampled pose with its ground truth.
 struct RouteFrame {
   Pose2 pose;
-  std::string label;     ///< World::LabelAt(pose): "" in doorways
-  bool revisit = false;  ///< the label (or, in a doorway, the last label) was seen in an
-                         ///< earlier visit
+  std::string label;      ///< World::LabelAt(pose): "" in doorways
+  double turn_rad = 0.0;  ///< |heading change| since the previous frame (motion blur)
+  bool revisit = false;   ///< the label (or, in a doorway, the last label) was seen in an
+                          ///< earlier visit
 };
 
 /// Frames of a route visiting `targets` (room indices) in order, starting at the centre of

@@ -1,5 +1,6 @@
 #include "drivers/world/scenario.h"
 
+#include <cmath>
 #include <numbers>
 #include <opencv2/imgproc.hpp>
 
@@ -26,12 +27,11 @@ Scenario MakeScenario(const SimOptions& options) {
 std::uint32_t FrameSeed(std::uint32_t seed) { return seed ^ 0x85ebca6bu; }
 
 Pose2 RenderRouteFrame(const World& world, const Renderer& renderer, const RouteFrame& frame,
-                       const SimOptions& options, std::mt19937& rng, cv::Mat* bgr, cv::Mat* depth) {
+                       const SimOptions& options, std::mt19937& rng, FrameDistributions& draws,
+                       cv::Mat* bgr, cv::Mat* depth) {
   // The same number of draws per frame whatever the options, so frames stay comparable.
-  std::normal_distribution<double> normal(0.0, 1.0);
-  std::uniform_real_distribution<double> unit(0.0, 1.0);
-  const double jx = normal(rng), jy = normal(rng), jh = normal(rng);
-  const double flicker = unit(rng), glitch = unit(rng), glitch_kind = unit(rng);
+  const double jx = draws.normal(rng), jy = draws.normal(rng), jh = draws.normal(rng);
+  const double flicker = draws.unit(rng), glitch = draws.unit(rng), glitch_kind = draws.unit(rng);
   Pose2 pose = frame.pose;
   pose.x += options.jitter_position_m * jx;
   pose.y += options.jitter_position_m * jy;
@@ -39,6 +39,10 @@ Pose2 RenderRouteFrame(const World& world, const Renderer& renderer, const Route
   if (world.RoomAt(pose.x, pose.y) < 0) pose = frame.pose;  // never through a wall
 
   renderer.Render(pose, bgr, depth);
+  // Motion blur of a turn: the view sweeps shutter_fraction of the heading change.
+  const int blur_px = static_cast<int>(
+      std::lround(options.shutter_fraction * frame.turn_rad * renderer.focal_px()));
+  if (blur_px >= 2) cv::blur(*bgr, *bgr, cv::Size(blur_px, 1));
   Lighting light = Lighting::Day();
   switch (options.lighting) {
     case LightingMode::kDay:

@@ -32,11 +32,20 @@ Scenario MakeScenario(const SimOptions& options);
 /// options.seed; robot k's live camera uses FrameSeed(seed) + k.
 std::uint32_t FrameSeed(std::uint32_t seed);
 
+/// The distributions of the per-frame perturbations. One per robot's stream, kept across its
+/// frames: a normal distribution carries a cached draw from one call to the next.
+struct FrameDistributions {
+  std::normal_distribution<double> normal{0.0, 1.0};
+  std::uniform_real_distribution<double> unit{0.0, 1.0};
+};
+
 /// Renders one frame of a route the way the dataset writer does: draws the per-frame
-/// perturbations from `rng` (always the same number of draws), jitters the pose (never
-/// through a wall), renders, applies the lighting mode (mixed: revisits dim) and an occasional
-/// blurred or dark frame, then sensor noise. `depth` may be null. Returns the pose rendered.
+/// perturbations from `rng` through `draws` (always the same number of draws), jitters the
+/// pose (never through a wall), renders, applies the lighting mode (mixed: revisits dim) and
+/// an occasional blurred or dark frame, then sensor noise. `depth` may be null. Returns the
+/// pose rendered.
 Pose2 RenderRouteFrame(const World& world, const Renderer& renderer, const RouteFrame& frame,
-                       const SimOptions& options, std::mt19937& rng, cv::Mat* bgr, cv::Mat* depth);
+                       const SimOptions& options, std::mt19937& rng, FrameDistributions& draws,
+                       cv::Mat* bgr, cv::Mat* depth);
 
 }  // namespace tsc::sim

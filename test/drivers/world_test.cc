@@ -13,11 +13,11 @@
 #include <string>
 #include <vector>
 
+#include "drivers/dataset/dataset.h"
 #include "drivers/world/dataset_writer.h"
 #include "drivers/world/renderer.h"
 #include "drivers/world/routes.h"
 #include "test/support/temp_dir.h"
-#include "drivers/dataset/dataset.h"
 #include "tools/sim_command.h"
 
 namespace tsc::sim {

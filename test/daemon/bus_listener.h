@@ -1,0 +1,113 @@
+#pragma once
+// The tests' own LCM client (not tscd code): listens on every channel over real udpm:// inside
+// the test's private network namespace, decodes each message with the generated type its
+// channel carries, and keeps what it decoded.
+
+#include <atomic>
+#include <chrono>
+#include <functional>
+#include <lcm/lcm-cpp.hpp>
+#include <map>
+#include <mutex>
+#include <string>
+#include <thread>
+#include <vector>
+
+#include "jaguar/motor_command_t.hpp"
+#include "jaguar/motor_state_t.hpp"
+#include "tsc/announce_t.hpp"
+#include "tsc/memory_portion_t.hpp"
+#include "tsc/memory_request_t.hpp"
+#include "tsc/place_event_t.hpp"
+
+namespace tsc::testing_support {
+
+inline constexpr const char* kTestLcmUrl = "udpm://239.255.76.67:7667?ttl=0";
+
+class BusListener {
+ public:
+  BusListener() : lcm_(kTestLcmUrl) {
+    if (!lcm_.good()) throw std::runtime_error("LCM cannot start on " + std::string(kTestLcmUrl));
+    lcm_.subscribe(".*", &BusListener::OnMessage, this);
+    thread_ = std::thread([this] {
+      while (!stop_) lcm_.handleTimeout(50);
+    });
+  }
+  ~BusListener() {
+    stop_ = true;
+    thread_.join();
+  }
+
+  lcm::LCM& lcm() { return lcm_; }
+
+  /// Waits up to `timeout` for `predicate` (evaluated under the lock) to hold.
+  bool WaitFor(const std::function<bool(const BusListener&)>& predicate,
+               std::chrono::milliseconds timeout) {
+    const auto deadline = std::chrono::steady_clock::now() + timeout;
+    while (std::chrono::steady_clock::now() < deadline) {
+      {
+        std::lock_guard lock(mutex_);
+        if (predicate(*this)) return true;
+      }
+      std::this_thread::sleep_for(std::chrono::milliseconds(20));
+    }
+    std::lock_guard lock(mutex_);
+    return predicate(*this);
+  }
+  /// Runs `f` under the lock.
+  void Inspect(const std::function<void(const BusListener&)>& f) {
+    std::lock_guard lock(mutex_);
+    f(*this);
+  }
+
+  // Decoded messages by channel. Under the lock (WaitFor / Inspect).
+  std::map<std::string, std::vector<announce_t>> announces;
+  std::map<std::string, std::vector<place_event_t>> events;
+  std::map<std::string, std::vector<memory_portion_t>> portions;
+  std::map<std::string, std::vector<memory_request_t>> requests;
+  std::map<std::string, int> undecodable;  ///< messages on a tsc channel that did not decode
+  std::map<std::string, int> received;     ///< every message by channel
+
+ private:
+  template <typename T>
+  bool Decode(const lcm::ReceiveBuffer* rbuf, const std::string& channel,
+              std::map<std::string, std::vector<T>>& into) {
+    T msg;
+    const int n = msg.decode(rbuf->data, 0, static_cast<int>(rbuf->data_size));
+    if (n < 0 || static_cast<uint32_t>(n) != rbuf->data_size) return false;
+    into[channel].push_back(std::move(msg));
+    return true;
+  }
+  void OnMessage(const lcm::ReceiveBuffer* rbuf, const std::string& channel) {
+    std::lock_guard lock(mutex_);
+    ++received[channel];
+    bool ok = true;
+    if (channel == "TSC_ANNOUNCE") {
+      ok = Decode(rbuf, channel, announces);
+    } else if (channel.rfind("TSC_EVENT_", 0) == 0) {
+      ok = Decode(rbuf, channel, events);
+    } else if (channel.rfind("TSC_MEMORY_", 0) == 0) {
+      ok = Decode(rbuf, channel, portions);
+    } else if (channel.rfind("TSC_REQUEST_", 0) == 0) {
+      ok = Decode(rbuf, channel, requests);
+    }
+    if (!ok) ++undecodable[channel];
+  }
+
+  lcm::LCM lcm_;
+  std::mutex mutex_;
+  std::atomic<bool> stop_{false};
+  std::thread thread_;
+};
+
+/// Skips the current test when no private network namespace could be made (test/support/
+/// in_netns says so), so multicast never goes anywhere else.
+#define TSCD_REQUIRE_PRIVATE_NETNS()                                                      \
+  do {                                                                                    \
+    if (std::getenv("TSCD_NETNS_UNAVAILABLE") != nullptr ||                               \
+        std::getenv("TSCD_IN_NETNS") == nullptr) {                                        \
+      GTEST_SKIP() << "no private network namespace (run through test/support/in_netns)"; \
+    }                                                                                     \
+  } while (0)
+
+}  // namespace tsc::testing_support

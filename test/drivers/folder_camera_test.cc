@@ -1,0 +1,206 @@
+#include "drivers/camera/folder_camera.h"
+
+#include <gtest/gtest.h>
+
+#include <chrono>
+#include <cmath>
+#include <filesystem>
+#include <fstream>
+#include <opencv2/imgcodecs.hpp>
+#include <string>
+#include <vector>
+
+#include "drivers/clock.h"
+#include "test/support/temp_dir.h"
+
+namespace tsc {
+namespace {
+namespace fs = std::filesystem;
+
+constexpr int kWidth = 64;
+constexpr int kHeight = 48;
+
+/// A frame whose blue channel is `value` everywhere.
+cv::Mat Frame(int value) { return cv::Mat(kHeight, kWidth, CV_8UC3, cv::Scalar(value, 100, 50)); }
+
+void Write(const fs::path& file, int value) {
+  ASSERT_TRUE(cv::imwrite(file.string(), Frame(value))) << file;
+}
+
+class FolderCameraTest : public ::testing::Test {
+ protected:
+  FolderCameraOptions Options(double fps = 0.0) const {
+    FolderCameraOptions options;
+    options.folder = temp_.path();
+    options.fps = fps;
+    return options;
+  }
+  testing_support::TempDir temp_{"tscd_folder_camera_test"};
+  ManualClock clock_;
+};
+
+int BlueOf(const CameraFrame& frame) { return frame.observation.bgr.at<cv::Vec3b>(0, 0)[0]; }
+
+TEST_F(FolderCameraTest, DeliversFramesInNaturalNameOrder) {
+  Write(temp_.path() / "10.png", 30);
+  Write(temp_.path() / "2.png", 20);
+  Write(temp_.path() / "1.png", 10);
+  FolderCamera dut(Options(), clock_);
+  std::vector<int> blues;
+  std::vector<int64_t> sequence;
+  while (auto frame = dut.Next()) {
+    blues.push_back(BlueOf(*frame));
+    sequence.push_back(frame->sequence);
+    EXPECT_EQ(frame->observation.bgr.type(), CV_8UC3);
+    EXPECT_TRUE(frame->ends_base_point);
+  }
+  EXPECT_EQ(blues, (std::vector<int>{10, 20, 30}));
+  EXPECT_EQ(sequence, (std::vector<int64_t>{0, 1, 2}));
+  EXPECT_FALSE(dut.Next().has_value());
+  EXPECT_EQ(dut.name(), "folder:" + temp_.path().string());
+}
+
+TEST_F(FolderCameraTest, IntrinsicsFromHfovOptionWithoutCameraJson) {
+  Write(temp_.path() / "1.png", 10);
+  FolderCameraOptions options = Options();
+  options.hfov_deg = 90.0;
+  FolderCamera dut(options, clock_);
+  EXPECT_EQ(dut.intrinsics().width(), kWidth);
+  EXPECT_EQ(dut.intrinsics().height(), kHeight);
+  EXPECT_NEAR(dut.intrinsics().fx(), kWidth / 2.0, 1e-9);  // tan(45°) = 1
+  EXPECT_NEAR(dut.intrinsics().cx(), kWidth / 2.0, 1.0);
+}
+
+TEST_F(FolderCameraTest, IntrinsicsFromCameraJsonWhenPresent) {
+  Write(temp_.path() / "1.png", 10);
+  std::ofstream(temp_.path() / "camera.json")
+      << "{\"width\":64,\"height\":48,\"fx\":50,\"fy\":51,\"cx\":30,\"cy\":20}";
+  FolderCameraOptions options = Options();
+  options.hfov_deg = 90.0;
+  FolderCamera dut(options, clock_);
+  EXPECT_DOUBLE_EQ(dut.intrinsics().fx(), 50.0);
+  EXPECT_DOUBLE_EQ(dut.intrinsics().fy(), 51.0);
+  EXPECT_DOUBLE_EQ(dut.intrinsics().cx(), 30.0);
+}
+
+TEST_F(FolderCameraTest, TruncatedJpegIsRecoverableErrorNamingFileAndNextFrameArrives) {
+  for (int i = 1; i <= 3; ++i) {
+    ASSERT_TRUE(cv::imwrite((temp_.path() / (std::to_string(i) + ".jpg")).string(), Frame(40 * i)));
+  }
+  // Cut frame 2 in half: decoders fill the missing part with grey and report success.
+  const fs::path bad = temp_.path() / "2.jpg";
+  fs::resize_file(bad, fs::file_size(bad) / 2);
+  EXPECT_FALSE(ImageFileLooksComplete(bad));
+  EXPECT_TRUE(ImageFileLooksComplete(temp_.path() / "1.jpg"));
+
+  FolderCamera dut(Options(), clock_);
+  auto first = dut.Next();
+  ASSERT_TRUE(first.has_value());
+  EXPECT_NEAR(BlueOf(*first), 40, 4);
+  try {
+    dut.Next();
+    FAIL() << "a truncated frame must throw";
+  } catch (const CameraError& e) {
+    EXPECT_TRUE(e.recoverable());
+    EXPECT_NE(std::string(e.what()).find(bad.string()), std::string::npos) << e.what();
+  }
+  auto third = dut.Next();
+  ASSERT_TRUE(third.has_value());
+  EXPECT_NEAR(BlueOf(*third), 120, 4);
+  EXPECT_EQ(third->sequence, 1);  // frames delivered, errors not counted
+  EXPECT_FALSE(dut.Next().has_value());
+}
+
+TEST_F(FolderCameraTest, CorruptPngIsRecoverableError) {
+  Write(temp_.path() / "1.png", 10);
+  Write(temp_.path() / "2.png", 20);
+  std::ofstream(temp_.path() / "2.png", std::ios::binary | std::ios::trunc) << "not a png at all";
+  FolderCamera dut(Options(), clock_);
+  ASSERT_TRUE(dut.Next().has_value());
+  try {
+    dut.Next();
+    FAIL() << "a corrupt frame must throw";
+  } catch (const CameraError& e) {
+    EXPECT_TRUE(e.recoverable());
+    EXPECT_NE(std::string(e.what()).find("2.png"), std::string::npos) << e.what();
+  }
+  EXPECT_FALSE(dut.Next().has_value());
+}
+
+TEST_F(FolderCameraTest, LoopsBackToFirstFrameWhenAsked) {
+  Write(temp_.path() / "1.png", 10);
+  Write(temp_.path() / "2.png", 20);
+  FolderCameraOptions options = Options();
+  options.loop = true;
+  FolderCamera dut(options, clock_);
+  std::vector<int> blues;
+  for (int i = 0; i < 5; ++i) blues.push_back(BlueOf(dut.Next().value()));
+  EXPECT_EQ(blues, (std::vector<int>{10, 20, 10, 20, 10}));
+}
+
+TEST_F(FolderCameraTest, PacesTimestampsToFpsOnInjectedClock) {
+  for (int i = 1; i <= 4; ++i) Write(temp_.path() / (std::to_string(i) + ".png"), i);
+  FolderCamera dut(Options(10.0), clock_);
+  std::vector<int64_t> stamps;
+  while (auto frame = dut.Next()) stamps.push_back(frame->utime);
+  ASSERT_EQ(stamps.size(), 4u);
+  for (size_t i = 1; i < stamps.size(); ++i) EXPECT_EQ(stamps[i] - stamps[i - 1], 100'000);
+}
+
+TEST_F(FolderCameraTest, PacesOnRealClockApproximately) {
+  for (int i = 1; i <= 5; ++i) Write(temp_.path() / (std::to_string(i) + ".png"), i);
+  FolderCameraOptions options = Options(50.0);  // 20 ms apart
+  FolderCamera dut(options);
+  const auto start = std::chrono::steady_clock::now();
+  std::vector<int64_t> stamps;
+  while (auto frame = dut.Next()) stamps.push_back(frame->utime);
+  const double elapsed_s =
+      std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+  ASSERT_EQ(stamps.size(), 5u);
+  EXPECT_GE(elapsed_s, 0.060);  // 4 periods of 20 ms, minus slack
+  EXPECT_LT(elapsed_s, 2.0);
+  EXPECT_GE(stamps.back() - stamps.front(), 60'000);
+}
+
+TEST_F(FolderCameraTest, FpsZeroNeverSleeps) {
+  for (int i = 1; i <= 3; ++i) Write(temp_.path() / (std::to_string(i) + ".png"), i);
+  const int64_t start = clock_.SteadyMicros();
+  FolderCamera dut(Options(0.0), clock_);
+  while (dut.Next()) {
+  }
+  EXPECT_EQ(clock_.SteadyMicros(), start);
+}
+
+TEST_F(FolderCameraTest, MissingFolderIsFatalErrorNamingIt) {
+  FolderCameraOptions options = Options();
+  options.folder = temp_.path() / "nope";
+  try {
+    FolderCamera dut(options, clock_);
+    FAIL() << "a missing folder must throw";
+  } catch (const CameraError& e) {
+    EXPECT_FALSE(e.recoverable());
+    EXPECT_NE(std::string(e.what()).find("nope"), std::string::npos) << e.what();
+  }
+}
+
+TEST_F(FolderCameraTest, ReadsRealDatasetInOrder) {
+  const fs::path data = fs::path(TSCD_DATA_DIR) / "rtabmap-loop";
+  if (!fs::exists(data)) GTEST_SKIP() << data << " not present";
+  FolderCameraOptions options;
+  options.folder = data;
+  options.fps = 0.0;
+  FolderCamera dut(options, clock_);
+  EXPECT_EQ(dut.size(), 84);
+  EXPECT_EQ(dut.intrinsics().width(), 512);
+  EXPECT_EQ(dut.intrinsics().height(), 384);
+  // First frame equals 1.jpg, second 2.jpg (natural order, not 1, 10, 11, ...).
+  for (const char* name : {"1.jpg", "2.jpg"}) {
+    const cv::Mat expected = cv::imread((data / name).string(), cv::IMREAD_COLOR);
+    const auto frame = dut.Next();
+    ASSERT_TRUE(frame.has_value());
+    EXPECT_EQ(cv::norm(frame->observation.bgr, expected, cv::NORM_INF), 0.0) << name;
+  }
+}
+
+}  // namespace
+}  // namespace tsc

@@ -1,0 +1,107 @@
+#include "drivers/camera/video_camera.h"
+
+#include <gtest/gtest.h>
+
+#include <filesystem>
+#include <opencv2/videoio.hpp>
+#include <string>
+
+#include "drivers/clock.h"
+#include "test/support/temp_dir.h"
+
+namespace tsc {
+namespace {
+namespace fs = std::filesystem;
+
+constexpr int kWidth = 96;
+constexpr int kHeight = 64;
+constexpr int kFrames = 6;
+
+class VideoCameraTest : public ::testing::Test {
+ protected:
+  void SetUp() override {
+    cv::VideoWriter writer(file_.string(), cv::VideoWriter::fourcc('M', 'J', 'P', 'G'), 10.0,
+                           cv::Size(kWidth, kHeight), true);
+    ASSERT_TRUE(writer.isOpened()) << "no MJPG AVI writer in this OpenCV";
+    for (int i = 0; i < kFrames; ++i) {
+      writer.write(cv::Mat(kHeight, kWidth, CV_8UC3, cv::Scalar(30 * i, 128, 200)));
+    }
+  }
+  VideoCameraOptions Options() const {
+    VideoCameraOptions options;
+    options.file = file_;
+    options.fps = 0.0;
+    options.hfov_deg = 90.0;
+    return options;
+  }
+  testing_support::TempDir temp_{"tscd_video_camera_test"};
+  fs::path file_ = temp_.path() / "clip.avi";
+  ManualClock clock_;
+};
+
+TEST_F(VideoCameraTest, RoundTripDeliversEveryFrameAtItsSize) {
+  VideoCamera dut(Options(), clock_);
+  EXPECT_EQ(dut.intrinsics().width(), kWidth);
+  EXPECT_EQ(dut.intrinsics().height(), kHeight);
+  EXPECT_NEAR(dut.intrinsics().fx(), kWidth / 2.0, 1e-9);
+  int n = 0;
+  while (auto frame = dut.Next()) {
+    const cv::Mat& bgr = frame->observation.bgr;
+    EXPECT_EQ(bgr.type(), CV_8UC3);
+    EXPECT_EQ(bgr.cols, kWidth);
+    EXPECT_EQ(bgr.rows, kHeight);
+    EXPECT_NEAR(bgr.at<cv::Vec3b>(kHeight / 2, kWidth / 2)[0], 30 * n, 8) << "frame " << n;
+    EXPECT_EQ(frame->sequence, n);
+    ++n;
+  }
+  EXPECT_EQ(n, kFrames);
+  EXPECT_EQ(dut.name(), "video:" + file_.string());
+}
+
+TEST_F(VideoCameraTest, LoopsAfterLastFrameWhenAsked) {
+  VideoCameraOptions options = Options();
+  options.loop = true;
+  VideoCamera dut(options, clock_);
+  for (int i = 0; i < kFrames; ++i) ASSERT_TRUE(dut.Next().has_value());
+  const auto again = dut.Next();
+  ASSERT_TRUE(again.has_value());
+  EXPECT_NEAR(again->observation.bgr.at<cv::Vec3b>(kHeight / 2, kWidth / 2)[0], 0, 8);
+  EXPECT_EQ(again->sequence, kFrames);
+}
+
+TEST_F(VideoCameraTest, PacesTimestampsToFps) {
+  VideoCameraOptions options = Options();
+  options.fps = 25.0;
+  VideoCamera dut(options, clock_);
+  const int64_t t0 = dut.Next()->utime;
+  const int64_t t1 = dut.Next()->utime;
+  EXPECT_EQ(t1 - t0, 40'000);
+}
+
+TEST_F(VideoCameraTest, MissingFileIsFatalErrorNamingIt) {
+  VideoCameraOptions options = Options();
+  options.file = temp_.path() / "missing.avi";
+  try {
+    VideoCamera dut(options, clock_);
+    FAIL() << "a missing file must throw";
+  } catch (const CameraError& e) {
+    EXPECT_FALSE(e.recoverable());
+    EXPECT_NE(std::string(e.what()).find("missing.avi"), std::string::npos) << e.what();
+  }
+}
+
+TEST_F(VideoCameraTest, UndecodableFileIsFatalError) {
+  const fs::path junk = temp_.path() / "junk.avi";
+  {
+    std::FILE* f = std::fopen(junk.string().c_str(), "wb");
+    ASSERT_NE(f, nullptr);
+    std::fputs("this is not a video", f);
+    std::fclose(f);
+  }
+  VideoCameraOptions options = Options();
+  options.file = junk;
+  EXPECT_THROW(VideoCamera(options, clock_), CameraError);
+}
+
+}  // namespace
+}  // namespace tsc
