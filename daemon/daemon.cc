@@ -9,9 +9,12 @@
 #include <boost/asio/signal_set.hpp>
 #include <boost/asio/steady_timer.hpp>
 #include <csignal>
+#include <limits>
 #include <random>
 #include <system_error>
 
+#include "jaguar/motor_command_t.hpp"
+#include "jaguar/motor_state_t.hpp"
 #include "tsc/announce_t.hpp"
 #include "tsc/memory_request_t.hpp"
 #include "tsc/place_event_t.hpp"
@@ -89,17 +92,25 @@ std::string Describe(const PlaceEvent& e) {
 
 struct Daemon::Loop {
   explicit Loop(asio::io_context& io)
-      : signals(io, SIGTERM, SIGINT, SIGHUP), lcm(io), announce(io), status(io), watchdog(io) {}
+      : signals(io, SIGTERM, SIGINT, SIGHUP),
+        lcm(io),
+        announce(io),
+        status(io),
+        watchdog(io),
+        motor(io) {}
   asio::signal_set signals;
   asio::posix::stream_descriptor lcm;
   asio::steady_timer announce;
   asio::steady_timer status;
   asio::steady_timer watchdog;
+  asio::steady_timer motor;
 };
 
-Daemon::Daemon(Settings settings, SettingsSource source, std::unique_ptr<CameraSource> camera)
+Daemon::Daemon(Settings settings, SettingsSource source, std::unique_ptr<CameraSource> camera,
+               std::unique_ptr<MotorBase> base)
     : settings_(std::move(settings)),
       source_(std::move(source)),
+      base_(std::move(base)),
       camera_(std::move(camera)),
       robot_(settings_.pipeline.robot),
       boot_id_(RandomBootId()),
@@ -166,6 +177,11 @@ int Daemon::Run() {
   bus_.Subscribe("TSC_ANNOUNCE", [this](const std::string& c, const uint8_t* d, size_t n) {
     OnPeerAnnounce(c, d, n);
   });
+  if (base_) {
+    bus_.Subscribe("JAGUAR_CMD_" + me, [this](const std::string& c, const uint8_t* d, size_t n) {
+      OnMotorCommand(c, d, n);
+    });
+  }
   loop_->lcm.assign(::dup(bus_.fd()));
   WaitLcm();
   loop_->signals.async_wait([this](const boost::system::error_code& ec, int sig) {
@@ -187,6 +203,41 @@ int Daemon::Run() {
 void Daemon::StartTimers() {
   OnStatusTimer();
   if (notifier_.watchdog_interval()) OnWatchdogTimer();
+  if (base_) OnMotorTimer();
+}
+
+void Daemon::OnMotorTimer() {
+  const Odometry odo = base_->state();
+  jaguar::motor_state_t m{};
+  m.utime = NowUtime();
+  m.x = odo.x;
+  m.y = odo.y;
+  m.heading = odo.heading;
+  m.linear_mps = odo.linear_mps;
+  m.angular_radps = odo.angular_radps;
+  m.left_ticks = m.right_ticks = 0;  // a simulated base has no encoders
+  m.battery_volts = std::numeric_limits<double>::quiet_NaN();
+  m.num_temperatures = 0;
+  m.link_ok = true;
+  m.stopped = odo.stopped;
+  m.fault = odo.fault;
+  const std::string channel = "JAGUAR_STATE_" + std::to_string(robot_);
+  if (!bus_.Publish(channel, m)) spdlog::warn("LCM: cannot publish on {}", channel);
+  loop_->motor.expires_after(std::chrono::milliseconds(100));
+  loop_->motor.async_wait([this](const boost::system::error_code& ec) {
+    if (!ec) OnMotorTimer();
+  });
+}
+
+void Daemon::OnMotorCommand(const std::string& channel, const uint8_t* data, size_t size) {
+  const auto c = LcmBus::Decode<jaguar::motor_command_t>(data, size);
+  if (!c) {
+    const int64_t n = ++counters_.messages_rejected;
+    if (ShouldLog(n))
+      spdlog::warn("{}: dropped a malformed motor command ({} bytes)", channel, size);
+    return;
+  }
+  base_->Command(MotorCommand{c->linear_mps, c->angular_radps, c->estop != 0});
 }
 
 void Daemon::WaitLcm() {
@@ -289,6 +340,8 @@ void Daemon::Shutdown() {
   loop_->announce.cancel();
   loop_->status.cancel();
   loop_->watchdog.cancel();
+  loop_->motor.cancel();
+  if (base_) base_->Stop();  // never leave the motors running
 }
 
 void Daemon::Reload() {

@@ -22,6 +22,7 @@
 #include "daemon/memory_snapshot.h"
 #include "daemon/settings.h"
 #include "daemon/system_notifier.h"
+#include "drivers/base/motor_base.h"
 #include "drivers/camera/camera_source.h"
 #include "store/store.h"
 
@@ -54,8 +55,10 @@ class Daemon {
   /// Opens the state directory and the store (loading the saved memory), LCM and the camera.
   /// A store that cannot be opened does not stop the daemon: it runs without persistence,
   /// keeps every result, and retries (see Status()). Throws std::runtime_error when LCM
-  /// cannot start.
-  Daemon(Settings settings, SettingsSource source, std::unique_ptr<CameraSource> camera);
+  /// cannot start. `base`, when given, is the robot's motor channel: commands from
+  /// JAGUAR_CMD_<robot>, odometry on JAGUAR_STATE_<robot>; the camera may read its pose.
+  Daemon(Settings settings, SettingsSource source, std::unique_ptr<CameraSource> camera,
+         std::unique_ptr<MotorBase> base = nullptr);
   ~Daemon();
   Daemon(const Daemon&) = delete;
   Daemon& operator=(const Daemon&) = delete;
@@ -79,6 +82,8 @@ class Daemon {
   void OnAnnounceTimer();
   void OnStatusTimer();
   void OnWatchdogTimer();
+  void OnMotorTimer();
+  void OnMotorCommand(const std::string& channel, const uint8_t* data, size_t size);
   void OnSignal(int signal);
   void OnRequest(const std::string& channel, const uint8_t* data, size_t size);
   void OnPeerAnnounce(const std::string& channel, const uint8_t* data, size_t size);
@@ -99,6 +104,7 @@ class Daemon {
 
   Settings settings_;
   SettingsSource source_;
+  std::unique_ptr<MotorBase> base_;  // before camera_: a simulated camera reads its pose
   std::unique_ptr<CameraSource> camera_;
   const uint32_t robot_;
   const int64_t boot_id_;

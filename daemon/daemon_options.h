@@ -26,7 +26,10 @@ struct SimOptions {
   int route = 0;                 ///< this robot's route, in [0, team_size)
   double revisit_fraction = 0.5;
   std::string lighting = "day";  ///< day | dim | mixed
-  int width = 320;               ///< rendered frame size, pixels
+  /// "route": the camera follows the robot's scripted route; "commands": a simulated base
+  /// integrates JAGUAR_CMD_<robot> commands and the camera renders from its pose.
+  std::string drive = "route";
+  int width = 320;  ///< rendered frame size, pixels
   int height = 240;
 };
 

@@ -89,15 +89,19 @@ int main(int argc, char** argv) {
   }
   SetUpLogging(settings.pipeline.robot, settings.daemon.log_level);
 
+  std::unique_ptr<tsc::MotorBase> base;
   std::unique_ptr<tsc::CameraSource> camera;
   try {
-    camera = tsc::MakeCamera(settings.daemon.camera, settings.daemon.sim);
+    if (settings.daemon.camera.source == "sim" && settings.daemon.sim.drive == "commands") {
+      base = std::make_unique<tsc::SimBase>(tsc::ToSimBaseOptions(settings.daemon.sim));
+    }
+    camera = tsc::MakeCamera(settings.daemon.camera, settings.daemon.sim, base.get());
   } catch (const std::exception& e) {
     spdlog::critical("camera: {}", e.what());
     return kExitConfig;
   }
   try {
-    tsc::Daemon daemon(std::move(settings), std::move(source), std::move(camera));
+    tsc::Daemon daemon(std::move(settings), std::move(source), std::move(camera), std::move(base));
     return daemon.Run();
   } catch (const std::exception& e) {
     spdlog::critical("{}", e.what());

@@ -346,6 +346,12 @@ std::vector<ConfigKey> BuildTable() {
   t.push_back(Text(
       "sim.lighting", "lighting of the simulated world", "day|dim|mixed",
       [](auto& o) -> auto& { return o.daemon.sim.lighting; }, OneOf({"day", "dim", "mixed"})));
+  t.push_back(Text(
+      "sim.drive",
+      "route: follow the scripted route; commands: a simulated base driven by "
+      "JAGUAR_CMD_<robot> (odometry on JAGUAR_STATE_<robot>) carries the camera",
+      "route|commands", [](auto& o) -> auto& { return o.daemon.sim.drive; },
+      OneOf({"route", "commands"})));
   t.push_back(Number(
       "sim.width", "rendered frame width", "pixels", 16, 4096,
       [](auto& o) -> auto& { return o.daemon.sim.width; }));

@@ -1,0 +1,155 @@
+// A team of three real tscd processes (started by `tsc team`) in the test's private network
+// namespace: the test's own LCM client decodes every message on every channel; lcm-logger
+// records the run and the Java types decode the log; a robot on a simulated base follows
+// motor commands and its watchdog stops it.
+
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <filesystem>
+#include <fstream>
+#include <mutex>
+#include <sstream>
+#include <thread>
+
+#include "test/daemon/bus_listener.h"
+#include "test/support/child_process.h"
+#include "test/support/temp_dir.h"
+
+namespace tsc {
+namespace {
+
+namespace fs = std::filesystem;
+using std::chrono::milliseconds;
+using std::chrono::seconds;
+using testing_support::BusListener;
+using testing_support::ChildProcess;
+
+const std::string kBin = TSCD_BIN_DIR;
+
+std::string ReadFile(const fs::path& p) {
+  std::ifstream in(p);
+  std::stringstream s;
+  s << in.rdbuf();
+  return s.str();
+}
+
+class TeamTest : public ::testing::Test {
+ protected:
+  testing_support::TempDir temp_{"team_test"};
+  fs::path dir_ = temp_.path();
+};
+
+TEST_F(TeamTest, ThreeRobotsLearnAndEveryMessageDecodes) {
+  TSCD_REQUIRE_PRIVATE_NETNS();
+  BusListener bus;
+  const fs::path log = dir_ / "team.lcm";
+  ChildProcess logger({TSCD_LCM_LOGGER, "-q", "-f", "--flush-interval=20",
+                       std::string("--lcm-url=") + testing_support::kTestLcmUrl, log.string()},
+                      dir_ / "logger.out");
+  std::this_thread::sleep_for(milliseconds(300));
+  ChildProcess team({kBin + "/tsc", "team", "--robots", "3", "--world", "7", "--seconds", "20",
+                     "--fps", "25", "--netns", "current", "--out", (dir_ / "team").string(),
+                     "--set", "sim.width=160", "--set", "sim.height=120"},
+                    dir_ / "team.out");
+  const auto status = team.Wait(seconds(120));
+  ASSERT_EQ(status, 0) << team.Log();
+  std::this_thread::sleep_for(milliseconds(300));
+  logger.Signal(SIGINT);
+  logger.Wait(seconds(10));
+
+  bus.Inspect([](const BusListener& b) {
+    EXPECT_TRUE(b.undecodable.empty());
+    ASSERT_TRUE(b.announces.count("TSC_ANNOUNCE"));
+    std::map<int, int> places;
+    for (const announce_t& a : b.announces.at("TSC_ANNOUNCE")) places[a.robot] = a.places;
+    for (int r = 1; r <= 3; ++r) {
+      const std::string id = std::to_string(r);
+      EXPECT_GE(places[r], 1) << "robot " << r << " learned nothing";
+      EXPECT_TRUE(b.events.count("TSC_EVENT_" + id)) << id;
+      ASSERT_TRUE(b.portions.count("TSC_MEMORY_" + id)) << id;
+      const memory_portion_t& last = b.portions.at("TSC_MEMORY_" + id).back();
+      EXPECT_EQ(last.robot, r);
+      EXPECT_GE(last.total_places, 1);
+      EXPECT_GT(last.count, 0);
+    }
+  });
+  const std::string summary = ReadFile(dir_ / "team" / "summary.json");
+  for (int r = 1; r <= 3; ++r) {
+    EXPECT_NE(summary.find("\"robot\":" + std::to_string(r)), std::string::npos) << summary;
+    EXPECT_TRUE(fs::exists(dir_ / "team" / ("robot-" + std::to_string(r)) / "memory.db"));
+  }
+  EXPECT_NE(team.Log().find("recognised"), std::string::npos);
+
+  // The Java types decode the captured log (what lcm-spy shows).
+  ChildProcess dump({TSCD_JAVA, "-jar", TSCD_LOGDUMP_JAR, log.string()}, dir_ / "dump.txt");
+  ASSERT_EQ(dump.Wait(seconds(120)), 0) << dump.Log().substr(0, 2000);
+  const std::string text = dump.Log();
+  for (const char* channel : {"TSC_ANNOUNCE", "TSC_EVENT_1", "TSC_EVENT_2", "TSC_EVENT_3",
+                              "TSC_MEMORY_1", "TSC_MEMORY_2", "TSC_MEMORY_3"}) {
+    EXPECT_NE(text.find(channel), std::string::npos) << channel;
+  }
+  EXPECT_NE(text.find("places[0].mean="), std::string::npos);
+}
+
+TEST_F(TeamTest, SimulatedBaseFollowsCommandsAndItsWatchdogStopsIt) {
+  TSCD_REQUIRE_PRIVATE_NETNS();
+  BusListener bus;
+  ChildProcess dut({kBin + "/tscd", "--robot", "4", "--state-dir", (dir_ / "state").string(),
+                    "--set", "sim.drive=commands", "--set", "sim.width=160", "--set",
+                    "sim.height=120", "--set", "camera.fps=20"},
+                   dir_ / "tscd.log");
+  ASSERT_TRUE(bus.WaitFor([](const BusListener& b) { return b.received.count("JAGUAR_STATE_4"); },
+                          seconds(30)))
+      << dut.Log();
+  // The listener keeps only tsc types; decode JAGUAR_STATE_4 with a typed subscription.
+  struct StateSink {
+    std::mutex m;
+    std::vector<jaguar::motor_state_t> states;
+    void On(const lcm::ReceiveBuffer*, const std::string&, const jaguar::motor_state_t* s) {
+      std::lock_guard lock(m);
+      states.push_back(*s);
+    }
+  } sink;
+  lcm::LCM own(testing_support::kTestLcmUrl);
+  own.subscribe("JAGUAR_STATE_4", &StateSink::On, &sink);
+  auto pump = [&](milliseconds d) {
+    const auto end = std::chrono::steady_clock::now() + d;
+    while (std::chrono::steady_clock::now() < end) own.handleTimeout(20);
+  };
+  auto last = [&] {
+    std::lock_guard lock(sink.m);
+    return sink.states.empty() ? jaguar::motor_state_t{} : sink.states.back();
+  };
+  pump(milliseconds(300));
+  const jaguar::motor_state_t start = last();
+  ASSERT_TRUE(start.stopped);
+
+  jaguar::motor_command_t cmd{};
+  cmd.linear_mps = 0.5;
+  cmd.angular_radps = 0.0;
+  for (int i = 0; i < 10; ++i) {  // 1 s at 0.5 m/s, a command every 100 ms
+    cmd.utime = i;
+    cmd.sequence = i;
+    own.publish("JAGUAR_CMD_4", &cmd);
+    pump(milliseconds(100));
+  }
+  const jaguar::motor_state_t moving = last();
+  EXPECT_FALSE(moving.stopped);
+  const double moved = std::hypot(moving.x - start.x, moving.y - start.y);
+  EXPECT_GT(moved, 0.3);
+  EXPECT_LT(moved, 0.7);
+
+  pump(milliseconds(900));  // no more commands: the watchdog stops the base within 0.5 s
+  const jaguar::motor_state_t stopped = last();
+  EXPECT_TRUE(stopped.stopped);
+  EXPECT_EQ(stopped.fault, "watchdog");
+  const double drift = std::hypot(stopped.x - moving.x, stopped.y - moving.y);
+  EXPECT_LT(drift, 0.5 * 0.5 + 0.1);  // at most 0.5 s more at 0.5 m/s
+
+  dut.Signal(SIGTERM);
+  EXPECT_EQ(dut.Wait(seconds(20)), 0) << dut.Log();
+}
+
+}  // namespace
+}  // namespace tsc
