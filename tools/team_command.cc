@@ -76,7 +76,35 @@ struct RobotStats {
   int64_t learned = 0;
   std::string status;
   bool route_ended = false;
+  // Measured from /proc just before the stop.
+  double cpu_percent = 0.0;  // of one core, averaged over the run
+  double peak_rss_mb = 0.0;  // VmHWM
 };
+
+// CPU time (user + system) of `pid` as a share of one core over `elapsed_s`, and its peak
+// resident set in MB, from /proc.
+void MeasureProcess(RobotStats& r, double elapsed_s) {
+  std::ifstream stat("/proc/" + std::to_string(r.pid) + "/stat");
+  std::string text((std::istreambuf_iterator<char>(stat)), std::istreambuf_iterator<char>());
+  const size_t paren = text.rfind(')');
+  if (paren != std::string::npos && elapsed_s > 0) {
+    std::istringstream fields(text.substr(paren + 2));
+    std::string f;
+    double utime = 0, stime = 0;
+    for (int i = 3; fields >> f; ++i) {  // field 3 is the state; 14 utime, 15 stime (ticks)
+      if (i == 14) utime = std::stod(f);
+      if (i == 15) {
+        stime = std::stod(f);
+        break;
+      }
+    }
+    r.cpu_percent = 100.0 * (utime + stime) / static_cast<double>(sysconf(_SC_CLK_TCK)) / elapsed_s;
+  }
+  std::ifstream status("/proc/" + std::to_string(r.pid) + "/status");
+  for (std::string line; std::getline(status, line);) {
+    if (line.rfind("VmHWM:", 0) == 0) r.peak_rss_mb = std::stod(line.substr(6)) / 1024.0;
+  }
+}
 
 // Runs a program (no shell) and waits for it. Returns its exit status, or -1 if it could not
 // start.
@@ -327,8 +355,12 @@ int Team(const std::vector<std::string>& args) {
     }
     if (all_exited || (seconds > 0 && elapsed >= seconds) || (seconds == 0 && all_ended)) break;
   }
-  // Let the last announces and events arrive, then stop everyone.
+  // Let the last announces and events arrive, measure, then stop everyone.
   for (int i = 0; i < 5; ++i) bus.HandleTimeout(50);
+  const double run_s = std::chrono::duration<double>(Clock::now() - start).count();
+  for (RobotStats& r : robots) {
+    if (!r.exited) MeasureProcess(r, run_s);
+  }
   StopRobots(robots);
   if (tty) std::cout << "\n";
 
@@ -336,7 +368,8 @@ int Team(const std::vector<std::string>& args) {
   bool ok = true;
   std::ostringstream json;
   json << "{\"robots\":[";
-  std::cout << "\nrobot  exit  frames  dropped  detected  places  recognised  edges\n";
+  std::cout
+      << "\nrobot  exit  frames  dropped  detected  places  recognised  edges  cpu%  rss MB\n";
   for (size_t i = 0; i < robots.size(); ++i) {
     RobotStats& r = robots[i];
     ok &= r.exit_status == 0;
@@ -362,15 +395,19 @@ int Team(const std::vector<std::string>& args) {
     std::cout << std::setw(5) << r.id << std::setw(6) << r.exit_status << std::setw(8)
               << base_points << std::setw(9) << r.dropped << std::setw(10) << detected
               << std::setw(8) << places << std::setw(12) << r.recognitions << std::setw(7) << edges
-              << "\n";
+              << std::fixed << std::setprecision(1) << std::setw(6) << r.cpu_percent << std::setw(8)
+              << r.peak_rss_mb << std::defaultfloat << "\n";
     json << (i ? "," : "") << "{\"robot\":" << r.id << ",\"exit_status\":" << r.exit_status
          << ",\"frames\":" << base_points << ",\"frames_dropped\":" << r.dropped
          << ",\"detected_places\":" << detected << ",\"places\":" << places
          << ",\"recognitions\":" << r.recognitions << ",\"edges\":" << edges
+         << ",\"cpu_percent\":" << JsonNumber(r.cpu_percent)
+         << ",\"peak_rss_mb\":" << JsonNumber(r.peak_rss_mb)
          << ",\"db\":" << JsonString((r.dir / "memory.db").string())
          << ",\"log\":" << JsonString((r.dir / "tscd.log").string()) << "}";
   }
-  json << "]}\n";
+  json << "],\"seconds\":" << JsonNumber(run_s) << ",\"fps\":" << JsonNumber(vm["fps"].as<double>())
+       << "}\n";
   WriteTextFile(out / "summary.json", json.str());
   std::cout << "summary: " << (out / "summary.json").string() << "\n";
   if (!ok) std::cerr << "tsc: some robots failed; see their tscd.log\n";
