@@ -1,0 +1,115 @@
+// Issue 3's bars on simulated worlds: the simulator and `tsc eval` run as library calls on
+// three worlds whose seeds are not the calibration seeds (office 11, corridors 12, outdoor 13),
+// at a small frame size so the whole file runs in well under a minute on one core.
+//
+// The tour precondition (every room visited, at least half revisited) is checked always. The
+// bars themselves (boundary F1 >= 0.8, recognition precision 1.0 with recall >= 0.5, edge
+// precision >= 0.9, dim revisits keep precision >= 0.95) are NOT met by the model yet: those
+// tests are DISABLED_ with the figures they last measured (docs/results.md), and run with
+//   build/bin/sim_bars_test --gtest_also_run_disabled_tests
+// Enable them when a change meets them; never lower the bars to make them pass.
+
+#include <gtest/gtest.h>
+
+#include <filesystem>
+#include <iostream>
+#include <set>
+#include <string>
+
+#include "drivers/dataset/dataset.h"
+#include "drivers/world/dataset_writer.h"
+#include "drivers/world/scenario.h"
+#include "test/support/temp_dir.h"
+#include "tools/eval.h"
+
+namespace tsc {
+namespace {
+namespace fs = std::filesystem;
+
+struct TestWorld {
+  sim::WorldKind kind;
+  std::uint32_t seed;
+};
+// Not the calibration seeds 11, 12, 13 (scripts/calibrate).
+constexpr TestWorld kWorlds[] = {{sim::WorldKind::kOffice, 101},
+                                 {sim::WorldKind::kCorridors, 102},
+                                 {sim::WorldKind::kOutdoor, 103}};
+
+sim::SimOptions Options(const TestWorld& w, sim::LightingMode lighting) {
+  sim::SimOptions o;
+  o.world = w.kind;
+  o.seed = w.seed;
+  o.lighting = lighting;
+  o.render.width = 160;  // the bubble surface resamples to its own patch size
+  o.render.height = 120;
+  return o;
+}
+
+class SimBarsTest : public ::testing::Test {
+ protected:
+  // Writes the world, runs `tsc eval` with the default configuration and prints its figures.
+  EvalResult Run(const TestWorld& w, sim::LightingMode lighting) {
+    const fs::path out =
+        temp_.path() / (std::string(sim::WorldKindName(w.kind)) + "-" + std::to_string(w.seed) +
+                        "-" + std::to_string(static_cast<int>(lighting)));
+    sim::WriteSimulatedDataset(out, Options(w, lighting));
+    const Dataset dataset = Dataset::Open(out);
+    EvalResult r = Evaluate(dataset, PipelineOptions{}, EvalOptions{});
+    std::cout << out.filename().string() << ": frames " << r.frames << ", boundary F1 "
+              << (r.boundaries ? r.boundaries->f1 : -1) << ", precision "
+              << r.main.recognition.precision << ", recall " << r.main.recognition.recall
+              << ", recall at full precision " << r.recall_at_full_precision << ", edge precision "
+              << (r.edges ? r.edges->precision : -1) << "\n";
+    return r;
+  }
+
+  testing_support::TempDir temp_{"tscd_sim_bars_test"};
+};
+
+// The setting of the bars: one robot tours every room and revisits at least half of them.
+TEST_F(SimBarsTest, TourVisitsEveryRoomAndRevisitsAtLeastHalf) {
+  for (const TestWorld& w : kWorlds) {
+    const sim::Scenario s = sim::MakeScenario(Options(w, sim::LightingMode::kDay));
+    ASSERT_EQ(s.routes.size(), 1u);
+    std::set<std::string> seen, revisited, rooms;
+    for (const sim::Room& r : s.world.rooms()) {
+      if (!r.transit) rooms.insert(r.label);
+    }
+    for (const sim::RouteFrame& f : s.routes[0]) {
+      if (f.label.empty()) continue;
+      seen.insert(f.label);
+      if (f.revisit && rooms.count(f.label)) revisited.insert(f.label);
+    }
+    for (const sim::Room& r : s.world.rooms()) EXPECT_TRUE(seen.count(r.label)) << r.label;
+    EXPECT_GE(2 * revisited.size(), rooms.size()) << sim::WorldKindName(w.kind);
+  }
+}
+
+// Last measured (160x120, defaults; docs/results.md): boundary F1 0.72 / 0.74 / 0.71,
+// precision 0.54 / 0.64 / 0.80, recall 0.26 / 0.32 / 0.80, edge precision 0.84 / 0.76 / 1.0
+// (office 101, corridors 102, outdoor 103). Detection, recognition and map all fall short.
+TEST_F(SimBarsTest, DISABLED_DetectionRecognitionAndMapBarsOnThreeWorlds) {
+  for (const TestWorld& w : kWorlds) {
+    const EvalResult r = Run(w, sim::LightingMode::kDay);
+    SCOPED_TRACE(sim::WorldKindName(w.kind));
+    ASSERT_TRUE(r.boundaries && r.edges);
+    EXPECT_GE(r.boundaries->f1, 0.8);
+    EXPECT_GT(r.main.recognition.recognitions, 0);
+    EXPECT_EQ(r.main.recognition.precision, 1.0);
+    EXPECT_GE(r.main.recognition.recall, 0.5);
+    EXPECT_GE(r.edges->precision, 0.9);
+  }
+}
+
+// Day first visits, dim revisits: recall may fall, precision must stay >= 0.95. Last measured
+// (160x120, defaults): precision 0.71 office, 0.67 corridors, 0.75 outdoor.
+TEST_F(SimBarsTest, DISABLED_DimRevisitsKeepPrecision) {
+  for (const TestWorld& w : kWorlds) {
+    const EvalResult mixed = Run(w, sim::LightingMode::kMixed);
+    SCOPED_TRACE(sim::WorldKindName(w.kind));
+    EXPECT_GE(mixed.main.recognition.precision, 0.95);
+  }
+}
+
+}  // namespace
+}  // namespace tsc
