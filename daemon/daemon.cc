@@ -251,7 +251,8 @@ void Daemon::WaitLcm() {
 
 void Daemon::OnAnnounceTimer() {
   if (stopping_) return;
-  PublishMemoryIfChanged();
+  const auto memory_period = std::chrono::duration<double>(settings_.daemon.bus.memory_period_s);
+  if (Clock::now() - last_memory_broadcast_ >= memory_period) PublishMemoryIfChanged();
   announce_t a;
   a.utime = NowUtime();
   a.protocol = announce_t::PROTOCOL;
@@ -353,8 +354,8 @@ void Daemon::Reload() {
       if (k.get(fresh) == k.get(settings_)) continue;
       if (k.key == "daemon.log_level") {
         spdlog::set_level(spdlog::level::from_str(fresh.daemon.log_level));
-      } else if (k.key == "lcm.announce_period_s") {
-        settings_.daemon.bus.announce_period_s = fresh.daemon.bus.announce_period_s;
+      } else if (k.key == "lcm.announce_period_s" || k.key == "lcm.memory_period_s") {
+        // Read by the next timer tick; nothing else to do.
       } else {
         later.push_back(k.key);
         continue;
@@ -380,9 +381,9 @@ void Daemon::OnRequest(const std::string& channel, const uint8_t* data, size_t s
     }
     return;
   }
-  if (!snapshot_) return;
+  const bool rebuilt = RefreshSnapshot();
   std::vector<int32_t> indices;
-  if (req->version == snapshot_->version) {
+  if (!rebuilt && req->version == snapshot_->version) {
     for (int32_t i : req->missing) {
       if (i >= 0 && i < static_cast<int32_t>(snapshot_->portions.size())) indices.push_back(i);
     }
@@ -422,15 +423,19 @@ void Daemon::PublishEvents(const std::vector<PlaceEvent>& events, int64_t utime)
   }
 }
 
-void Daemon::PublishMemoryIfChanged() {
+bool Daemon::RefreshSnapshot() {
   const int64_t version = counters_.memory_version;
-  if (snapshot_ && snapshot_->version == version) return;
+  if (snapshot_ && snapshot_->version == version) return false;
   SnapshotHeader header{static_cast<int32_t>(robot_), boot_id_, version, NowUtime()};
-  {
-    std::lock_guard lock(pipeline_mutex_);
-    snapshot_ = std::make_shared<const MemorySnapshot>(BuildSnapshot(
-        pipeline_->memory(), pipeline_->map(), header, settings_.daemon.bus.portion_bytes));
-  }
+  std::lock_guard lock(pipeline_mutex_);
+  snapshot_ = std::make_shared<const MemorySnapshot>(BuildSnapshot(
+      pipeline_->memory(), pipeline_->map(), header, settings_.daemon.bus.portion_bytes));
+  return true;
+}
+
+void Daemon::PublishMemoryIfChanged() {
+  if (!RefreshSnapshot()) return;
+  last_memory_broadcast_ = Clock::now();
   std::vector<int32_t> all(snapshot_->portions.size());
   for (size_t i = 0; i < all.size(); ++i) all[i] = static_cast<int32_t>(i);
   PublishPortions(all);

@@ -88,6 +88,8 @@ class Daemon {
   void OnRequest(const std::string& channel, const uint8_t* data, size_t size);
   void OnPeerAnnounce(const std::string& channel, const uint8_t* data, size_t size);
   void PublishEvents(const std::vector<PlaceEvent>& events, int64_t utime);
+  /// Rebuilds the snapshot when the memory changed since; true when it did.
+  bool RefreshSnapshot();
   void PublishMemoryIfChanged();
   void PublishPortions(const std::vector<int32_t>& indices);
   void Reload();
@@ -133,6 +135,7 @@ class Daemon {
   DaemonCounters counters_;
 
   std::shared_ptr<const MemorySnapshot> snapshot_;  // loop thread only
+  std::chrono::steady_clock::time_point last_memory_broadcast_{};
   int64_t announces_sent_ = 0;
   int64_t last_rejected_logged_ = 0;
 

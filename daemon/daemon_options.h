@@ -37,6 +37,8 @@ struct SimOptions {
 struct BusOptions {
   std::string url = "udpm://239.255.76.67:7667?ttl=0";  ///< host-local multicast
   double announce_period_s = 1.0;
+  /// Least time between two broadcasts of a changed memory (requests are answered at once).
+  double memory_period_s = 5.0;
   int portion_bytes = 60000;  ///< upper bound of one encoded memory portion (one datagram)
   std::string team_key_file;  ///< HMAC key shared by the team; empty = unsigned
 };

@@ -371,6 +371,11 @@ std::vector<ConfigKey> BuildTable() {
       "lcm.announce_period_s", "seconds between announces on TSC_ANNOUNCE", "s", 0.05, 3600,
       [](auto& o) -> auto& { return o.daemon.bus.announce_period_s; }));
   t.push_back(Number(
+      "lcm.memory_period_s",
+      "least time between two broadcasts of a changed memory on TSC_MEMORY_<robot>; requests "
+      "are answered at once",
+      "s", 0, 3600, [](auto& o) -> auto& { return o.daemon.bus.memory_period_s; }));
+  t.push_back(Number(
       "lcm.portion_bytes",
       "upper bound of one encoded memory portion; keep it below one UDP datagram", "bytes", 4096,
       65000, [](auto& o) -> auto& { return o.daemon.bus.portion_bytes; }));
