@@ -1,0 +1,116 @@
+#include "daemon/peer_exchange.h"
+
+#include <chrono>
+
+namespace tsc {
+
+PeerExchange::PeerExchange(int32_t self, PeerExchangeOptions options,
+                           std::map<int32_t, MergedVersion> merged)
+    : self_(self), options_(options), merged_(std::move(merged)) {}
+
+bool PeerExchange::OnAnnounce(const announce_t& a, Clock::time_point now) {
+  if (a.robot == self_ || a.robot <= 0) return true;
+  auto [it, fresh] = peers_.try_emplace(a.robot);
+  Peer& p = it->second;
+  if (!fresh && a.boot_id == p.boot_id && a.sequence <= p.sequence) {
+    ++replays_;
+    return false;
+  }
+  p.boot_id = a.boot_id;
+  p.sequence = a.sequence;
+  p.version = a.memory_version;
+  p.digest = a.memory_digest;
+  p.seen = now;
+  return true;
+}
+
+bool PeerExchange::Wanted(int32_t robot, const Peer& peer) const {
+  if (peer.version <= 0) return false;
+  const auto m = merged_.find(robot);
+  // A new digest means new content, whatever the version says (a restarted peer counts anew).
+  return m == merged_.end() || m->second.digest != peer.digest;
+}
+
+memory_request_t PeerExchange::Request(int32_t robot, int64_t version,
+                                       std::vector<int32_t> missing) const {
+  memory_request_t r{};
+  r.utime = std::chrono::duration_cast<std::chrono::microseconds>(
+                std::chrono::system_clock::now().time_since_epoch())
+                .count();
+  r.requester = self_;
+  r.robot = robot;
+  r.version = version;
+  r.missing = std::move(missing);
+  r.num_missing = static_cast<int32_t>(r.missing.size());
+  r.hmac_size = 0;
+  return r;
+}
+
+std::vector<memory_request_t> PeerExchange::Tick(Clock::time_point now) {
+  for (auto it = peers_.begin(); it != peers_.end();) {
+    if (now - it->second.seen > options_.peer_timeout && fetching_ != it->first) {
+      it = peers_.erase(it);
+    } else {
+      ++it;
+    }
+  }
+  if (fetching_) {
+    if (now - last_request_ < options_.retry) return {};
+    if (++retries_ > options_.max_retries) {
+      ++given_up_;
+      // Not again until the peer announces anew (about a second: a natural back-off).
+      if (auto p = peers_.find(*fetching_); p != peers_.end()) p->second.version = 0;
+      fetching_.reset();
+      assembler_.reset();
+      return {};
+    }
+    last_request_ = now;
+    // Before the first portion arrives every portion is missing: ask for all (empty list).
+    std::vector<int32_t> missing;
+    if (assembler_->started()) missing = assembler_->Missing();
+    return {Request(*fetching_, fetching_version_, std::move(missing))};
+  }
+  // Start with the first wanted peer at or after the round-robin position.
+  std::optional<int32_t> pick;
+  for (const auto& [robot, peer] : peers_) {
+    if (!Wanted(robot, peer)) continue;
+    if (!pick || (robot >= next_start_ && *pick < next_start_)) pick = robot;
+  }
+  if (!pick) return {};
+  next_start_ = *pick + 1;
+  fetching_ = *pick;
+  fetching_version_ = peers_[*pick].version;
+  assembler_.emplace(*pick);
+  retries_ = 0;
+  last_request_ = now;
+  return {Request(*pick, fetching_version_, {})};
+}
+
+std::optional<PeerSnapshot> PeerExchange::OnPortion(const memory_portion_t& p,
+                                                    Clock::time_point now) {
+  if (!fetching_ || p.robot != *fetching_ || !assembler_) return std::nullopt;
+  const SnapshotAssembler::Result r = assembler_->Accept(p);
+  if (r.verdict == SnapshotAssembler::Verdict::kRejected) {
+    ++rejected_portions_;
+    last_rejection_ = r.reason;
+    return std::nullopt;
+  }
+  if (r.verdict == SnapshotAssembler::Verdict::kAccepted) {
+    retries_ = 0;  // progress: the retry budget is for silence
+    (void)now;
+  }
+  if (!assembler_->complete()) return std::nullopt;
+  std::string reason;
+  std::optional<PeerSnapshot> snap = assembler_->Take(&reason);
+  if (!snap) {
+    ++rejected_portions_;
+    last_rejection_ = reason;
+  }
+  fetching_.reset();
+  assembler_.reset();
+  return snap;
+}
+
+void PeerExchange::MarkMerged(int32_t robot, MergedVersion v) { merged_[robot] = v; }
+
+}  // namespace tsc

@@ -1,0 +1,85 @@
+#pragma once
+// Which peer to fetch a memory from, and when to ask again (DESIGN §4, chapter 4): peers are
+// discovered from their announces; the robot fetches one peer's memory at a time, only when
+// that peer announces a memory it has not merged yet; lost portions are asked for again until
+// the snapshot completes or the attempt is given up. Pure logic with the time passed in, so
+// loss and timeouts are tested without sockets; the daemon does the sending.
+
+#include <chrono>
+#include <cstdint>
+#include <map>
+#include <optional>
+#include <string>
+#include <vector>
+
+#include "daemon/snapshot_assembler.h"
+#include "tsc/announce_t.hpp"
+#include "tsc/memory_request_t.hpp"
+
+namespace tsc {
+
+struct PeerExchangeOptions {
+  std::chrono::milliseconds retry{500};           ///< ask again for missing portions after this
+  int max_retries = 20;                           ///< then give up on this attempt
+  std::chrono::milliseconds peer_timeout{10000};  ///< a peer silent this long is forgotten
+};
+
+/// What is known of a merged peer memory (kept in the store's peers table).
+struct MergedVersion {
+  int64_t version = 0;
+  int64_t digest = 0;
+};
+
+class PeerExchange {
+ public:
+  using Clock = std::chrono::steady_clock;
+
+  PeerExchange(int32_t self, PeerExchangeOptions options,
+               std::map<int32_t, MergedVersion> merged = {});
+
+  /// An announce whose signature the caller has checked. Returns false (and counts it) for a
+  /// replay: the same boot with a sequence not above the last one seen.
+  bool OnAnnounce(const announce_t& a, Clock::time_point now);
+  /// A portion of the peer being fetched (others are ignored). The complete, checked snapshot
+  /// when this portion finished it.
+  std::optional<PeerSnapshot> OnPortion(const memory_portion_t& p, Clock::time_point now);
+  /// Requests to send now: the first request of a new exchange, or a repeat for what is
+  /// missing. At most one peer at a time.
+  std::vector<memory_request_t> Tick(Clock::time_point now);
+  /// The caller merged (or deliberately skipped) this snapshot: it will not be fetched again.
+  void MarkMerged(int32_t robot, MergedVersion v);
+
+  std::optional<int32_t> fetching() const { return fetching_; }
+  int64_t replays() const { return replays_; }
+  int64_t rejected_portions() const { return rejected_portions_; }
+  int64_t given_up() const { return given_up_; }
+  const std::string& last_rejection() const { return last_rejection_; }
+
+ private:
+  struct Peer {
+    int64_t boot_id = 0;
+    int64_t sequence = 0;
+    int64_t version = 0;
+    int64_t digest = 0;
+    Clock::time_point seen{};
+  };
+  bool Wanted(int32_t robot, const Peer& peer) const;
+  memory_request_t Request(int32_t robot, int64_t version, std::vector<int32_t> missing) const;
+
+  int32_t self_;
+  PeerExchangeOptions options_;
+  std::map<int32_t, MergedVersion> merged_;
+  std::map<int32_t, Peer> peers_;
+  std::optional<int32_t> fetching_;
+  std::optional<SnapshotAssembler> assembler_;
+  int64_t fetching_version_ = 0;
+  Clock::time_point last_request_{};
+  int retries_ = 0;
+  int32_t next_start_ = 0;  // round-robin over peers so one busy peer cannot starve the others
+  int64_t replays_ = 0;
+  int64_t rejected_portions_ = 0;
+  int64_t given_up_ = 0;
+  std::string last_rejection_;
+};
+
+}  // namespace tsc
