@@ -3,7 +3,11 @@
 // and kill -9 at random instants.
 
 #include <gtest/gtest.h>
+#include <sys/socket.h>
+#include <sys/un.h>
+#include <unistd.h>
 
+#include <cstring>
 #include <filesystem>
 #include <fstream>
 #include <random>
@@ -214,6 +218,46 @@ TEST_F(TscdTest, TruncatedFrameAndVanishingCameraAreLoggedAndSurvived) {
   EXPECT_NE(dut.Log().find("camera:"), std::string::npos) << dut.Log();
   dut.Signal(SIGTERM);
   EXPECT_EQ(dut.Wait(seconds(20)), 0) << dut.Log();
+}
+
+// systemd's notify protocol over a real AF_UNIX datagram socket, as Type=notify sees it.
+TEST_F(TscdTest, TellsSystemdReadyWatchdogAndStopping) {
+  TSCD_REQUIRE_PRIVATE_NETNS();
+  const fs::path sock_path = dir_ / "notify.sock";
+  const int sock = ::socket(AF_UNIX, SOCK_DGRAM | SOCK_CLOEXEC, 0);
+  ASSERT_GE(sock, 0);
+  sockaddr_un addr{};
+  addr.sun_family = AF_UNIX;
+  ASSERT_LT(sock_path.string().size(), sizeof(addr.sun_path));
+  std::strcpy(addr.sun_path, sock_path.c_str());
+  ASSERT_EQ(::bind(sock, reinterpret_cast<sockaddr*>(&addr), sizeof(addr)), 0);
+  timeval tv{0, 200000};
+  ::setsockopt(sock, SOL_SOCKET, SO_RCVTIMEO, &tv, sizeof(tv));
+
+  ::setenv("NOTIFY_SOCKET", sock_path.c_str(), 1);
+  ::setenv("WATCHDOG_USEC", "400000", 1);  // pet every 0.2 s
+  ChildProcess dut(SimRobot(dir_ / "state"), dir_ / "tscd.log");
+  ::unsetenv("NOTIFY_SOCKET");
+  ::unsetenv("WATCHDOG_USEC");
+
+  std::string seen;
+  auto collect = [&](std::chrono::milliseconds d) {
+    const auto end = std::chrono::steady_clock::now() + d;
+    char buf[4096];
+    while (std::chrono::steady_clock::now() < end) {
+      const ssize_t n = ::recv(sock, buf, sizeof buf, 0);
+      if (n > 0) seen += std::string(buf, static_cast<size_t>(n)) + "\n";
+    }
+  };
+  collect(seconds(3));
+  EXPECT_NE(seen.find("READY=1"), std::string::npos) << seen;
+  EXPECT_NE(seen.find("STATUS=frames"), std::string::npos) << seen;
+  EXPECT_NE(seen.find("WATCHDOG=1"), std::string::npos) << seen;
+  dut.Signal(SIGTERM);
+  collect(seconds(2));
+  EXPECT_EQ(dut.Wait(seconds(20)), 0) << dut.Log();
+  EXPECT_NE(seen.find("STOPPING=1"), std::string::npos) << seen;
+  ::close(sock);
 }
 
 // DESIGN §5: a daemon killed at any instant restarts with no learned place or map edge lost.
