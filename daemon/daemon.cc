@@ -97,17 +97,19 @@ struct Daemon::Loop {
         announce(io),
         status(io),
         watchdog(io),
-        motor(io) {}
+        motor(io),
+        exchange(io) {}
   asio::signal_set signals;
   asio::posix::stream_descriptor lcm;
   asio::steady_timer announce;
   asio::steady_timer status;
   asio::steady_timer watchdog;
   asio::steady_timer motor;
+  asio::steady_timer exchange;
 };
 
 Daemon::Daemon(Settings settings, SettingsSource source, std::unique_ptr<CameraSource> camera,
-               std::unique_ptr<MotorBase> base)
+               std::unique_ptr<MotorBase> base, std::optional<TeamKey> team_key)
     : settings_(std::move(settings)),
       source_(std::move(source)),
       base_(std::move(base)),
@@ -118,7 +120,14 @@ Daemon::Daemon(Settings settings, SettingsSource source, std::unique_ptr<CameraS
       io_(std::make_unique<asio::io_context>()),
       loop_(std::make_unique<Loop>(*io_)),
       bus_(settings_.daemon.bus.url),
-      queue_(static_cast<size_t>(settings_.daemon.queue_frames)) {
+      queue_(static_cast<size_t>(settings_.daemon.queue_frames)),
+      team_key_(std::move(team_key)),
+      exchange_(static_cast<int32_t>(robot_), PeerExchangeOptions{}) {
+  if (!team_key_) {
+    spdlog::warn(
+        "no team key (lcm.team_key_file): exchange messages are neither signed nor "
+        "checked");
+  }
   spdlog::info("tscd robot {} starting (camera {}, LCM {}, state {})", robot_, camera_->name(),
                bus_.url(), db_path_.string());
   PlaceMemory memory(robot_, settings_.pipeline.memory);
@@ -177,6 +186,9 @@ int Daemon::Run() {
   bus_.Subscribe("TSC_ANNOUNCE", [this](const std::string& c, const uint8_t* d, size_t n) {
     OnPeerAnnounce(c, d, n);
   });
+  bus_.Subscribe("TSC_MEMORY_.*", [this](const std::string& c, const uint8_t* d, size_t n) {
+    OnPeerPortion(c, d, n);
+  });
   if (base_) {
     bus_.Subscribe("JAGUAR_CMD_" + me, [this](const std::string& c, const uint8_t* d, size_t n) {
       OnMotorCommand(c, d, n);
@@ -204,6 +216,69 @@ void Daemon::StartTimers() {
   OnStatusTimer();
   if (notifier_.watchdog_interval()) OnWatchdogTimer();
   if (base_) OnMotorTimer();
+  OnExchangeTimer();
+}
+
+template <typename T>
+std::optional<T> Daemon::Authentic(const std::string& channel, const uint8_t* data, size_t size,
+                                   const char* what) {
+  std::optional<T> msg = LcmBus::Decode<T>(data, size);
+  const char* problem = nullptr;
+  if (!msg) {
+    problem = "a malformed";
+  } else if (team_key_ &&
+             !VerifyMessage(*team_key_, *msg, [](const T& m) { return LcmBus::Encode(m); })) {
+    problem = msg->hmac_size == 0 ? "an unsigned" : "a forged";
+  }
+  if (problem == nullptr) return msg;
+  const int64_t n = ++counters_.messages_rejected;
+  if (ShouldLog(n)) spdlog::warn("{}: dropped {} {} ({} bytes)", channel, problem, what, size);
+  return std::nullopt;
+}
+
+template <typename T>
+bool Daemon::PublishSigned(const std::string& channel, T msg) {
+  if (team_key_) {
+    SignMessage(*team_key_, msg, [](const T& m) { return LcmBus::Encode(m); });
+  }
+  return bus_.Publish(channel, msg);
+}
+
+void Daemon::OnExchangeTimer() {
+  if (stopping_) return;
+  for (const memory_request_t& r : exchange_.Tick(PeerExchange::Clock::now())) {
+    spdlog::debug("asking robot {} for {} portions of version {}", r.robot,
+                  r.missing.empty() ? std::string("all") : std::to_string(r.missing.size()),
+                  r.version);
+    PublishSigned("TSC_REQUEST_" + std::to_string(r.robot), r);
+  }
+  loop_->exchange.expires_after(std::chrono::milliseconds(100));
+  loop_->exchange.async_wait([this](const boost::system::error_code& ec) {
+    if (!ec) OnExchangeTimer();
+  });
+}
+
+void Daemon::OnPeerPortion(const std::string& channel, const uint8_t* data, size_t size) {
+  if (channel == "TSC_MEMORY_" + std::to_string(robot_)) return;  // our own, looped back
+  auto portion = Authentic<memory_portion_t>(channel, data, size, "memory portion");
+  if (!portion) return;
+  const int64_t rejected_before = exchange_.rejected_portions();
+  std::optional<PeerSnapshot> snap = exchange_.OnPortion(*portion, PeerExchange::Clock::now());
+  if (exchange_.rejected_portions() > rejected_before) {
+    const int64_t n = ++counters_.messages_rejected;
+    if (ShouldLog(n)) {
+      spdlog::warn("{}: dropped a memory portion: {}", channel, exchange_.last_rejection());
+    }
+  }
+  if (snap) OnPeerSnapshot(std::move(*snap));
+}
+
+void Daemon::OnPeerSnapshot(PeerSnapshot snapshot) {
+  spdlog::info("received the memory of robot {} (version {}, {} places, {} map edges)",
+               snapshot.robot, snapshot.version, snapshot.places.size(), snapshot.edges.size());
+  // Merging it into ours is the next stage (core/merge); until then it is only checked, and
+  // not fetched again while its content stays the same.
+  exchange_.MarkMerged(snapshot.robot, {snapshot.version, snapshot.digest});
 }
 
 void Daemon::OnMotorTimer() {
@@ -271,7 +346,7 @@ void Daemon::OnAnnounceTimer() {
   a.queue_fill = static_cast<float>(queue_.fill());
   a.status = StatusLine();
   a.hmac_size = 0;
-  if (!bus_.Publish("TSC_ANNOUNCE", a)) spdlog::warn("LCM: cannot publish TSC_ANNOUNCE");
+  if (!PublishSigned("TSC_ANNOUNCE", a)) spdlog::warn("LCM: cannot publish TSC_ANNOUNCE");
   const auto period = std::chrono::duration<double>(settings_.daemon.bus.announce_period_s);
   loop_->announce.expires_after(std::chrono::duration_cast<Clock::duration>(period));
   loop_->announce.async_wait([this](const boost::system::error_code& ec) {
@@ -342,6 +417,7 @@ void Daemon::Shutdown() {
   loop_->status.cancel();
   loop_->watchdog.cancel();
   loop_->motor.cancel();
+  loop_->exchange.cancel();
   if (base_) base_->Stop();  // never leave the motors running
 }
 
@@ -373,12 +449,11 @@ void Daemon::Reload() {
 }
 
 void Daemon::OnRequest(const std::string& channel, const uint8_t* data, size_t size) {
-  const auto req = LcmBus::Decode<memory_request_t>(data, size);
-  if (!req || req->robot != static_cast<int32_t>(robot_)) {
+  const auto req = Authentic<memory_request_t>(channel, data, size, "memory request");
+  if (!req) return;
+  if (req->robot != static_cast<int32_t>(robot_)) {
     const int64_t n = ++counters_.messages_rejected;
-    if (ShouldLog(n)) {
-      spdlog::warn("{}: dropped a malformed memory request ({} bytes)", channel, size);
-    }
+    if (ShouldLog(n)) spdlog::warn("{}: dropped a request for robot {}", channel, req->robot);
     return;
   }
   const bool rebuilt = RefreshSnapshot();
@@ -400,15 +475,14 @@ void Daemon::OnRequest(const std::string& channel, const uint8_t* data, size_t s
 }
 
 void Daemon::OnPeerAnnounce(const std::string& channel, const uint8_t* data, size_t size) {
-  const auto a = LcmBus::Decode<announce_t>(data, size);
-  if (!a) {
+  const auto a = Authentic<announce_t>(channel, data, size, "announce");
+  if (!a || a->robot == static_cast<int32_t>(robot_)) return;
+  if (!exchange_.OnAnnounce(*a, PeerExchange::Clock::now())) {
     const int64_t n = ++counters_.messages_rejected;
-    if (ShouldLog(n)) spdlog::warn("{}: dropped a malformed announce ({} bytes)", channel, size);
-    return;
-  }
-  // Peers are merged by the exchange (a later stage); for now they are only seen.
-  if (a->robot != static_cast<int32_t>(robot_)) {
-    spdlog::trace("peer {} at memory version {}", a->robot, a->memory_version);
+    if (ShouldLog(n)) {
+      spdlog::warn("{}: dropped a replayed announce of robot {} (sequence {})", channel, a->robot,
+                   a->sequence);
+    }
   }
 }
 
@@ -444,7 +518,7 @@ void Daemon::PublishMemoryIfChanged() {
 void Daemon::PublishPortions(const std::vector<int32_t>& indices) {
   const std::string channel = "TSC_MEMORY_" + std::to_string(robot_);
   for (int32_t i : indices) {
-    if (!bus_.Publish(channel, snapshot_->portions[static_cast<size_t>(i)])) {
+    if (!PublishSigned(channel, snapshot_->portions[static_cast<size_t>(i)])) {
       spdlog::warn("LCM: cannot publish portion {} on {}", i, channel);
     }
   }

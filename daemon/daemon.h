@@ -20,8 +20,10 @@
 #include "daemon/frame_queue.h"
 #include "daemon/lcm_bus.h"
 #include "daemon/memory_snapshot.h"
+#include "daemon/peer_exchange.h"
 #include "daemon/settings.h"
 #include "daemon/system_notifier.h"
+#include "daemon/team_key.h"
 #include "drivers/base/motor_base.h"
 #include "drivers/camera/camera_source.h"
 #include "store/store.h"
@@ -57,8 +59,10 @@ class Daemon {
   /// keeps every result, and retries (see Status()). Throws std::runtime_error when LCM
   /// cannot start. `base`, when given, is the robot's motor channel: commands from
   /// JAGUAR_CMD_<robot>, odometry on JAGUAR_STATE_<robot>; the camera may read its pose.
+  /// `team_key`, when given, signs every exchange message (announce, memory portion,
+  /// request) and is required of every peer's; without it nothing is signed or checked.
   Daemon(Settings settings, SettingsSource source, std::unique_ptr<CameraSource> camera,
-         std::unique_ptr<MotorBase> base = nullptr);
+         std::unique_ptr<MotorBase> base = nullptr, std::optional<TeamKey> team_key = {});
   ~Daemon();
   Daemon(const Daemon&) = delete;
   Daemon& operator=(const Daemon&) = delete;
@@ -87,6 +91,15 @@ class Daemon {
   void OnSignal(int signal);
   void OnRequest(const std::string& channel, const uint8_t* data, size_t size);
   void OnPeerAnnounce(const std::string& channel, const uint8_t* data, size_t size);
+  void OnPeerPortion(const std::string& channel, const uint8_t* data, size_t size);
+  void OnExchangeTimer();
+  void OnPeerSnapshot(PeerSnapshot snapshot);
+  /// Decodes an exchange message and checks its signature; counts and logs what it drops.
+  template <typename T>
+  std::optional<T> Authentic(const std::string& channel, const uint8_t* data, size_t size,
+                             const char* what);
+  template <typename T>
+  bool PublishSigned(const std::string& channel, T msg);
   void PublishEvents(const std::vector<PlaceEvent>& events, int64_t utime);
   /// Rebuilds the snapshot when the memory changed since; true when it did.
   bool RefreshSnapshot();
@@ -134,6 +147,8 @@ class Daemon {
   std::atomic<bool> degraded_camera_{false};
   DaemonCounters counters_;
 
+  std::optional<TeamKey> team_key_;
+  PeerExchange exchange_;                           // loop thread only
   std::shared_ptr<const MemorySnapshot> snapshot_;  // loop thread only
   std::chrono::steady_clock::time_point last_memory_broadcast_{};
   int64_t announces_sent_ = 0;

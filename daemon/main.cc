@@ -89,6 +89,15 @@ int main(int argc, char** argv) {
   }
   SetUpLogging(settings.pipeline.robot, settings.daemon.log_level);
 
+  std::optional<tsc::TeamKey> team_key;
+  if (!settings.daemon.bus.team_key_file.empty()) {
+    try {
+      team_key = tsc::TeamKey::Load(settings.daemon.bus.team_key_file);
+    } catch (const tsc::TeamKeyError& e) {
+      spdlog::critical("lcm.team_key_file: {}", e.what());
+      return kExitConfig;
+    }
+  }
   std::unique_ptr<tsc::MotorBase> base;
   std::unique_ptr<tsc::CameraSource> camera;
   try {
@@ -101,7 +110,8 @@ int main(int argc, char** argv) {
     return kExitConfig;
   }
   try {
-    tsc::Daemon daemon(std::move(settings), std::move(source), std::move(camera), std::move(base));
+    tsc::Daemon daemon(std::move(settings), std::move(source), std::move(camera), std::move(base),
+                       std::move(team_key));
     return daemon.Run();
   } catch (const std::exception& e) {
     spdlog::critical("{}", e.what());

@@ -5,6 +5,7 @@
 
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <cmath>
 #include <filesystem>
 #include <fstream>
@@ -90,6 +91,67 @@ TEST_F(TeamTest, ThreeRobotsLearnAndEveryMessageDecodes) {
     EXPECT_NE(text.find(channel), std::string::npos) << channel;
   }
   EXPECT_NE(text.find("places[0].mean="), std::string::npos);
+}
+
+// With a team key every exchange message is signed: robots fetch each other's memories, and
+// unsigned or forged messages from the test are dropped and counted.
+TEST_F(TeamTest, SignedExchangeDeliversMemoriesAndDropsForgeries) {
+  TSCD_REQUIRE_PRIVATE_NETNS();
+  const fs::path key = dir_ / "team.key";
+  std::ofstream(key) << "team secret\n";
+  fs::permissions(key, fs::perms::owner_read | fs::perms::owner_write);
+  BusListener bus;
+  ChildProcess team({kBin + "/tsc", "team",
+                     "--robots",    "2",
+                     "--world",     "3",
+                     "--seconds",   "14",
+                     "--fps",       "25",
+                     "--netns",     "current",
+                     "--out",       (dir_ / "team").string(),
+                     "--set",       "sim.width=160",
+                     "--set",       "sim.height=120",
+                     "--set",       "lcm.team_key_file=" + key.string(),
+                     "--set",       "lcm.memory_period_s=2"},
+                    dir_ / "team.out");
+  ASSERT_TRUE(bus.WaitFor(
+      [](const BusListener& b) {
+        return b.announces.count("TSC_ANNOUNCE") && b.announces.at("TSC_ANNOUNCE").size() >= 4;
+      },
+      seconds(30)))
+      << team.Log();
+  // An unsigned announce, and a memory portion of robot 2 signed with the wrong key.
+  announce_t fake{};
+  fake.robot = 9;
+  fake.memory_version = 1;
+  fake.status = "forged";
+  fake.hmac_size = 0;
+  bus.lcm().publish("TSC_ANNOUNCE", &fake);
+  memory_portion_t forged{};
+  bus.Inspect([&](const BusListener& b) {
+    if (b.portions.count("TSC_MEMORY_2")) forged = b.portions.at("TSC_MEMORY_2").back();
+  });
+  forged.robot = 2;
+  forged.version += 100;
+  forged.hmac.assign(32, 0xAB);
+  forged.hmac_size = 32;
+  bus.lcm().publish("TSC_MEMORY_2", &forged);
+
+  ASSERT_EQ(team.Wait(seconds(90)), 0) << team.Log();
+  bus.Inspect([](const BusListener& b) {
+    int64_t rejected = 0;
+    for (const announce_t& a : b.announces.at("TSC_ANNOUNCE")) {
+      if (a.robot == 9) continue;  // the test's own forgery
+      EXPECT_EQ(a.hmac_size, 32) << "robot " << a.robot << " announced unsigned";
+      if (a.robot == 1) rejected = std::max(rejected, a.messages_rejected);
+    }
+    EXPECT_GE(rejected, 2);
+  });
+  const std::string log1 = ReadFile(dir_ / "team" / "robot-1" / "tscd.log");
+  const std::string log2 = ReadFile(dir_ / "team" / "robot-2" / "tscd.log");
+  EXPECT_NE(log1.find("received the memory of robot 2"), std::string::npos) << log1;
+  EXPECT_NE(log2.find("received the memory of robot 1"), std::string::npos) << log2;
+  EXPECT_NE(log1.find("dropped an unsigned announce"), std::string::npos) << log1;
+  EXPECT_NE(log1.find("dropped a forged memory portion"), std::string::npos) << log1;
 }
 
 TEST_F(TeamTest, SimulatedBaseFollowsCommandsAndItsWatchdogStopsIt) {
