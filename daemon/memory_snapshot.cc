@@ -116,14 +116,24 @@ MemorySnapshot BuildSnapshot(const PlaceMemory& memory, const TopologicalMap& ma
   flush();  // the last (or only, for an empty memory) portion
 
   const int32_t count = static_cast<int32_t>(snap.portions.size());
+  for (int32_t i = 0; i < count; ++i) {
+    snap.portions[static_cast<size_t>(i)].index = i;
+    snap.portions[static_cast<size_t>(i)].count = count;
+  }
+  snap.digest = SnapshotDigest(snap.portions);
+  for (auto& p : snap.portions) p.digest = snap.digest;
+  return snap;
+}
+
+int64_t SnapshotDigest(const std::vector<memory_portion_t>& portions) {
   EVP_MD_CTX* sha = EVP_MD_CTX_new();
   EVP_DigestInit_ex(sha, EVP_sha256(), nullptr);
-  for (int32_t i = 0; i < count; ++i) {
-    memory_portion_t& p = snap.portions[static_cast<size_t>(i)];
-    p.index = i;
-    p.count = count;
-    p.digest = 0;
-    const std::vector<uint8_t> bytes = LcmBus::Encode(p);
+  for (const memory_portion_t& p : portions) {
+    memory_portion_t unsigned_portion = p;
+    unsigned_portion.digest = 0;
+    unsigned_portion.hmac_size = 0;
+    unsigned_portion.hmac.clear();
+    const std::vector<uint8_t> bytes = LcmBus::Encode(unsigned_portion);
     EVP_DigestUpdate(sha, bytes.data(), bytes.size());
   }
   unsigned char md[EVP_MAX_MD_SIZE];
@@ -132,9 +142,7 @@ MemorySnapshot BuildSnapshot(const PlaceMemory& memory, const TopologicalMap& ma
   EVP_MD_CTX_free(sha);
   uint64_t digest = 0;
   for (int i = 0; i < 8; ++i) digest = (digest << 8) | md[i];
-  snap.digest = static_cast<int64_t>(digest);
-  for (auto& p : snap.portions) p.digest = snap.digest;
-  return snap;
+  return static_cast<int64_t>(digest);
 }
 
 }  // namespace tsc

@@ -1,11 +1,7 @@
 #include "daemon/snapshot_assembler.h"
 
-#include <openssl/evp.h>
-
 #include <cmath>
 #include <set>
-
-#include "daemon/lcm_bus.h"
 
 namespace tsc {
 namespace {
@@ -109,22 +105,10 @@ std::optional<PeerSnapshot> SnapshotAssembler::Take(std::string* reason) {
     return std::nullopt;
   };
   if (!complete()) return fail("incomplete");
-  // The digest is SHA-256 over the portions' encodings with digest = 0 (BuildSnapshot).
-  EVP_MD_CTX* sha = EVP_MD_CTX_new();
-  EVP_DigestInit_ex(sha, EVP_sha256(), nullptr);
-  for (auto& [index, portion] : portions_) {
-    memory_portion_t unsigned_portion = portion;
-    unsigned_portion.digest = 0;
-    const std::vector<uint8_t> bytes = LcmBus::Encode(unsigned_portion);
-    EVP_DigestUpdate(sha, bytes.data(), bytes.size());
-  }
-  unsigned char md[EVP_MAX_MD_SIZE];
-  unsigned int md_size = 0;
-  EVP_DigestFinal_ex(sha, md, &md_size);
-  EVP_MD_CTX_free(sha);
-  uint64_t digest = 0;
-  for (int i = 0; i < 8; ++i) digest = (digest << 8) | md[i];
-  if (static_cast<int64_t>(digest) != digest_) return fail("digest mismatch");
+  std::vector<memory_portion_t> ordered;
+  ordered.reserve(portions_.size());
+  for (const auto& [index, portion] : portions_) ordered.push_back(portion);
+  if (SnapshotDigest(ordered) != digest_) return fail("digest mismatch");
 
   PeerSnapshot snap;
   snap.robot = robot_;

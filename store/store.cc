@@ -20,7 +20,7 @@ namespace {
 // Schema. kMigrations[v] takes a database from version v to v + 1; a step that has shipped is
 // never edited, a change is a new step appended here.
 
-constexpr std::array<const char*, 1> kMigrations = {
+constexpr std::array<const char*, 2> kMigrations = {
     // Version 1: the initial schema, after appendix D.2.
     R"sql(
 CREATE TABLE meta(key TEXT PRIMARY KEY, value) WITHOUT ROWID;
@@ -83,6 +83,11 @@ CREATE TABLE peers(                 -- teammates merged so far (written by the m
   robot INTEGER PRIMARY KEY,
   last_merged_version INTEGER NOT NULL,
   merged_at_utime INTEGER NOT NULL);
+)sql",
+    // Version 2: the ids of other robots' places a learned place absorbed by merging
+    // (core/merge), uint32 LE (robot, local) pairs; empty for places never merged.
+    R"sql(
+ALTER TABLE learned_places ADD COLUMN sources BLOB NOT NULL DEFAULT x'';
 )sql",
 };
 static_assert(static_cast<int>(kMigrations.size()) == Store::kSchemaVersion);
@@ -228,6 +233,12 @@ Bytes EncodeSlink(const Slink& slink) {
       .Put(std::span<const int32_t>(pi))
       .Put(std::span<const double>(slink.lambda()))
       .Finish();
+}
+
+Bytes EncodeSources(const std::vector<PlaceId>& sources) {
+  BlobWriter w;
+  for (const PlaceId& id : sources) w.PutOne<uint32_t>(id.robot).PutOne<uint32_t>(id.local);
+  return w.Finish();
 }
 
 int64_t ToSqlKey(uint64_t key) { return std::bit_cast<int64_t>(key); }
@@ -612,11 +623,12 @@ void InsertTransitions(const Db& db, const FrameResult& result) {
 void UpsertLearnedPlaces(const Db& db, const PlaceMemory& memory, const std::vector<int>& changed) {
   Statement s(db,
               "INSERT INTO learned_places(position, robot, local, mean, member_count, samples, "
-              "detected, members) VALUES(?1, ?2, ?3, ?4, ?5, ?6, ?7, ?8) "
+              "detected, members, sources) VALUES(?1, ?2, ?3, ?4, ?5, ?6, ?7, ?8, ?9) "
               "ON CONFLICT(position) DO UPDATE SET robot = excluded.robot, "
               "local = excluded.local, mean = excluded.mean, "
               "member_count = excluded.member_count, samples = excluded.samples, "
-              "detected = excluded.detected, members = excluded.members");
+              "detected = excluded.detected, members = excluded.members, "
+              "sources = excluded.sources");
   for (int position : changed) {
     if (position < 0 || position >= static_cast<int>(memory.places().size())) {
       Fail(db, "changed place " + std::to_string(position) + " is not one of the " +
@@ -631,6 +643,7 @@ void UpsertLearnedPlaces(const Db& db, const PlaceMemory& memory, const std::vec
         .Blob(6, EncodeSamples(p.samples))
         .Blob(7, EncodeArray(std::span<const int64_t>(p.detected)))
         .Blob(8, EncodeArray(std::span<const int64_t>(p.members)))
+        .Blob(9, EncodeSources(p.sources))
         .Run();
   }
 }
@@ -741,8 +754,8 @@ void WritePipelineState(const Db& db, const PipelineState& state) {
 std::vector<LearnedPlace> ReadLearnedPlaces(const Db& db) {
   std::vector<LearnedPlace> places;
   Statement s(db,
-              "SELECT position, robot, local, mean, member_count, samples, detected, members "
-              "FROM learned_places ORDER BY position");
+              "SELECT position, robot, local, mean, member_count, samples, detected, members, "
+              "sources FROM learned_places ORDER BY position");
   while (s.Step()) {
     const int64_t position = Row(db, s, "learned_places", "?").Int(0, "position");
     const Row row(db, s, "learned_places", "position=" + std::to_string(position));
@@ -767,6 +780,11 @@ std::vector<LearnedPlace> ReadLearnedPlaces(const Db& db) {
     }
     p.detected = row.Array<int64_t>(6, "detected");
     p.members = row.Array<int64_t>(7, "members");
+    const std::vector<uint32_t> sources = row.Array<uint32_t>(8, "sources");
+    if (sources.size() % 2 != 0) row.Fail("sources", "odd number of robot/local values");
+    for (size_t i = 0; i < sources.size(); i += 2) {
+      p.sources.push_back(PlaceId{sources[i], sources[i + 1]});
+    }
     places.push_back(std::move(p));
   }
   return places;
@@ -959,6 +977,64 @@ StoredState Store::Load(uint32_t robot, const PlaceMemoryOptions& options) {
     throw;
   } catch (const std::exception& e) {
     Fail(db, std::string("cannot load: ") + e.what());
+  }
+}
+
+std::optional<uint32_t> Store::robot() const {
+  const Db db{db_, path_};
+  const std::optional<int64_t> id =
+      MetaInt(db, kMetaRobot, 0, std::numeric_limits<uint32_t>::max());
+  if (!id) return std::nullopt;
+  return static_cast<uint32_t>(*id);
+}
+
+void Store::CopyTo(const std::filesystem::path& out) const {
+  const Db db{db_, path_};
+  Statement(db, "VACUUM INTO ?1").Text(1, out.c_str()).Run();
+}
+
+void Store::ReplaceKnowledge(const PlaceMemory& memory, const TopologicalMap& map) {
+  const Db db{db_, path_};
+  try {
+    Transaction tx(db);
+    CheckRobot(db, memory.robot());
+    Exec(db, "DELETE FROM learned_places");
+    std::vector<int> all(memory.places().size());
+    for (size_t i = 0; i < all.size(); ++i) all[i] = static_cast<int>(i);
+    UpsertLearnedPlaces(db, memory, all);
+    WriteTree(db, memory, all);
+    Exec(db, "DELETE FROM map_edges; DELETE FROM map_places;");
+    Statement place(db, "INSERT INTO map_places(robot, local) VALUES(?1, ?2)");
+    for (const PlaceId& p : map.places()) place.Place(1, p).Run();
+    Statement edge(db,
+                   "INSERT INTO map_edges(a_robot, a_local, b_robot, b_local, traversals, "
+                   "transitions) VALUES(?1, ?2, ?3, ?4, ?5, ?6)");
+    for (const auto& [key, e] : map.edges()) {
+      edge.Place(1, e.a)
+          .Place(3, e.b)
+          .Int(5, e.traversals)
+          .Blob(6, EncodeTransitions(e.transitions))
+          .Run();
+    }
+    // The pipeline's previous place may have been absorbed: continue from its holder.
+    const std::optional<int64_t> robot =
+        MetaInt(db, kMetaPreviousRobot, 0, std::numeric_limits<uint32_t>::max());
+    const std::optional<int64_t> local =
+        MetaInt(db, kMetaPreviousLocal, 0, std::numeric_limits<uint32_t>::max());
+    if (robot && local) {
+      const PlaceId previous{static_cast<uint32_t>(*robot), static_cast<uint32_t>(*local)};
+      for (const LearnedPlace& p : memory.places()) {
+        if (std::binary_search(p.sources.begin(), p.sources.end(), previous)) {
+          SetMeta(db, kMetaPreviousRobot, p.id.robot);
+          SetMeta(db, kMetaPreviousLocal, p.id.local);
+        }
+      }
+    }
+    tx.Commit();
+  } catch (const StoreError&) {
+    throw;
+  } catch (const std::exception& e) {
+    Fail(db, std::string("cannot replace the knowledge: ") + e.what());
   }
 }
 

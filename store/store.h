@@ -33,7 +33,7 @@ class Store {
  public:
   /// Schema version this code writes; Open() migrates older databases up to it and refuses
   /// newer ones.
-  static constexpr int kSchemaVersion = 1;
+  static constexpr int kSchemaVersion = 2;
 
   /// Opens or creates the database; creates or migrates the schema. Throws StoreError.
   static Store Open(const std::filesystem::path& path);
@@ -48,6 +48,16 @@ class Store {
   /// transitions, changed learned places, the tree and discriminants when they changed, map
   /// edges of mapped events, and the pipeline position. Throws StoreError (rolled back).
   void Commit(const FrameResult& result, const Pipeline& pipeline);
+
+  /// The robot id recorded in the database, if any. Throws StoreError.
+  std::optional<uint32_t> robot() const;
+  /// Writes a compacted copy of the database to `out` (which must not exist). Throws
+  /// StoreError.
+  void CopyTo(const std::filesystem::path& out) const;
+  /// Replaces the learned places, the tree, its discriminants and the map by `memory` and
+  /// `map` in one transaction (a merge result, core/merge); a previous place that was absorbed
+  /// is replaced by the place that holds it. Throws StoreError (rolled back).
+  void ReplaceKnowledge(const PlaceMemory& memory, const TopologicalMap& map);
 
   const std::filesystem::path& path() const { return path_; }
   int schema_version() const;

@@ -4,11 +4,13 @@
 #include <sys/wait.h>
 #include <unistd.h>
 
+#include <array>
 #include <cerrno>
 #include <cstdlib>
 #include <cstring>
 #include <fstream>
 #include <sstream>
+#include <unordered_map>
 
 #include "store/store.h"
 #include "tools/events_json.h"
@@ -181,6 +183,15 @@ void PrintSummaryJson(std::ostream& out, const StoreSummary& s) {
       << ",\"map_nodes\":" << s.map_nodes << ",\"map_edges\":" << s.map_edges << "}\n";
 }
 
+// Fill colour of a place as in the thesis' figures 4.9–4.19: one colour per robot (blue,
+// green, red, then more), orange for a place that absorbed other robots' places by merging.
+std::string PlaceColour(const LearnedPlace* p, PlaceId id) {
+  static constexpr std::array<const char*, 8> kRobotColours = {
+      "#9ecae1", "#a1d99b", "#fc9272", "#bcbddc", "#fdd0a2", "#c7e9c0", "#d9d9d9", "#f7b6d2"};
+  if (p != nullptr && !p->sources.empty()) return "#fd8d3c";
+  return kRobotColours[(id.robot + kRobotColours.size() - 1) % kRobotColours.size()];  // 1: blue
+}
+
 std::string ToDot(const PlaceMemory& memory, const TopologicalMap& map) {
   std::ostringstream d;
   d << "digraph tscd {\n"
@@ -196,8 +207,10 @@ std::string ToDot(const PlaceMemory& memory, const TopologicalMap& map) {
     d << "    n" << i << " [";
     if (n.terminal()) {
       const LearnedPlace& p = memory.places()[static_cast<size_t>(n.place)];
-      d << "shape=box, style=filled, fillcolor=\"#dbe9f6\", label=\"" << p.id.ToString() << "\\n"
-        << p.member_count << " pts\"";
+      d << "shape=box, style=filled, fillcolor=\"" << PlaceColour(&p, p.id) << "\", label=\""
+        << p.id.ToString();
+      for (const PlaceId& s : p.sources) d << " +" << s.ToString();
+      d << "\\n" << p.member_count << " pts\"";
     } else if (static_cast<int>(i) == memory.root()) {
       d << "shape=doublecircle, label=\"root\\nh=" << Height(n.height) << "\"";
     } else {
@@ -212,8 +225,13 @@ std::string ToDot(const PlaceMemory& memory, const TopologicalMap& map) {
        "  subgraph cluster_map {\n"
        "    label=\"topological map ("
     << Count(map.places().size(), "place") << ", " << Count(map.edges().size(), "edge") << ")\";\n";
+  std::unordered_map<PlaceId, const LearnedPlace*, PlaceIdHash> by_id;
+  for (const LearnedPlace& p : memory.places()) by_id.emplace(p.id, &p);
   for (const PlaceId& p : map.places()) {
-    d << "    " << DotId(p) << " [shape=circle, label=\"" << p.ToString() << "\"];\n";
+    const auto it = by_id.find(p);
+    const LearnedPlace* place = it == by_id.end() ? nullptr : it->second;
+    d << "    " << DotId(p) << " [shape=circle, style=filled, fillcolor=\"" << PlaceColour(place, p)
+      << "\", label=\"" << p.ToString() << "\"];\n";
   }
   for (const auto& [key, e] : map.edges()) {
     d << "    " << DotId(e.a) << " -> " << DotId(e.b) << " [dir=none, label=\"" << e.traversals

@@ -1,6 +1,7 @@
 // tsc — the offline tool: `tsc run` runs the TSC pipeline over a dataset folder into a store,
 // `tsc eval` scores it against the dataset's ground truth, `tsc inspect` shows what a store
-// learned, `tsc config` prints the configuration keys, `tsc sim` writes simulated datasets.
+// learned, `tsc config` prints the configuration keys, `tsc sim` writes simulated datasets,
+// `tsc merge` merges two robots' stores.
 // Exit codes (DESIGN §7.2): 0 ok, 1 runtime failure, 2 usage error, 78 configuration error.
 
 #include <algorithm>
@@ -13,12 +14,13 @@
 #include <string>
 #include <vector>
 
-#include "store/store.h"
 #include "daemon/settings.h"
 #include "drivers/dataset/dataset.h"
+#include "store/store.h"
 #include "tools/eval.h"
 #include "tools/events_json.h"
 #include "tools/inspect.h"
+#include "tools/merge_command.h"
 #include "tools/plots.h"
 #include "tools/progress.h"
 #include "tools/sim_command.h"
@@ -51,6 +53,7 @@ Topological spatial cognition, offline. Commands:
   config   print the configuration keys with units, ranges and values as an INI file
   sim      write a simulated dataset (frames and ground truth) from a generated world
   team     run N tscd robots in a private network namespace on the simulated world
+  merge    merge two robots' stores (place memories and maps) into a new store
 
 'tsc <command> --help' describes each command.
 
@@ -479,6 +482,7 @@ int Main(int argc, char** argv) {
   if (command == "config") fn = Config;
   if (command == "sim") fn = RunSimCommand;  // reports its own errors and exit codes
   if (command == "team") fn = RunTeamCommand;
+  if (command == "merge") fn = RunMergeCommand;  // reports its own errors and exit codes
   if (fn == nullptr) {
     std::cerr << "tsc: unknown command '" << command << "' (try 'tsc --help')\n";
     return kExitUsage;

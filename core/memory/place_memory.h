@@ -33,6 +33,8 @@ struct LearnedPlace {
   Eigen::MatrixXf samples;                   ///< dim x k representative member descriptors
   std::vector<DetectedPlaceIndex> detected;  ///< detected places that compose it
   std::vector<BaseIndex> members;            ///< member base points (this robot's stream)
+  /// Ids of other robots' places merged into this one (core/merge), sorted, without `id`.
+  std::vector<PlaceId> sources;
 };
 
 /// A node of the simplified tree. Terminals are nodes 0..P−1 (node i holds place i); inner

@@ -149,6 +149,7 @@ void ExpectSameMemory(const PlaceMemory& want, const PlaceMemory& got) {
     EXPECT_EQ(g.samples, w.samples);
     EXPECT_EQ(g.detected, w.detected);
     EXPECT_EQ(g.members, w.members);
+    EXPECT_EQ(g.sources, w.sources);
   }
   EXPECT_EQ(got.slink().pi(), want.slink().pi());
   EXPECT_EQ(got.slink().lambda(), want.slink().lambda());
@@ -330,10 +331,10 @@ TEST_F(StoreTest, RecommittingAResultIsHarmless) {
   ExpectSameMap(pipeline.map(), loaded.map);
 }
 
-TEST_F(StoreTest, NewDatabaseHasSchemaVersionOneAndAnEmptyMemory) {
+TEST_F(StoreTest, NewDatabaseHasTheCurrentSchemaVersionAndAnEmptyMemory) {
   Store dut = Store::Open(path_);
-  EXPECT_EQ(dut.schema_version(), 1);
-  EXPECT_EQ(Store::kSchemaVersion, 1);
+  EXPECT_EQ(dut.schema_version(), 2);
+  EXPECT_EQ(Store::kSchemaVersion, 2);
   EXPECT_EQ(dut.path(), path_);
   const StoredState loaded = dut.Load(kRobot, Options().memory);
   EXPECT_TRUE(loaded.memory.empty());
@@ -342,22 +343,74 @@ TEST_F(StoreTest, NewDatabaseHasSchemaVersionOneAndAnEmptyMemory) {
   ExpectSameState(PipelineState{}, loaded.pipeline);
   // Reopening an up-to-date database changes nothing.
   Store again = Store::Open(path_);
-  EXPECT_EQ(again.schema_version(), 1);
+  EXPECT_EQ(again.schema_version(), 2);
   EXPECT_EQ(Sql(path_, "SELECT COUNT(*) FROM schema_version"), 1);
 }
 
 TEST_F(StoreTest, OpenRefusesANewerSchemaVersion) {
   { Store::Open(path_); }
-  Sql(path_, "UPDATE schema_version SET version = 2");
+  Sql(path_, "UPDATE schema_version SET version = 3");
   try {
     Store::Open(path_);
-    FAIL() << "a database of schema version 2 was opened";
+    FAIL() << "a database of schema version 3 was opened";
   } catch (const StoreError& e) {
     const std::string what = e.what();
     EXPECT_NE(what.find(path_.string()), std::string::npos) << what;
+    EXPECT_NE(what.find("version 3"), std::string::npos) << what;
     EXPECT_NE(what.find("version 2"), std::string::npos) << what;
-    EXPECT_NE(what.find("version 1"), std::string::npos) << what;
   }
+}
+
+TEST_F(StoreTest, MigratesAVersionOneDatabaseKeepingItsKnowledge) {
+  Stream stream(23);
+  for (int c = 0; c < 3; ++c) stream.AddCluster();
+  Committed committed;
+  std::optional<PlaceMemory> memory;
+  {
+    Store dut = Store::Open(path_);
+    Pipeline pipeline = Continue(dut);
+    for (int c : {0, 1, 2, 0}) Feed(pipeline, dut, stream.Visit(c, 14), committed);
+    Finish(pipeline, dut, committed);
+    memory = pipeline.memory();
+  }
+  ASSERT_GE(memory->places().size(), 2u);
+  // Turn it into what version 1 wrote: no sources column.
+  Sql(path_, "ALTER TABLE learned_places DROP COLUMN sources");
+  Sql(path_, "UPDATE schema_version SET version = 1");
+  Store dut = Store::Open(path_);
+  EXPECT_EQ(dut.schema_version(), 2);
+  const StoredState loaded = dut.Load(kRobot, Options().memory);
+  ExpectSameMemory(*memory, loaded.memory);
+  for (const LearnedPlace& p : loaded.memory.places()) EXPECT_TRUE(p.sources.empty());
+}
+
+TEST_F(StoreTest, ReplaceKnowledgeRoundTripsMergedPlacesAndMap) {
+  Stream stream(29);
+  for (int c = 0; c < 3; ++c) stream.AddCluster();
+  Committed committed;
+  Store dut = Store::Open(path_);
+  EXPECT_EQ(dut.robot(), std::nullopt);
+  {
+    Pipeline pipeline = Continue(dut);
+    for (int c : {0, 1, 2}) Feed(pipeline, dut, stream.Visit(c, 14), committed);
+    Finish(pipeline, dut, committed);
+  }
+  EXPECT_EQ(dut.robot(), kRobot);
+  StoredState state = dut.Load(kRobot, Options().memory);
+  ASSERT_GE(state.memory.places().size(), 2u);
+  std::vector<LearnedPlace> places = state.memory.places();
+  places[0].sources = {PlaceId{7, 1}, PlaceId{7, 4}};
+  const PlaceMemory merged = PlaceMemory::Restore(
+      kRobot, Options().memory, places, state.memory.slink(), state.memory.next_local_id(), {});
+  TopologicalMap map = state.map;
+  map.RecordTransition(places[0].id, PlaceId{7, 9}, TransitionRegion{});
+  dut.ReplaceKnowledge(merged, map);
+  const fs::path copy = dir_ / "copy.db";
+  dut.CopyTo(copy);
+  Store other = Store::Open(copy);
+  const StoredState loaded = other.Load(kRobot, Options().memory);
+  ExpectSameMemory(merged, loaded.memory);
+  ExpectSameMap(map, loaded.map);
 }
 
 TEST_F(StoreTest, OpenRefusesAFileThatIsNotADatabase) {

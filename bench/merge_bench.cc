@@ -1,0 +1,162 @@
+// Merging two place memories (DESIGN §8: two memories of 10⁴ places each, bar ≤ 1 s) and the
+// reference ratio merge ÷ one-by-one relearning of the peer's places (recognise each against
+// our memory; update on recognition, learn otherwise), the relearning cost extrapolated from
+// a sample of the peer's places. Synthetic places on the descriptor scale (dimension 700).
+
+#include <benchmark/benchmark.h>
+
+#include <chrono>
+#include <map>
+#include <memory>
+#include <random>
+#include <utility>
+
+#include "core/merge/merge.h"
+
+namespace tsc {
+namespace {
+
+constexpr int kDim = 700;
+constexpr int kMembers = 12;
+constexpr int kRelearnSample = 64;
+
+// Places of a world of 64 sites; place p of world w is its site's centre perturbed by 20 %,
+// members by another 2 %. A robot sees place (w, p) with its own member noise (`seed`).
+class World {
+ public:
+  explicit World(uint32_t world) : world_(world) {
+    std::mt19937 rng(world);
+    std::uniform_real_distribution<float> u(0.0f, 1.0f);
+    for (int s = 0; s < 64; ++s) {
+      Eigen::VectorXf c(kDim);
+      for (int i = 0; i < kDim; ++i) c[i] = u(rng);
+      sites_.push_back(c / c.sum());
+    }
+  }
+  DetectedPlace Place(int p, uint32_t seed) const {
+    std::mt19937 local(world_ * 1000003u + static_cast<uint32_t>(p) * 7919u + 1u);
+    std::mt19937 members(seed * 104729u + static_cast<uint32_t>(p));
+    std::normal_distribution<float> place_noise(0.0f, 0.2f), member_noise(0.0f, 0.02f);
+    Eigen::VectorXf centre = sites_[static_cast<size_t>(p) % sites_.size()];
+    for (int i = 0; i < kDim; ++i) centre[i] *= std::max(0.0f, 1.0f + place_noise(local));
+    DetectedPlace d;
+    d.index = p + 1;
+    d.descriptors.resize(kDim, kMembers);
+    for (int j = 0; j < kMembers; ++j) {
+      d.members.push_back(static_cast<BaseIndex>(p) * kMembers + j);
+      for (int i = 0; i < kDim; ++i) {
+        d.descriptors(i, j) = std::max(0.0f, centre[i] * (1.0f + member_noise(members)));
+      }
+    }
+    return d;
+  }
+
+ private:
+  uint32_t world_;
+  std::vector<Eigen::VectorXf> sites_;
+};
+
+// Robot `robot`'s memory of `n` places: places [first, first + n) of `world`. Built directly
+// (SLINK over the means, then one Restore that trains every node) rather than by n Learn()s.
+PlaceMemory BuildMemory(uint32_t robot, const World& world, int first, int n) {
+  const PlaceMemoryOptions options;
+  std::vector<LearnedPlace> places;
+  Slink slink;
+  std::vector<double> distances;
+  for (int p = 0; p < n; ++p) {
+    const DetectedPlace d = world.Place(first + p, robot);
+    LearnedPlace lp;
+    lp.id = PlaceId{robot, static_cast<uint32_t>(p + 1)};
+    lp.mean = d.Mean();
+    lp.member_count = d.descriptors.cols();
+    lp.samples = d.descriptors.leftCols(options.max_samples_per_place);
+    lp.detected = {d.index};
+    lp.members = d.members;
+    distances.resize(places.size());
+    for (size_t i = 0; i < places.size(); ++i)
+      distances[i] = (places[i].mean - lp.mean).squaredNorm();
+    slink.Insert(distances);
+    places.push_back(std::move(lp));
+  }
+  return PlaceMemory::Restore(robot, options, std::move(places), std::move(slink),
+                              static_cast<uint32_t>(n + 1), {});
+}
+
+// Pairs built once per (n, shared %): robot 1 sees places [0, n) of world 1; robot 2 sees
+// `shared` % of the same places (its own member noise) and the rest from places [n, ...) —
+// or, with shared = 0, places of another world.
+const std::pair<PlaceMemory, PlaceMemory>& Pair(int n, int shared) {
+  static std::map<std::pair<int, int>, std::unique_ptr<std::pair<PlaceMemory, PlaceMemory>>> cache;
+  auto& slot = cache[{n, shared}];
+  if (!slot) {
+    const World one(1), two(2);
+    const int overlap = n * shared / 100;
+    PlaceMemory a = BuildMemory(1, one, 0, n);
+    PlaceMemory b = shared == 0 ? BuildMemory(2, two, 0, n)
+                                : BuildMemory(2, one, n - overlap, n);  // last `overlap` of a's
+    slot = std::make_unique<std::pair<PlaceMemory, PlaceMemory>>(std::move(a), std::move(b));
+  }
+  return *slot;
+}
+
+void BM_MergeMemories(benchmark::State& state) {
+  const int n = static_cast<int>(state.range(0)), shared = static_cast<int>(state.range(1));
+  const auto& [ours, peer] = Pair(n, shared);
+  double merge_s = 0.0;
+  MergeCase merge_case = MergeCase::kNothingNew;
+  size_t absorbed = 0, added = 0;
+  int retrained = 0;
+  for (auto _ : state) {
+    const auto t0 = std::chrono::steady_clock::now();
+    MemoryMerge m = MergeMemories(ours, peer);
+    merge_s += std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+    merge_case = m.merge_case;
+    absorbed = m.absorbed.size();
+    added = m.added.size();
+    retrained = m.retrained;
+    state.PauseTiming();
+    m.memory = PlaceMemory(1, PlaceMemoryOptions{});  // free outside the timed region
+    state.ResumeTiming();
+  }
+  merge_s /= static_cast<double>(state.iterations());
+  // Reference: recognise-then-update-or-learn the peer's places one by one into a copy of
+  // ours, on an evenly spaced sample, extrapolated to all of them (after the timed loop).
+  PlaceMemory relearner = ours;
+  const int sample = std::min<int>(kRelearnSample, static_cast<int>(peer.places().size()));
+  const auto t0 = std::chrono::steady_clock::now();
+  for (int k = 0; k < sample; ++k) {
+    const LearnedPlace& p =
+        peer.places()[static_cast<size_t>(k) * peer.places().size() / static_cast<size_t>(sample)];
+    DetectedPlace d;
+    d.index = k + 1;
+    d.descriptors = p.samples;
+    d.members.assign(static_cast<size_t>(p.samples.cols()), 0);
+    const Recognition r = relearner.Recognize(d);
+    if (r.place) {
+      relearner.Update(*r.place, d);
+    } else {
+      relearner.Learn(d);
+    }
+  }
+  const double per_place =
+      std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count() / sample;
+  const double relearn_s = per_place * static_cast<double>(peer.places().size());
+  state.counters["merge_s"] = merge_s;
+  state.counters["relearn_s_extrapolated"] = relearn_s;
+  state.counters["merge_over_relearn"] = merge_s / relearn_s;
+  state.counters["case"] = static_cast<double>(merge_case);
+  state.counters["absorbed"] = static_cast<double>(absorbed);
+  state.counters["added"] = static_cast<double>(added);
+  state.counters["retrained"] = retrained;
+  state.SetLabel(std::string(ToString(merge_case)));
+}
+BENCHMARK(BM_MergeMemories)
+    ->Args({1000, 0})
+    ->Args({1000, 50})
+    ->Args({10000, 0})
+    ->Args({10000, 50})
+    ->Unit(benchmark::kMillisecond)
+    ->Iterations(1);
+
+}  // namespace
+}  // namespace tsc

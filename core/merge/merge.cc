@@ -1,0 +1,393 @@
+#include "core/merge/merge.h"
+
+#include <algorithm>
+#include <cmath>
+#include <limits>
+#include <map>
+#include <set>
+#include <stdexcept>
+#include <string>
+#include <unordered_map>
+#include <unordered_set>
+#include <utility>
+
+namespace tsc {
+namespace {
+
+// `cap` evenly spaced columns of `x` (all of them when there are fewer), as PlaceMemory keeps
+// its samples. Deterministic.
+Eigen::MatrixXf EvenlySpaced(const Eigen::MatrixXf& x, int cap) {
+  const Eigen::Index n = x.cols();
+  if (n <= cap) return x;
+  Eigen::MatrixXf out(x.rows(), cap);
+  for (int j = 0; j < cap; ++j) out.col(j) = x.col(static_cast<Eigen::Index>(j) * n / cap);
+  return out;
+}
+
+std::vector<int> AllPlaces(const PlaceMemory& memory) {
+  std::vector<int> all(memory.places().size());
+  for (size_t i = 0; i < all.size(); ++i) all[i] = static_cast<int>(i);
+  return all;
+}
+
+// g of (3.8) for the incoming place `p` against the terminal children `candidates` of a
+// hyper-terminal of `base`: γ̃ to the nearest place P¹, the ratio to the second nearest P²
+// (1 with one candidate or γ̃(P²) = 0), and 1 − V_{P¹} over p's samples.
+double RecognitionCost(const PlaceMemory& base, const std::vector<int>& candidates,
+                       const LearnedPlace& p, int* best) {
+  double g1 = std::numeric_limits<double>::infinity(), g2 = g1;
+  *best = -1;
+  for (int c : candidates) {
+    const double g = (p.mean - base.places()[static_cast<size_t>(c)].mean).squaredNorm();
+    if (g < g1) {
+      g2 = g1;
+      g1 = g;
+      *best = c;
+    } else if (g < g2) {
+      g2 = g;
+    }
+  }
+  const double ratio = std::isinf(g2) || g2 <= 0.0 ? 1.0 : g1 / g2;
+  const Eigen::MatrixXf votes = EvenlySpaced(p.samples, base.options().max_vote_points);
+  // Terminal node i holds place i, and every non-root node has a trained d_N.
+  const double vote = base.discriminants()[static_cast<size_t>(*best)].VoteFraction(votes);
+  return g1 + ratio + (1.0 - vote);
+}
+
+// Pairwise squared distances between the columns of a and b (float GEMM; used to rank
+// hyper-terminal pairs, not for recognition).
+Eigen::MatrixXf SquaredDistances(const Eigen::MatrixXf& a, const Eigen::MatrixXf& b) {
+  Eigen::MatrixXf d = -2.0f * (a.transpose() * b);
+  d.colwise() += a.colwise().squaredNorm().transpose();
+  d.rowwise() += b.colwise().squaredNorm();
+  return d.cwiseMax(0.0f);
+}
+
+Eigen::MatrixXf Centroids(const std::vector<HyperTerminal>& hts, Eigen::Index dim) {
+  Eigen::MatrixXf out(dim, static_cast<Eigen::Index>(hts.size()));
+  for (size_t i = 0; i < hts.size(); ++i) {
+    out.col(static_cast<Eigen::Index>(i)) = hts[i].sphere.centroid;
+  }
+  return out;
+}
+
+void AddSource(LearnedPlace& target, PlaceId id) {
+  if (id == target.id) return;
+  auto it = std::lower_bound(target.sources.begin(), target.sources.end(), id);
+  if (it == target.sources.end() || *it != id) target.sources.insert(it, id);
+}
+
+// Merges the incoming place `p` into `target`: weighted mean by member counts, counts added,
+// samples pooled and thinned to the cap, ids absorbed. Members and detected places index the
+// other robot's stream and are not copied.
+void Absorb(LearnedPlace& target, const LearnedPlace& p, int max_samples) {
+  const auto n = static_cast<float>(target.member_count), m = static_cast<float>(p.member_count);
+  target.mean = (target.mean * n + p.mean * m) / (n + m);
+  target.member_count += p.member_count;
+  Eigen::MatrixXf both(target.samples.rows(), target.samples.cols() + p.samples.cols());
+  both << target.samples, p.samples;
+  target.samples = EvenlySpaced(both, max_samples);
+  AddSource(target, p.id);
+  for (PlaceId s : p.sources) AddSource(target, s);
+}
+
+}  // namespace
+
+NodeStatistics StatisticsOf(const PlaceMemory& memory, std::span<const int> places) {
+  if (places.empty()) throw std::invalid_argument("node statistics of no places");
+  NodeStatistics s;
+  s.num_places = static_cast<int>(places.size());
+  s.centroid = Eigen::VectorXf::Zero(memory.places()[static_cast<size_t>(places[0])].mean.size());
+  for (int p : places) s.centroid += memory.places()[static_cast<size_t>(p)].mean;  // (4.3)
+  s.centroid /= static_cast<float>(places.size());
+  double sum = 0.0;
+  for (int p : places) {
+    sum += (memory.places()[static_cast<size_t>(p)].mean - s.centroid).squaredNorm();
+  }
+  s.radius = std::sqrt(sum / static_cast<double>(places.size()));  // (4.4), DESIGN §3.6
+  return s;
+}
+
+NodeStatistics NodeStatisticsOf(const PlaceMemory& memory, int node) {
+  const MemoryNode& nd = memory.nodes().at(static_cast<size_t>(node));
+  const std::vector<int>& order = memory.leaf_order();
+  return StatisticsOf(memory, std::span<const int>(order.data() + nd.first_leaf,
+                                                   static_cast<size_t>(nd.num_places())));
+}
+
+std::vector<HyperTerminal> HyperTerminals(const PlaceMemory& memory) {
+  std::vector<HyperTerminal> out;
+  for (size_t i = 0; i < memory.nodes().size(); ++i) {
+    const MemoryNode& nd = memory.nodes()[i];
+    if (nd.terminal()) continue;
+    HyperTerminal h;
+    h.node = static_cast<int>(i);
+    for (int c : nd.children) {
+      const MemoryNode& child = memory.nodes()[static_cast<size_t>(c)];
+      if (child.terminal()) h.places.push_back(child.place);
+    }
+    if (h.places.empty()) continue;
+    h.sphere = StatisticsOf(memory, h.places);
+    out.push_back(std::move(h));
+  }
+  return out;
+}
+
+double Overlap(const NodeStatistics& a, const NodeStatistics& b) {
+  const double d = (a.centroid - b.centroid).norm();
+  return std::min({a.radius + b.radius - d, 2.0 * a.radius, 2.0 * b.radius});
+}
+
+std::string_view ToString(MergeCase c) {
+  switch (c) {
+    case MergeCase::kNothingNew:
+      return "nothing-new";
+    case MergeCase::kDisjoint:
+      return "disjoint";
+    case MergeCase::kContained:
+      return "contained";
+    case MergeCase::kContainedIntersecting:
+      return "contained-intersecting";
+    case MergeCase::kIntersecting:
+      return "intersecting";
+  }
+  return "?";
+}
+
+MemoryMerge MergeMemories(const PlaceMemory& ours, const PlaceMemory& peer) {
+  if (!ours.empty() && !peer.empty() &&
+      ours.places().front().mean.size() != peer.places().front().mean.size()) {
+    throw std::invalid_argument("cannot merge memories of descriptor dimensions " +
+                                std::to_string(ours.places().front().mean.size()) + " and " +
+                                std::to_string(peer.places().front().mean.size()));
+  }
+  // The smaller memory is merged into the larger (§4.5.2); on a tie the memory of the lower
+  // robot id is the larger, so both robots compute the same place set.
+  const bool peer_into_ours =
+      peer.places().size() < ours.places().size() ||
+      (peer.places().size() == ours.places().size() && ours.robot() <= peer.robot());
+  const PlaceMemory& base = peer_into_ours ? ours : peer;
+  const PlaceMemory& incoming = peer_into_ours ? peer : ours;
+  const PlaceMemoryOptions& options = ours.options();
+
+  MemoryMerge result{PlaceMemory(ours.robot(), ours.options()),
+                     MergeCase::kNothingNew,
+                     peer_into_ours,
+                     {},
+                     {},
+                     {},
+                     0};
+
+  // Ids the base already holds, as a place or as an absorbed source: those incoming places
+  // were merged before (idempotence).
+  std::unordered_set<PlaceId, PlaceIdHash> known;
+  for (const LearnedPlace& p : base.places()) {
+    known.insert(p.id);
+    known.insert(p.sources.begin(), p.sources.end());
+  }
+  std::vector<char> is_new(incoming.places().size(), 0);
+  for (size_t i = 0; i < incoming.places().size(); ++i) {
+    const PlaceId id = incoming.places()[i].id;
+    if (known.contains(id)) {
+      result.known.push_back(id);
+    } else {
+      is_new[i] = 1;
+    }
+  }
+  const bool anything_new = std::find(is_new.begin(), is_new.end(), 1) != is_new.end();
+  if (!anything_new && peer_into_ours) {  // ours unchanged
+    result.memory = ours;
+    return result;
+  }
+
+  // Case analysis on the root spheres (figure 4.4).
+  std::vector<int> target(incoming.places().size(), -1);  // base place absorbing it
+  std::vector<double> cost(incoming.places().size(), 0.0);
+  if (anything_new && !base.empty()) {
+    const NodeStatistics sb = StatisticsOf(base, AllPlaces(base));
+    const NodeStatistics si = StatisticsOf(incoming, AllPlaces(incoming));
+    const double d = (sb.centroid - si.centroid).norm();
+    if (d > sb.radius + si.radius) {  // (4.5)
+      result.merge_case = MergeCase::kDisjoint;
+    } else {
+      const bool base_large = sb.radius >= si.radius;
+      const NodeStatistics& small = base_large ? si : sb;
+      const NodeStatistics& large = base_large ? sb : si;
+      if (d + small.radius <= large.radius) {
+        bool intersects = false;
+        for (const HyperTerminal& h : HyperTerminals(base_large ? base : incoming)) {
+          intersects = intersects || (h.sphere.centroid - small.centroid).norm() <=
+                                         h.sphere.radius + small.radius;
+        }
+        result.merge_case = intersects ? MergeCase::kContainedIntersecting : MergeCase::kContained;
+      } else {
+        result.merge_case = MergeCase::kIntersecting;
+      }
+    }
+    if (result.merge_case == MergeCase::kContainedIntersecting ||
+        result.merge_case == MergeCase::kIntersecting) {
+      // (4.6)-(4.7): match each incoming hyper-terminal N' to the base hyper-terminal N* of
+      // largest overlap (ties: nearer centre, then lower node index), then recognise its
+      // places against N*'s places with g ≤ τ_r. With no intersecting N*, the largest
+      // overlap is the smallest gap: the nearest sphere, so recognition still decides.
+      const std::vector<HyperTerminal> hb = HyperTerminals(base), hi = HyperTerminals(incoming);
+      const Eigen::Index dim = base.places().front().mean.size();
+      const Eigen::MatrixXf d2 = SquaredDistances(Centroids(hi, dim), Centroids(hb, dim));
+      for (size_t a = 0; a < hi.size(); ++a) {
+        size_t star = 0;
+        double best = -std::numeric_limits<double>::infinity(), best_d = 0.0;
+        for (size_t b = 0; b < hb.size(); ++b) {
+          const double dist = std::sqrt(
+              static_cast<double>(d2(static_cast<Eigen::Index>(a), static_cast<Eigen::Index>(b))));
+          const double ra = hi[a].sphere.radius, rb = hb[b].sphere.radius;
+          const double overlap = std::min({ra + rb - dist, 2.0 * ra, 2.0 * rb});
+          if (overlap > best || (overlap == best && dist < best_d)) {
+            best = overlap;
+            best_d = dist;
+            star = b;
+          }
+        }
+        for (int p : hi[a].places) {
+          if (!is_new[static_cast<size_t>(p)]) continue;
+          int match = -1;
+          const double g = RecognitionCost(base, hb[star].places,
+                                           incoming.places()[static_cast<size_t>(p)], &match);
+          if (g <= options.tau_r) {
+            target[static_cast<size_t>(p)] = match;
+            cost[static_cast<size_t>(p)] = g;
+          }
+        }
+      }
+    }
+  } else if (anything_new) {
+    result.merge_case = MergeCase::kDisjoint;  // an empty base: everything is added
+  }
+
+  // The merged place list: the base's places (updated by what they absorb), then the new
+  // incoming places in their order.
+  std::vector<LearnedPlace> places = base.places();
+  std::vector<char> updated(places.size(), 0);
+  for (size_t i = 0; i < incoming.places().size(); ++i) {
+    if (!is_new[i]) continue;
+    const LearnedPlace& p = incoming.places()[i];
+    if (target[i] >= 0) {
+      Absorb(places[static_cast<size_t>(target[i])], p, options.max_samples_per_place);
+      updated[static_cast<size_t>(target[i])] = 1;
+      result.absorbed.push_back({p.id, places[static_cast<size_t>(target[i])].id, cost[i]});
+    }
+  }
+  // Incoming places that are neither known nor absorbed are added; when ours is the smaller
+  // memory, our own places already known to the peer are dropped (the peer's place holds them).
+  const size_t base_count = places.size();
+  for (size_t i = 0; i < incoming.places().size(); ++i) {
+    if (!is_new[i] || target[i] >= 0) continue;
+    places.push_back(incoming.places()[i]);
+    result.added.push_back(incoming.places()[i].id);
+  }
+  // SLINK insertion of the added places into the base's state. γ of (3.12) to every earlier
+  // place, by blocks of added places as one matrix product (‖a‖² + ‖b‖² − 2a·b): merging
+  // thousands of places is dominated by these distances.
+  Slink slink = base.slink();
+  if (places.size() > base_count) {
+    const Eigen::Index dim = places.front().mean.size();
+    const auto total = static_cast<Eigen::Index>(places.size());
+    Eigen::MatrixXf means(dim, total);
+    for (Eigen::Index j = 0; j < total; ++j) means.col(j) = places[static_cast<size_t>(j)].mean;
+    const Eigen::VectorXf norms = means.colwise().squaredNorm().transpose();
+    constexpr Eigen::Index kBlock = 256;
+    std::vector<double> distances;
+    for (auto first = static_cast<Eigen::Index>(base_count); first < total; first += kBlock) {
+      const Eigen::Index rows = std::min(kBlock, total - first), cols = first + rows;
+      const Eigen::MatrixXf dots = means.middleCols(first, rows).transpose() * means.leftCols(cols);
+      for (Eigen::Index r = 0; r < rows; ++r) {
+        const Eigen::Index k = first + r;
+        distances.resize(static_cast<size_t>(k));
+        for (Eigen::Index j = 0; j < k; ++j) {
+          distances[static_cast<size_t>(j)] =
+              std::max(0.0, static_cast<double>(norms[k]) + norms[j] - 2.0 * dots(r, j));
+        }
+        slink.Insert(distances);
+      }
+    }
+  }
+
+  // Discriminants whose training set did not change are reused by set key: the base's nodes
+  // not on the path of an updated place, and the incoming nodes all of whose places were
+  // added as they are (children precede parents in node order).
+  std::unordered_map<uint64_t, OneClassDiscriminant> saved;
+  auto keep = [&saved](const PlaceMemory& m, const std::vector<char>& skip) {
+    for (size_t i = 0; i < m.nodes().size(); ++i) {
+      if (skip[i]) continue;
+      if (m.discriminants()[i].trained()) saved.emplace(m.nodes()[i].set_key, m.discriminants()[i]);
+    }
+  };
+  std::vector<char> foreign(incoming.nodes().size(), 0);
+  for (size_t i = 0; i < incoming.nodes().size(); ++i) {
+    const MemoryNode& nd = incoming.nodes()[i];
+    if (nd.terminal()) {
+      const auto p = static_cast<size_t>(nd.place);
+      foreign[i] = !is_new[p] || target[p] >= 0;
+    } else {
+      for (int c : nd.children) foreign[i] = foreign[i] || foreign[static_cast<size_t>(c)];
+    }
+  }
+  std::vector<char> stale(base.nodes().size(), 0);
+  for (size_t p = 0; p < updated.size(); ++p) {
+    if (!updated[p]) continue;
+    for (int n = static_cast<int>(p); n >= 0 && !stale[static_cast<size_t>(n)];
+         n = base.nodes()[static_cast<size_t>(n)].parent) {
+      stale[static_cast<size_t>(n)] = 1;
+    }
+  }
+  keep(base, stale);
+  keep(incoming, foreign);
+  const size_t reusable = saved.size();
+  result.memory = PlaceMemory::Restore(ours.robot(), options, std::move(places), std::move(slink),
+                                       ours.next_local_id(), saved);
+  // Count the non-root nodes whose key was not among the reusable discriminants.
+  std::unordered_set<uint64_t> reused_keys;
+  reused_keys.reserve(reusable);
+  for (const auto& [key, unused] : saved) reused_keys.insert(key);
+  for (size_t i = 0; i < result.memory.nodes().size(); ++i) {
+    if (static_cast<int>(i) == result.memory.root()) continue;
+    if (!reused_keys.contains(result.memory.nodes()[i].set_key)) ++result.retrained;
+  }
+  return result;
+}
+
+TopologicalMap MergeMaps(const TopologicalMap& ours, const TopologicalMap& peer,
+                         const PlaceMemory& merged) {
+  // Which merged place holds an id: its own id first, else the place that absorbed it.
+  std::unordered_map<PlaceId, PlaceId, PlaceIdHash> holder;
+  for (const LearnedPlace& p : merged.places()) {
+    for (PlaceId s : p.sources) holder.emplace(s, p.id);
+  }
+  for (const LearnedPlace& p : merged.places()) holder[p.id] = p.id;
+  auto resolve = [&holder](PlaceId id) {
+    auto it = holder.find(id);
+    return it == holder.end() ? id : it->second;
+  };
+  std::map<std::pair<PlaceId, PlaceId>, MapEdge> edges;
+  std::set<PlaceId> places;
+  auto add = [&](const TopologicalMap& map, bool keep_transitions) {
+    for (PlaceId p : map.places()) places.insert(resolve(p));
+    for (const auto& [unused, e] : map.edges()) {
+      PlaceId a = resolve(e.a), b = resolve(e.b);
+      if (a == b) continue;  // both ends collapsed onto one place
+      if (b < a) std::swap(a, b);
+      MapEdge& out = edges.try_emplace({a, b}, MapEdge{a, b, 0, {}}).first->second;
+      out.traversals += e.traversals;
+      if (keep_transitions) {
+        out.transitions.insert(out.transitions.end(), e.transitions.begin(), e.transitions.end());
+      }
+    }
+  };
+  add(ours, true);
+  add(peer, false);
+  TopologicalMap out;
+  for (PlaceId p : places) out.AddPlace(p);
+  for (auto& [unused, e] : edges) out.RestoreEdge(std::move(e));
+  return out;
+}
+
+}  // namespace tsc

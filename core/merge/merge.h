@@ -1,0 +1,84 @@
+#pragma once
+// Merging of place memories and topological maps (chapter 4, DESIGN §3.6): a RACHET-style
+// case analysis on the hyperspheres S(c(N), ρ(N)) of the two trees, recognition of the
+// incoming places against the best-overlapping hyper-terminal, and the map union of §4.6.
+// The merged tree is rebuilt by SLINK over the merged places (docs/decisions.md, "Merging").
+
+#include <Eigen/Core>
+#include <span>
+#include <string_view>
+#include <vector>
+
+#include "core/map/topological_map.h"
+#include "core/memory/place_id.h"
+#include "core/memory/place_memory.h"
+
+namespace tsc {
+
+/// The hypersphere S(c(N), ρ(N)) of a set of places.
+struct NodeStatistics {
+  Eigen::VectorXf centroid;  ///< c(N) of (4.3): mean of the places' means
+  double radius = 0.0;       ///< ρ(N) = sqrt(mean_p ‖Ī_p − c(N)‖²) (DESIGN's fix of (4.4))
+  int num_places = 0;
+};
+
+/// c and ρ over the places `places` (indices into memory.places()). Precondition: non-empty.
+NodeStatistics StatisticsOf(const PlaceMemory& memory, std::span<const int> places);
+/// c and ρ over every place under `node`.
+NodeStatistics NodeStatisticsOf(const PlaceMemory& memory, int node);
+
+/// An inner node whose children include terminals; its terminal children form it (§4.5.2).
+struct HyperTerminal {
+  int node = -1;            ///< the inner node
+  std::vector<int> places;  ///< place indices of its terminal children, in child order
+  NodeStatistics sphere;    ///< over `places` only
+};
+/// The hyper-terminals of a memory in node index order (every place belongs to exactly one).
+std::vector<HyperTerminal> HyperTerminals(const PlaceMemory& memory);
+
+/// Overlap of two hyperspheres, the monotone proxy for the lens volume of (4.7) we use: the
+/// width of the intersection along the line of centres, min(ρa + ρb − d, 2ρa, 2ρb). Positive
+/// when they intersect, negative (minus the gap) when they do not.
+double Overlap(const NodeStatistics& a, const NodeStatistics& b);
+
+/// The case of figure 4.4 that the root spheres fall in.
+enum class MergeCase {
+  kNothingNew,             ///< every incoming place was merged before (idempotent re-merge)
+  kDisjoint,               ///< 4.4a: ‖c_m − c_n‖ > ρ_m + ρ_n: both trees side by side
+  kContained,              ///< 4.4b (case 2-1): no hyper-terminal of the larger intersects
+  kContainedIntersecting,  ///< 4.4c (case 2-2)
+  kIntersecting,           ///< 4.4d (case 3)
+};
+std::string_view ToString(MergeCase c);
+
+/// An incoming place recognised as one of the base memory's places and merged into it.
+struct Absorption {
+  PlaceId source;
+  PlaceId target;
+  double cost = 0.0;  ///< g of (3.8) against the target's hyper-terminal
+};
+
+struct MemoryMerge {
+  PlaceMemory memory;  ///< the merged memory, owned by `ours`' robot
+  MergeCase merge_case = MergeCase::kNothingNew;
+  bool peer_into_ours = true;        ///< the peer was the smaller memory (merged into ours)
+  std::vector<Absorption> absorbed;  ///< in incoming place order
+  std::vector<PlaceId> added;        ///< incoming places added as new places, in order
+  std::vector<PlaceId> known;        ///< incoming places merged before, left as they are
+  int retrained = 0;                 ///< discriminants trained (the others were reused)
+};
+
+/// T^m + T^n of figure 4.6 from the perspective of `ours` (robot m). The smaller memory (by
+/// place count; on a tie, the one of the higher robot id) is merged into the larger, so the
+/// result is the same place set whichever robot computes it. Deterministic; merging the same peer state again changes
+/// nothing. Both memories must have the same descriptor dimension (std::invalid_argument).
+MemoryMerge MergeMemories(const PlaceMemory& ours, const PlaceMemory& peer);
+
+/// G^m + G^n of §4.6 over the merged memory: every place id (own or absorbed) is replaced by
+/// the merged place that holds it, edges are the union with traversal counts added, and
+/// self-loops are dropped. Transition regions are kept only from `ours` (they index our own
+/// base point stream).
+TopologicalMap MergeMaps(const TopologicalMap& ours, const TopologicalMap& peer,
+                         const PlaceMemory& merged);
+
+}  // namespace tsc

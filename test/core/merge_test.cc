@@ -1,0 +1,329 @@
+#include "core/merge/merge.h"
+
+#include <gtest/gtest.h>
+
+#include <algorithm>
+#include <array>
+#include <random>
+#include <vector>
+
+namespace tsc {
+namespace {
+
+constexpr int kDim = 4;
+
+Eigen::VectorXf At(float x0, float x1 = 0, float x2 = 0, float x3 = 0) {
+  Eigen::VectorXf c(kDim);
+  c << x0, x1, x2, x3;
+  return c;
+}
+
+// A detected place of `n` members scattered by 0.01 around `centre`; the same seed gives the
+// same descriptors, so two robots can see "the same" place exactly.
+DetectedPlace MakePlace(const Eigen::VectorXf& centre, uint32_t seed, int n = 6) {
+  std::mt19937 rng(seed);
+  std::normal_distribution<float> noise(0.0f, 0.01f);
+  DetectedPlace d;
+  d.index = seed;
+  d.descriptors.resize(kDim, n);
+  for (int j = 0; j < n; ++j) {
+    d.members.push_back(static_cast<BaseIndex>(seed) * 100 + j);
+    for (int i = 0; i < kDim; ++i) d.descriptors(i, j) = centre[i] + noise(rng);
+  }
+  return d;
+}
+
+PlaceMemory MakeMemory(uint32_t robot, const std::vector<Eigen::VectorXf>& centres, uint32_t seed) {
+  PlaceMemory m(robot, PlaceMemoryOptions{});
+  for (size_t p = 0; p < centres.size(); ++p) {
+    m.Learn(MakePlace(centres[p], seed + static_cast<uint32_t>(p)));
+  }
+  return m;
+}
+
+// c and ρ of a set of means, computed directly (double precision).
+std::pair<Eigen::VectorXd, double> Sphere(const std::vector<Eigen::VectorXf>& means) {
+  Eigen::VectorXd c = Eigen::VectorXd::Zero(kDim);
+  for (const auto& m : means) c += m.cast<double>();
+  c /= static_cast<double>(means.size());
+  double s = 0;
+  for (const auto& m : means) s += (m.cast<double>() - c).squaredNorm();
+  return {c, std::sqrt(s / static_cast<double>(means.size()))};
+}
+
+std::vector<Eigen::VectorXf> Means(const PlaceMemory& m) {
+  std::vector<Eigen::VectorXf> out;
+  for (const LearnedPlace& p : m.places()) out.push_back(p.mean);
+  return out;
+}
+
+void ExpectRootSphere(const PlaceMemory& merged, const std::vector<Eigen::VectorXf>& means) {
+  const auto [c, rho] = Sphere(means);
+  const NodeStatistics root = NodeStatisticsOf(merged, merged.root());
+  EXPECT_EQ(root.num_places, static_cast<int>(means.size()));
+  EXPECT_LT((root.centroid.cast<double>() - c).norm(), 1e-4);
+  EXPECT_NEAR(root.radius, rho, 1e-4);
+}
+
+void ExpectSameMemory(const PlaceMemory& a, const PlaceMemory& b) {
+  ASSERT_EQ(a.places().size(), b.places().size());
+  for (size_t i = 0; i < a.places().size(); ++i) {
+    EXPECT_EQ(a.places()[i].id, b.places()[i].id);
+    EXPECT_EQ(a.places()[i].mean, b.places()[i].mean);
+    EXPECT_EQ(a.places()[i].member_count, b.places()[i].member_count);
+    EXPECT_EQ(a.places()[i].samples, b.places()[i].samples);
+    EXPECT_EQ(a.places()[i].sources, b.places()[i].sources);
+  }
+  ASSERT_EQ(a.nodes().size(), b.nodes().size());
+  for (size_t i = 0; i < a.nodes().size(); ++i) {
+    EXPECT_EQ(a.nodes()[i].parent, b.nodes()[i].parent);
+    EXPECT_EQ(a.nodes()[i].set_key, b.nodes()[i].set_key);
+  }
+}
+
+TEST(NodeStatistics, RadiusIsRootMeanSquareDistanceToCentroid) {
+  const PlaceMemory m = MakeMemory(1, {At(0), At(2), At(0, 2)}, 1);
+  const NodeStatistics s = NodeStatisticsOf(m, m.root());
+  const auto [c, rho] = Sphere(Means(m));
+  EXPECT_LT((s.centroid.cast<double>() - c).norm(), 1e-6);
+  EXPECT_NEAR(s.radius, rho, 1e-6);
+  EXPECT_EQ(s.num_places, 3);
+}
+
+TEST(HyperTerminals, CoverEveryPlaceOnce) {
+  const PlaceMemory m = MakeMemory(1, {At(0), At(0.2f), At(5), At(5.2f), At(10)}, 1);
+  std::vector<int> seen;
+  for (const HyperTerminal& h : HyperTerminals(m)) {
+    EXPECT_FALSE(m.nodes()[static_cast<size_t>(h.node)].terminal());
+    seen.insert(seen.end(), h.places.begin(), h.places.end());
+  }
+  std::sort(seen.begin(), seen.end());
+  EXPECT_EQ(seen, (std::vector<int>{0, 1, 2, 3, 4}));
+}
+
+TEST(Overlap, IsLensWidthAlongCentreLine) {
+  NodeStatistics a{At(0), 1.0, 1}, b{At(1.5f), 1.0, 1}, c{At(0.2f), 0.1, 1}, far{At(5), 1.0, 1};
+  EXPECT_NEAR(Overlap(a, b), 0.5, 1e-6);
+  EXPECT_NEAR(Overlap(a, c), 0.2, 1e-6);     // c inside a: the lens is c
+  EXPECT_NEAR(Overlap(a, far), -3.0, 1e-6);  // a gap of 3
+}
+
+// Figure 4.4a.
+TEST(MergeMemories, DisjointSpheresKeepBothPlaceSets) {
+  const PlaceMemory a = MakeMemory(1, {At(0), At(0.5f), At(1.5f)}, 10);
+  const PlaceMemory b = MakeMemory(2, {At(0, 20), At(0, 20.5f)}, 20);
+  const MemoryMerge dut = MergeMemories(a, b);
+  EXPECT_EQ(dut.merge_case, MergeCase::kDisjoint);
+  EXPECT_TRUE(dut.peer_into_ours);
+  EXPECT_TRUE(dut.absorbed.empty());
+  EXPECT_EQ(dut.added, (std::vector<PlaceId>{{2, 1}, {2, 2}}));
+  ASSERT_EQ(dut.memory.places().size(), 5u);
+  EXPECT_EQ(dut.memory.robot(), 1u);
+  EXPECT_EQ(dut.memory.next_local_id(), a.next_local_id());
+  // The two trees hang side by side under the root: no inner node mixes robots.
+  for (const MemoryNode& n : dut.memory.nodes()) {
+    if (n.terminal() || &n == &dut.memory.nodes()[static_cast<size_t>(dut.memory.root())]) {
+      continue;
+    }
+    bool one = false, two = false;
+    for (int i = n.first_leaf; i < n.end_leaf; ++i) {
+      const uint32_t r =
+          dut.memory.places()[static_cast<size_t>(dut.memory.leaf_order()[i])].id.robot;
+      one = one || r == 1;
+      two = two || r == 2;
+    }
+    EXPECT_FALSE(one && two);
+  }
+  ExpectRootSphere(dut.memory, [&] {
+    auto m = Means(a), n = Means(b);
+    m.insert(m.end(), n.begin(), n.end());
+    return m;
+  }());
+}
+
+// Figure 4.4b: the small sphere lies inside the large one, between its hyper-terminals.
+TEST(MergeMemories, ContainedWithoutIntersectingHyperTerminalAddsEverything) {
+  const PlaceMemory a = MakeMemory(
+      1,
+      {At(10), At(10.3f), At(-10), At(-10.3f), At(0, 10), At(0, 10.3f), At(0, -10), At(0, -10.3f)},
+      10);
+  const PlaceMemory b = MakeMemory(2, {At(0, 0, 0.2f), At(0, 0, -0.2f)}, 20);
+  const MemoryMerge dut = MergeMemories(b, a);  // b's view: a is larger, b goes into a
+  EXPECT_EQ(dut.merge_case, MergeCase::kContained);
+  EXPECT_FALSE(dut.peer_into_ours);
+  EXPECT_TRUE(dut.absorbed.empty());
+  EXPECT_EQ(dut.added, (std::vector<PlaceId>{{2, 1}, {2, 2}}));
+  EXPECT_EQ(dut.memory.places().size(), 10u);
+  EXPECT_EQ(dut.memory.robot(), 2u);
+}
+
+// Figure 4.4c: the small sphere is inside and meets the hyper-terminal at the centre; the
+// places it shares with it are absorbed, the other one is added.
+TEST(MergeMemories, ContainedWithIntersectionAbsorbsRecognisedPlaces) {
+  const std::vector<Eigen::VectorXf> big = {At(10),      At(10.3f),    At(-10),    At(-10.3f),
+                                            At(0, 10),   At(0, 10.3f), At(0, -10), At(0, -10.3f),
+                                            At(0, 0, 0), At(0, 0, 3)};
+  const PlaceMemory a = MakeMemory(1, big, 10);
+  PlaceMemory b(2, PlaceMemoryOptions{});
+  b.Learn(MakePlace(big[8], 18));  // exactly a's place 1:9
+  b.Learn(MakePlace(At(0, 0, 1.5f), 99));
+  const MemoryMerge dut = MergeMemories(a, b);
+  EXPECT_EQ(dut.merge_case, MergeCase::kContainedIntersecting);
+  ASSERT_EQ(dut.absorbed.size(), 1u);
+  EXPECT_EQ(dut.absorbed[0].source, (PlaceId{2, 1}));
+  EXPECT_EQ(dut.absorbed[0].target, (PlaceId{1, 9}));
+  EXPECT_LE(dut.absorbed[0].cost, PlaceMemoryOptions{}.tau_r);
+  EXPECT_EQ(dut.added, (std::vector<PlaceId>{{2, 2}}));
+  ASSERT_EQ(dut.memory.places().size(), 11u);
+  const LearnedPlace& merged = dut.memory.places()[8];
+  EXPECT_EQ(merged.id, (PlaceId{1, 9}));
+  EXPECT_EQ(merged.sources, (std::vector<PlaceId>{{2, 1}}));
+  EXPECT_EQ(merged.member_count, 12);
+  EXPECT_LE(merged.samples.cols(), PlaceMemoryOptions{}.max_samples_per_place);
+  EXPECT_TRUE(merged.mean.isApprox(a.places()[8].mean, 1e-6f));  // same descriptors
+  EXPECT_GT(dut.retrained, 0);
+}
+
+// Figure 4.4d: the spheres intersect, neither contains the other.
+TEST(MergeMemories, IntersectingSpheresRecogniseSharedPlaces) {
+  const PlaceMemory a = MakeMemory(1, {At(0), At(1.5f), At(3), At(4.5f)}, 10);
+  PlaceMemory b(2, PlaceMemoryOptions{});
+  b.Learn(MakePlace(At(4.5f), 13));  // a's 1:4
+  b.Learn(MakePlace(At(3.75f, 1.5f), 30));
+  b.Learn(MakePlace(At(1, 1.5f), 31));
+  const MemoryMerge dut = MergeMemories(a, b);
+  EXPECT_EQ(dut.merge_case, MergeCase::kIntersecting);
+  ASSERT_EQ(dut.absorbed.size(), 1u);
+  EXPECT_EQ(dut.absorbed[0].target, (PlaceId{1, 4}));
+  EXPECT_EQ(dut.added, (std::vector<PlaceId>{{2, 2}, {2, 3}}));
+  // The peer's view gives the same place set (smaller into larger).
+  const MemoryMerge other = MergeMemories(b, a);
+  EXPECT_FALSE(other.peer_into_ours);
+  ASSERT_EQ(other.memory.places().size(), dut.memory.places().size());
+  for (size_t i = 0; i < dut.memory.places().size(); ++i) {
+    EXPECT_EQ(other.memory.places()[i].id, dut.memory.places()[i].id);
+    EXPECT_EQ(other.memory.places()[i].mean, dut.memory.places()[i].mean);
+  }
+  EXPECT_EQ(other.memory.robot(), 2u);
+}
+
+// Table 4.4: three memories whose places never match, all six merge orders: the root sphere
+// is the sphere of the union of the place means.
+TEST(MergeMemories, RootSphereIsOrderIndependent) {
+  std::mt19937 rng(5);
+  std::uniform_real_distribution<float> u(0.0f, 6.0f);
+  std::vector<Eigen::VectorXf> all;
+  std::array<std::vector<Eigen::VectorXf>, 3> centres;
+  for (int r = 0; r < 3; ++r) {
+    while (centres[static_cast<size_t>(r)].size() < 6) {
+      const float shift = 2.0f * static_cast<float>(r);
+      const Eigen::VectorXf c = At(u(rng) + shift, u(rng), u(rng) - shift, u(rng));
+      // Squared distance ≥ 2 > τ_r from every other place: no merge can match them.
+      const bool apart = std::all_of(all.begin(), all.end(),
+                                     [&](const auto& o) { return (o - c).squaredNorm() > 2.0f; });
+      if (!apart) continue;
+      all.push_back(c);
+      centres[static_cast<size_t>(r)].push_back(c);
+    }
+  }
+  const std::array<PlaceMemory, 3> memories = {MakeMemory(1, centres[0], 100),
+                                               MakeMemory(2, centres[1], 200),
+                                               MakeMemory(3, centres[2], 300)};
+  std::vector<Eigen::VectorXf> union_means;
+  for (const PlaceMemory& m : memories) {
+    for (const auto& mean : Means(m)) union_means.push_back(mean);
+  }
+  std::array<int, 3> order = {0, 1, 2};
+  int orders = 0;
+  do {
+    const MemoryMerge first = MergeMemories(memories[static_cast<size_t>(order[0])],
+                                            memories[static_cast<size_t>(order[1])]);
+    const MemoryMerge dut = MergeMemories(first.memory, memories[static_cast<size_t>(order[2])]);
+    SCOPED_TRACE(testing::Message()
+                 << order[0] << order[1] << order[2] << " " << ToString(first.merge_case) << " "
+                 << ToString(dut.merge_case));
+    EXPECT_TRUE(first.absorbed.empty());
+    EXPECT_TRUE(dut.absorbed.empty());
+    ExpectRootSphere(dut.memory, union_means);
+    ++orders;
+  } while (std::next_permutation(order.begin(), order.end()));
+  EXPECT_EQ(orders, 6);
+}
+
+// Table 4.4 with a controlled match: one place seen identically by two robots is absorbed in
+// either order, and the root sphere is that of the union with the shared place counted once.
+TEST(MergeMemories, RootSphereCountsSharedPlaceOnceInBothOrders) {
+  const std::vector<Eigen::VectorXf> ca = {At(0), At(1.5f), At(3), At(4.5f), At(3, 1.5f)};
+  const std::vector<Eigen::VectorXf> cb = {At(4.5f), At(3.75f, 1.5f), At(1, 1.5f)};
+  const PlaceMemory a = MakeMemory(1, ca, 10);
+  PlaceMemory b(2, PlaceMemoryOptions{});
+  b.Learn(MakePlace(cb[0], 13));  // identical to a's 1:4
+  b.Learn(MakePlace(cb[1], 40));
+  b.Learn(MakePlace(cb[2], 41));
+  std::vector<Eigen::VectorXf> expected = Means(a);
+  expected.push_back(b.places()[1].mean);
+  expected.push_back(b.places()[2].mean);
+  for (const MemoryMerge& dut : {MergeMemories(a, b), MergeMemories(b, a)}) {
+    EXPECT_EQ(dut.absorbed.size(), 1u);
+    ExpectRootSphere(dut.memory, expected);
+  }
+}
+
+TEST(MergeMemories, IsDeterministic) {
+  const PlaceMemory a = MakeMemory(1, {At(0), At(1.5f), At(3), At(4.5f)}, 10);
+  const PlaceMemory b = MakeMemory(2, {At(4.5f, 0.05f), At(6), At(3, 3)}, 50);
+  const MemoryMerge first = MergeMemories(a, b), second = MergeMemories(a, b);
+  EXPECT_EQ(first.merge_case, second.merge_case);
+  EXPECT_EQ(first.added, second.added);
+  ExpectSameMemory(first.memory, second.memory);
+}
+
+TEST(MergeMemories, MergingTheSamePeerTwiceChangesNothing) {
+  const PlaceMemory a = MakeMemory(1, {At(0), At(1.5f), At(3), At(4.5f)}, 10);
+  PlaceMemory b(2, PlaceMemoryOptions{});
+  b.Learn(MakePlace(At(4.5f), 13));
+  b.Learn(MakePlace(At(3.75f, 1.5f), 30));
+  const MemoryMerge once = MergeMemories(a, b);
+  ASSERT_EQ(once.absorbed.size(), 1u);
+  const MemoryMerge twice = MergeMemories(once.memory, b);
+  EXPECT_EQ(twice.merge_case, MergeCase::kNothingNew);
+  EXPECT_EQ(twice.known.size(), 2u);
+  ExpectSameMemory(once.memory, twice.memory);
+  // Also when the peer is the larger memory.
+  const MemoryMerge reverse = MergeMemories(b, a);
+  const MemoryMerge reverse_twice = MergeMemories(reverse.memory, a);
+  EXPECT_EQ(reverse_twice.merge_case, MergeCase::kNothingNew);
+  ExpectSameMemory(reverse.memory, reverse_twice.memory);
+}
+
+TEST(MergeMaps, AbsorbedNodesCollapseOntoTheirTarget) {
+  const PlaceMemory a = MakeMemory(1, {At(0), At(1.5f), At(3), At(4.5f)}, 10);
+  PlaceMemory b(2, PlaceMemoryOptions{});
+  b.Learn(MakePlace(At(4.5f), 13));  // → 1:4
+  b.Learn(MakePlace(At(3.75f, 1.5f), 30));
+  b.Learn(MakePlace(At(1, 1.5f), 31));
+  const MemoryMerge merged = MergeMemories(a, b);
+  ASSERT_EQ(merged.absorbed.size(), 1u);
+  TopologicalMap ga, gb;
+  ga.RecordTransition({1, 1}, {1, 2}, TransitionRegion{10, 12});
+  ga.RecordTransition({1, 3}, {1, 4}, TransitionRegion{20, 22});
+  gb.RecordTransition({2, 1}, {2, 2}, TransitionRegion{5, 6});
+  gb.RecordTransition({2, 2}, {2, 1}, TransitionRegion{8, 9});
+  gb.RecordTransition({2, 2}, {2, 3}, TransitionRegion{15, 16});
+  gb.RecordTransition({1, 4}, {2, 1}, TransitionRegion{30, 31});  // collapses: dropped
+  const TopologicalMap dut = MergeMaps(ga, gb, merged.memory);
+  EXPECT_FALSE(dut.places().contains(PlaceId{2, 1}));
+  EXPECT_EQ(dut.places().size(), 6u);
+  EXPECT_EQ(dut.edges().size(), 4u);
+  const MapEdge* e = dut.Find({1, 4}, {2, 2});
+  ASSERT_NE(e, nullptr);
+  EXPECT_EQ(e->traversals, 2);
+  EXPECT_TRUE(e->transitions.empty());  // the peer's regions index its own stream
+  ASSERT_NE(dut.Find({1, 1}, {1, 2}), nullptr);
+  EXPECT_EQ(dut.Find({1, 1}, {1, 2})->transitions.size(), 1u);
+  EXPECT_NE(dut.Find({2, 2}, {2, 3}), nullptr);
+  EXPECT_EQ(dut.Find({1, 4}, {1, 4}), nullptr);
+}
+
+}  // namespace
+}  // namespace tsc
