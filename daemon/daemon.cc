@@ -13,6 +13,7 @@
 #include <random>
 #include <system_error>
 
+#include "core/merge/merge.h"
 #include "jaguar/motor_command_t.hpp"
 #include "jaguar/motor_state_t.hpp"
 #include "tsc/announce_t.hpp"
@@ -145,6 +146,9 @@ Daemon::Daemon(Settings settings, SettingsSource source, std::unique_ptr<CameraS
     memory = std::move(saved.memory);
     map = std::move(saved.map);
     state = saved.pipeline;
+    for (const auto& [robot, peer] : store.LoadPeers()) {
+      exchange_.MarkMerged(static_cast<int32_t>(robot), {peer.version, peer.digest});
+    }
     store_ = std::move(store);
     spdlog::info("memory loaded from {}: {} places, {} map edges, continuing at base point {}",
                  db_path_.string(), memory.places().size(), map.edges().size(), state.next_base);
@@ -276,9 +280,28 @@ void Daemon::OnPeerPortion(const std::string& channel, const uint8_t* data, size
 void Daemon::OnPeerSnapshot(PeerSnapshot snapshot) {
   spdlog::info("received the memory of robot {} (version {}, {} places, {} map edges)",
                snapshot.robot, snapshot.version, snapshot.places.size(), snapshot.edges.size());
-  // Merging it into ours is the next stage (core/merge); until then it is only checked, and
-  // not fetched again while its content stays the same.
+  // Not fetched again while its content stays the same; forgotten again if the merge fails.
   exchange_.MarkMerged(snapshot.robot, {snapshot.version, snapshot.digest});
+  std::lock_guard lock(inbox_mutex_);
+  merge_inbox_.push_back(std::move(snapshot));
+}
+
+void Daemon::PublishMerged(std::vector<std::pair<PlaceId, PlaceId>> absorbed, int64_t utime) {
+  const std::string channel = "TSC_EVENT_" + std::to_string(robot_);
+  for (const auto& [source, target] : absorbed) {
+    place_event_t m{};
+    m.utime = utime;
+    m.robot = static_cast<int32_t>(robot_);
+    m.frame = -1;
+    m.event = "merged";
+    m.detected_place = 0;
+    m.has_place = true;
+    m.place = Ref(target);
+    m.has_from = true;
+    m.from = Ref(source);
+    m.transition_first = m.transition_last = -1;
+    if (!bus_.Publish(channel, m)) spdlog::warn("LCM: cannot publish on {}", channel);
+  }
 }
 
 void Daemon::OnMotorTimer() {
@@ -577,6 +600,7 @@ void Daemon::WorkerLoop() {
   for (;;) {
     worker_heartbeat_ms_ = SteadyMs();
     std::optional<WorkItem> item = queue_.Pop(std::chrono::milliseconds(500));
+    MergePeers();
     if (!item) {
       if (queue_.closed()) return;
       RetryStore();
@@ -622,13 +646,78 @@ void Daemon::Handle(const WorkItem& item) {
   }
 }
 
+void Daemon::MergePeers() {
+  std::vector<PeerSnapshot> inbox;
+  {
+    std::lock_guard lock(inbox_mutex_);
+    inbox.swap(merge_inbox_);
+  }
+  for (const PeerSnapshot& s : inbox) {
+    try {
+      MergePeer(s);
+    } catch (const std::exception& e) {
+      ++counters_.messages_rejected;
+      spdlog::error("merging the memory of robot {} (version {}) failed: {}", s.robot, s.version,
+                    e.what());
+      asio::post(*io_, [this, robot = s.robot] { exchange_.Forget(robot); });
+    }
+  }
+}
+
+// Merges one peer memory into ours (chapter 4) on the worker, then stores the whole merged
+// memory and the peer's version in one transaction.
+void Daemon::MergePeer(const PeerSnapshot& snapshot) {
+  const auto start = Clock::now();
+  RetryStore();  // results from before the merge go in first
+  PlaceMemory peer = ToPlaceMemory(snapshot, settings_.pipeline.memory);
+  const TopologicalMap peer_map = ToTopologicalMap(snapshot);
+  std::vector<std::pair<PlaceId, PlaceId>> absorbed;
+  size_t places_before = 0, places_after = 0;
+  MergeCase merge_case = MergeCase::kNothingNew;
+  size_t added = 0;
+  bool peer_into_ours = true;
+  bool changed = false;
+  {
+    std::lock_guard lock(pipeline_mutex_);
+    places_before = pipeline_->memory().places().size();
+    MemoryMerge merged = MergeMemories(pipeline_->memory(), peer);
+    merge_case = merged.merge_case;
+    peer_into_ours = merged.peer_into_ours;
+    added = merged.added.size();
+    for (const Absorption& a : merged.absorbed) absorbed.emplace_back(a.source, a.target);
+    TopologicalMap map = MergeMaps(pipeline_->map(), peer_map, merged.memory);
+    // Nothing new (every place known, no new edge): keep our memory exactly as it is, so an
+    // unchanged memory is not broadcast again and peers do not fetch it back and forth.
+    changed = merge_case != MergeCase::kNothingNew ||
+              map.edges().size() != pipeline_->map().edges().size();
+    if (changed) pipeline_->AdoptMerged(std::move(merged.memory), std::move(map));
+    places_after = pipeline_->memory().places().size();
+    counters_.places = static_cast<int32_t>(places_after);
+    counters_.edges = static_cast<int32_t>(pipeline_->map().edges().size());
+  }
+  unsaved_merge_ = PeerMerge{static_cast<uint32_t>(snapshot.robot), snapshot.version,
+                             snapshot.digest, NowUtime()};
+  RetryStore();
+  if (changed) ++counters_.memory_version;
+  const double ms = std::chrono::duration<double, std::milli>(Clock::now() - start).count();
+  spdlog::log(changed ? spdlog::level::info : spdlog::level::debug,
+              "merged the memory of robot {} (version {}, {}): case {}, {} places absorbed, {} "
+              "added; {} -> {} places in {:.0f} ms",
+              snapshot.robot, snapshot.version,
+              peer_into_ours ? "into ours" : "ours into the larger peer memory",
+              ToString(merge_case), absorbed.size(), added, places_before, places_after, ms);
+  asio::post(*io_, [this, absorbed = std::move(absorbed)]() mutable {
+    PublishMerged(std::move(absorbed), NowUtime());
+  });
+}
+
 void Daemon::CommitOrKeep(FrameResult result) {
   pending_.push_back(std::move(result));
   RetryStore();
 }
 
 void Daemon::RetryStore() {
-  if (pending_.empty()) return;
+  if (pending_.empty() && !unsaved_merge_) return;
   if (!store_) {
     if (Clock::now() < next_store_retry_) return;
     next_store_retry_ = Clock::now() + std::chrono::seconds(10);
@@ -651,6 +740,10 @@ void Daemon::RetryStore() {
   try {
     std::lock_guard lock(pipeline_mutex_);
     for (; done < pending_.size(); ++done) store_->Commit(pending_[done], *pipeline_);
+    if (unsaved_merge_) {
+      store_->ReplaceKnowledge(pipeline_->memory(), pipeline_->map(), unsaved_merge_);
+      unsaved_merge_.reset();
+    }
     if (degraded_store_)
       spdlog::info("store {} writable again; nothing was lost", db_path_.string());
     degraded_store_ = false;

@@ -115,6 +115,9 @@ class Daemon {
   void WorkerLoop();
   void Handle(const WorkItem& item);
   void CommitOrKeep(FrameResult result);
+  void MergePeers();
+  void MergePeer(const PeerSnapshot& snapshot);
+  void PublishMerged(std::vector<std::pair<PlaceId, PlaceId>> absorbed, int64_t utime);
   void RetryStore();
 
   Settings settings_;
@@ -135,8 +138,11 @@ class Daemon {
   mutable std::mutex pipeline_mutex_;
   std::unique_ptr<Pipeline> pipeline_;
   std::optional<Store> store_;
-  std::vector<FrameResult> pending_;  // results not yet committed (store missing or failing)
-  std::string store_problem_;         // "" when the store works
+  std::vector<FrameResult> pending_;        // results not yet committed (store missing or failing)
+  std::optional<PeerMerge> unsaved_merge_;  // a merged memory the store has not taken yet
+  std::mutex inbox_mutex_;
+  std::vector<PeerSnapshot> merge_inbox_;  // complete peer memories waiting for the worker
+  std::string store_problem_;              // "" when the store works
   std::chrono::steady_clock::time_point next_store_retry_{};
 
   FrameQueue<WorkItem> queue_;

@@ -30,7 +30,8 @@ learned_place_t ToMessage(const LearnedPlace& p, int pi, double lambda) {
     const float* col = p.samples.col(j).data();
     m.samples[static_cast<size_t>(j)].assign(col, col + p.samples.rows());
   }
-  m.num_sources = 0;
+  for (const PlaceId& s : p.sources) m.sources.push_back(Ref(s));
+  m.num_sources = static_cast<int32_t>(m.sources.size());
   return m;
 }
 
@@ -129,7 +130,12 @@ int64_t SnapshotDigest(const std::vector<memory_portion_t>& portions) {
   EVP_MD_CTX* sha = EVP_MD_CTX_new();
   EVP_DigestInit_ex(sha, EVP_sha256(), nullptr);
   for (const memory_portion_t& p : portions) {
+    // Content only: the same memory republished under another version, boot or time keeps
+    // its digest, so peers do not fetch it again.
     memory_portion_t unsigned_portion = p;
+    unsigned_portion.utime = 0;
+    unsigned_portion.boot_id = 0;
+    unsigned_portion.version = 0;
     unsigned_portion.digest = 0;
     unsigned_portion.hmac_size = 0;
     unsigned_portion.hmac.clear();

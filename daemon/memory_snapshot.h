@@ -33,7 +33,8 @@ MemorySnapshot BuildSnapshot(const PlaceMemory& memory, const TopologicalMap& ma
                              const SnapshotHeader& header, int portion_bytes);
 
 /// First 8 bytes (big endian) of SHA-256 over the portions' encodings in order, each taken
-/// with digest = 0 and no HMAC: what BuildSnapshot puts in `digest` and receivers check.
+/// with utime, boot_id, version and digest zero and no HMAC (content only): what
+/// BuildSnapshot puts in `digest` and receivers check.
 int64_t SnapshotDigest(const std::vector<memory_portion_t>& portions);
 
 }  // namespace tsc

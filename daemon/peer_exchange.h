@@ -48,6 +48,8 @@ class PeerExchange {
   std::vector<memory_request_t> Tick(Clock::time_point now);
   /// The caller merged (or deliberately skipped) this snapshot: it will not be fetched again.
   void MarkMerged(int32_t robot, MergedVersion v);
+  /// The merge of `robot`'s memory failed: fetch it again when it is next announced.
+  void Forget(int32_t robot) { merged_.erase(robot); }
 
   std::optional<int32_t> fetching() const { return fetching_; }
   int64_t replays() const { return replays_; }

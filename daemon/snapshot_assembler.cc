@@ -1,7 +1,9 @@
 #include "daemon/snapshot_assembler.h"
 
+#include <algorithm>
 #include <cmath>
 #include <set>
+#include <stdexcept>
 
 namespace tsc {
 namespace {
@@ -32,6 +34,51 @@ std::string CheckPlace(const learned_place_t& p) {
 }
 
 }  // namespace
+
+PlaceMemory ToPlaceMemory(const PeerSnapshot& snapshot, const PlaceMemoryOptions& options) {
+  std::vector<LearnedPlace> places;
+  std::vector<int> pi;
+  std::vector<double> lambda;
+  places.reserve(snapshot.places.size());
+  for (const learned_place_t& m : snapshot.places) {
+    LearnedPlace p;
+    p.id = PlaceId{static_cast<uint32_t>(m.id.robot), static_cast<uint32_t>(m.id.local)};
+    p.mean = Eigen::Map<const Eigen::VectorXf>(m.mean.data(), m.dims);
+    p.member_count = m.member_count;
+    p.samples.resize(m.dims, m.num_samples);
+    for (int j = 0; j < m.num_samples; ++j) {
+      p.samples.col(j) =
+          Eigen::Map<const Eigen::VectorXf>(m.samples[static_cast<size_t>(j)].data(), m.dims);
+    }
+    for (const place_ref_t& s : m.sources) {
+      p.sources.push_back(PlaceId{static_cast<uint32_t>(s.robot), static_cast<uint32_t>(s.local)});
+    }
+    std::sort(p.sources.begin(), p.sources.end());
+    places.push_back(std::move(p));
+    pi.push_back(m.slink_pi);
+    lambda.push_back(m.slink_lambda < 0 ? Slink::kInfinity : m.slink_lambda);
+  }
+  return PlaceMemory::Restore(static_cast<uint32_t>(snapshot.robot), options, std::move(places),
+                              Slink(std::move(pi), std::move(lambda)),
+                              static_cast<uint32_t>(snapshot.next_local), {});
+}
+
+TopologicalMap ToTopologicalMap(const PeerSnapshot& snapshot) {
+  TopologicalMap map;
+  auto id = [](const place_ref_t& r) {
+    return PlaceId{static_cast<uint32_t>(r.robot), static_cast<uint32_t>(r.local)};
+  };
+  for (const learned_place_t& p : snapshot.places) map.AddPlace(id(p.id));
+  for (const map_edge_t& e : snapshot.edges) {
+    if (id(e.a) == id(e.b)) throw std::invalid_argument("map edge from a place to itself");
+    MapEdge edge;
+    edge.a = std::min(id(e.a), id(e.b));
+    edge.b = std::max(id(e.a), id(e.b));
+    edge.traversals = e.traversals;
+    map.RestoreEdge(std::move(edge));
+  }
+  return map;
+}
 
 void SnapshotAssembler::Reset() {
   version_ = -1;

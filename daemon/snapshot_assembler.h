@@ -27,6 +27,13 @@ struct PeerSnapshot {
   std::vector<map_edge_t> edges;
 };
 
+/// The peer's place memory rebuilt from a snapshot (SLINK state as published, discriminants
+/// retrained). Throws std::invalid_argument when the places do not make a valid memory.
+PlaceMemory ToPlaceMemory(const PeerSnapshot& snapshot, const PlaceMemoryOptions& options);
+/// The peer's topological map (edges with traversal counts; no transition regions, which
+/// index the peer's own frames).
+TopologicalMap ToTopologicalMap(const PeerSnapshot& snapshot);
+
 class SnapshotAssembler {
  public:
   enum class Verdict { kAccepted, kDuplicate, kStale, kRejected };

@@ -20,7 +20,7 @@ namespace {
 // Schema. kMigrations[v] takes a database from version v to v + 1; a step that has shipped is
 // never edited, a change is a new step appended here.
 
-constexpr std::array<const char*, 2> kMigrations = {
+constexpr std::array<const char*, 3> kMigrations = {
     // Version 1: the initial schema, after appendix D.2.
     R"sql(
 CREATE TABLE meta(key TEXT PRIMARY KEY, value) WITHOUT ROWID;
@@ -88,6 +88,11 @@ CREATE TABLE peers(                 -- teammates merged so far (written by the m
     // (core/merge), uint32 LE (robot, local) pairs; empty for places never merged.
     R"sql(
 ALTER TABLE learned_places ADD COLUMN sources BLOB NOT NULL DEFAULT x'';
+)sql",
+    // Version 3: the digest of the peer memory merged last (the exchange fetches a peer again
+    // only when its digest changes).
+    R"sql(
+ALTER TABLE peers ADD COLUMN digest INTEGER NOT NULL DEFAULT 0;
 )sql",
 };
 static_assert(static_cast<int>(kMigrations.size()) == Store::kSchemaVersion);
@@ -993,10 +998,37 @@ void Store::CopyTo(const std::filesystem::path& out) const {
   Statement(db, "VACUUM INTO ?1").Text(1, out.c_str()).Run();
 }
 
-void Store::ReplaceKnowledge(const PlaceMemory& memory, const TopologicalMap& map) {
+std::map<uint32_t, PeerMerge> Store::LoadPeers() const {
+  const Db db{db_, path_};
+  std::map<uint32_t, PeerMerge> peers;
+  Statement s(db, "SELECT robot, last_merged_version, digest, merged_at_utime FROM peers");
+  while (s.Step()) {
+    const Row row(db, s, "peers", "?");
+    PeerMerge p;
+    p.robot = static_cast<uint32_t>(row.Int(0, "robot", 1, std::numeric_limits<uint32_t>::max()));
+    p.version = row.Int(1, "last_merged_version");
+    p.digest = row.Int(2, "digest");
+    p.utime = row.Int(3, "merged_at_utime");
+    peers[p.robot] = p;
+  }
+  return peers;
+}
+
+void Store::ReplaceKnowledge(const PlaceMemory& memory, const TopologicalMap& map,
+                             const std::optional<PeerMerge>& peer) {
   const Db db{db_, path_};
   try {
     Transaction tx(db);
+    if (peer) {
+      Statement(db,
+                "INSERT OR REPLACE INTO peers(robot, last_merged_version, merged_at_utime, digest) "
+                "VALUES(?1, ?2, ?3, ?4)")
+          .Int(1, peer->robot)
+          .Int(2, peer->version)
+          .Int(3, peer->utime)
+          .Int(4, peer->digest)
+          .Run();
+    }
     CheckRobot(db, memory.robot());
     Exec(db, "DELETE FROM learned_places");
     std::vector<int> all(memory.places().size());

@@ -7,6 +7,7 @@
 
 #include <cstdint>
 #include <filesystem>
+#include <map>
 #include <memory>
 #include <optional>
 #include <stdexcept>
@@ -23,6 +24,14 @@ struct StoredState {
   PipelineState pipeline;
 };
 
+/// A teammate's memory merged into ours: which robot, the version and digest merged, when.
+struct PeerMerge {
+  uint32_t robot = 0;
+  int64_t version = 0;
+  int64_t digest = 0;
+  int64_t utime = 0;
+};
+
 /// Thrown with a message naming the database file and what failed.
 class StoreError : public std::runtime_error {
  public:
@@ -33,7 +42,7 @@ class Store {
  public:
   /// Schema version this code writes; Open() migrates older databases up to it and refuses
   /// newer ones.
-  static constexpr int kSchemaVersion = 2;
+  static constexpr int kSchemaVersion = 3;
 
   /// Opens or creates the database; creates or migrates the schema. Throws StoreError.
   static Store Open(const std::filesystem::path& path);
@@ -57,7 +66,11 @@ class Store {
   /// Replaces the learned places, the tree, its discriminants and the map by `memory` and
   /// `map` in one transaction (a merge result, core/merge); a previous place that was absorbed
   /// is replaced by the place that holds it. Throws StoreError (rolled back).
-  void ReplaceKnowledge(const PlaceMemory& memory, const TopologicalMap& map);
+  /// `peer`, when given, is recorded in the peers table in the same transaction.
+  void ReplaceKnowledge(const PlaceMemory& memory, const TopologicalMap& map,
+                        const std::optional<PeerMerge>& peer = std::nullopt);
+  /// The peers merged so far, by robot id. Throws StoreError.
+  std::map<uint32_t, PeerMerge> LoadPeers() const;
 
   const std::filesystem::path& path() const { return path_; }
   int schema_version() const;

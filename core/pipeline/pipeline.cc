@@ -1,5 +1,6 @@
 #include "core/pipeline/pipeline.h"
 
+#include <algorithm>
 #include <stdexcept>
 #include <string>
 
@@ -95,6 +96,25 @@ FrameResult Pipeline::ProcessDescriptor(const Descriptor& descriptor,
   HandleDetection(detector_.Add(k, out.base.status == BaseStatus::kGood), k, out);
   TrimDescriptors();
   return out;
+}
+
+void Pipeline::AdoptMerged(PlaceMemory memory, TopologicalMap map) {
+  if (memory.robot() != memory_.robot()) {
+    throw std::invalid_argument("merged memory of robot " + std::to_string(memory.robot()) +
+                                " given to the pipeline of robot " +
+                                std::to_string(memory_.robot()));
+  }
+  if (previous_place_) {
+    for (const LearnedPlace& p : memory.places()) {
+      if (std::binary_search(p.sources.begin(), p.sources.end(), *previous_place_)) {
+        previous_place_ = p.id;
+        break;
+      }
+    }
+  }
+  partial_recognition_.reset();
+  memory_ = std::move(memory);
+  map_ = std::move(map);
 }
 
 FrameResult Pipeline::Finish() {

@@ -94,6 +94,11 @@ class Pipeline {
   /// End of the stream: closes the open window and place.
   FrameResult Finish();
 
+  /// Continues with a merged memory and map (core/merge). The previous place follows the
+  /// place that absorbed it; a recognition of the open place is forgotten (place indices may
+  /// have moved). Throws std::invalid_argument when `memory` belongs to another robot.
+  void AdoptMerged(PlaceMemory memory, TopologicalMap map);
+
   const PlaceMemory& memory() const { return memory_; }
   const TopologicalMap& map() const { return map_; }
   const PipelineOptions& options() const { return options_; }

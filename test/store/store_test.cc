@@ -333,8 +333,8 @@ TEST_F(StoreTest, RecommittingAResultIsHarmless) {
 
 TEST_F(StoreTest, NewDatabaseHasTheCurrentSchemaVersionAndAnEmptyMemory) {
   Store dut = Store::Open(path_);
-  EXPECT_EQ(dut.schema_version(), 2);
-  EXPECT_EQ(Store::kSchemaVersion, 2);
+  EXPECT_EQ(dut.schema_version(), 3);
+  EXPECT_EQ(Store::kSchemaVersion, 3);
   EXPECT_EQ(dut.path(), path_);
   const StoredState loaded = dut.Load(kRobot, Options().memory);
   EXPECT_TRUE(loaded.memory.empty());
@@ -343,21 +343,21 @@ TEST_F(StoreTest, NewDatabaseHasTheCurrentSchemaVersionAndAnEmptyMemory) {
   ExpectSameState(PipelineState{}, loaded.pipeline);
   // Reopening an up-to-date database changes nothing.
   Store again = Store::Open(path_);
-  EXPECT_EQ(again.schema_version(), 2);
+  EXPECT_EQ(again.schema_version(), 3);
   EXPECT_EQ(Sql(path_, "SELECT COUNT(*) FROM schema_version"), 1);
 }
 
 TEST_F(StoreTest, OpenRefusesANewerSchemaVersion) {
   { Store::Open(path_); }
-  Sql(path_, "UPDATE schema_version SET version = 3");
+  Sql(path_, "UPDATE schema_version SET version = 4");
   try {
     Store::Open(path_);
-    FAIL() << "a database of schema version 3 was opened";
+    FAIL() << "a database of schema version 4 was opened";
   } catch (const StoreError& e) {
     const std::string what = e.what();
     EXPECT_NE(what.find(path_.string()), std::string::npos) << what;
+    EXPECT_NE(what.find("version 4"), std::string::npos) << what;
     EXPECT_NE(what.find("version 3"), std::string::npos) << what;
-    EXPECT_NE(what.find("version 2"), std::string::npos) << what;
   }
 }
 
@@ -376,9 +376,11 @@ TEST_F(StoreTest, MigratesAVersionOneDatabaseKeepingItsKnowledge) {
   ASSERT_GE(memory->places().size(), 2u);
   // Turn it into what version 1 wrote: no sources column.
   Sql(path_, "ALTER TABLE learned_places DROP COLUMN sources");
+  Sql(path_, "ALTER TABLE peers DROP COLUMN digest");
   Sql(path_, "UPDATE schema_version SET version = 1");
   Store dut = Store::Open(path_);
-  EXPECT_EQ(dut.schema_version(), 2);
+  EXPECT_EQ(dut.schema_version(), 3);
+  EXPECT_TRUE(dut.LoadPeers().empty());
   const StoredState loaded = dut.Load(kRobot, Options().memory);
   ExpectSameMemory(*memory, loaded.memory);
   for (const LearnedPlace& p : loaded.memory.places()) EXPECT_TRUE(p.sources.empty());
@@ -404,7 +406,13 @@ TEST_F(StoreTest, ReplaceKnowledgeRoundTripsMergedPlacesAndMap) {
       kRobot, Options().memory, places, state.memory.slink(), state.memory.next_local_id(), {});
   TopologicalMap map = state.map;
   map.RecordTransition(places[0].id, PlaceId{7, 9}, TransitionRegion{});
-  dut.ReplaceKnowledge(merged, map);
+  dut.ReplaceKnowledge(merged, map, PeerMerge{7, 5, -42, 1000});
+  dut.ReplaceKnowledge(merged, map, PeerMerge{7, 6, 99, 2000});  // the newer merge replaces it
+  const auto peers = dut.LoadPeers();
+  ASSERT_EQ(peers.size(), 1u);
+  EXPECT_EQ(peers.at(7).version, 6);
+  EXPECT_EQ(peers.at(7).digest, 99);
+  EXPECT_EQ(peers.at(7).utime, 2000);
   const fs::path copy = dir_ / "copy.db";
   dut.CopyTo(copy);
   Store other = Store::Open(copy);
