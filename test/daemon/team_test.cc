@@ -11,9 +11,11 @@
 #include <filesystem>
 #include <fstream>
 #include <mutex>
+#include <set>
 #include <sstream>
 #include <thread>
 
+#include "store/store.h"
 #include "test/daemon/bus_listener.h"
 #include "test/support/child_process.h"
 #include "test/support/temp_dir.h"
@@ -50,9 +52,16 @@ TEST_F(TeamTest, ThreeRobotsLearnAndEveryMessageDecodes) {
                        std::string("--lcm-url=") + testing_support::kTestLcmUrl, log.string()},
                       dir_ / "logger.out");
   std::this_thread::sleep_for(milliseconds(300));
-  ChildProcess team({kBin + "/tsc", "team", "--robots", "3", "--world", "7", "--seconds", "20",
-                     "--fps", "25", "--netns", "current", "--out", (dir_ / "team").string(),
-                     "--set", "sim.width=160", "--set", "sim.height=120"},
+  ChildProcess team({kBin + "/tsc", "team",
+                     "--robots",    "3",
+                     "--world",     "7",
+                     "--seconds",   "20",
+                     "--fps",       "25",
+                     "--netns",     "current",
+                     "--out",       (dir_ / "team").string(),
+                     "--set",       "sim.width=160",
+                     "--set",       "sim.height=120",
+                     "--set",       "lcm.memory_period_s=2"},
                     dir_ / "team.out");
   const auto status = team.Wait(seconds(120));
   ASSERT_EQ(status, 0) << team.Log();
@@ -82,6 +91,20 @@ TEST_F(TeamTest, ThreeRobotsLearnAndEveryMessageDecodes) {
     EXPECT_TRUE(fs::exists(dir_ / "team" / ("robot-" + std::to_string(r)) / "memory.db"));
   }
   EXPECT_NE(team.Log().find("recognised"), std::string::npos);
+
+  // Chapter 4: every robot merged the others' memories (places of all three robots, kept as
+  // places or as the sources of places that absorbed them), committed to its store.
+  for (int r = 1; r <= 3; ++r) {
+    Store store = Store::Open(dir_ / "team" / ("robot-" + std::to_string(r)) / "memory.db");
+    const StoredState saved = store.Load(static_cast<uint32_t>(r), PlaceMemoryOptions{});
+    std::set<uint32_t> robots;
+    for (const LearnedPlace& p : saved.memory.places()) {
+      robots.insert(p.id.robot);
+      for (const PlaceId& s : p.sources) robots.insert(s.robot);
+    }
+    EXPECT_EQ(robots, (std::set<uint32_t>{1, 2, 3})) << "robot " << r;
+    EXPECT_EQ(store.LoadPeers().size(), 2u) << "robot " << r;
+  }
 
   // The Java types decode the captured log (what lcm-spy shows).
   ChildProcess dump({TSCD_JAVA, "-jar", TSCD_LOGDUMP_JAR, log.string()}, dir_ / "dump.txt");
