@@ -6,6 +6,7 @@
 #include <set>
 
 #include "daemon/lcm_bus.h"
+#include "test/support/random_memory.h"
 
 namespace tsc {
 namespace {
@@ -13,30 +14,12 @@ namespace {
 constexpr int kDim = 96;
 
 // A memory of `places` random places (each 12 members), mapped in a chain.
-struct Fixture {
-  PlaceMemory memory{5, PlaceMemoryOptions{}};
-  TopologicalMap map;
-  explicit Fixture(int places) {
-    std::mt19937 rng(places);
-    std::uniform_real_distribution<float> u(0.0f, 1.0f);
-    for (int p = 0; p < places; ++p) {
-      DetectedPlace d;
-      d.index = p + 1;
-      d.descriptors.resize(kDim, 12);
-      for (int j = 0; j < 12; ++j) {
-        d.members.push_back(p * 100 + j);
-        for (int i = 0; i < kDim; ++i) d.descriptors(i, j) = u(rng);
-      }
-      memory.Learn(d);
-      const PlaceId id = memory.places().back().id;
-      map.AddPlace(id);
-      if (p > 0) map.RecordTransition(memory.places()[static_cast<size_t>(p - 1)].id, id, {});
-    }
-  }
-};
+testing_support::RandomMemory Fixture(int places) {
+  return testing_support::MakeRandomMemory(5, places, kDim, static_cast<unsigned>(places), 12);
+}
 
 TEST(MemorySnapshot, PortionsStayWithinTheBudgetAndCoverEverythingOnce) {
-  Fixture f(60);
+  const auto f = Fixture(60);
   const int budget = 8192;
   const MemorySnapshot dut = BuildSnapshot(f.memory, f.map, {5, 99, 3, 1000}, budget);
   ASSERT_GT(dut.portions.size(), 1u);
@@ -69,7 +52,7 @@ TEST(MemorySnapshot, PortionsStayWithinTheBudgetAndCoverEverythingOnce) {
 }
 
 TEST(MemorySnapshot, DigestIsDeterministicAndFollowsContent) {
-  Fixture a(10), b(10), c(11);
+  const auto a = Fixture(10), b = Fixture(10), c = Fixture(11);
   const SnapshotHeader h{5, 1, 1, 0};
   const MemorySnapshot sa = BuildSnapshot(a.memory, a.map, h, 60000);
   EXPECT_EQ(sa.digest, BuildSnapshot(b.memory, b.map, h, 60000).digest);

@@ -5,6 +5,8 @@
 #include <limits>
 #include <random>
 
+#include "test/support/random_memory.h"
+
 namespace tsc {
 namespace {
 
@@ -12,20 +14,9 @@ using std::chrono::milliseconds;
 using Clock = PeerExchange::Clock;
 
 MemorySnapshot MakeSnapshot(int32_t robot, int places, int64_t version) {
-  PlaceMemory memory(static_cast<uint32_t>(robot), PlaceMemoryOptions{});
-  std::mt19937 rng(static_cast<unsigned>(robot * 100 + places));
-  std::uniform_real_distribution<float> u(0.0f, 1.0f);
-  for (int p = 0; p < places; ++p) {
-    DetectedPlace d;
-    d.index = p + 1;
-    d.descriptors.resize(48, 10);
-    for (int j = 0; j < 10; ++j) {
-      d.members.push_back(p * 100 + j);
-      for (int i = 0; i < 48; ++i) d.descriptors(i, j) = u(rng);
-    }
-    memory.Learn(d);
-  }
-  return BuildSnapshot(memory, TopologicalMap{}, {robot, 5, version, 1}, 5000);
+  const auto m = testing_support::MakeRandomMemory(static_cast<uint32_t>(robot), places, 48,
+                                                   static_cast<unsigned>(robot * 100 + places));
+  return BuildSnapshot(m.memory, TopologicalMap{}, {robot, 5, version, 1}, 5000);
 }
 
 announce_t Announce(int32_t robot, int64_t sequence, const MemorySnapshot& s) {

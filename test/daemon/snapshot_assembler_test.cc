@@ -6,31 +6,16 @@
 #include <cmath>
 #include <random>
 
+#include "test/support/random_memory.h"
+
 namespace tsc {
 namespace {
 
 constexpr int kDim = 64;
 
 MemorySnapshot MakeSnapshot(int places, int64_t version, int portion_bytes = 6000) {
-  PlaceMemory memory(2, PlaceMemoryOptions{});
-  TopologicalMap map;
-  std::mt19937 rng(static_cast<unsigned>(places));
-  std::uniform_real_distribution<float> u(0.0f, 1.0f);
-  for (int p = 0; p < places; ++p) {
-    DetectedPlace d;
-    d.index = p + 1;
-    d.descriptors.resize(kDim, 10);
-    for (int j = 0; j < 10; ++j) {
-      d.members.push_back(p * 100 + j);
-      for (int i = 0; i < kDim; ++i) d.descriptors(i, j) = u(rng);
-    }
-    memory.Learn(d);
-    map.AddPlace(memory.places().back().id);
-    if (p > 0)
-      map.RecordTransition(memory.places()[static_cast<size_t>(p - 1)].id,
-                           memory.places().back().id, {});
-  }
-  return BuildSnapshot(memory, map, {2, 77, version, 1}, portion_bytes);
+  const auto m = testing_support::MakeRandomMemory(2, places, kDim, static_cast<unsigned>(places));
+  return BuildSnapshot(m.memory, m.map, {2, 77, version, 1}, portion_bytes);
 }
 
 TEST(SnapshotAssembler, CompletesFromShuffledDuplicatedPortionsAfterAskingForTheLostOne) {
