@@ -74,6 +74,7 @@ struct RobotStats {
   int32_t detected = 0;
   int64_t recognitions = 0;
   int64_t learned = 0;
+  int64_t merged = 0;  // "merged" events: peer places absorbed into ours
   std::string status;
   bool route_ended = false;
   // Measured from /proc just before the stop.
@@ -323,6 +324,7 @@ int Team(const std::vector<std::string>& args) {
     RobotStats& r = *by_id[e->robot];
     if (e->event == "recognized" && !e->partial) ++r.recognitions;
     if (e->event == "learned") ++r.learned;
+    if (e->event == "merged") ++r.merged;
   });
 
   for (RobotStats& r : robots) {
@@ -368,13 +370,14 @@ int Team(const std::vector<std::string>& args) {
   bool ok = true;
   std::ostringstream json;
   json << "{\"robots\":[";
-  std::cout
-      << "\nrobot  exit  frames  dropped  detected  places  recognised  edges  cpu%  rss MB\n";
+  std::cout << "\nrobot  exit  frames  dropped  detected  places  recognised  edges  own  "
+               "merged-in  absorbed  cpu%  rss MB\n";
   for (size_t i = 0; i < robots.size(); ++i) {
     RobotStats& r = robots[i];
     ok &= r.exit_status == 0;
     int64_t base_points = 0, places = 0, edges = 0, detected = 0;
     std::string problem;
+    int64_t own = 0, from_peers = 0, absorbed = 0;
     try {
       const InspectedStore s =
           InspectStore(r.dir / "memory.db", PlaceMemoryOptions{}, static_cast<uint32_t>(r.id));
@@ -382,6 +385,16 @@ int Team(const std::vector<std::string>& args) {
       places = static_cast<int64_t>(s.summary.learned_places.size());
       edges = s.summary.map_edges;
       detected = s.summary.detected_places;
+      // Merging (chapter 4): places this robot learned itself, places it took from peers,
+      // and peers' places absorbed into one of its places.
+      for (const LearnedPlace& p : s.memory.places()) {
+        if (p.id.robot == static_cast<uint32_t>(r.id)) {
+          ++own;
+        } else {
+          ++from_peers;
+        }
+        absorbed += static_cast<int64_t>(p.sources.size());
+      }
       try {
         RenderPng(ToDot(s.memory, s.map), r.dir / "memory.png");
       } catch (const std::exception& e) {
@@ -395,12 +408,15 @@ int Team(const std::vector<std::string>& args) {
     std::cout << std::setw(5) << r.id << std::setw(6) << r.exit_status << std::setw(8)
               << base_points << std::setw(9) << r.dropped << std::setw(10) << detected
               << std::setw(8) << places << std::setw(12) << r.recognitions << std::setw(7) << edges
+              << std::setw(5) << own << std::setw(11) << from_peers << std::setw(10) << absorbed
               << std::fixed << std::setprecision(1) << std::setw(6) << r.cpu_percent << std::setw(8)
               << r.peak_rss_mb << std::defaultfloat << "\n";
     json << (i ? "," : "") << "{\"robot\":" << r.id << ",\"exit_status\":" << r.exit_status
          << ",\"frames\":" << base_points << ",\"frames_dropped\":" << r.dropped
          << ",\"detected_places\":" << detected << ",\"places\":" << places
          << ",\"recognitions\":" << r.recognitions << ",\"edges\":" << edges
+         << ",\"own_places\":" << own << ",\"places_from_peers\":" << from_peers
+         << ",\"peer_places_absorbed\":" << absorbed << ",\"merged_events\":" << r.merged
          << ",\"cpu_percent\":" << JsonNumber(r.cpu_percent)
          << ",\"peak_rss_mb\":" << JsonNumber(r.peak_rss_mb)
          << ",\"db\":" << JsonString((r.dir / "memory.db").string())
