@@ -173,4 +173,38 @@ double RecallAtFullPrecision(const std::vector<PrPoint>& curve) {
   return best;
 }
 
+MergeScore ScoreMerges(const std::vector<TeamMemoryForScoring>& robots) {
+  std::map<PlaceId, std::string> label;
+  for (const TeamMemoryForScoring& r : robots)
+    label.insert(r.own_labels.begin(), r.own_labels.end());
+  auto same_label = [&](const PlaceId& a, const PlaceId& b) {
+    const auto la = label.find(a), lb = label.find(b);
+    return la != label.end() && lb != label.end() && !la->second.empty() &&
+           la->second == lb->second;
+  };
+  std::set<std::pair<PlaceId, PlaceId>> merged;
+  for (const TeamMemoryForScoring& r : robots) {
+    for (const std::vector<PlaceId>& g : r.groups) {
+      for (size_t i = 0; i < g.size(); ++i) {
+        for (size_t j = i + 1; j < g.size(); ++j) {
+          if (g[i].robot != g[j].robot) merged.insert(std::minmax(g[i], g[j]));
+        }
+      }
+    }
+  }
+  MergeScore s;
+  s.merges = static_cast<int>(merged.size());
+  for (const auto& [a, b] : merged) s.correct += same_label(a, b) ? 1 : 0;
+  std::vector<PlaceId> ids;
+  for (const auto& [id, l] : label) ids.push_back(id);
+  for (size_t i = 0; i < ids.size(); ++i) {
+    for (size_t j = i + 1; j < ids.size(); ++j) {
+      if (ids[i].robot != ids[j].robot && same_label(ids[i], ids[j])) ++s.same_label_pairs;
+    }
+  }
+  if (s.merges > 0) s.precision = static_cast<double>(s.correct) / s.merges;
+  if (s.same_label_pairs > 0) s.recall = static_cast<double>(s.correct) / s.same_label_pairs;
+  return s;
+}
+
 }  // namespace tsc

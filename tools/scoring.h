@@ -109,4 +109,22 @@ struct PrPoint {
 /// The largest recall over the sweep whose precision is 1.0 (0 when none is).
 double RecallAtFullPrecision(const std::vector<PrPoint>& curve);
 
+/// Merge scoring for a team (DESIGN §7.1b). Each robot's own places carry the majority label
+/// of their frames; each robot's final memory groups place ids (a place and the peer places it
+/// absorbed). A merge is a pair of places of different robots in one group, counted once
+/// however many robots made it; it is correct when their labels agree (and are not empty).
+/// recall = correct merges / pairs of places of different robots with the same label.
+struct TeamMemoryForScoring {
+  std::map<PlaceId, std::string> own_labels;  ///< this robot's own places and their labels
+  std::vector<std::vector<PlaceId>> groups;   ///< per place of its final memory: id + sources
+};
+struct MergeScore {
+  int merges = 0;
+  int correct = 0;
+  int same_label_pairs = 0;
+  double precision = 1.0;  ///< correct / merges (1 when nothing was merged)
+  double recall = 0.0;     ///< correct / same_label_pairs (0 when there are none)
+};
+MergeScore ScoreMerges(const std::vector<TeamMemoryForScoring>& robots);
+
 }  // namespace tsc

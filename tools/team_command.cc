@@ -21,8 +21,11 @@
 
 #include "daemon/lcm_bus.h"
 #include "daemon/settings.h"
+#include "drivers/camera/make_camera.h"
+#include "drivers/camera/sim_camera.h"
 #include "tools/events_json.h"
 #include "tools/inspect.h"
+#include "tools/scoring.h"
 #include "tsc/announce_t.hpp"
 #include "tsc/place_event_t.hpp"
 
@@ -284,16 +287,18 @@ int Team(const std::vector<std::string>& args) {
   if (vm.count("set")) {
     for (const std::string& kv : vm["set"].as<std::vector<std::string>>()) set(kv);
   }
-  // Check the whole configuration once here, so a bad key is one message, not N robot logs.
-  {
+  // Each robot's settings as its tscd reads them; checked here once, so a bad key is one
+  // message, not N robot logs (ConfigError → exit 78).
+  std::vector<Settings> robot_settings;
+  for (int i = 0; i < n; ++i) {
     std::vector<std::string> overrides;
-    for (size_t i = 0; i + 1 < common.size(); ++i) {
-      if (common[i] == "--set") overrides.push_back(common[i + 1]);
+    for (size_t k = 0; k + 1 < common.size(); ++k) {
+      if (common[k] == "--set") overrides.push_back(common[k + 1]);
     }
-    overrides.push_back("sim.route=" + std::to_string(n - 1));
+    overrides.push_back("sim.route=" + std::to_string(i));
     std::optional<fs::path> file;
     if (vm.count("config")) file = vm["config"].as<std::string>();
-    LoadSettings(file, overrides);  // throws ConfigError → exit 78
+    robot_settings.push_back(LoadSettings(file, overrides));
   }
 
   LcmBus bus(kLcmUrl);
@@ -368,6 +373,8 @@ int Team(const std::vector<std::string>& args) {
 
   // Summary: the stores are the truth (they survive the processes).
   bool ok = true;
+  std::vector<TeamMemoryForScoring> scoring(robots.size());
+  bool any_dropped = false;
   std::ostringstream json;
   json << "{\"robots\":[";
   std::cout << "\nrobot  exit  frames  dropped  detected  places  recognised  edges  own  "
@@ -387,13 +394,30 @@ int Team(const std::vector<std::string>& args) {
       detected = s.summary.detected_places;
       // Merging (chapter 4): places this robot learned itself, places it took from peers,
       // and peers' places absorbed into one of its places.
+      // The route's labels by base point: frame k of the route is base point k as long as no
+      // frame was dropped (and the robot did not restart).
+      const SimCamera route(
+          ToSimCameraOptions(robot_settings[i].daemon.camera, robot_settings[i].daemon.sim));
+      GroundTruth truth;
+      for (const sim::RouteFrame& f : route.route()) truth.labels.push_back(f.label);
+      any_dropped |= r.dropped > 0;
       for (const LearnedPlace& p : s.memory.places()) {
         if (p.id.robot == static_cast<uint32_t>(r.id)) {
           ++own;
+          std::vector<int> frames;
+          for (BaseIndex b : p.members) {
+            if (b >= 0 && b < static_cast<BaseIndex>(truth.labels.size())) {
+              frames.push_back(static_cast<int>(b));
+            }
+          }
+          scoring[i].own_labels[p.id] = MajorityLabel(truth, frames);
         } else {
           ++from_peers;
         }
         absorbed += static_cast<int64_t>(p.sources.size());
+        std::vector<PlaceId> group = {p.id};
+        group.insert(group.end(), p.sources.begin(), p.sources.end());
+        scoring[i].groups.push_back(std::move(group));
       }
       try {
         RenderPng(ToDot(s.memory, s.map), r.dir / "memory.png");
@@ -422,7 +446,19 @@ int Team(const std::vector<std::string>& args) {
          << ",\"db\":" << JsonString((r.dir / "memory.db").string())
          << ",\"log\":" << JsonString((r.dir / "tscd.log").string()) << "}";
   }
-  json << "],\"seconds\":" << JsonNumber(run_s) << ",\"fps\":" << JsonNumber(vm["fps"].as<double>())
+  const MergeScore merge = ScoreMerges(scoring);
+  std::cout << "merges (DESIGN 7.1b): " << merge.merges << " pairs merged, " << merge.correct
+            << " correct, " << merge.same_label_pairs
+            << " pairs of places of different robots in the same room; precision "
+            << JsonNumber(merge.precision) << ", recall " << JsonNumber(merge.recall) << "\n";
+  if (any_dropped) {
+    std::cout << "  (frames were dropped: place labels from the route may be shifted)\n";
+  }
+  json << "],\"merge\":{\"merges\":" << merge.merges << ",\"correct\":" << merge.correct
+       << ",\"same_label_pairs\":" << merge.same_label_pairs
+       << ",\"precision\":" << JsonNumber(merge.precision)
+       << ",\"recall\":" << JsonNumber(merge.recall) << "}";
+  json << ",\"seconds\":" << JsonNumber(run_s) << ",\"fps\":" << JsonNumber(vm["fps"].as<double>())
        << "}\n";
   WriteTextFile(out / "summary.json", json.str());
   std::cout << "summary: " << (out / "summary.json").string() << "\n";

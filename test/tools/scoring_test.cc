@@ -128,3 +128,35 @@ TEST(Scoring, RecallAtFullPrecisionIsBestRecallWithPrecisionOne) {
 
 }  // namespace
 }  // namespace tsc
+
+namespace tsc {
+namespace {
+
+// Two robots; robot 1 merged 2:1 into 1:1 (same room A: correct) and 2:2 into 1:2 (B vs C:
+// wrong); robot 2 made the first merge too (counted once); 1:2 and 2:3 share room B but were
+// never merged (a miss).
+TEST(ScoreMerges, CountsEachPairOnceAndScoresAgainstLabels) {
+  const PlaceId a1{1, 1}, b1{1, 2}, a2{2, 1}, c2{2, 2}, b2{2, 3};
+  TeamMemoryForScoring r1{{{a1, "A"}, {b1, "B"}}, {{a1, a2}, {b1, c2}}};
+  TeamMemoryForScoring r2{{{a2, "A"}, {c2, "C"}, {b2, "B"}}, {{a2, a1}, {c2}, {b2}}};
+  const MergeScore dut = ScoreMerges({r1, r2});
+  EXPECT_EQ(dut.merges, 2);
+  EXPECT_EQ(dut.correct, 1);
+  EXPECT_EQ(dut.same_label_pairs, 2);  // (1:1, 2:1) and (1:2, 2:3)
+  EXPECT_DOUBLE_EQ(dut.precision, 0.5);
+  EXPECT_DOUBLE_EQ(dut.recall, 0.5);
+}
+
+TEST(ScoreMerges, UnlabelledPlacesNeverCountAsSameAndNothingMergedIsPrecise) {
+  const PlaceId a1{1, 1}, a2{2, 1};
+  TeamMemoryForScoring r1{{{a1, ""}}, {{a1}}};
+  TeamMemoryForScoring r2{{{a2, ""}}, {{a2}}};
+  const MergeScore dut = ScoreMerges({r1, r2});
+  EXPECT_EQ(dut.merges, 0);
+  EXPECT_EQ(dut.same_label_pairs, 0);
+  EXPECT_DOUBLE_EQ(dut.precision, 1.0);
+  EXPECT_DOUBLE_EQ(dut.recall, 0.0);
+}
+
+}  // namespace
+}  // namespace tsc
