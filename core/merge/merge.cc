@@ -266,6 +266,27 @@ MemoryMerge MergeMemories(const PlaceMemory& ours, const PlaceMemory& peer) {
   // The merged place list: the base's places (updated by what they absorb), then the new
   // incoming places in their order.
   std::vector<LearnedPlace> places = base.places();
+  // When ours goes into the larger peer memory, the peer may hold copies of our places taken
+  // from an earlier snapshot of ours. Our own copy is fresher (it may have learned more since)
+  // and only ours has its members, which index our frames: take it, unless the peer has since
+  // absorbed something into its copy, in which case only the members are taken.
+  if (!result.peer_into_ours) {
+    std::unordered_map<PlaceId, const LearnedPlace*, PlaceIdHash> mine;
+    for (const LearnedPlace& p : ours.places()) mine.emplace(p.id, &p);
+    for (LearnedPlace& b : places) {
+      const auto it = mine.find(b.id);
+      if (it == mine.end()) continue;
+      const LearnedPlace& m = *it->second;
+      const bool peer_added_nothing =
+          std::includes(m.sources.begin(), m.sources.end(), b.sources.begin(), b.sources.end());
+      if (peer_added_nothing && m.member_count >= b.member_count) {
+        b = m;
+      } else if (b.members.empty()) {
+        b.members = m.members;
+        b.detected = m.detected;
+      }
+    }
+  }
   std::vector<char> updated(places.size(), 0);
   for (size_t i = 0; i < incoming.places().size(); ++i) {
     if (!is_new[i]) continue;

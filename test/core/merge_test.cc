@@ -327,3 +327,33 @@ TEST(MergeMaps, AbsorbedNodesCollapseOntoTheirTarget) {
 
 }  // namespace
 }  // namespace tsc
+
+namespace tsc {
+namespace {
+
+// Robot 1 is merged into robot 2's larger memory, which holds a copy of 1's place taken
+// before robot 1 learned more of it: robot 1's fresher copy, with its members, wins.
+TEST(MergeMemories, OurFresherPlaceWinsOverThePeersStaleCopyOfIt) {
+  PlaceMemory early = MakeMemory(1, {At(1)}, 10);
+  const PlaceMemory peer_alone = MakeMemory(2, {At(0, 1), At(0, 0, 1), At(0, 0, 0, 1)}, 20);
+  const PlaceMemory peer = MergeMemories(peer_alone, early).memory;  // holds a copy of 1:1
+  ASSERT_TRUE(peer.Find(PlaceId{1, 1}).has_value());
+
+  PlaceMemory late = early;
+  late.Update(0, MakePlace(At(1), 99, 10));  // robot 1 sees its place again: 16 members
+  const LearnedPlace& fresh = late.places()[0];
+  ASSERT_GT(fresh.member_count, early.places()[0].member_count);
+
+  const MemoryMerge dut = MergeMemories(late, peer);
+  EXPECT_FALSE(dut.peer_into_ours);
+  const auto i = dut.memory.Find(PlaceId{1, 1});
+  ASSERT_TRUE(i.has_value());
+  const LearnedPlace& got = dut.memory.places()[static_cast<size_t>(*i)];
+  EXPECT_EQ(got.member_count, fresh.member_count);
+  EXPECT_EQ(got.members, fresh.members);
+  EXPECT_TRUE(got.mean.isApprox(fresh.mean));
+  EXPECT_EQ(dut.memory.places().size(), 4u);
+}
+
+}  // namespace
+}  // namespace tsc
