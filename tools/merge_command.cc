@@ -10,6 +10,7 @@
 #include "core/merge/merge.h"
 #include "daemon/settings.h"
 #include "store/store.h"
+#include "tools/command_line.h"
 
 namespace tsc {
 namespace {
@@ -36,10 +37,6 @@ max_samples_per_place, discriminant) apply.
 
 Options)";
 
-struct UsageError : std::runtime_error {
-  using std::runtime_error::runtime_error;
-};
-
 StoredState LoadStore(const fs::path& path, const PlaceMemoryOptions& options, uint32_t* robot) {
   if (!fs::is_regular_file(path)) throw std::runtime_error(path.string() + ": no such store");
   Store store = Store::Open(path);
@@ -64,13 +61,7 @@ int Merge(const std::vector<std::string>& args) {
   all.add(desc).add(hidden);
   po::positional_options_description positional;
   positional.add("stores", -1);
-  po::variables_map vm;
-  try {
-    po::store(po::command_line_parser(args).options(all).positional(positional).run(), vm);
-    po::notify(vm);
-  } catch (const po::error& e) {
-    throw UsageError(e.what());
-  }
+  const po::variables_map vm = ParseCommandLine(args, all, &positional);
   if (vm.count("help")) {
     std::cout << desc << "\n";
     return kExitOk;

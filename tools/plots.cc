@@ -16,8 +16,8 @@
 #include <string>
 #include <utility>
 
-#include "tools/inspect.h"
 #include "drivers/dataset/json_reader.h"
+#include "tools/inspect.h"
 
 namespace tsc {
 namespace fs = std::filesystem;

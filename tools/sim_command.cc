@@ -7,6 +7,7 @@
 #include <stdexcept>
 
 #include "drivers/world/dataset_writer.h"
+#include "tools/command_line.h"
 
 namespace tsc {
 namespace {
@@ -31,10 +32,6 @@ scripted route that tours every room and revisits some of them, camera.json, gro
 not exist or be empty. --lighting mixed lights first visits by day and revisits dim.
 
 Options)";
-
-struct UsageError : std::runtime_error {
-  using std::runtime_error::runtime_error;
-};
 
 void ParseSize(const std::string& text, int* width, int* height) {
   const size_t x = text.find_first_of("xX");
@@ -77,16 +74,10 @@ int Sim(const std::vector<std::string>& args) {
       "png", "write PNG frames instead of JPEG (quality 90)")(
       "max-frames", po::value<int>()->default_value(0)->value_name("N"),
       "cut each robot's route after N frames (0 = whole route)");
-  po::variables_map vm;
-  try {
-    po::store(po::command_line_parser(args).options(desc).run(), vm);
-    if (vm.count("help")) {
-      std::cout << desc << "\n";
-      return kExitOk;
-    }
-    po::notify(vm);
-  } catch (const po::error& e) {
-    throw UsageError(e.what());
+  const po::variables_map vm = ParseCommandLine(args, desc);
+  if (vm.count("help")) {
+    std::cout << desc << "\n";
+    return kExitOk;
   }
 
   sim::SimOptions options;

@@ -23,6 +23,7 @@
 #include "daemon/settings.h"
 #include "drivers/camera/make_camera.h"
 #include "drivers/camera/sim_camera.h"
+#include "tools/command_line.h"
 #include "tools/events_json.h"
 #include "tools/inspect.h"
 #include "tools/scoring.h"
@@ -58,10 +59,6 @@ memory.png. --netns current runs in the caller's namespace, which must itself be
 (tests do this to listen in); it is refused when that namespace has any interface but lo.
 
 Options)";
-
-struct UsageError : std::runtime_error {
-  using std::runtime_error::runtime_error;
-};
 
 struct RobotStats {
   int id = 0;
@@ -237,16 +234,10 @@ int Team(const std::vector<std::string>& args) {
       "set", po::value<std::vector<std::string>>()->composing()->value_name("KEY=VALUE"),
       "override a key for every robot (repeatable)")(
       "netns", po::value<std::string>()->default_value("new"), "new|current");
-  po::variables_map vm;
-  try {
-    po::store(po::command_line_parser(args).options(desc).run(), vm);
-    if (vm.count("help")) {
-      std::cout << desc << "\n";
-      return kExitOk;
-    }
-    po::notify(vm);
-  } catch (const po::error& e) {
-    throw UsageError(e.what());
+  const po::variables_map vm = ParseCommandLine(args, desc);
+  if (vm.count("help")) {
+    std::cout << desc << "\n";
+    return kExitOk;
   }
   const int n = vm["robots"].as<int>();
   if (n < 1 || n > 16) throw UsageError("--robots must be in 1..16");

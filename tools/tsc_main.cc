@@ -17,6 +17,7 @@
 #include "daemon/settings.h"
 #include "drivers/dataset/dataset.h"
 #include "store/store.h"
+#include "tools/command_line.h"
 #include "tools/eval.h"
 #include "tools/events_json.h"
 #include "tools/inspect.h"
@@ -35,12 +36,6 @@ constexpr int kExitOk = 0;
 constexpr int kExitFailure = 1;
 constexpr int kExitUsage = 2;
 constexpr int kExitConfig = 78;  // EX_CONFIG of sysexits.h
-
-/// Bad command line; the message is printed after "tsc <command>: ".
-class UsageError : public std::runtime_error {
- public:
-  using std::runtime_error::runtime_error;
-};
 
 constexpr const char* kMainHelp =
     R"(usage: tsc <command> [options]
@@ -126,17 +121,7 @@ Options)";
 
 po::variables_map Parse(const std::vector<std::string>& args, const po::options_description& desc,
                         const po::positional_options_description* positional = nullptr) {
-  po::variables_map vm;
-  try {
-    po::command_line_parser parser(args);
-    parser.options(desc);
-    if (positional != nullptr) parser.positional(*positional);
-    po::store(parser.run(), vm);
-    if (vm.count("help") == 0) po::notify(vm);
-  } catch (const po::error& e) {
-    throw UsageError(e.what());
-  }
-  return vm;
+  return ParseCommandLine(args, desc, positional);
 }
 
 void AddConfigOptions(po::options_description& desc) {
