@@ -998,6 +998,24 @@ void Store::CopyTo(const std::filesystem::path& out) const {
   Statement(db, "VACUUM INTO ?1").Text(1, out.c_str()).Run();
 }
 
+std::vector<std::pair<PlaceId, std::vector<BaseIndex>>> Store::LoadAssignments() const {
+  const Db db{db_, path_};
+  std::vector<std::pair<PlaceId, std::vector<BaseIndex>>> out;
+  Statement s(db,
+              "SELECT idx, place_robot, place_local, members FROM detected_places "
+              "WHERE place_robot IS NOT NULL ORDER BY idx");
+  while (s.Step()) {
+    const Row row(db, s, "detected_places", "?");
+    constexpr int64_t kMaxId = std::numeric_limits<uint32_t>::max();
+    const PlaceId id{static_cast<uint32_t>(row.Int(1, "place_robot", 0, kMaxId)),
+                     static_cast<uint32_t>(row.Int(2, "place_local", 0, kMaxId))};
+    std::vector<BaseIndex> members;
+    for (int64_t b : row.Array<int64_t>(3, "members")) members.push_back(static_cast<BaseIndex>(b));
+    out.emplace_back(id, std::move(members));
+  }
+  return out;
+}
+
 std::map<uint32_t, PeerMerge> Store::LoadPeers() const {
   const Db db{db_, path_};
   std::map<uint32_t, PeerMerge> peers;

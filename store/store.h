@@ -69,6 +69,10 @@ class Store {
   /// `peer`, when given, is recorded in the peers table in the same transaction.
   void ReplaceKnowledge(const PlaceMemory& memory, const TopologicalMap& map,
                         const std::optional<PeerMerge>& peer = std::nullopt);
+  /// Every detected place assigned to a learned place: the place it was recognised as or
+  /// learned into (as recorded then) and its member base points, in detection order.
+  /// Throws StoreError.
+  std::vector<std::pair<PlaceId, std::vector<BaseIndex>>> LoadAssignments() const;
   /// The peers merged so far, by robot id. Throws StoreError.
   std::map<uint32_t, PeerMerge> LoadPeers() const;
 

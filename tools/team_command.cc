@@ -23,6 +23,7 @@
 #include "daemon/settings.h"
 #include "drivers/camera/make_camera.h"
 #include "drivers/camera/sim_camera.h"
+#include "store/store.h"
 #include "tools/command_line.h"
 #include "tools/events_json.h"
 #include "tools/inspect.h"
@@ -392,16 +393,23 @@ int Team(const std::vector<std::string>& args) {
       GroundTruth truth;
       for (const sim::RouteFrame& f : route.route()) truth.labels.push_back(f.label);
       any_dropped |= r.dropped > 0;
+      // Labels of every place this robot learned, from the detected places it assigned to
+      // them (these survive a merge that absorbed the place into a peer's).
+      std::map<PlaceId, std::vector<int>> frames_of;
+      for (const auto& [place, members] : Store::Open(r.dir / "memory.db").LoadAssignments()) {
+        if (place.robot != static_cast<uint32_t>(r.id)) continue;
+        for (BaseIndex b : members) {
+          if (b >= 0 && b < static_cast<BaseIndex>(truth.labels.size())) {
+            frames_of[place].push_back(static_cast<int>(b));
+          }
+        }
+      }
+      for (const auto& [place, frames] : frames_of) {
+        scoring[i].own_labels[place] = MajorityLabel(truth, frames);
+      }
       for (const LearnedPlace& p : s.memory.places()) {
         if (p.id.robot == static_cast<uint32_t>(r.id)) {
           ++own;
-          std::vector<int> frames;
-          for (BaseIndex b : p.members) {
-            if (b >= 0 && b < static_cast<BaseIndex>(truth.labels.size())) {
-              frames.push_back(static_cast<int>(b));
-            }
-          }
-          scoring[i].own_labels[p.id] = MajorityLabel(truth, frames);
         } else {
           ++from_peers;
         }

@@ -361,6 +361,27 @@ TEST_F(StoreTest, OpenRefusesANewerSchemaVersion) {
   }
 }
 
+// Every detected place that was recognised or learned is listed with the place it went to
+// and its members; the revisit of cluster 0 goes to the same place as the first visit.
+TEST_F(StoreTest, AssignmentsListDetectedPlacesWithTheirPlaceAndMembers) {
+  Stream stream(31);
+  for (int c = 0; c < 2; ++c) stream.AddCluster();
+  Committed committed;
+  Store dut = Store::Open(path_);
+  Pipeline pipeline = Continue(dut);
+  for (int c : {0, 1, 0}) Feed(pipeline, dut, stream.Visit(c, 14), committed);
+  Finish(pipeline, dut, committed);
+  const auto got = dut.LoadAssignments();
+  ASSERT_GE(got.size(), 3u);
+  std::set<BaseIndex> seen;
+  for (const auto& [place, members] : got) {
+    EXPECT_TRUE(pipeline.memory().Find(place).has_value()) << place.ToString();
+    EXPECT_FALSE(members.empty());
+    for (BaseIndex b : members) EXPECT_TRUE(seen.insert(b).second) << "base point twice: " << b;
+  }
+  EXPECT_EQ(got.front().first, got.back().first);  // the revisit was recognised
+}
+
 TEST_F(StoreTest, MigratesAVersionOneDatabaseKeepingItsKnowledge) {
   Stream stream(23);
   for (int c = 0; c < 3; ++c) stream.AddCluster();
