@@ -19,6 +19,7 @@
 #include "test/daemon/bus_listener.h"
 #include "test/support/child_process.h"
 #include "test/support/temp_dir.h"
+#include "test/support/tsc_command.h"
 
 namespace tsc {
 namespace {
@@ -31,12 +32,7 @@ using testing_support::ChildProcess;
 
 const std::string kBin = TSCD_BIN_DIR;
 
-std::string ReadFile(const fs::path& p) {
-  std::ifstream in(p);
-  std::stringstream s;
-  s << in.rdbuf();
-  return s.str();
-}
+using testing_support::ReadFile;
 
 class TeamTest : public ::testing::Test {
  protected:

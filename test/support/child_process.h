@@ -18,6 +18,8 @@
 #include <thread>
 #include <vector>
 
+#include "test/support/tsc_command.h"
+
 extern char** environ;
 
 namespace tsc::testing_support {
@@ -63,12 +65,7 @@ class ChildProcess {
     return status_;
   }
   /// Everything the process wrote so far.
-  std::string Log() const {
-    std::ifstream in(log_);
-    std::stringstream s;
-    s << in.rdbuf();
-    return s.str();
-  }
+  std::string Log() const { return ReadFile(log_); }
 
  private:
   void Poll() {

@@ -1,5 +1,3 @@
-#include "daemon/settings.h"
-
 #include <gtest/gtest.h>
 #include <unistd.h>
 
@@ -7,6 +5,7 @@
 #include <set>
 #include <sstream>
 
+#include "daemon/settings.h"
 #include "test/support/temp_dir.h"
 
 namespace tsc {
@@ -96,8 +95,7 @@ TEST_F(ConfigTest, FileSetsValues) {
 
 TEST_F(ConfigTest, OverrideWinsOverFile) {
   const fs::path file = Write("[memory]\ntau_r = 0.75\n");
-  const Settings dut =
-      LoadSettings(file, {"memory.tau_r=2.5", "detection.tau_n = 4"});
+  const Settings dut = LoadSettings(file, {"memory.tau_r=2.5", "detection.tau_n = 4"});
   EXPECT_DOUBLE_EQ(dut.pipeline.memory.tau_r, 2.5);
   EXPECT_EQ(dut.pipeline.detector.tau_n, 4);
 }

@@ -13,23 +13,14 @@
 
 #include "store/store.h"
 #include "test/support/temp_dir.h"
+#include "test/support/tsc_command.h"
 
 namespace tsc {
 namespace {
 namespace fs = std::filesystem;
 
-struct Outcome {
-  int code = -1;
-  std::string out;
-  std::string err;
-};
-
-std::string ReadFile(const fs::path& p) {
-  std::ifstream in(p);
-  std::stringstream s;
-  s << in.rdbuf();
-  return s.str();
-}
+using Outcome = testing_support::TscOutcome;
+using testing_support::ReadFile;
 
 class MergeCliTest : public ::testing::Test {
  protected:
@@ -54,11 +45,7 @@ class MergeCliTest : public ::testing::Test {
 
   /// Runs `tsc ARGS` (paths without spaces) with stdout and stderr captured.
   static Outcome Tsc(const std::string& args) {
-    const fs::path out = dir_->path() / "stdout.txt", err = dir_->path() / "stderr.txt";
-    const std::string cmd = std::string(TSCD_BIN_DIR) + "/tsc " + args + " >" + out.string() +
-                            " 2>" + err.string() + " </dev/null";
-    const int status = std::system(cmd.c_str());
-    return {WIFEXITED(status) ? WEXITSTATUS(status) : -1, ReadFile(out), ReadFile(err)};
+    return testing_support::RunTsc(dir_->path(), args);
   }
 
   static fs::path Path(const std::string& name) { return dir_->path() / name; }

@@ -7,9 +7,9 @@
 #include <map>
 
 #include "core/pipeline/pipeline.h"
+#include "drivers/dataset/dataset.h"
 #include "store/store.h"
 #include "test/support/temp_dir.h"
-#include "drivers/dataset/dataset.h"
 #include "tools/scoring.h"
 
 namespace tsc {

@@ -14,44 +14,20 @@
 #include <string>
 
 #include "test/support/temp_dir.h"
+#include "test/support/tsc_command.h"
 
 namespace tsc {
 namespace {
 namespace fs = std::filesystem;
 
-struct Outcome {
-  int code = -1;
-  std::string out;
-  std::string err;
-};
-
-std::string Quote(const std::string& s) {
-  std::string q = "'";
-  for (char c : s) q += c == '\'' ? std::string("'\\''") : std::string(1, c);
-  return q + "'";
-}
-
-std::string ReadFile(const fs::path& p) {
-  std::ifstream in(p);
-  std::stringstream s;
-  s << in.rdbuf();
-  return s.str();
-}
+using Outcome = testing_support::TscOutcome;
+using testing_support::Quote;
+using testing_support::ReadFile;
 
 class TscCliTest : public ::testing::Test {
  protected:
   /// Runs `tsc ARGS` (already quoted) with stdout and stderr captured.
-  Outcome Tsc(const std::string& args) {
-    const fs::path out = dir_ / "stdout.txt", err = dir_ / "stderr.txt";
-    const std::string cmd = Quote(std::string(TSCD_BIN_DIR) + "/tsc") + " " + args + " >" +
-                            Quote(out.string()) + " 2>" + Quote(err.string()) + " </dev/null";
-    const int status = std::system(cmd.c_str());
-    Outcome o;
-    o.code = WIFEXITED(status) ? WEXITSTATUS(status) : -1;
-    o.out = ReadFile(out);
-    o.err = ReadFile(err);
-    return o;
-  }
+  Outcome Tsc(const std::string& args) { return testing_support::RunTsc(dir_, args); }
 
   /// `n` frames of a slowly panning textured scene, as a dataset folder.
   fs::path MakeDataset(int n) {
