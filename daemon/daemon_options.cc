@@ -7,10 +7,23 @@ namespace tsc {
 void DaemonOptions::Validate() const {
   if (state_dir.empty()) throw std::invalid_argument("daemon.state_dir: a folder is required");
   if (queue_frames < 1) throw std::invalid_argument("daemon.queue_frames: must be at least 1");
-  if (camera.source != "sim" && camera.path.empty()) {
+  if (camera.source == "axis") {
+    if (camera.axis_host.empty()) {
+      throw std::invalid_argument("camera.axis_host: required for camera.source = axis");
+    }
+    if (!camera.axis_user.empty() && camera.axis_password_file.empty()) {
+      throw std::invalid_argument("camera.axis_password_file: required with camera.axis_user");
+    }
+    if (camera.axis_user.empty() && !camera.axis_password_file.empty()) {
+      throw std::invalid_argument("camera.axis_user: required with camera.axis_password_file");
+    }
+  } else if (camera.source != "sim" && camera.path.empty()) {
     throw std::invalid_argument("camera.path: required for camera.source = " + camera.source);
   }
   if (camera.fps < 0) throw std::invalid_argument("camera.fps: must not be negative");
+  if (camera.reconnect_max_s < camera.reconnect_min_s) {
+    throw std::invalid_argument("camera.reconnect_max_s: below camera.reconnect_min_s");
+  }
   if (sim.route < 0 || sim.route >= sim.team_size) {
     throw std::invalid_argument("sim.route: " + std::to_string(sim.route) +
                                 " is not below sim.team_size = " + std::to_string(sim.team_size));

@@ -10,12 +10,30 @@ namespace tsc {
 /// Where frames come from (drivers/camera).
 struct CameraOptions {
   /// "sim" (the simulated world, rendered live), "folder" (a dataset folder), "video" (a file
-  /// OpenCV reads), "device" (V4L2 / USB camera through OpenCV).
+  /// OpenCV reads), "device" (V4L2 / USB camera through OpenCV), "axis" (Axis VAPIX camera
+  /// over HTTP with PTZ).
   std::string source = "sim";
   std::string path;        ///< folder or video file; "/dev/videoN" or "N" for a device
   double fps = 10.0;       ///< frames per second delivered; 0 = as fast as the source gives them
   bool loop = false;       ///< folder / video: start again at the end instead of stopping
-  double hfov_deg = 60.0;  ///< horizontal field of view of folder, video and device frames
+  double hfov_deg = 60.0;  ///< horizontal field of view of folder, video, device, axis frames
+  int width = 640;         ///< axis: requested resolution; device: requested capture size
+  int height = 480;
+  // Axis camera (drivers/camera/axis_camera.h).
+  std::string axis_host;           ///< camera address
+  int axis_port = 80;              ///< HTTP port
+  std::string axis_user;           ///< "" = anonymous
+  std::string axis_password_file;  ///< file holding the password (0600); never on a command line
+  int axis_compression = 30;       ///< JPEG compression 0..100
+  bool axis_pan_clockwise = true;  ///< Axis pan grows clockwise seen from above
+  double axis_timeout_s = 5.0;     ///< connect / request / between-frames timeout
+  int sweep_steps = 1;             ///< views per base point; 1 = no PTZ sweep
+  double sweep_deg = 360.0;        ///< pan covered by a sweep, degrees
+  double sweep_start_deg = 0.0;    ///< Axis pan of a sweep's first view, degrees
+  double sweep_tilt_deg = 0.0;     ///< Axis tilt during a sweep, degrees
+  double sweep_settle_s = 0.5;     ///< wait after each PTZ move before a frame is taken
+  double reconnect_min_s = 0.5;    ///< first wait before reconnecting a lost device / stream
+  double reconnect_max_s = 10.0;   ///< the wait doubles up to this
 };
 
 /// The simulated world camera and base (drivers/world): which world and which route.

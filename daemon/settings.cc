@@ -310,9 +310,9 @@ std::vector<ConfigKey> BuildTable() {
   t.push_back(Text(
       "camera.source",
       "where frames come from: the simulated world rendered live, a dataset folder, "
-      "a video file, or a V4L2/USB device",
-      "sim|folder|video|device", [](auto& o) -> auto& { return o.daemon.camera.source; },
-      OneOf({"sim", "folder", "video", "device"})));
+      "a video file, a V4L2/USB device, or an Axis network camera (VAPIX MJPEG and PTZ)",
+      "sim|folder|video|device|axis", [](auto& o) -> auto& { return o.daemon.camera.source; },
+      OneOf({"sim", "folder", "video", "device", "axis"})));
   t.push_back(Text(
       "camera.path", "folder or video file; for a device /dev/videoN or its number N", "a path",
       [](auto& o) -> auto& { return o.daemon.camera.path; }));
@@ -324,8 +324,61 @@ std::vector<ConfigKey> BuildTable() {
       [](auto& o) -> auto& { return o.daemon.camera.loop; }));
   t.push_back(Number(
       "camera.hfov_deg",
-      "horizontal field of view of video and device frames (folders use camera.json)", "degrees", 0,
-      180, [](auto& o) -> auto& { return o.daemon.camera.hfov_deg; }, true, true));
+      "horizontal field of view of video, device and axis frames (folders use camera.json)",
+      "degrees", 0, 180, [](auto& o) -> auto& { return o.daemon.camera.hfov_deg; }, true, true));
+  t.push_back(Number(
+      "camera.width", "axis: requested resolution; device: requested capture size", "pixels", 16,
+      8192, [](auto& o) -> auto& { return o.daemon.camera.width; }));
+  t.push_back(Number(
+      "camera.height", "axis: requested resolution; device: requested capture size", "pixels", 16,
+      8192, [](auto& o) -> auto& { return o.daemon.camera.height; }));
+  t.push_back(Number(
+      "camera.reconnect_min_s", "device, axis: first wait before reconnecting a lost camera", "s",
+      0, 3600, [](auto& o) -> auto& { return o.daemon.camera.reconnect_min_s; }, true));
+  t.push_back(Number(
+      "camera.reconnect_max_s", "device, axis: the reconnect wait doubles up to this", "s", 0, 3600,
+      [](auto& o) -> auto& { return o.daemon.camera.reconnect_max_s; }, true));
+  t.push_back(Text(
+      "camera.axis_host", "axis: the camera's address (name or IP)", "a host",
+      [](auto& o) -> auto& { return o.daemon.camera.axis_host; }));
+  t.push_back(Number(
+      "camera.axis_port", "axis: the camera's HTTP port", "", 1, 65535,
+      [](auto& o) -> auto& { return o.daemon.camera.axis_port; }));
+  t.push_back(Text(
+      "camera.axis_user", "axis: user for HTTP Basic/Digest authentication; empty = anonymous",
+      "a user name", [](auto& o) -> auto& { return o.daemon.camera.axis_user; }));
+  t.push_back(Text(
+      "camera.axis_password_file",
+      "axis: file holding the password, readable by its owner only (mode 0600 or 0400)", "a path",
+      [](auto& o) -> auto& { return o.daemon.camera.axis_password_file; }));
+  t.push_back(Number(
+      "camera.axis_compression", "axis: JPEG compression the camera applies", "", 0, 100,
+      [](auto& o) -> auto& { return o.daemon.camera.axis_compression; }));
+  t.push_back(Bool(
+      "camera.axis_pan_clockwise",
+      "axis: the camera's pan grows clockwise seen from above (false when mounted upside down)",
+      [](auto& o) -> auto& { return o.daemon.camera.axis_pan_clockwise; }));
+  t.push_back(Number(
+      "camera.axis_timeout_s", "axis: connect, request and between-frames timeout", "s", 0, 600,
+      [](auto& o) -> auto& { return o.daemon.camera.axis_timeout_s; }, true));
+  t.push_back(Number(
+      "camera.sweep_steps",
+      "axis: views per base point (PTZ pan sweep accumulated into one bubble surface); 1 = no "
+      "sweep",
+      "views", 1, 360, [](auto& o) -> auto& { return o.daemon.camera.sweep_steps; }));
+  t.push_back(Number(
+      "camera.sweep_deg", "axis: pan covered by a sweep; views are sweep_deg / sweep_steps apart",
+      "degrees", 0, 360, [](auto& o) -> auto& { return o.daemon.camera.sweep_deg; }, true));
+  t.push_back(Number(
+      "camera.sweep_start_deg", "axis: camera pan of a sweep's first view (Axis convention)",
+      "degrees", -360, 360, [](auto& o) -> auto& { return o.daemon.camera.sweep_start_deg; }));
+  t.push_back(Number(
+      "camera.sweep_tilt_deg", "axis: camera tilt during a sweep", "degrees", -90, 90,
+      [](auto& o) -> auto& { return o.daemon.camera.sweep_tilt_deg; }));
+  t.push_back(Number(
+      "camera.sweep_settle_s",
+      "axis: after each PTZ move, frames completed within this time (and one more) are dropped",
+      "s", 0, 60, [](auto& o) -> auto& { return o.daemon.camera.sweep_settle_s; }));
   // [sim] — the simulated world camera and base (drivers/world)
   t.push_back(Number(
       "sim.world_seed", "seed of the generated world, shared by the whole team", "", 0,

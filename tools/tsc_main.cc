@@ -17,6 +17,7 @@
 #include "daemon/settings.h"
 #include "drivers/dataset/dataset.h"
 #include "store/store.h"
+#include "tools/axis_sim_command.h"
 #include "tools/command_line.h"
 #include "tools/eval.h"
 #include "tools/events_json.h"
@@ -49,6 +50,7 @@ Topological spatial cognition, offline. Commands:
   sim      write a simulated dataset (frames and ground truth) from a generated world
   team     run N tscd robots in a private network namespace on the simulated world
   merge    merge two robots' stores (place memories and maps) into a new store
+  axis-sim a simulated Axis PTZ camera (VAPIX MJPEG and PTZ over HTTP) on 127.0.0.1
 
 'tsc <command> --help' describes each command.
 
@@ -467,7 +469,8 @@ int Main(int argc, char** argv) {
   if (command == "config") fn = Config;
   if (command == "sim") fn = RunSimCommand;  // reports its own errors and exit codes
   if (command == "team") fn = RunTeamCommand;
-  if (command == "merge") fn = RunMergeCommand;  // reports its own errors and exit codes
+  if (command == "merge") fn = RunMergeCommand;       // reports its own errors and exit codes
+  if (command == "axis-sim") fn = RunAxisSimCommand;  // reports its own errors and exit codes
   if (fn == nullptr) {
     std::cerr << "tsc: unknown command '" << command << "' (try 'tsc --help')\n";
     return kExitUsage;

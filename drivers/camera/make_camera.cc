@@ -3,6 +3,7 @@
 #include <stdexcept>
 #include <string>
 
+#include "drivers/camera/axis_camera.h"
 #include "drivers/camera/device_camera.h"
 #include "drivers/camera/folder_camera.h"
 #include "drivers/camera/video_camera.h"
@@ -48,6 +49,41 @@ SimCameraOptions ToSimCameraOptions(const CameraOptions& camera, const SimOption
   return out;
 }
 
+AxisCameraOptions ToAxisCameraOptions(const CameraOptions& camera) {
+  AxisCameraOptions out;
+  if (camera.axis_host.empty()) Fail("camera.axis_host is empty: camera.source axis needs it");
+  out.host = camera.axis_host;
+  out.port = camera.axis_port;
+  out.user = camera.axis_user;
+  if (!camera.axis_user.empty()) {
+    if (camera.axis_password_file.empty()) {
+      Fail("camera.axis_password_file is empty: camera.axis_user " + camera.axis_user +
+           " needs a password");
+    }
+    try {
+      out.password = ReadPasswordFile(camera.axis_password_file);
+    } catch (const CameraError& e) {
+      Fail(std::string("camera.axis_password_file: ") + e.what());
+    }
+  }
+  out.width = camera.width;
+  out.height = camera.height;
+  out.fps = camera.fps;
+  out.compression = camera.axis_compression;
+  out.hfov_deg = camera.hfov_deg;
+  out.sweep_steps = camera.sweep_steps;
+  out.sweep_deg = camera.sweep_deg;
+  out.sweep_start_deg = camera.sweep_start_deg;
+  out.sweep_tilt_deg = camera.sweep_tilt_deg;
+  out.settle_s = camera.sweep_settle_s;
+  out.pan_clockwise = camera.axis_pan_clockwise;
+  out.timeout_s = camera.axis_timeout_s;
+  out.reconnect_min_s = camera.reconnect_min_s;
+  out.reconnect_max_s = camera.reconnect_max_s;
+  out.Validate();
+  return out;
+}
+
 SimBaseOptions ToSimBaseOptions(const SimOptions& sim) {
   const SimCameraOptions camera = ToSimCameraOptions(CameraOptions{}, sim);
   const sim::Scenario scenario = sim::MakeScenario(camera.scene);
@@ -88,12 +124,18 @@ std::unique_ptr<CameraSource> MakeCamera(const CameraOptions& camera, const SimO
       options.device = PathOrFail(camera, "a device, /dev/videoN or N");
       options.fps = camera.fps;
       options.hfov_deg = camera.hfov_deg;
+      options.width = camera.width;
+      options.height = camera.height;
+      options.reopen_min_s = camera.reconnect_min_s;
+      options.reopen_max_s = camera.reconnect_max_s;
       return std::make_unique<DeviceCamera>(options, clock);
     }
+    if (camera.source == "axis")
+      return std::make_unique<AxisCamera>(ToAxisCameraOptions(camera), clock);
   } catch (const std::invalid_argument& e) {
     Fail(std::string("camera.source ") + camera.source + ": " + e.what());
   }
-  Fail("camera.source '" + camera.source + "' is not one of sim, folder, video, device");
+  Fail("camera.source '" + camera.source + "' is not one of sim, folder, video, device, axis");
 }
 
 }  // namespace tsc

@@ -1,0 +1,140 @@
+// A simulated robot's camera half as real processes: `tsc axis-sim` serves the simulated world
+// over VAPIX (Digest authentication) at a pose the test moves along a scripted route through
+// the pose file (as `tsc jaguar-sim --pose-file` does), and tscd with camera.source = axis
+// learns places from it, inside the test's private network namespace.
+
+#include <gtest/gtest.h>
+#include <sys/stat.h>
+
+#include <atomic>
+#include <cstdio>
+#include <filesystem>
+#include <fstream>
+#include <regex>
+#include <thread>
+
+#include "drivers/world/scenario.h"
+#include "store/store.h"
+#include "test/daemon/bus_listener.h"
+#include "test/support/child_process.h"
+#include "test/support/temp_dir.h"
+
+namespace tsc {
+namespace {
+
+namespace fs = std::filesystem;
+using std::chrono::milliseconds;
+using std::chrono::seconds;
+using testing_support::BusListener;
+using testing_support::ChildProcess;
+
+const std::string kBin = TSCD_BIN_DIR;
+
+// Waits for axis-sim to print its port.
+int WaitForPort(ChildProcess& sim) {
+  const std::regex serving("serving http://127\\.0\\.0\\.1:([0-9]+)");
+  for (int i = 0; i < 500; ++i) {
+    std::smatch m;
+    const std::string log = sim.Log();
+    if (std::regex_search(log, m, serving)) return std::stoi(m[1]);
+    if (!sim.running()) break;
+    std::this_thread::sleep_for(milliseconds(20));
+  }
+  return 0;
+}
+
+// Writes `x y heading` atomically (rename), as the Jaguar simulator does.
+void WritePose(const fs::path& file, const sim::Pose2& p) {
+  const fs::path tmp = file.string() + ".tmp";
+  {
+    std::ofstream out(tmp);
+    out << p.x << " " << p.y << " " << p.heading << "\n";
+  }
+  fs::rename(tmp, file);
+}
+
+TEST(AxisTscd, LearnsPlacesFromTheSimulatedAxisCamera) {
+  TSCD_REQUIRE_PRIVATE_NETNS();
+  testing_support::TempDir temp("axis_tscd_test");
+  const fs::path dir = temp.path();
+  const fs::path password = dir / "axis.password";
+  std::ofstream(password) << "s3cret\n";
+  ::chmod(password.c_str(), 0600);
+
+  // The route of robot 0 in world 1, as the pure simulation drives it.
+  sim::SimOptions world;
+  world.seed = 1;
+  const sim::Scenario scenario = sim::MakeScenario(world);
+  const std::vector<sim::RouteFrame>& route = scenario.routes.at(0);
+  const fs::path pose_file = dir / "pose";
+  WritePose(pose_file, route.front().pose);
+
+  ChildProcess sim(
+      {kBin + "/tsc", "axis-sim", "--port", "0", "--world", "1", "--pose-file", pose_file.string(),
+       "--auth", "digest", "--user", "root", "--password-file", password.string()},
+      dir / "axis-sim.log");
+  const int port = WaitForPort(sim);
+  ASSERT_GT(port, 0) << sim.Log();
+
+  BusListener bus;
+  ChildProcess tscd({kBin + "/tscd",
+                     "--robot",
+                     "1",
+                     "--state-dir",
+                     (dir / "state").string(),
+                     "--set",
+                     "camera.source=axis",
+                     "--set",
+                     "camera.axis_host=127.0.0.1",
+                     "--set",
+                     "camera.axis_port=" + std::to_string(port),
+                     "--set",
+                     "camera.axis_user=root",
+                     "--set",
+                     "camera.axis_password_file=" + password.string(),
+                     "--set",
+                     "camera.width=160",
+                     "--set",
+                     "camera.height=120",
+                     "--set",
+                     "camera.fps=20",
+                     "--set",
+                     "lcm.announce_period_s=0.2"},
+                    dir / "tscd.log");
+
+  // The robot moves along its route: one route pose every 50 ms (20 Hz).
+  std::atomic<bool> stop{false};
+  std::atomic<size_t> index{0};
+  std::thread mover([&] {
+    for (size_t i = 0; i < route.size() && !stop; ++i) {
+      WritePose(pose_file, route[i].pose);
+      index = i;
+      std::this_thread::sleep_for(milliseconds(50));
+    }
+  });
+  const bool learned = bus.WaitFor(
+      [](const BusListener& b) {
+        return b.announces.count("TSC_ANNOUNCE") &&
+               b.announces.at("TSC_ANNOUNCE").back().places >= 2;
+      },
+      seconds(100));
+  stop = true;
+  mover.join();
+  ASSERT_TRUE(learned) << "route pose " << index << " of " << route.size() << "\n"
+                       << tscd.Log() << sim.Log();
+  std::printf("learned 2 places by route pose %zu of %zu\n", index.load(), route.size());
+
+  tscd.Signal(SIGTERM);
+  EXPECT_EQ(tscd.Wait(seconds(20)), 0) << tscd.Log();
+  EXPECT_NE(tscd.Log().find("axis:127.0.0.1:" + std::to_string(port)), std::string::npos)
+      << tscd.Log();
+  Store store = Store::Open(dir / "state" / "memory.db");
+  EXPECT_GE(store.Load(1, PlaceMemoryOptions{}).memory.places().size(), 2u);
+
+  sim.Signal(SIGTERM);
+  EXPECT_EQ(sim.Wait(seconds(10)), 0) << sim.Log();
+  EXPECT_NE(sim.Log().find("stopped after"), std::string::npos) << sim.Log();
+}
+
+}  // namespace
+}  // namespace tsc
