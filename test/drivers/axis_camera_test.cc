@@ -85,7 +85,9 @@ TEST(AxisCamera, MjpegFramesDecodeAndShowTheWorldAtTheCameraPan) {
   AxisSim sim(SimConfig());
   const sim::Pose2 pose = RoomCentre(0, 0.5);
   sim.SetPose(pose);
-  AxisCamera dut(CameraFor(sim));
+  AxisCameraOptions options = CameraFor(sim);
+  options.compression = 0;  // JPEG quality 100: the pixels are the simulator's
+  AxisCamera dut(options);
   dut.MoveAbsolute(30.0, 0.0);
   for (int i = 0; i < 5; ++i) {
     const std::optional<CameraFrame> frame = dut.Next();
@@ -96,10 +98,12 @@ TEST(AxisCamera, MjpegFramesDecodeAndShowTheWorldAtTheCameraPan) {
     ASSERT_EQ(frame->observation.bgr.type(), CV_8UC3);
     // Axis pan 30° (clockwise) is 30° to the right: −30° in the bubble space.
     EXPECT_NEAR(frame->observation.pan_tilt.pan_rad, -30.0 * kDeg, 1e-6);
-    // The JPEG of the simulator's rendering at the robot pose turned by the pan; another pan
-    // looks clearly different.
-    EXPECT_LT(MeanAbsDiff(frame->observation.bgr, Rendered(pose, 30.0)), 4.0);
-    EXPECT_GT(MeanAbsDiff(frame->observation.bgr, Rendered(pose, 120.0)), 10.0);
+    // The simulator's rendering at the robot pose turned by the pan, not at a pan near it.
+    const double at_pan = MeanAbsDiff(frame->observation.bgr, Rendered(pose, 30.0));
+    EXPECT_LT(at_pan, 4.0);  // JPEG (chroma subsampling) on fine textures
+    for (const double other : {0.0, 25.0, 35.0, 120.0}) {
+      EXPECT_GT(MeanAbsDiff(frame->observation.bgr, Rendered(pose, other)), 2 * at_pan) << other;
+    }
   }
   EXPECT_EQ(dut.connections(), 1);
   EXPECT_EQ(dut.name(), "axis:127.0.0.1:" + std::to_string(sim.port()));
@@ -208,19 +212,15 @@ TEST(AxisCamera, BacksOffWhileTheCameraIsGoneAndComesBack) {
   AxisCamera dut(CameraFor(*sim));
   ASSERT_TRUE(dut.Next());
   sim.reset();  // the camera goes away
+  // Frames already received may still come out; then every call fails, recoverably.
   std::vector<int64_t> backoffs;
-  for (int i = 0; i < 5; ++i) {
-    EXPECT_THROW(
-        {
-          try {
-            dut.Next();
-          } catch (const CameraError& e) {
-            EXPECT_TRUE(e.recoverable()) << e.what();
-            throw;
-          }
-        },
-        CameraError);
-    backoffs.push_back(dut.backoff_us());
+  for (int i = 0; i < 20 && backoffs.size() < 5; ++i) {
+    try {
+      dut.Next();
+    } catch (const CameraError& e) {
+      EXPECT_TRUE(e.recoverable()) << e.what();
+      backoffs.push_back(dut.backoff_us());
+    }
   }
   // 50 ms doubling up to the 200 ms cap.
   EXPECT_EQ(backoffs, (std::vector<int64_t>{50'000, 100'000, 200'000, 200'000, 200'000}));
