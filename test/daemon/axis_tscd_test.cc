@@ -114,22 +114,30 @@ TEST(AxisTscd, LearnsPlacesFromTheSimulatedAxisCamera) {
   });
   const bool learned = bus.WaitFor(
       [](const BusListener& b) {
-        return b.announces.count("TSC_ANNOUNCE") &&
-               b.announces.at("TSC_ANNOUNCE").back().places >= 2;
+        if (!b.announces.count("TSC_ANNOUNCE")) return false;
+        const announce_t& a = b.announces.at("TSC_ANNOUNCE").back();
+        return a.places >= 3 && a.edges >= 2;
       },
       seconds(100));
   stop = true;
   mover.join();
   ASSERT_TRUE(learned) << "route pose " << index << " of " << route.size() << "\n"
                        << tscd.Log() << sim.Log();
-  std::printf("learned 2 places by route pose %zu of %zu\n", index.load(), route.size());
+  std::printf("3 places and 2 map edges learned by route pose %zu of %zu\n", index.load(),
+              route.size());
+  bus.Inspect([](const BusListener& b) {
+    const announce_t& a = b.announces.at("TSC_ANNOUNCE").back();
+    EXPECT_EQ(a.status.find("degraded"), std::string::npos) << a.status;
+    EXPECT_GT(a.frames, 20);
+  });
 
   tscd.Signal(SIGTERM);
   EXPECT_EQ(tscd.Wait(seconds(20)), 0) << tscd.Log();
   EXPECT_NE(tscd.Log().find("axis:127.0.0.1:" + std::to_string(port)), std::string::npos)
       << tscd.Log();
   Store store = Store::Open(dir / "state" / "memory.db");
-  EXPECT_GE(store.Load(1, PlaceMemoryOptions{}).memory.places().size(), 2u);
+  EXPECT_GE(store.Load(1, PlaceMemoryOptions{}).memory.places().size(), 3u);
+  EXPECT_EQ(tscd.Log().find("camera errors so far"), std::string::npos) << tscd.Log();
 
   sim.Signal(SIGTERM);
   EXPECT_EQ(sim.Wait(seconds(10)), 0) << sim.Log();
