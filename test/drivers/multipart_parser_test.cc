@@ -5,6 +5,7 @@
 
 #include <gtest/gtest.h>
 
+#include <random>
 #include <string>
 #include <vector>
 
@@ -122,6 +123,51 @@ TEST(MultipartParser, RefusesMalformedLengthsAndOversizedParts) {
   EXPECT_FALSE(endless_headers.Feed("--bound\r\nX-A: " + std::string(200, 'h'), &parts));
   EXPECT_NE(endless_headers.error().find("header block"), std::string::npos);
   EXPECT_TRUE(parts.empty());
+}
+
+// What a fuzz target checks, on seeded mutations of a valid stream: never more bytes out than
+// went in, every part within the limit, and a refused stream stays refused.
+TEST(MultipartParser, SurvivesMutatedStreams) {
+  std::mt19937 rng(7);
+  const std::string valid = Stream(kBodies, true) + Stream(kPlainBodies, false);
+  MultipartParserOptions options;
+  options.max_part_bytes = 64;
+  for (int trial = 0; trial < 2000; ++trial) {
+    std::string stream = valid;
+    const int edits = 1 + static_cast<int>(rng() % 8);
+    for (int e = 0; e < edits; ++e) {
+      const size_t at = rng() % stream.size();
+      switch (rng() % 3) {
+        case 0:
+          stream[at] = static_cast<char>(rng());
+          break;
+        case 1:
+          stream.erase(at, 1 + rng() % 4);
+          break;
+        default:
+          stream.insert(at, std::string(1 + rng() % 3, static_cast<char>(rng())));
+      }
+      if (stream.empty()) stream = "-";
+    }
+    MultipartParser dut("bound", options);
+    std::vector<MultipartPart> parts;
+    size_t fed = 0;
+    bool ok = true;
+    while (fed < stream.size()) {
+      const size_t n = std::min(stream.size() - fed, static_cast<size_t>(1 + rng() % 40));
+      const bool now = dut.Feed(std::string_view(stream).substr(fed, n), &parts);
+      ASSERT_FALSE(!ok && now) << "a refused stream came back, trial " << trial;
+      ok = now;
+      fed += n;
+    }
+    size_t out = 0;
+    for (const MultipartPart& p : parts) {
+      ASSERT_LE(p.body.size(), options.max_part_bytes);
+      out += p.body.size();
+    }
+    ASSERT_LE(out, stream.size());
+    EXPECT_EQ(dut.failed(), !ok);
+  }
 }
 
 TEST(MultipartParser, BoundaryComesFromTheContentType) {
