@@ -158,6 +158,21 @@ RobotRun RunRobot(const std::vector<std::string>& extra, milliseconds tick) {
   return out;
 }
 
+TEST(AxisTscd, APasswordFileOthersCanReadIsAConfigurationError) {
+  testing_support::TempDir temp("axis_tscd_test");
+  const fs::path password = temp.path() / "axis.password";
+  std::ofstream(password) << "s3cret\n";
+  ::chmod(password.c_str(), 0644);
+  ChildProcess tscd(
+      {kBin + "/tscd", "--state-dir", (temp.path() / "state").string(), "--set",
+       "camera.source=axis", "--set", "camera.axis_host=127.0.0.1", "--set",
+       "camera.axis_user=root", "--set", "camera.axis_password_file=" + password.string()},
+      temp.path() / "tscd.log");
+  EXPECT_EQ(tscd.Wait(seconds(20)), 78) << tscd.Log();
+  EXPECT_NE(tscd.Log().find("camera.axis_password_file"), std::string::npos) << tscd.Log();
+  EXPECT_NE(tscd.Log().find("0644"), std::string::npos) << tscd.Log();
+}
+
 TEST(AxisTscd, LearnsPlacesFromTheSimulatedAxisCamera) {
   TSCD_REQUIRE_PRIVATE_NETNS();
   // One view per base point at 20 fps; the robot moves one route pose every 50 ms.
