@@ -256,6 +256,11 @@ std::vector<ConfigKey> BuildTable() {
       [](auto& o) -> auto& { return o.pipeline.memory.tau_r; },
       /*min_open=*/true));
   t.push_back(Number(
+      "memory.gamma_unit",
+      "unit of squared descriptor distance in which gamma~ enters g_N of (3.8)", "", 0, 1e6,
+      [](auto& o) -> auto& { return o.pipeline.memory.gamma_unit; },
+      /*min_open=*/true));
+  t.push_back(Number(
       "memory.tau_l", "tau_l, levels the hybrid traversal climbs", "levels", 0, 1000,
       [](auto& o) -> auto& { return o.pipeline.memory.tau_l; }));
   t.push_back(Number(

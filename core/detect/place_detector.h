@@ -18,7 +18,9 @@ using DetectedPlaceIndex = int64_t;
 struct DetectorOptions {
   int tau_n = 2;  ///< τ_n: a bad point within this many points extends the temporal window
   int tau_w = 2;  ///< τ_w: temporal windows this long or longer are transitions, shorter noise
-  int tau_p = 3;  ///< τ_p: places with this many base points or fewer are pruned
+  /// τ_p: places with this many base points or fewer are pruned. 25 suits a camera sampled
+  /// every ~0.15 m (the simulated robot); sparse keyframe sequences use config/keyframes.ini.
+  int tau_p = 25;
   void Validate() const;
 };
 

@@ -41,6 +41,8 @@ void PlaceMemoryOptions::Validate() const {
   };
   if (!(tau_r > 0) || !std::isfinite(tau_r))
     fail("tau_r", "must be > 0, got " + std::to_string(tau_r));
+  if (!(gamma_unit > 0) || !std::isfinite(gamma_unit))
+    fail("gamma_unit", "must be > 0, got " + std::to_string(gamma_unit));
   if (tau_l < 0) fail("tau_l", "must be >= 0, got " + std::to_string(tau_l));
   if (!(tau_h >= 0 && tau_h < 1)) fail("tau_h", "must be in [0,1), got " + std::to_string(tau_h));
   if (max_samples_per_place < 1) fail("max_samples_per_place", "must be >= 1");
@@ -100,7 +102,11 @@ double PlaceMemory::Cost(const DetectedPlace& d, const Eigen::MatrixXf& votes, i
   // (3.8); one child: the ratio term is 1; γ̃(D,N²) = 0 implies γ̃(D,N¹) = 0: ratio 1 too.
   const double ratio = std::isinf(g2) || g2 <= 0.0 ? 1.0 : g1 / g2;
   const double vote = discriminants_[n1].VoteFraction(votes);
-  return g1 + ratio + (1.0 - vote);
+  // γ̃ to a terminal is D's squared distance to one place's mean and is measured in gamma_unit;
+  // to an inner node it is the distance to a centroid of several places, which says little
+  // about membership, and stays unscaled (docs/decisions.md "Recognition cost scale").
+  const double absolute = nodes_[n1].terminal() ? g1 / options_.gamma_unit : g1;
+  return absolute + ratio + (1.0 - vote);
 }
 
 Recognition PlaceMemory::Descend(const DetectedPlace& d, int start) const {

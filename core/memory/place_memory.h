@@ -52,7 +52,12 @@ struct MemoryNode {
 };
 
 struct PlaceMemoryOptions {
-  double tau_r = 1.3;   ///< τ_r recognition cost threshold (3.11)
+  double tau_r = 1.3;  ///< τ_r recognition cost threshold (3.11)
+  /// Unit of the first term of (3.8): g_N uses γ̃(D,N¹) / gamma_unit. Our descriptors are
+  /// normalised, so raw γ̃ is 1e-7..1e-4 and would play no part; in this unit a distance to
+  /// the nearest child at the scale that separates distinct places counts as ~1
+  /// (docs/decisions.md "Recognition cost scale").
+  double gamma_unit = 5e-6;
   int tau_l = 1;        ///< τ_l levels climbed by the hybrid traversal
   double tau_h = 0.25;  ///< τ_h relative merge-height gap folded by simplification, [0, 1)
   int max_samples_per_place = 8;  ///< representative member descriptors kept per place

@@ -48,6 +48,7 @@ class PlaceMemoryTest : public ::testing::Test {
     o.tau_r = 1.2;
     o.tau_l = 1;
     o.tau_h = 0.25;
+    o.gamma_unit = 1.0;  // the hand-made descriptors below are on a unit scale
     return o;
   }
   std::mt19937 rng_{7};
@@ -88,6 +89,29 @@ TEST_F(PlaceMemoryTest, UnknownPlaceIsNotRecognised) {
   const Recognition r = dut_.Recognize(MakePlace(60, Centre({0, 1.0f, 0, 1.0f, 0, 0}), rng_));
   EXPECT_FALSE(r.place.has_value());
   EXPECT_GT(r.cost, dut_.options().tau_r);
+}
+
+// γ̃ to the terminal enters g_N in gamma_unit: the same revisit is recognised when its
+// distance to the place is small in that unit and not when the unit is ten times smaller
+// than that distance (a new place that is merely the relatively nearest).
+TEST_F(PlaceMemoryTest, GammaUnitSetsTheScaleOfTheDistanceToAPlace) {
+  const DetectedPlace d = MakePlace(70, centres_[0], rng_);
+  const Recognition near = dut_.Recognize(d);
+  ASSERT_TRUE(near.place.has_value());
+  ASSERT_EQ(*near.place, 0);
+
+  const double gamma_tilde = (d.Mean() - dut_.places()[0].mean).squaredNorm();
+  ASSERT_GT(gamma_tilde, 0.0);
+  PlaceMemoryOptions strict = Options();
+  strict.gamma_unit = gamma_tilde / 10.0;
+  PlaceMemory strict_memory(1, strict);
+  std::mt19937 rng(7);
+  for (size_t p = 0; p < centres_.size(); ++p) {
+    strict_memory.Learn(MakePlace(static_cast<DetectedPlaceIndex>(p + 1), centres_[p], rng));
+  }
+  const Recognition far = strict_memory.Recognize(d);
+  EXPECT_FALSE(far.place.has_value());
+  EXPECT_GT(far.cost, 10.0);
 }
 
 TEST_F(PlaceMemoryTest, HybridStartsAtPreviousPlacesParent) {

@@ -14,6 +14,7 @@
 #include <sstream>
 
 #include "drivers/world/dataset_writer.h"
+#include "test/support/keyframes_profile.h"
 #include "test/support/temp_dir.h"
 #include "tools/plots.h"
 
@@ -86,7 +87,7 @@ TEST_F(EvalTest, RtabmapLoopRecognisesWithFullPrecisionAndWritesPlots) {
   const fs::path folder = fs::path(TSCD_DATA_DIR) / "rtabmap-loop";
   if (!fs::exists(folder)) GTEST_SKIP() << folder << " is not present";
   const Dataset dataset = Dataset::Open(folder);
-  const EvalResult r = Evaluate(dataset, PipelineOptions{}, EvalOptions{});
+  const EvalResult r = Evaluate(dataset, testing_support::KeyframesProfile(), EvalOptions{});
 
   EXPECT_EQ(r.frames, 84);
   EXPECT_EQ(r.good + r.uninformative + r.incoherent, 84);
@@ -130,7 +131,7 @@ TEST_F(EvalTest, LabelledDatasetScoresBoundariesEdgesAndDrawsFloorPlan) {
   ASSERT_EQ(dataset.size(), 62);
   EvalOptions eval;
   eval.sweep_from = 1.0, eval.sweep_to = 1.6, eval.sweep_step = 0.2;
-  const EvalResult r = Evaluate(dataset, PipelineOptions{}, eval);
+  const EvalResult r = Evaluate(dataset, testing_support::KeyframesProfile(), eval);
 
   ASSERT_TRUE(r.boundaries.has_value());
   EXPECT_EQ(r.boundaries->true_boundaries, 4);
@@ -192,7 +193,7 @@ TEST_F(EvalTest, FloorPlanDrawsTheSimulatedWorldAndSurvivesABadWorldJson) {
   ASSERT_EQ(dataset.size(), 40);
   EvalOptions eval;
   eval.sweep_from = 1.2, eval.sweep_to = 1.4, eval.sweep_step = 0.2;
-  const EvalResult r = Evaluate(dataset, PipelineOptions{}, eval);
+  const EvalResult r = Evaluate(dataset, testing_support::KeyframesProfile(), eval);
 
   std::ostringstream warnings;
   WritePlots(r, dataset, dir_ / "with", warnings);

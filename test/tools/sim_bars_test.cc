@@ -2,12 +2,12 @@
 // three worlds whose seeds are not the calibration seeds (office 11, corridors 12, outdoor 13),
 // at a small frame size so the whole file runs in well under a minute on one core.
 //
-// The tour precondition (every room visited, at least half revisited) is checked always. The
-// bars themselves (boundary F1 >= 0.8, recognition precision 1.0 with recall >= 0.5, edge
-// precision >= 0.9, dim revisits keep precision >= 0.95) are NOT met by the model yet: those
-// tests are DISABLED_ with the figures they last measured (docs/results.md), and run with
+// The tour precondition (every room visited, at least half revisited), recognition precision
+// 1.0, edge precision >= 0.9 and dim revisits keeping precision >= 0.95 are checked always.
+// Boundary F1 >= 0.8 and recall >= 0.5 are NOT met on every world yet: that test is DISABLED_
+// with the figures it last measured (docs/results.md), and runs with
 //   build/bin/sim_bars_test --gtest_also_run_disabled_tests
-// Enable them when a change meets them; never lower the bars to make them pass.
+// Enable it when a change meets the bars; never lower the bars to make them pass.
 
 #include <gtest/gtest.h>
 
@@ -85,25 +85,37 @@ TEST_F(SimBarsTest, TourVisitsEveryRoomAndRevisitsAtLeastHalf) {
   }
 }
 
-// Last measured (160x120, defaults; docs/results.md): boundary F1 0.72 / 0.74 / 0.71,
-// precision 0.54 / 0.64 / 0.80, recall 0.26 / 0.32 / 0.80, edge precision 0.84 / 0.76 / 1.0
-// (office 101, corridors 102, outdoor 103). Detection, recognition and map all fall short.
-TEST_F(SimBarsTest, DISABLED_DetectionRecognitionAndMapBarsOnThreeWorlds) {
+// Met with the defaults since the recognition cost scale (memory.gamma_unit) and tau_p = 25
+// (docs/calibration.md, fourth pass): no wrong recognition, and the map's edges join the same
+// or adjacent rooms. Last measured: precision 1.0 / 1.0 / 1.0 (office 101, corridors 102,
+// outdoor 103), edge precision 0.95 / 1.0 / 1.0.
+TEST_F(SimBarsTest, RecognitionPrecisionAndMapBarsOnThreeWorlds) {
   for (const TestWorld& w : kWorlds) {
     const EvalResult r = Run(w, sim::LightingMode::kDay);
     SCOPED_TRACE(sim::WorldKindName(w.kind));
-    ASSERT_TRUE(r.boundaries && r.edges);
-    EXPECT_GE(r.boundaries->f1, 0.8);
+    ASSERT_TRUE(r.edges);
     EXPECT_GT(r.main.recognition.recognitions, 0);
     EXPECT_EQ(r.main.recognition.precision, 1.0);
-    EXPECT_GE(r.main.recognition.recall, 0.5);
     EXPECT_GE(r.edges->precision, 0.9);
   }
 }
 
+// NOT met yet. Last measured (160x120, defaults): boundary F1 0.91 / 0.94 / 0.75, recall 0.20 /
+// 0.31 / 0.75. Most misses are corridor stretches revisited in the opposite direction (a 60°
+// camera sees other walls) and room walk-outs; see docs/results.md.
+TEST_F(SimBarsTest, DISABLED_BoundaryAndRecallBarsOnThreeWorlds) {
+  for (const TestWorld& w : kWorlds) {
+    const EvalResult r = Run(w, sim::LightingMode::kDay);
+    SCOPED_TRACE(sim::WorldKindName(w.kind));
+    ASSERT_TRUE(r.boundaries);
+    EXPECT_GE(r.boundaries->f1, 0.8);
+    EXPECT_GE(r.main.recognition.recall, 0.5);
+  }
+}
+
 // Day first visits, dim revisits: recall may fall, precision must stay >= 0.95. Last measured
-// (160x120, defaults): precision 0.71 office, 0.67 corridors, 0.75 outdoor.
-TEST_F(SimBarsTest, DISABLED_DimRevisitsKeepPrecision) {
+// (160x120, defaults): precision 1.0 on all three worlds (recall 0.0 / 0.38 / 0.0).
+TEST_F(SimBarsTest, DimRevisitsKeepPrecision) {
   for (const TestWorld& w : kWorlds) {
     const EvalResult mixed = Run(w, sim::LightingMode::kMixed);
     SCOPED_TRACE(sim::WorldKindName(w.kind));
