@@ -403,6 +403,89 @@ cv::Mat DrawPrCurve(const EvalResult& r) {
   return img;
 }
 
+cv::Mat DrawTauPrCurves(const std::vector<NamedTauCurve>& curves, const std::string& title) {
+  const int x0 = 80, y0 = 60, size = 440;
+  const int legend_rows = static_cast<int>(curves.size());
+  cv::Mat img(y0 + size + 80 + 24 * legend_rows, x0 + size + 60, CV_8UC3, kWhite);
+  const auto px = [&](double recall, double precision) {
+    return cv::Point(x0 + static_cast<int>(std::lround(recall * size)),
+                     y0 + size - static_cast<int>(std::lround(precision * size)));
+  };
+  Text(img, title, {x0, 26}, 0.6);
+  Text(img, "one point per confidence threshold tau; ring: tau = 0.5", {x0, 46}, 0.42);
+  for (int i = 0; i <= 5; ++i) {
+    const double v = i / 5.0;
+    cv::line(img, px(v, 0), px(v, 1), kGrid, 1);
+    cv::line(img, px(0, v), px(1, v), kGrid, 1);
+    const std::string s = Fixed(v, 1);
+    Text(img, s, px(v, 0) + cv::Point(-TextSize(s, 0.4).width / 2, 20), 0.4);
+    Text(img, s, px(0, v) + cv::Point(-TextSize(s, 0.4).width - 8, 5), 0.4);
+  }
+  cv::rectangle(img, px(0, 1), px(1, 0), kAxis, 1);
+  Text(img, "recall", px(0.5, 0) + cv::Point(-25, 44), 0.5);
+  VerticalText(img, "precision", {12, y0 + size / 2 - 40}, 0.5);
+  cv::Point legend(x0, y0 + size + 72);
+  for (size_t c = 0; c < curves.size(); ++c) {
+    const cv::Scalar colour = Palette(c);
+    const std::vector<TauPoint>& pts = curves[c].points;
+    for (size_t i = 1; i < pts.size(); ++i) {
+      cv::line(img, px(pts[i - 1].recall, pts[i - 1].precision),
+               px(pts[i].recall, pts[i].precision), colour, 2, cv::LINE_AA);
+    }
+    int best = 0;
+    for (const TauPoint& p : pts) {
+      cv::circle(img, px(p.recall, p.precision), 3, colour, cv::FILLED, cv::LINE_AA);
+      if (std::abs(p.tau - 0.5) < 1e-9) cv::circle(img, px(p.recall, p.precision), 8, colour, 2);
+      best = std::max(best, p.imageclef);
+    }
+    legend = {x0, legend.y};
+    Swatch(img, legend, colour,
+           curves[c].name + " (best ImageCLEF score " + std::to_string(best) + ")", x0);
+    legend.y += 24;
+  }
+  return img;
+}
+
+cv::Mat DrawConfusionMatrix(const Eigen::MatrixXi& confusion,
+                            const std::vector<std::string>& places, const std::string& title) {
+  const int n = static_cast<int>(places.size());
+  const bool other = confusion.rows() > n && confusion.row(n).sum() > 0;
+  const int rows = n + (other ? 1 : 0), cols = n + 1;
+  int label_w = TextSize("unclassified", 0.45).width;
+  for (const std::string& p : places) label_w = std::max(label_w, TextSize(p).width);
+  const int cell = 44, x0 = label_w + 20, y0 = 60 + label_w + 10;
+  cv::Mat img(y0 + rows * cell + 40, x0 + cols * cell + 20, CV_8UC3, kWhite);
+  Text(img, title, {10, 24}, 0.55);
+  Text(img, "rows: true place, columns: decided place; shade = fraction of the row", {10, 44}, 0.4);
+  const auto name = [&](int i, bool column) {
+    if (i < n) return places[static_cast<size_t>(i)];
+    return std::string(column ? "unclassified" : "other");
+  };
+  for (int c = 0; c < cols; ++c) {
+    VerticalText(img, name(c, true), {x0 + c * cell + cell / 2 - 10, 56}, 0.45);
+  }
+  for (int r = 0; r < rows; ++r) {
+    const std::string s = name(r, false);
+    Text(img, s, {x0 - 8 - TextSize(s).width, y0 + r * cell + cell / 2 + 5});
+    const int total = confusion.row(r).sum();
+    for (int c = 0; c < cols; ++c) {
+      const int count = confusion(r, c);
+      const double f = total > 0 ? static_cast<double>(count) / total : 0.0;
+      const cv::Scalar bg = r == c ? cv::Scalar(255 - 155 * f, 255 - 75 * f, 255 - 215 * f)
+                                   : cv::Scalar(255 - 200 * f, 255 - 200 * f, 255 - 40 * f);
+      const cv::Rect box(x0 + c * cell, y0 + r * cell, cell, cell);
+      cv::rectangle(img, box, bg, cv::FILLED);
+      cv::rectangle(img, box, kGrid, 1);
+      if (count > 0) {
+        const std::string t = std::to_string(count);
+        Text(img, t, {box.x + (cell - TextSize(t, 0.4).width) / 2, box.y + cell / 2 + 5}, 0.4,
+             TextOn(bg));
+      }
+    }
+  }
+  return img;
+}
+
 cv::Mat DrawFloorPlan(const EvalResult& r, const Dataset& dataset, const WorldPlan* world) {
   const auto& poses = dataset.poses();
   double min_x = 1e300, max_x = -1e300, min_y = 1e300, max_y = -1e300;

@@ -22,6 +22,7 @@
 #include <string>
 #include <vector>
 
+#include "core/classify/classification_score.h"
 #include "drivers/dataset/dataset.h"
 #include "tools/eval.h"
 
@@ -60,6 +61,21 @@ cv::Mat DrawPrCurve(const EvalResult& result);
 /// are drawn under the trajectory and the places.
 cv::Mat DrawFloorPlan(const EvalResult& result, const Dataset& dataset,
                       const WorldPlan* world = nullptr);
+
+/// A precision-recall curve over the confidence threshold τ of `tsc classify`, named for
+/// the legend (a feature set or a model).
+struct NamedTauCurve {
+  std::string name;
+  std::vector<TauPoint> points;  ///< in τ order
+};
+/// Precision over recall of each curve (thesis figures 2.5, 2.6), every curve in its own
+/// colour with a legend, τ = 0.5 marked on each.
+cv::Mat DrawTauPrCurves(const std::vector<NamedTauCurve>& curves, const std::string& title);
+/// The confusion matrix of ScoreClassification (rows true place, columns decided place, last
+/// column "unclassified", last row "other" when it has frames) as a grid of cells shaded by
+/// the fraction of their row, with the counts.
+cv::Mat DrawConfusionMatrix(const Eigen::MatrixXi& confusion,
+                            const std::vector<std::string>& places, const std::string& title);
 
 /// Writes the pictures above into `dir` (created when missing) and returns their paths. The
 /// floor plan uses DATASET/world.json when it exists; a bad one is reported on `warnings`

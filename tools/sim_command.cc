@@ -19,8 +19,8 @@ constexpr int kExitFailure = 1;
 constexpr int kExitUsage = 2;
 
 constexpr const char* kSimHelp =
-    R"(usage: tsc sim --out DIR --seed N [--world office|corridors|outdoor] [--robots K]
-               [--revisit-fraction F] [--lighting day|dim|flicker|mixed] [--depth]
+    R"(usage: tsc sim --out DIR --seed N [--route-seed M] [--world office|corridors|outdoor]
+               [--robots K] [--revisit-fraction F] [--lighting day|dim|flicker|mixed] [--depth]
                [--size WxH] [--frames-per-room N] [--turn-step-deg D]
                [--scan-step-deg D] [--png] [--max-frames N]
 
@@ -30,6 +30,8 @@ scripted route that tours every room and revisits some of them, camera.json, gro
 --depth, depth/<stem>.png (16-bit, mm). With --robots K > 1 every robot gets DIR/robots/<id>/
 (id = 1..K) with routes that share some rooms. The same seed gives the same bytes. DIR must
 not exist or be empty. --lighting mixed lights first visits by day and revisits dim.
+--route-seed walks the same world (--seed) along another route with other camera noise; the
+same seeds with another --lighting give the same poses.
 
 Options)";
 
@@ -54,6 +56,8 @@ int Sim(const std::vector<std::string>& args) {
       "output dataset folder (created)")("seed",
                                          po::value<long long>()->required()->value_name("N"),
                                          "random seed of the world, routes and noise")(
+      "route-seed", po::value<long long>()->value_name("M"),
+      "seed of the routes and noise only: the same world (--seed) along another route")(
       "world", po::value<std::string>()->default_value("office")->value_name("KIND"),
       "office (rooms off a corridor), corridors, or outdoor (street, square, two rooms)")(
       "robots", po::value<int>()->default_value(1)->value_name("K"), "number of robots, 1..64")(
@@ -92,6 +96,14 @@ int Sim(const std::vector<std::string>& args) {
     throw UsageError("--seed " + std::to_string(seed) + " must be in [0, 4294967295]");
   }
   options.seed = static_cast<std::uint32_t>(seed);
+  if (vm.count("route-seed")) {
+    const long long route_seed = vm["route-seed"].as<long long>();
+    if (route_seed < 0 || route_seed > 4294967295LL) {
+      throw UsageError("--route-seed " + std::to_string(route_seed) +
+                       " must be in [0, 4294967295]");
+    }
+    options.route_seed = static_cast<std::uint32_t>(route_seed);
+  }
   options.robots = vm["robots"].as<int>();
   options.route.revisit_fraction = vm["revisit-fraction"].as<double>();
   options.route.dwell_frames = vm["frames-per-room"].as<int>();

@@ -1,7 +1,8 @@
 // tsc — the offline tool: `tsc run` runs the TSC pipeline over a dataset folder into a store,
 // `tsc eval` scores it against the dataset's ground truth, `tsc inspect` shows what a store
 // learned, `tsc config` prints the configuration keys, `tsc sim` writes simulated datasets,
-// `tsc merge` merges two robots' stores.
+// `tsc merge` merges two robots' stores, `tsc classify` trains and tests the supervised place
+// classifier of chapter 2.
 // Exit codes (DESIGN §7.2): 0 ok, 1 runtime failure, 2 usage error, 78 configuration error.
 
 #include <algorithm>
@@ -18,6 +19,7 @@
 #include "drivers/dataset/dataset.h"
 #include "store/store.h"
 #include "tools/axis_sim_command.h"
+#include "tools/classify_command.h"
 #include "tools/command_line.h"
 #include "tools/eval.h"
 #include "tools/events_json.h"
@@ -51,6 +53,8 @@ Topological spatial cognition, offline. Commands:
   team     run N tscd robots in a private network namespace on the simulated world
   merge    merge two robots' stores (place memories and maps) into a new store
   axis-sim a simulated Axis PTZ camera (VAPIX MJPEG and PTZ over HTTP) on 127.0.0.1
+  classify supervised place classification (chapter 2): train, test or cross-validate a
+           multi-class SVM on labelled RGB-D datasets (ImageCLEF score, PR curve over tau)
 
 'tsc <command> --help' describes each command.
 
@@ -469,8 +473,9 @@ int Main(int argc, char** argv) {
   if (command == "config") fn = Config;
   if (command == "sim") fn = RunSimCommand;  // reports its own errors and exit codes
   if (command == "team") fn = RunTeamCommand;
-  if (command == "merge") fn = RunMergeCommand;       // reports its own errors and exit codes
-  if (command == "axis-sim") fn = RunAxisSimCommand;  // reports its own errors and exit codes
+  if (command == "merge") fn = RunMergeCommand;        // reports its own errors and exit codes
+  if (command == "axis-sim") fn = RunAxisSimCommand;   // reports its own errors and exit codes
+  if (command == "classify") fn = RunClassifyCommand;  // reports its own errors and exit codes
   if (fn == nullptr) {
     std::cerr << "tsc: unknown command '" << command << "' (try 'tsc --help')\n";
     return kExitUsage;

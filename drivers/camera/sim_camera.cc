@@ -31,7 +31,7 @@ SimCamera::SimCamera(const SimCameraOptions& options, const MotorBase* base, Clo
       route_(&scenario_.routes.at(static_cast<size_t>(options.robot))),
       // Robot k's stream; robot 0's is the dataset writer's, so a one-robot camera renders the
       // frames `tsc sim` writes.
-      rng_(sim::FrameSeed(options.scene.seed) + static_cast<std::uint32_t>(options.robot)),
+      rng_(sim::FrameSeed(options.scene.RouteSeed()) + static_cast<std::uint32_t>(options.robot)),
       renderer_(scenario_.world, options.scene.render, static_cast<std::uint32_t>(rng_())),
       intrinsics_(CameraIntrinsics::FromHorizontalFov(
           options.scene.render.width, options.scene.render.height, options.scene.render.hfov_deg)),

@@ -116,7 +116,7 @@ SimSummary WriteSimulatedDataset(const fs::path& out, const SimOptions& options)
   if (ec) throw std::runtime_error("cannot create " + out.string() + ": " + ec.message());
 
   const Scenario scenario = MakeScenario(options);
-  std::mt19937 frame_rng(FrameSeed(options.seed));
+  std::mt19937 frame_rng(FrameSeed(options.RouteSeed()));
   SimSummary summary;
   for (const Room& r : scenario.world.rooms()) summary.labels.push_back(r.label);
   if (options.robots == 1) {

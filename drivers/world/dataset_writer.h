@@ -13,6 +13,7 @@
 
 #include <cstdint>
 #include <filesystem>
+#include <optional>
 #include <random>
 #include <string>
 #include <vector>
@@ -36,6 +37,10 @@ LightingMode ParseLightingMode(const std::string& name);
 struct SimOptions {
   WorldKind world = WorldKind::kOffice;
   std::uint32_t seed = 1;
+  /// Seed of the routes and the per-frame noise when it differs from the world's: the same
+  /// world walked along another route (training and test passes of chapter 2). Unset: `seed`.
+  std::optional<std::uint32_t> route_seed;
+  std::uint32_t RouteSeed() const { return route_seed.value_or(seed); }
   int robots = 1;  ///< K ≥ 1; K > 1 writes robots/<id>/ sub-datasets
   LightingMode lighting = LightingMode::kDay;
   bool depth = false;  ///< also write depth/<stem>.png

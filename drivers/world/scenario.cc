@@ -10,7 +10,7 @@ Scenario MakeScenario(const SimOptions& options) {
   options.Validate();
   std::mt19937 world_rng(options.seed);
   Scenario scenario{World::Generate(options.world, world_rng), {}};
-  std::mt19937 route_rng(options.seed ^ 0x9e3779b9u);
+  std::mt19937 route_rng(options.RouteSeed() ^ 0x9e3779b9u);
   if (options.robots == 1) {
     scenario.routes.push_back(
         FollowRooms(scenario.world, SingleRobotTargets(scenario.world, options.route, route_rng),
