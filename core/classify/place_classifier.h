@@ -60,7 +60,7 @@ struct GridPoint {
 struct GridSearchResult {
   double gamma0 = 0.0;  ///< 1 / median squared distance of the training set
   std::vector<GridPoint> points;
-  SvmParameters best;  ///< highest accuracy; ties to the smaller C, then the smaller γ
+  SvmParameters best;  ///< highest accuracy; ties to the smaller γ, then the smaller C
   double best_accuracy = 0.0;
 };
 
