@@ -175,5 +175,15 @@ TEST_F(ClassifyTest, BadInputGetsAClearErrorNamingTheFileOrOption) {
   EXPECT_EQ(RunTsc(scratch, "classify test " + Quote(day.string()) + " --model x --tau 2").code, 2);
 }
 
+TEST(ClassifyHelpTest, HelpDescribesTheModesAndExitsZero) {
+  TempDir scratch("classify_help");
+  const auto r = RunTsc(scratch.path(), "classify --help");
+  EXPECT_EQ(r.code, 0) << r.err;
+  for (const char* word : {"usage: tsc classify train", "ImageCLEF", "--tau", "--features"}) {
+    EXPECT_NE(r.out.find(word), std::string::npos) << word;
+  }
+  EXPECT_NE(RunTsc(scratch.path(), "--help").out.find("classify"), std::string::npos);
+}
+
 }  // namespace
 }  // namespace tsc
