@@ -313,10 +313,12 @@ void Daemon::OnMotorTimer() {
   m.heading = odo.heading;
   m.linear_mps = odo.linear_mps;
   m.angular_radps = odo.angular_radps;
-  m.left_ticks = m.right_ticks = 0;  // a simulated base has no encoders
-  m.battery_volts = std::numeric_limits<double>::quiet_NaN();
-  m.num_temperatures = 0;
-  m.link_ok = true;
+  m.left_ticks = odo.left_ticks;  // 0 on a simulated base: no encoders
+  m.right_ticks = odo.right_ticks;
+  m.battery_volts = odo.battery_volts;
+  m.temperatures_c = odo.temperatures_c;
+  m.num_temperatures = static_cast<int16_t>(m.temperatures_c.size());
+  m.link_ok = odo.link_ok;
   m.stopped = odo.stopped;
   m.fault = odo.fault;
   const std::string channel = "JAGUAR_STATE_" + std::to_string(robot_);
@@ -335,7 +337,8 @@ void Daemon::OnMotorCommand(const std::string& channel, const uint8_t* data, siz
       spdlog::warn("{}: dropped a malformed motor command ({} bytes)", channel, size);
     return;
   }
-  base_->Command(MotorCommand{c->linear_mps, c->angular_radps, c->estop != 0});
+  base_->Command(MotorCommand{c->linear_mps, c->angular_radps, c->estop != 0, c->flipper_front,
+                              c->flipper_rear});
 }
 
 void Daemon::WaitLcm() {

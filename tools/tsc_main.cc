@@ -22,6 +22,7 @@
 #include "tools/eval.h"
 #include "tools/events_json.h"
 #include "tools/inspect.h"
+#include "tools/jaguar_commands.h"
 #include "tools/merge_command.h"
 #include "tools/plots.h"
 #include "tools/progress.h"
@@ -51,6 +52,8 @@ Topological spatial cognition, offline. Commands:
   team     run N tscd robots in a private network namespace on the simulated world
   merge    merge two robots' stores (place memories and maps) into a new store
   axis-sim a simulated Axis PTZ camera (VAPIX MJPEG and PTZ over HTTP) on 127.0.0.1
+  jaguar-sim  a simulated Jaguar motor board on 127.0.0.1 (V2 binary/UDP and ASCII/TCP)
+  teleop   drive a robot from the keyboard (JAGUAR_CMD_<robot>, dead-man rule)
 
 'tsc <command> --help' describes each command.
 
@@ -471,6 +474,8 @@ int Main(int argc, char** argv) {
   if (command == "team") fn = RunTeamCommand;
   if (command == "merge") fn = RunMergeCommand;       // reports its own errors and exit codes
   if (command == "axis-sim") fn = RunAxisSimCommand;  // reports its own errors and exit codes
+  if (command == "jaguar-sim") fn = RunJaguarSimCommand;
+  if (command == "teleop") fn = RunTeleopCommand;
   if (fn == nullptr) {
     std::cerr << "tsc: unknown command '" << command << "' (try 'tsc --help')\n";
     return kExitUsage;
