@@ -330,6 +330,7 @@ void Daemon::OnMotorTimer() {
 }
 
 void Daemon::OnMotorCommand(const std::string& channel, const uint8_t* data, size_t size) {
+  if (stopping_) return;  // shutting down: the motors stay stopped
   const auto c = LcmBus::Decode<jaguar::motor_command_t>(data, size);
   if (!c) {
     const int64_t n = ++counters_.messages_rejected;
@@ -424,6 +425,9 @@ void Daemon::OnSignal(int signal) {
 
 void Daemon::Shutdown() {
   if (stopping_.exchange(true)) return;
+  // The motors first: the rest of the shutdown (final commit) may take a while, and commands
+  // are ignored from now on.
+  if (base_) base_->Stop();
   notifier_.Stopping();
   // Camera first (no new frames), then the worker drains the queue, finishes the stream and
   // commits; the loop stays alive meanwhile so it could still publish.
@@ -444,7 +448,7 @@ void Daemon::Shutdown() {
   loop_->watchdog.cancel();
   loop_->motor.cancel();
   loop_->exchange.cancel();
-  if (base_) base_->Stop();  // never leave the motors running
+  if (base_) base_->Stop();  // again, in case a command slipped in; the destructor stops too
 }
 
 void Daemon::Reload() {

@@ -182,10 +182,13 @@ int RunJaguarSimCommand(const std::vector<std::string>& args) {
   std::printf(
       "jaguar-sim: pose %.3f %.3f %.3f, %s; frames in %lld (rejected %lld), lines in %lld, "
       "sent %lld (dropped %lld, corrupted %lld), tcp clients %lld\n",
-      s.x, s.y, s.heading, s.moving ? "moving" : "stopped", static_cast<long long>(s.frames_in),
-      static_cast<long long>(s.frames_rejected_in), static_cast<long long>(s.lines_in),
-      static_cast<long long>(s.sent), static_cast<long long>(s.dropped),
-      static_cast<long long>(s.corrupted), static_cast<long long>(s.tcp_clients));
+      s.x, s.y, s.heading,
+      s.moving ? "moving"
+               : ("stopped" + (s.stopped_by.empty() ? "" : " by " + s.stopped_by)).c_str(),
+      static_cast<long long>(s.frames_in), static_cast<long long>(s.frames_rejected_in),
+      static_cast<long long>(s.lines_in), static_cast<long long>(s.sent),
+      static_cast<long long>(s.dropped), static_cast<long long>(s.corrupted),
+      static_cast<long long>(s.tcp_clients));
   return 0;
 }
 
