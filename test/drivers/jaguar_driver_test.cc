@@ -120,6 +120,7 @@ TEST_P(JaguarDriverTest, WatchdogStopsTheMotorsHalfASecondAfterTheLastCommand) {
   const JaguarSimState s = sim_->state();
   EXPECT_EQ(s.stopped_by, "command");  // the driver stopped it, not the board's own rule
   const double after_s = static_cast<double>(s.stopped_at_us - last_command_us) * 1e-6;
+  RecordProperty("stop_after_ms", static_cast<int>(after_s * 1000));
   // 0.5 s watchdog; the upper margin is scheduling on a loaded machine, not protocol slack.
   EXPECT_GE(after_s, 0.45);
   EXPECT_LE(after_s, 0.6);
