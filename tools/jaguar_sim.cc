@@ -219,6 +219,10 @@ void JaguarSim::ReceiveUdp(int64_t now_us) {
                                         : (c3 - kPwmStop) / double{kPwmMax - kPwmStop};
       const double w = c4 == kNoControl ? (state_.right - state_.left) / 2
                                         : (c4 - kPwmStop) / double{kPwmMax - kPwmStop};
+      if (ch(0) != kNoControl)
+        state_.flipper_front = (ch(0) - kPwmStop) / double{kPwmMax - kPwmStop};
+      if (ch(1) != kNoControl)
+        state_.flipper_rear = (ch(1) - kPwmStop) / double{kPwmMax - kPwmStop};
       SetPowers(f - w, f + w, "command", now_us);
     }
   }

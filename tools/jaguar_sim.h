@@ -48,8 +48,9 @@ struct JaguarSimState {
   double x = 0.0, y = 0.0, heading = 0.0;
   double left = 0.0, right = 0.0;  ///< side powers in [−1, 1]
   bool moving = false;
-  bool silent = false;             ///< the silence fault is on
-  bool estop = false;              ///< ASCII: `!EX` latched until `!MG`
+  double flipper_front = 0.0, flipper_rear = 0.0;  ///< V2: ch0/ch1 power in [−1, 1]
+  bool silent = false;                             ///< the silence fault is on
+  bool estop = false;                              ///< ASCII: `!EX` latched until `!MG`
   int64_t stopped_at_us = 0;       ///< steady time the motors last went from moving to stopped
   std::string stopped_by;          ///< "command" | "pc silent" | "disconnect" | "estop"
   int64_t frames_in = 0;           ///< valid frames (UDP) received
