@@ -264,6 +264,46 @@ TEST_P(JaguarRobotTest, KillNineOfTscdLeavesTheMotorsStoppedByTheBoard) {
       << summary;
 }
 
+// On a terminal: `script` gives teleop a pseudo-terminal; keys typed without Enter must
+// arrive (raw mode; a cooked terminal would hold them until a newline), and the dead man
+// must stop after the keys stop.
+TEST(TeleopTest, ReadsKeysRawFromATerminal) {
+  TSCD_REQUIRE_PRIVATE_NETNS();
+  testing_support::TempDir temp("teleop_test");
+  struct CommandSink {
+    std::mutex m;
+    std::vector<jaguar::motor_command_t> commands;
+    void On(const lcm::ReceiveBuffer*, const std::string&, const jaguar::motor_command_t* c) {
+      std::lock_guard lock(m);
+      commands.push_back(*c);
+    }
+  } sink;
+  lcm::LCM own(testing_support::kTestLcmUrl);
+  own.subscribe("JAGUAR_CMD_7", &CommandSink::On, &sink);
+  const std::string teleop = Quote(kBin + "/tsc") + " teleop --robot 7 --hold-s 0.4";
+  // Keys for 1 s, then 1.5 s of nothing, then q; `script` runs teleop on a pty.
+  const std::string cmd = "(sleep 0.5; " + Keys('d', 20) + "; sleep 1.5; printf q; sleep 0.5) | " +
+                          "script -qfec " + Quote(teleop) + " /dev/null";
+  ChildProcess dut({"/bin/sh", "-c", cmd}, temp.path() / "teleop.log");
+  const auto end = std::chrono::steady_clock::now() + seconds(8);
+  while (dut.running() && std::chrono::steady_clock::now() < end) own.handleTimeout(20);
+  ASSERT_EQ(dut.Wait(seconds(2)), 0) << dut.Log();
+  while (own.handleTimeout(50) > 0) {
+  }
+  std::lock_guard lock(sink.m);
+  int turning = 0;
+  for (const auto& c : sink.commands) turning += c.angular_radps < 0 ? 1 : 0;
+  EXPECT_GE(turning, 5) << "keys did not arrive raw: " << dut.Log();
+  ASSERT_FALSE(sink.commands.empty());
+  // After the keys stopped the last commands are stops (the dead man), none moving since.
+  const auto& last = sink.commands.back();
+  EXPECT_EQ(last.angular_radps, 0.0);
+  EXPECT_EQ(last.linear_mps, 0.0);
+  EXPECT_FALSE(last.estop);
+  EXPECT_LE(sink.commands.size(), static_cast<size_t>(turning + 5))
+      << "teleop kept publishing after the dead man stopped";
+}
+
 INSTANTIATE_TEST_SUITE_P(Protocols, JaguarRobotTest, ::testing::Values("v2", "ascii"),
                          [](const auto& param_info) { return param_info.param; });
 
