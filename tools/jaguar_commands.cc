@@ -36,7 +36,7 @@ port (motor.driver = jaguar-ascii). Ports 0 (the default) are chosen by the syst
 line on stdout says which: "jaguar-sim: udp 127.0.0.1:P tcp 127.0.0.1:Q".
 It integrates the commanded side powers into a pose (skid steer) and streams encoders,
 battery and temperatures back at 10 Hz. --pose-file PATH gets the true pose as one line
-"x y heading_rad" (metres, radians), replaced atomically at 20 Hz (the Axis simulator reads
+"x y heading_rad" (metres, radians), replaced atomically at 25 Hz (the Axis simulator reads
 it). The pose starts at the first pose of route R in the simulated world SEED (as tscd's
 sim.* keys) or at --start.
 Faults: --drop F drops a fraction F of the frames/lines it sends, --bad-crc F corrupts them
@@ -105,7 +105,7 @@ int RunJaguarSimCommand(const std::vector<std::string>& args) {
       "tcp-port", po::value<int>(&o.tcp_port)->default_value(0)->value_name("N"),
       "TCP port of the 4x4/V6 ASCII protocol (0: any free port)")(
       "pose-file", po::value<std::string>(&o.pose_file)->value_name("PATH"),
-      "write the true pose 'x y heading_rad' here at 20 Hz (atomically)")(
+      "write the true pose 'x y heading_rad' here at 25 Hz (atomically)")(
       "world", po::value<uint32_t>()->value_name("SEED"),
       "start at route R's first pose in the simulated world SEED (tscd's sim.world_seed)")(
       "world-kind", po::value<std::string>()->default_value("office")->value_name("K"),
@@ -272,16 +272,16 @@ int RunTeleopCommand(const std::vector<std::string>& args) {
     last_key = Steady::now();
     stops_left = 3;
   };
-  bool input_open = true;
   while (!quit && !g_stop) {
     pollfd p{STDIN_FILENO, POLLIN, 0};
     const auto wait =
         std::chrono::duration_cast<std::chrono::milliseconds>(next_send - Steady::now());
-    if (input_open && ::poll(&p, 1, static_cast<int>(std::max<int64_t>(0, wait.count()))) > 0) {
+    if (::poll(&p, 1, static_cast<int>(std::max<int64_t>(0, wait.count()))) > 0) {
       char buf[64];
       const ssize_t n = ::read(STDIN_FILENO, buf, sizeof buf);
-      if (n <= 0 && !::isatty(STDIN_FILENO)) {
-        quit = true;  // end of the script
+      // End of a script, or a terminal that hung up: stop and quit.
+      if (n < 0 || (n == 0 && (!::isatty(STDIN_FILENO) || (p.revents & (POLLHUP | POLLERR))))) {
+        quit = true;
       }
       for (ssize_t i = 0; i < n; ++i) {
         const char c = buf[i];
@@ -329,8 +329,6 @@ int RunTeleopCommand(const std::vector<std::string>& args) {
             break;
         }
       }
-    } else if (!input_open) {
-      std::this_thread::sleep_for(std::chrono::milliseconds(5));
     }
     const auto now = Steady::now();
     if (now < next_send) continue;

@@ -177,7 +177,8 @@ void JaguarSim::Run() {
     }
     if (now >= next_pose && !options_.pose_file.empty()) {
       WritePose();
-      next_pose = now + pose_us;
+      next_pose += pose_us;  // on a fixed grid, so the rate holds despite the poll's jitter
+      if (next_pose < now) next_pose = now + pose_us;
     }
   }
 }
