@@ -219,25 +219,29 @@ TEST_P(JaguarDriverTest, DestroyingTheDriverStopsTheMotors) {
   EXPECT_LT(s.stopped_at_us - before, 200'000);
 }
 
-TEST_P(JaguarDriverTest, FlippersOnChannelsZeroAndOneOfTheV2Board) {
-  if (ascii())
-    GTEST_SKIP() << "flipper speed commands are V2/V4 only (the ASCII boards move "
-                    "flippers by position, not driven from motor_command_t)";
+INSTANTIATE_TEST_SUITE_P(Protocols, JaguarDriverTest, ::testing::Values("v2", "ascii"),
+                         [](const auto& param_info) { return param_info.param; });
+
+// Flipper speed commands are V2/V4 only (the ASCII boards move flippers by position).
+TEST(JaguarV2Base, FlippersOnChannelsZeroAndOne) {
+  JaguarSim sim({});
+  JaguarOptions o;
+  o.host = "127.0.0.1";
+  o.port = sim.udp_port();
+  JaguarV2Base dut(o);
+  ASSERT_TRUE(WaitFor([&] { return dut.state().link_ok; }, milliseconds(3000)));
   MotorCommand c;
   c.flipper_front = 0.5;
   c.flipper_rear = -2.0;  // clamped to −1
-  dut_->Command(c);
-  ASSERT_TRUE(WaitFor([&] { return sim_->state().flipper_front > 0.4; }, milliseconds(300)));
-  EXPECT_NEAR(sim_->state().flipper_front, 0.5, 0.001);
-  EXPECT_NEAR(sim_->state().flipper_rear, -1.0, 0.001);
-  EXPECT_FALSE(sim_->state().moving);  // the tracks were not told to move
+  dut.Command(c);
+  ASSERT_TRUE(WaitFor([&] { return sim.state().flipper_front > 0.4; }, milliseconds(300)));
+  EXPECT_NEAR(sim.state().flipper_front, 0.5, 0.001);
+  EXPECT_NEAR(sim.state().flipper_rear, -1.0, 0.001);
+  EXPECT_FALSE(sim.state().moving);  // the tracks were not told to move
   // The watchdog stops the flippers too.
-  EXPECT_TRUE(WaitFor([&] { return sim_->state().flipper_front == 0.0; }, milliseconds(800)));
-  EXPECT_EQ(sim_->state().flipper_rear, 0.0);
+  EXPECT_TRUE(WaitFor([&] { return sim.state().flipper_front == 0.0; }, milliseconds(800)));
+  EXPECT_EQ(sim.state().flipper_rear, 0.0);
 }
-
-INSTANTIATE_TEST_SUITE_P(Protocols, JaguarDriverTest, ::testing::Values("v2", "ascii"),
-                         [](const auto& param_info) { return param_info.param; });
 
 TEST(JaguarSim, StopsOnItsOwnWhenThePcFallsSilent) {
   JaguarSimOptions o;
