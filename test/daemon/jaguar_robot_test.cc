@@ -223,6 +223,34 @@ TEST_P(JaguarRobotTest, TeleopDrivesTheBoardThroughTscdAndOdometryFollows) {
   EXPECT_NE(SimSummary().find("stopped"), std::string::npos);
 }
 
+// The simulated robot drives a route under scripted teleop keys (about 18 s through world 1)
+// with its camera rendering from the Jaguar driver's odometry, and learns and maps places on
+// the way (3 learned, 2 edges in a manual run; the test asks for at least 2 and 1).
+TEST_P(JaguarRobotTest, LearnsPlacesAlongARouteDrivenByTeleop) {
+  BusListener bus;
+  StateSink state("JAGUAR_STATE_1");
+  auto tscd = StartTscd();
+  ASSERT_TRUE(LinkUp(state, seconds(20))) << tscd->Log();
+  auto teleop = StartTeleop(Keys('w', 60) + "; " + Keys('a', 40) + "; " + Keys('w', 60) + "; " +
+                            Keys('d', 30) + "; " + Keys('w', 60) + "; " + Keys('a', 60) + "; " +
+                            Keys('w', 60));
+  EXPECT_EQ(teleop->Wait(seconds(40)), 0) << teleop->Log();
+  ASSERT_TRUE(WaitStill(seconds(2)));
+  tscd->Signal(SIGTERM);  // closes the open place
+  ASSERT_EQ(tscd->Wait(seconds(20)), 0) << tscd->Log();
+  std::this_thread::sleep_for(milliseconds(200));
+  int learned = 0, mapped = 0;
+  bus.Inspect([&](const BusListener& b) {
+    if (!b.events.count("TSC_EVENT_1")) return;
+    for (const place_event_t& e : b.events.at("TSC_EVENT_1")) {
+      learned += e.event == "learned" ? 1 : 0;
+      mapped += e.event == "mapped" && e.has_from ? 1 : 0;
+    }
+  });
+  EXPECT_GE(learned, 2) << tscd->Log();
+  EXPECT_GE(mapped, 1) << tscd->Log();
+}
+
 TEST_P(JaguarRobotTest, SigtermOfTscdStopsTheMotorsAtOnce) {
   StateSink state("JAGUAR_STATE_1");
   auto tscd = StartTscd();
