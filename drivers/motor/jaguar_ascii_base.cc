@@ -144,9 +144,8 @@ bool JaguarAsciiBase::Connect() {
   SendLine(jaguar_ascii::Stop());
   SendLine(EmergencyStop());
   released_ = false;
-  link_ok_ = true;
+  link_ok_ = false;  // up with the first encoder line: the odometry needs its origin first
   last_rx_us_ = clock_.SteadyMicros();
-  ++counters_.connects;
   odometry_.Restart();  // the board's counters may have restarted with it
   sent_ = DriveDemand{};
   return true;
@@ -155,7 +154,7 @@ bool JaguarAsciiBase::Connect() {
 void JaguarAsciiBase::Disconnect(bool lost) {
   std::lock_guard<std::mutex> lock(mutex_);
   if (lost) {
-    ++counters_.links_lost;
+    if (link_ok_) ++counters_.links_lost;
     gate_.Halt("link lost");
   }
   link_ok_ = false;
@@ -244,6 +243,10 @@ void JaguarAsciiBase::Handle(const std::string& line, int64_t now_us) {
     left_ticks_ = m.values[0] * options_.left_sign;
     right_ticks_ = m.values[1] * options_.right_sign;
     odometry_.Update(left_ticks_, right_ticks_, now_us);
+    if (!link_ok_) {
+      link_ok_ = true;
+      ++counters_.connects;
+    }
   } else if (m.board == 0 && m.key == "V" && m.values.size() >= 2) {
     battery_volts_ = static_cast<double>(m.values[1]) / 10.0;  // V=internal:battery:5V, ×10
   } else if (m.key == "T" && m.board >= 0 && m.board < 4) {

@@ -180,10 +180,6 @@ void JaguarV2Base::Receive(int64_t now_us) {
     }
     ++counters_.frames_received;
     last_rx_us_ = now_us;
-    if (!link_ok_) {
-      link_ok_ = true;
-      ++counters_.connects;
-    }
     Handle(*frame, now_us);
   }
 }
@@ -198,6 +194,12 @@ void JaguarV2Base::Handle(const Frame& frame, int64_t now_us) {
         const int64_t l = left_.Update(s->ch3_encoder) * options_.left_sign;
         const int64_t r = right_.Update(s->ch4_encoder) * options_.right_sign;
         odometry_.Update(l, r, now_us);
+        // The link is up with the first encoder report, so the odometry has its origin
+        // before any command is taken (an ACK answer alone does not bring it up).
+        if (!link_ok_) {
+          link_ok_ = true;
+          ++counters_.connects;
+        }
         battery_volts_ = s->battery_volts();
         const auto t = s->temperatures_c();
         temperatures_c_.assign(t.begin(), t.end());
