@@ -74,7 +74,8 @@ Odometry JaguarAsciiBase::state() const {
   o.linear_mps = odometry_.linear_mps();
   o.angular_radps = odometry_.angular_radps();
   o.stopped = !sent_.moving() || !link_ok_;
-  o.fault = !link_ok_ ? "link lost" : !board_fault_.empty() ? board_fault_ : d.reason;
+  // Our own reasons first (the board reports our `!EX` as its e-stop bit a moment later).
+  o.fault = !link_ok_ ? "link lost" : d.estop || board_fault_.empty() ? d.reason : board_fault_;
   if (o.fault == "stopped") o.fault.clear();
   o.left_ticks = left_ticks_;
   o.right_ticks = right_ticks_;
