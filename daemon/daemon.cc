@@ -313,10 +313,12 @@ void Daemon::OnMotorTimer() {
   m.heading = odo.heading;
   m.linear_mps = odo.linear_mps;
   m.angular_radps = odo.angular_radps;
-  m.left_ticks = m.right_ticks = 0;  // a simulated base has no encoders
-  m.battery_volts = std::numeric_limits<double>::quiet_NaN();
-  m.num_temperatures = 0;
-  m.link_ok = true;
+  m.left_ticks = odo.left_ticks;  // 0 on a simulated base: no encoders
+  m.right_ticks = odo.right_ticks;
+  m.battery_volts = odo.battery_volts;
+  m.temperatures_c = odo.temperatures_c;
+  m.num_temperatures = static_cast<int16_t>(m.temperatures_c.size());
+  m.link_ok = odo.link_ok;
   m.stopped = odo.stopped;
   m.fault = odo.fault;
   const std::string channel = "JAGUAR_STATE_" + std::to_string(robot_);
@@ -328,6 +330,7 @@ void Daemon::OnMotorTimer() {
 }
 
 void Daemon::OnMotorCommand(const std::string& channel, const uint8_t* data, size_t size) {
+  if (stopping_) return;  // shutting down: the motors stay stopped
   const auto c = LcmBus::Decode<jaguar::motor_command_t>(data, size);
   if (!c) {
     const int64_t n = ++counters_.messages_rejected;
@@ -335,7 +338,8 @@ void Daemon::OnMotorCommand(const std::string& channel, const uint8_t* data, siz
       spdlog::warn("{}: dropped a malformed motor command ({} bytes)", channel, size);
     return;
   }
-  base_->Command(MotorCommand{c->linear_mps, c->angular_radps, c->estop != 0});
+  base_->Command(MotorCommand{c->linear_mps, c->angular_radps, c->estop != 0, c->flipper_front,
+                              c->flipper_rear});
 }
 
 void Daemon::WaitLcm() {
@@ -421,6 +425,9 @@ void Daemon::OnSignal(int signal) {
 
 void Daemon::Shutdown() {
   if (stopping_.exchange(true)) return;
+  // The motors first: the rest of the shutdown (final commit) may take a while, and commands
+  // are ignored from now on.
+  if (base_) base_->Stop();
   notifier_.Stopping();
   // Camera first (no new frames), then the worker drains the queue, finishes the stream and
   // commits; the loop stays alive meanwhile so it could still publish.
@@ -441,7 +448,7 @@ void Daemon::Shutdown() {
   loop_->watchdog.cancel();
   loop_->motor.cancel();
   loop_->exchange.cancel();
-  if (base_) base_->Stop();  // never leave the motors running
+  if (base_) base_->Stop();  // again, in case a command slipped in; the destructor stops too
 }
 
 void Daemon::Reload() {

@@ -1,6 +1,8 @@
 #include "daemon/daemon_options.h"
 
 #include <stdexcept>
+#include <string>
+#include <utility>
 
 namespace tsc {
 
@@ -27,6 +29,15 @@ void DaemonOptions::Validate() const {
   if (sim.route < 0 || sim.route >= sim.team_size) {
     throw std::invalid_argument("sim.route: " + std::to_string(sim.route) +
                                 " is not below sim.team_size = " + std::to_string(sim.team_size));
+  }
+  for (const auto& [key, sign] : {std::pair{"motor.left_sign", motor.left_sign},
+                                  {"motor.right_sign", motor.right_sign},
+                                  {"motor.forward_sign", motor.forward_sign},
+                                  {"motor.turn_sign", motor.turn_sign}}) {
+    if (sign != 1 && sign != -1) {
+      throw std::invalid_argument(std::string(key) + ": " + std::to_string(sign) +
+                                  " must be 1 or -1");
+    }
   }
   if (bus.portion_bytes < 4096) throw std::invalid_argument("lcm.portion_bytes: below 4096");
 }

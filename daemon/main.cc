@@ -10,6 +10,7 @@
 
 #include "daemon/daemon.h"
 #include "drivers/camera/make_camera.h"
+#include "drivers/motor/make_motor.h"
 
 namespace po = boost::program_options;
 
@@ -101,9 +102,12 @@ int main(int argc, char** argv) {
   std::unique_ptr<tsc::MotorBase> base;
   std::unique_ptr<tsc::CameraSource> camera;
   try {
-    if (settings.daemon.camera.source == "sim" && settings.daemon.sim.drive == "commands") {
-      base = std::make_unique<tsc::SimBase>(tsc::ToSimBaseOptions(settings.daemon.sim));
-    }
+    base = tsc::MakeMotor(settings.daemon);
+  } catch (const std::exception& e) {
+    spdlog::critical("motor: {}", e.what());
+    return kExitConfig;
+  }
+  try {
     camera = tsc::MakeCamera(settings.daemon.camera, settings.daemon.sim, base.get());
   } catch (const std::exception& e) {
     spdlog::critical("camera: {}", e.what());

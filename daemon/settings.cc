@@ -7,6 +7,7 @@
 #include <cerrno>
 #include <charconv>
 #include <cmath>
+#include <cstdio>
 #include <cstdlib>
 #include <fstream>
 #include <map>
@@ -442,6 +443,65 @@ std::vector<ConfigKey> BuildTable() {
       "file holding the team's HMAC key, readable only by tscd's user (mode 0600); "
       "empty: exchange messages are not signed",
       "a path or empty", [](auto& o) -> auto& { return o.daemon.bus.team_key_file; }));
+  // [motor] — the motor channel (drivers/base, drivers/motor); uncertain protocol facts are
+  // calibration keys (docs/decisions.md, "Jaguar drivers")
+  t.push_back(Text(
+      "motor.driver",
+      "sim: the simulated base (with camera.source = sim, sim.drive = commands); jaguar-v2: "
+      "Jaguar V2/V4 board, binary protocol over UDP; jaguar-ascii: Jaguar 4x4/V6 boards, ASCII "
+      "protocol over TCP. Commands from JAGUAR_CMD_<robot>, odometry on JAGUAR_STATE_<robot>",
+      "sim|jaguar-v2|jaguar-ascii", [](auto& o) -> auto& { return o.daemon.motor.driver; },
+      OneOf({"sim", "jaguar-v2", "jaguar-ascii"})));
+  t.push_back(Text(
+      "motor.address", "IPv4 address of the Jaguar board", "dotted IPv4",
+      [](auto& o) -> auto& { return o.daemon.motor.address; },
+      [](const std::string& v) {
+        unsigned a, b, c, d;
+        char tail;
+        if (std::sscanf(v.c_str(), "%u.%u.%u.%u%c", &a, &b, &c, &d, &tail) != 4 || a > 255 ||
+            b > 255 || c > 255 || d > 255) {
+          throw std::invalid_argument("'" + v + "' is not a dotted IPv4 address");
+        }
+      }));
+  t.push_back(Number(
+      "motor.port", "UDP (jaguar-v2) or TCP (jaguar-ascii) port of the board", "", 1, 65535,
+      [](auto& o) -> auto& { return o.daemon.motor.port; }));
+  t.push_back(Number(
+      "motor.max_linear_mps", "forward speed limit; commands are clamped", "m/s", 0, 20,
+      [](auto& o) -> auto& { return o.daemon.motor.max_linear_mps; }, true));
+  t.push_back(Number(
+      "motor.max_angular_radps", "turn rate limit; commands are clamped", "rad/s", 0, 20,
+      [](auto& o) -> auto& { return o.daemon.motor.max_angular_radps; }, true));
+  t.push_back(Number(
+      "motor.watchdog_s", "no command for this long: the motors stop", "s", 0, 60,
+      [](auto& o) -> auto& { return o.daemon.motor.watchdog_s; }, true));
+  t.push_back(Number(
+      "motor.link_timeout_s", "board silent for this long: link lost, motors stopped", "s", 0, 60,
+      [](auto& o) -> auto& { return o.daemon.motor.link_timeout_s; }, true));
+  t.push_back(Number(
+      "motor.full_power_mps", "calibration: side speed at full power (PWM +-16383, +-1000)", "m/s",
+      0, 20, [](auto& o) -> auto& { return o.daemon.motor.full_power_mps; }, true));
+  t.push_back(Number(
+      "motor.track_width_m", "calibration: distance between left and right tracks", "m", 0, 5,
+      [](auto& o) -> auto& { return o.daemon.motor.track_width_m; }, true));
+  t.push_back(Number(
+      "motor.counts_per_metre",
+      "calibration: encoder counts per metre of side travel (undocumented; ~640 on a V2)",
+      "counts/m", 0, 1e7, [](auto& o) -> auto& { return o.daemon.motor.counts_per_metre; }, true));
+  t.push_back(Number(
+      "motor.left_sign", "calibration: sign of the left side's power and encoder (1 or -1)", "", -1,
+      1, [](auto& o) -> auto& { return o.daemon.motor.left_sign; }));
+  t.push_back(Number(
+      "motor.right_sign",
+      "calibration: sign of the right side's power and encoder (1 or -1; mirrored sides: -1)", "",
+      -1, 1, [](auto& o) -> auto& { return o.daemon.motor.right_sign; }));
+  t.push_back(Number(
+      "motor.forward_sign", "jaguar-v2: ch3 PWM above 16384 drives forward (1) or back (-1)", "",
+      -1, 1, [](auto& o) -> auto& { return o.daemon.motor.forward_sign; }));
+  t.push_back(Number(
+      "motor.turn_sign",
+      "jaguar-v2: ch4 PWM above 16384 turns counter-clockwise (1) or clockwise (-1)", "", -1, 1,
+      [](auto& o) -> auto& { return o.daemon.motor.turn_sign; }));
   for (size_t i = pipeline_keys; i < t.size(); ++i) t[i].scope = ConfigKey::Scope::kDaemon;
   return t;
 }

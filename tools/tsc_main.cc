@@ -24,6 +24,7 @@
 #include "tools/eval.h"
 #include "tools/events_json.h"
 #include "tools/inspect.h"
+#include "tools/jaguar_commands.h"
 #include "tools/merge_command.h"
 #include "tools/plots.h"
 #include "tools/progress.h"
@@ -55,6 +56,8 @@ Topological spatial cognition, offline. Commands:
   axis-sim a simulated Axis PTZ camera (VAPIX MJPEG and PTZ over HTTP) on 127.0.0.1
   classify supervised place classification (chapter 2): train, test or cross-validate a
            multi-class SVM on labelled RGB-D datasets (ImageCLEF score, PR curve over tau)
+  jaguar-sim  a simulated Jaguar motor board on 127.0.0.1 (V2 binary/UDP and ASCII/TCP)
+  teleop   drive a robot from the keyboard (JAGUAR_CMD_<robot>, dead-man rule)
 
 'tsc <command> --help' describes each command.
 
@@ -476,6 +479,8 @@ int Main(int argc, char** argv) {
   if (command == "merge") fn = RunMergeCommand;        // reports its own errors and exit codes
   if (command == "axis-sim") fn = RunAxisSimCommand;   // reports its own errors and exit codes
   if (command == "classify") fn = RunClassifyCommand;  // reports its own errors and exit codes
+  if (command == "jaguar-sim") fn = RunJaguarSimCommand;
+  if (command == "teleop") fn = RunTeleopCommand;
   if (fn == nullptr) {
     std::cerr << "tsc: unknown command '" << command << "' (try 'tsc --help')\n";
     return kExitUsage;

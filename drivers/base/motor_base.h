@@ -5,8 +5,10 @@
 // implement the same interface.
 
 #include <cstdint>
+#include <limits>
 #include <stdexcept>
 #include <string>
+#include <vector>
 
 namespace tsc {
 
@@ -19,6 +21,8 @@ struct MotorCommand {
   double linear_mps = 0.0;     ///< forward, m/s
   double angular_radps = 0.0;  ///< counter-clockwise, rad/s
   bool estop = false;
+  double flipper_front = 0.0;  ///< flipper (arm) power in [−1, 1]; Jaguar V2/V4 only
+  double flipper_rear = 0.0;
 };
 
 struct Odometry {
@@ -30,6 +34,12 @@ struct Odometry {
   double angular_radps = 0.0;
   bool stopped = true;
   std::string fault;  ///< "" or why the motors are stopped
+  // Health, when the base reports it (a real board); a simulated base leaves the defaults.
+  int64_t left_ticks = 0;  ///< unwrapped encoder counts
+  int64_t right_ticks = 0;
+  double battery_volts = std::numeric_limits<double>::quiet_NaN();
+  std::vector<double> temperatures_c;
+  bool link_ok = true;  ///< the board answers
 };
 
 class MotorBase {

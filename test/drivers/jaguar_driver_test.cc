@@ -1,0 +1,275 @@
+// The Jaguar drivers against the board simulator over real sockets on 127.0.0.1 (ephemeral
+// ports), for both protocols: commands move the simulated pose and the odometry follows; the
+// command watchdog, e-stop, speed limits, link silence and reconnection, corrupted frames, and
+// the destructor's stop.
+
+#include <arpa/inet.h>
+#include <gtest/gtest.h>
+#include <sys/socket.h>
+#include <unistd.h>
+
+#include <chrono>
+#include <cmath>
+#include <functional>
+#include <memory>
+#include <thread>
+
+#include "drivers/clock.h"
+#include "drivers/motor/jaguar_ascii_base.h"
+#include "drivers/motor/jaguar_v2_base.h"
+#include "tools/jaguar_sim.h"
+
+namespace tsc {
+namespace {
+
+using std::chrono::milliseconds;
+
+int64_t Now() { return Clock::System().SteadyMicros(); }
+
+/// Polls `done` every 10 ms for up to `timeout`.
+bool WaitFor(const std::function<bool()>& done, milliseconds timeout) {
+  const auto deadline = std::chrono::steady_clock::now() + timeout;
+  while (std::chrono::steady_clock::now() < deadline) {
+    if (done()) return true;
+    std::this_thread::sleep_for(milliseconds(10));
+  }
+  return done();
+}
+
+class JaguarDriverTest : public ::testing::TestWithParam<std::string> {
+ protected:
+  void SetUp() override {
+    sim_ = std::make_unique<JaguarSim>(sim_options_);
+    dut_ = MakeDriver();
+    ASSERT_TRUE(WaitFor([&] { return dut_->state().link_ok; }, milliseconds(3000)))
+        << "no link to the simulator";
+  }
+  std::unique_ptr<MotorBase> MakeDriver() {
+    JaguarOptions o;
+    o.host = "127.0.0.1";
+    o.port = ascii() ? sim_->tcp_port() : sim_->udp_port();
+    if (ascii()) return std::make_unique<JaguarAsciiBase>(o);
+    return std::make_unique<JaguarV2Base>(o);
+  }
+  bool ascii() const { return GetParam() == "ascii"; }
+  JaguarLinkCounters link_counters() const {
+    if (ascii()) return static_cast<JaguarAsciiBase&>(*dut_).counters();
+    return static_cast<JaguarV2Base&>(*dut_).counters();
+  }
+  /// Commands (v, ω) every 100 ms for `seconds`, as a teleop would.
+  void Drive(double v, double w, double seconds) {
+    const auto end = std::chrono::steady_clock::now() + std::chrono::duration<double>(seconds);
+    while (std::chrono::steady_clock::now() < end) {
+      dut_->Command({v, w});
+      std::this_thread::sleep_for(milliseconds(100));
+    }
+  }
+  bool SimStopsWithin(milliseconds timeout) {
+    return WaitFor([&] { return !sim_->state().moving; }, timeout);
+  }
+
+  JaguarSimOptions sim_options_;
+  std::unique_ptr<JaguarSim> sim_;
+  std::unique_ptr<MotorBase> dut_;
+};
+
+TEST_P(JaguarDriverTest, VelocityCommandsMoveThePoseAndOdometryFollows) {
+  Drive(0.5, 0.4, 1.5);
+  EXPECT_TRUE(sim_->state().moving);
+  dut_->Stop();
+  ASSERT_TRUE(SimStopsWithin(milliseconds(300)));
+  std::this_thread::sleep_for(milliseconds(300));  // the last encoder reports arrive
+  const JaguarSimState truth = sim_->state();
+  const Odometry odo = dut_->state();
+  EXPECT_GT(std::hypot(truth.x, truth.y), 0.4) << "the simulated base did not move";
+  EXPECT_GT(truth.heading, 0.3) << "it did not turn counter-clockwise";
+  EXPECT_NEAR(odo.x, truth.x, 0.02);
+  EXPECT_NEAR(odo.y, truth.y, 0.02);
+  EXPECT_NEAR(odo.heading, truth.heading, 0.03);
+  EXPECT_GT(odo.left_ticks, 0);
+  EXPECT_GT(odo.right_ticks, odo.left_ticks);  // the right side drove further: a left turn
+  EXPECT_TRUE(odo.stopped);
+  EXPECT_EQ(odo.fault, "");
+  EXPECT_NEAR(odo.battery_volts, 25.2, 0.05);
+  ASSERT_GE(odo.temperatures_c.size(), 2u);
+  EXPECT_NEAR(odo.temperatures_c[0], 28.0, 3.0);
+  if (ascii()) {
+    const auto imu = static_cast<JaguarAsciiBase&>(*dut_).imu();
+    ASSERT_TRUE(imu);
+    EXPECT_NEAR(imu->yaw, truth.heading, 0.1);
+  }
+}
+
+TEST_P(JaguarDriverTest, BackwardAndClockwiseHaveTheirSigns) {
+  Drive(-0.4, -0.5, 1.0);
+  dut_->Stop();
+  ASSERT_TRUE(SimStopsWithin(milliseconds(300)));
+  std::this_thread::sleep_for(milliseconds(300));
+  const JaguarSimState truth = sim_->state();
+  EXPECT_LT(truth.heading, -0.2);
+  EXPECT_LT(truth.x, -0.2);
+  EXPECT_NEAR(dut_->state().x, truth.x, 0.02);
+  EXPECT_NEAR(dut_->state().heading, truth.heading, 0.03);
+}
+
+TEST_P(JaguarDriverTest, WatchdogStopsTheMotorsHalfASecondAfterTheLastCommand) {
+  dut_->Command({0.5, 0.0});
+  const int64_t last_command_us = Now();
+  ASSERT_TRUE(WaitFor([&] { return sim_->state().moving; }, milliseconds(300)));
+  ASSERT_TRUE(SimStopsWithin(milliseconds(1500)));
+  const JaguarSimState s = sim_->state();
+  EXPECT_EQ(s.stopped_by, "command");  // the driver stopped it, not the board's own rule
+  const double after_s = static_cast<double>(s.stopped_at_us - last_command_us) * 1e-6;
+  RecordProperty("stop_after_ms", static_cast<int>(after_s * 1000));
+  // 0.5 s watchdog; the upper margin is scheduling on a loaded machine, not protocol slack.
+  EXPECT_GE(after_s, 0.45);
+  EXPECT_LE(after_s, 0.6);
+  EXPECT_EQ(dut_->state().fault, "watchdog");
+  EXPECT_TRUE(dut_->state().stopped);
+}
+
+TEST_P(JaguarDriverTest, SpeedLimitsClampCommands) {
+  Drive(10.0, 0.0, 0.4);  // limit 1 m/s of 1.5 m/s full power: side power 2/3
+  const JaguarSimState s = sim_->state();
+  EXPECT_NEAR(s.left, 1.0 / 1.5, 0.01);
+  EXPECT_NEAR(s.right, 1.0 / 1.5, 0.01);
+  Drive(0.0, 50.0, 0.3);  // 1.5 rad/s · 0.26 m = 0.39 m/s per side
+  EXPECT_NEAR(sim_->state().right, 1.5 * 0.26 / 1.5, 0.01);
+  dut_->Command({std::nan(""), 0.0});  // non-finite counts as zero
+  EXPECT_TRUE(SimStopsWithin(milliseconds(300)));
+}
+
+TEST_P(JaguarDriverTest, EstopStopsAndLatchesUntilAClearCommand) {
+  Drive(0.5, 0.0, 0.3);
+  MotorCommand estop;
+  estop.estop = true;
+  dut_->Command(estop);
+  ASSERT_TRUE(SimStopsWithin(milliseconds(300)));
+  EXPECT_EQ(dut_->state().fault, "estop");
+  if (ascii()) {
+    EXPECT_EQ(sim_->state().stopped_by, "estop");  // `!EX` reached the board
+  }
+  dut_->Stop();  // Stop() does not clear a latched e-stop
+  EXPECT_EQ(dut_->state().fault, "estop");
+  Drive(0.5, 0.0, 0.3);  // a command without estop releases it
+  EXPECT_TRUE(sim_->state().moving);
+  EXPECT_EQ(dut_->state().fault, "");
+}
+
+TEST_P(JaguarDriverTest, SilentBoardIsALostLinkAndReconnectionNeedsANewCommand) {
+  Drive(0.3, 0.0, 0.3);
+  sim_->SetSilent(true);
+  // Keep commanding, as a teleop would: the driver must still declare the link lost (2 s).
+  ASSERT_TRUE(WaitFor(
+      [&] {
+        dut_->Command({0.3, 0.0});
+        return !dut_->state().link_ok;
+      },
+      milliseconds(3500)));
+  EXPECT_EQ(dut_->state().fault, "link lost");
+  EXPECT_EQ(link_counters().links_lost, 1);
+  dut_->Command({0.3, 0.0});  // refused while the link is down
+  EXPECT_TRUE(dut_->state().stopped);
+  sim_->SetSilent(false);
+  ASSERT_TRUE(WaitFor([&] { return dut_->state().link_ok; }, milliseconds(3000)));
+  EXPECT_EQ(link_counters().connects, 2);
+  // Back, but not driving blind on an old command: stopped until the next one.
+  std::this_thread::sleep_for(milliseconds(300));
+  EXPECT_FALSE(sim_->state().moving);
+  // Motion the board made while it was silent is not in the odometry (the counters may have
+  // restarted with the board): odometry resumes from where it was and follows from there.
+  const double true_x0 = sim_->state().x, odo_x0 = dut_->state().x;
+  Drive(0.3, 0.0, 0.5);
+  EXPECT_TRUE(sim_->state().moving);
+  dut_->Stop();
+  ASSERT_TRUE(SimStopsWithin(milliseconds(300)));
+  std::this_thread::sleep_for(milliseconds(300));
+  EXPECT_GT(sim_->state().x - true_x0, 0.1);
+  EXPECT_NEAR(dut_->state().x - odo_x0, sim_->state().x - true_x0, 0.02);
+}
+
+TEST_P(JaguarDriverTest, CorruptedAndDroppedFramesAreCountedAndSurvived) {
+  sim_->SetBadCrcFraction(0.2);
+  sim_->SetDropFraction(0.2);
+  Drive(0.4, 0.0, 1.5);
+  dut_->Stop();
+  ASSERT_TRUE(SimStopsWithin(milliseconds(300)));
+  EXPECT_TRUE(dut_->state().link_ok);
+  EXPECT_GT(link_counters().frames_rejected, 0);
+  EXPECT_GT(sim_->state().corrupted, 0);
+  if (!ascii()) {
+    const auto d = static_cast<JaguarV2Base&>(*dut_).decode_counters();
+    EXPECT_GT(d.rejected[static_cast<size_t>(jaguar_v2::Reject::kBadCrc)], 0);
+  }
+  sim_->SetBadCrcFraction(0.0);
+  sim_->SetDropFraction(0.0);
+  std::this_thread::sleep_for(milliseconds(300));
+  // Encoders are positions, so lost reports cost nothing once a good one arrives.
+  EXPECT_NEAR(dut_->state().x, sim_->state().x, 0.02);
+}
+
+TEST_P(JaguarDriverTest, DestroyingTheDriverStopsTheMotors) {
+  Drive(0.5, 0.0, 0.3);
+  ASSERT_TRUE(sim_->state().moving);
+  const int64_t before = Now();
+  dut_.reset();
+  ASSERT_TRUE(SimStopsWithin(milliseconds(300)));
+  const JaguarSimState s = sim_->state();
+  EXPECT_EQ(s.stopped_by, "command");  // the driver's stop, not the board's silence rule
+  EXPECT_LT(s.stopped_at_us - before, 200'000);
+}
+
+INSTANTIATE_TEST_SUITE_P(Protocols, JaguarDriverTest, ::testing::Values("v2", "ascii"),
+                         [](const auto& param_info) { return param_info.param; });
+
+// Flipper speed commands are V2/V4 only (the ASCII boards move flippers by position).
+TEST(JaguarV2Base, FlippersOnChannelsZeroAndOne) {
+  JaguarSim sim({});
+  JaguarOptions o;
+  o.host = "127.0.0.1";
+  o.port = sim.udp_port();
+  JaguarV2Base dut(o);
+  ASSERT_TRUE(WaitFor([&] { return dut.state().link_ok; }, milliseconds(3000)));
+  MotorCommand c;
+  c.flipper_front = 0.5;
+  c.flipper_rear = -2.0;  // clamped to −1
+  dut.Command(c);
+  ASSERT_TRUE(WaitFor([&] { return sim.state().flipper_front > 0.4; }, milliseconds(300)));
+  EXPECT_NEAR(sim.state().flipper_front, 0.5, 0.001);
+  EXPECT_NEAR(sim.state().flipper_rear, -1.0, 0.001);
+  EXPECT_FALSE(sim.state().moving);  // the tracks were not told to move
+  // The watchdog stops the flippers too.
+  EXPECT_TRUE(WaitFor([&] { return sim.state().flipper_front == 0.0; }, milliseconds(800)));
+  EXPECT_EQ(sim.state().flipper_rear, 0.0);
+}
+
+TEST(JaguarSim, StopsOnItsOwnWhenThePcFallsSilent) {
+  JaguarSimOptions o;
+  o.silence_stop_s = 0.3;
+  JaguarSim sim(o);
+  JaguarOptions d;
+  d.host = "127.0.0.1";
+  d.port = sim.udp_port();
+  // A driver that commands and is then frozen (as by kill -9) is modelled by closing its
+  // socket without a stop: here, a raw socket sends one PWM frame and goes quiet.
+  {
+    JaguarV2Base dut(d);
+    ASSERT_TRUE(WaitFor([&] { return dut.state().link_ok; }, milliseconds(3000)));
+  }
+  const int fd = ::socket(AF_INET, SOCK_DGRAM, 0);
+  sockaddr_in a{};
+  a.sin_family = AF_INET;
+  a.sin_port = htons(static_cast<uint16_t>(sim.udp_port()));
+  a.sin_addr.s_addr = htonl(INADDR_LOOPBACK);
+  jaguar_v2::PwmChannels pwm = jaguar_v2::AllStop();
+  pwm[3] = 24000;
+  const auto frame = jaguar_v2::EncodePwmAll(pwm);
+  ::sendto(fd, frame.data(), frame.size(), 0, reinterpret_cast<sockaddr*>(&a), sizeof a);
+  ASSERT_TRUE(WaitFor([&] { return sim.state().moving; }, milliseconds(300)));
+  ASSERT_TRUE(WaitFor([&] { return !sim.state().moving; }, milliseconds(1000)));
+  EXPECT_EQ(sim.state().stopped_by, "pc silent");
+  ::close(fd);
+}
+
+}  // namespace
+}  // namespace tsc
