@@ -18,15 +18,17 @@ namespace {
 std::atomic<size_t> largest_allocation{0};
 }  // namespace
 
-void* operator new(size_t size) {
+// Not inlined, so GCC does not pair the malloc and free inside with new and delete
+// (-Wmismatched-new-delete).
+[[gnu::noinline]] void* operator new(size_t size) {
   size_t seen = largest_allocation.load();
   while (size > seen && !largest_allocation.compare_exchange_weak(seen, size)) {
   }
   if (void* p = std::malloc(size == 0 ? 1 : size)) return p;
   throw std::bad_alloc();
 }
-void operator delete(void* p) noexcept { std::free(p); }
-void operator delete(void* p, size_t) noexcept { std::free(p); }
+[[gnu::noinline]] void operator delete(void* p) noexcept { std::free(p); }
+[[gnu::noinline]] void operator delete(void* p, size_t) noexcept { std::free(p); }
 
 namespace tsc {
 namespace {
