@@ -1,6 +1,7 @@
 // Fuzz target: one file of a dataset folder (TSCD_FUZZ_FILE: camera.json, groundtruth.csv,
-// revisits.csv, or a frame image), read by Dataset::Open and Load as `tsc run`/`tsc eval` and
-// the folder camera read it. Any input must either load or be refused with a DatasetError.
+// revisits.csv, or a frame image), read by Dataset::Open (and Load for images) as `tsc run`,
+// `tsc eval` and the folder camera read it. Any input must load or be refused with a
+// DatasetError.
 
 #include <unistd.h>
 
@@ -48,7 +49,9 @@ extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
   }
   try {
     const tsc::Dataset dataset = tsc::Dataset::Open(Folder());
-    for (int i = 0; i < dataset.size(); ++i) (void)dataset.Load(i);
+    // The fuzzed frame (0.png sorts first, so Open has decoded it once) goes through Load
+    // too; the other frames are fixed.
+    if (std::string(TSCD_FUZZ_FILE) == "0.png") (void)dataset.Load(0);
   } catch (const tsc::DatasetError&) {
   }
   return 0;
