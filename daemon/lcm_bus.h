@@ -62,16 +62,19 @@ class LcmBus {
   int64_t handler_failures_ = 0;
 
  public:
-  /// The encoding of a generated type.
+  /// The encoding of a generated type (empty if the type cannot encode it).
   template <typename T>
   static std::vector<uint8_t> Encode(const T& msg) {
     std::vector<uint8_t> out(static_cast<size_t>(msg.getEncodedSize()));
-    msg.encode(out.data(), 0, static_cast<int>(out.size()));
+    // encode() writes strlen + 1 bytes per string while getEncodedSize() counts size() + 1:
+    // a string holding a NUL would leave trailing bytes that receivers refuse.
+    const int n = msg.encode(out.data(), 0, static_cast<int>(out.size()));
+    out.resize(n < 0 ? 0 : static_cast<size_t>(n));
     return out;
   }
   /// Decodes a generated type; nullopt when the bytes are not exactly one valid T (wrong
   /// fingerprint, truncated, trailing bytes, an array or string length that is negative or
-  /// larger than the bytes left).
+  /// larger than the bytes left, a string with a NUL inside or none at its end).
   // lcm-gen's decoders size a vector from its length field before checking the bytes are
   // there: ArrayLengthsFit refuses forged lengths first, so a datagram cannot make us allocate
   // more than a small multiple of its size; what it misses is still caught below.

@@ -1,5 +1,7 @@
 #include "daemon/wire_bounds.h"
 
+#include <cstring>
+
 #include "jaguar/motor_command_t.hpp"
 #include "jaguar/motor_state_t.hpp"
 #include "tsc/announce_t.hpp"
@@ -48,10 +50,18 @@ class WireWalker {
   void Array(int64_t count, size_t element_bytes) {
     if (Fits(count)) Skip(static_cast<size_t>(count) * element_bytes);
   }
+  /// An int32 length (counting the terminating NUL) and the bytes. LCM's encoder writes
+  /// strlen + 1 bytes, so a NUL before the last byte, or none at the end, is forged: decoded,
+  /// such a string would not encode back to the same bytes.
   void String() {
-    const int64_t length = Length(4);  // includes the terminating NUL: at least 1
-    if (length < 1) ok_ = false;
-    Array(length, 1);
+    const int64_t length = Length(4);
+    if (length < 1 || !Fits(length)) {
+      ok_ = false;
+      return;
+    }
+    const auto n = static_cast<size_t>(length);
+    if (data_[n - 1] != 0 || std::memchr(data_, 0, n - 1) != nullptr) ok_ = false;
+    Skip(n);
   }
   void Hmac() { Array(Length(2), 1); }  // int16 hmac_size, byte hmac[hmac_size]
 

@@ -22,9 +22,9 @@ class place_event_t;
 
 /// True when every array and string length in the encoding `data[0, size)` of T is
 /// non-negative and claims no more elements than there are bytes left after it (every element
-/// takes at least one byte; rows of a 2-D array whose rows are empty count one each). False
-/// when the bytes end early. Does not check the fingerprint or anything decode() checks.
-/// Defined for each message type a tscd process decodes from outside.
+/// takes at least one byte; rows of a 2-D array whose rows are empty count one each), and every
+/// string ends in its only NUL. False when the bytes end early. Does not check the fingerprint or
+/// anything decode() checks. Defined for each message type a tscd process decodes from outside.
 template <typename T>
 bool ArrayLengthsFit(const uint8_t* data, size_t size);
 

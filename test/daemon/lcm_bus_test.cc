@@ -209,6 +209,26 @@ TEST(LcmBus, ForgedHugeArrayLengthIsRefusedBeforeAllocating) {
   ExpectRefusedCheaply<announce_t>(announce, "status length 0");
 }
 
+// Regression (fuzz_lcm_place_event_t, fuzz_lcm_announce_t): a string whose bytes hold a NUL
+// before the end decoded to a std::string that encodes to other bytes (LCM writes strlen + 1)
+// and with trailing garbage (getEncodedSize counts size() + 1).
+TEST(LcmBus, StringWithANulInsideIsRefusedAndEncodeStaysConsistent) {
+  std::vector<uint8_t> bytes = LcmBus::Encode(SampleAnnounce());
+  ASSERT_EQ(GetInt32(bytes, 8 + 90), 8);  // "running" and its NUL
+  bytes.at(8 + 94 + 3) = 0;               // "run\0ing"
+  EXPECT_FALSE(LcmBus::Decode<announce_t>(bytes.data(), bytes.size()).has_value());
+  bytes.at(8 + 94 + 3) = 'n';
+  bytes.at(8 + 94 + 7) = 'x';  // no terminating NUL
+  EXPECT_FALSE(LcmBus::Decode<announce_t>(bytes.data(), bytes.size()).has_value());
+
+  announce_t a = SampleAnnounce();
+  a.status = std::string("run\0ing", 7);
+  const std::vector<uint8_t> encoded = LcmBus::Encode(a);
+  const auto back = LcmBus::Decode<announce_t>(encoded.data(), encoded.size());
+  ASSERT_TRUE(back.has_value()) << "Encode must give bytes Decode takes";
+  EXPECT_EQ(back->status, "run");
+}
+
 TEST(LcmBus, HandlerExceptionIsCountedAndTheChannelKeepsWorking) {
   LcmBus dut("memq://");
   int calls = 0;
