@@ -12,6 +12,8 @@
 #include <string>
 #include <vector>
 
+#include "daemon/wire_bounds.h"
+
 namespace tsc {
 
 class LcmBus {
@@ -60,21 +62,26 @@ class LcmBus {
   int64_t handler_failures_ = 0;
 
  public:
-  /// The encoding of a generated type.
+  /// The encoding of a generated type (empty if the type cannot encode it).
   template <typename T>
   static std::vector<uint8_t> Encode(const T& msg) {
     std::vector<uint8_t> out(static_cast<size_t>(msg.getEncodedSize()));
-    msg.encode(out.data(), 0, static_cast<int>(out.size()));
+    // encode() writes strlen + 1 bytes per string while getEncodedSize() counts size() + 1:
+    // a string holding a NUL would leave trailing bytes that receivers refuse.
+    const int n = msg.encode(out.data(), 0, static_cast<int>(out.size()));
+    out.resize(n < 0 ? 0 : static_cast<size_t>(n));
     return out;
   }
   /// Decodes a generated type; nullopt when the bytes are not exactly one valid T (wrong
-  /// fingerprint, truncated, trailing bytes, negative array length).
-  // lcm-gen's decoders size a vector from the length field before checking the bytes are
-  // there, so a forged negative length throws from std::vector; that is caught here. (A huge
-  // positive length still allocates before failing: validation of portions has to bound it.)
+  /// fingerprint, truncated, trailing bytes, an array or string length that is negative or
+  /// larger than the bytes left, a string with a NUL inside or none at its end).
+  // lcm-gen's decoders size a vector from its length field before checking the bytes are
+  // there: ArrayLengthsFit refuses forged lengths first, so a datagram cannot make us allocate
+  // more than a small multiple of its size; what it misses is still caught below.
   template <typename T>
   static std::optional<T> Decode(const uint8_t* data, size_t size) {
     if (size > static_cast<size_t>(INT32_MAX)) return std::nullopt;
+    if (!ArrayLengthsFit<T>(data, size)) return std::nullopt;
     try {
       T msg;
       const int n = msg.decode(data, 0, static_cast<int>(size));

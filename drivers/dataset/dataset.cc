@@ -6,6 +6,7 @@
 #include <cmath>
 #include <cstdlib>
 #include <fstream>
+#include <iterator>
 #include <map>
 #include <opencv2/imgcodecs.hpp>
 #include <sstream>
@@ -23,6 +24,22 @@ constexpr double kDefaultHfovDeg = 60.0;
 
 [[noreturn]] void Fail(const fs::path& where, const std::string& what) {
   throw DatasetError(where.string() + ": " + what);
+}
+
+// Decodes `file` only when it is a JPEG or PNG by its first bytes; an empty Mat otherwise.
+// cv::imread picks a decoder by content, not by name, and some of Debian's (GDCM for DICOM)
+// abort the process on a malformed file: a 150-byte "*.png" with "DICM" in it killed tsc
+// (found by fuzz/dataset_fuzz, regression in fuzz/regressions/fuzz_dataset_image).
+cv::Mat ReadJpegOrPng(const fs::path& file, int flags) {
+  std::ifstream in(file, std::ios::binary);
+  std::vector<uchar> bytes((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
+  static constexpr uchar kPng[] = {0x89, 'P', 'N', 'G', '\r', '\n', 0x1a, '\n'};
+  static constexpr uchar kJpeg[] = {0xff, 0xd8, 0xff};
+  const auto starts_with = [&bytes](const uchar* sig, size_t n) {
+    return bytes.size() >= n && std::equal(sig, sig + n, bytes.begin());
+  };
+  if (!starts_with(kPng, sizeof kPng) && !starts_with(kJpeg, sizeof kJpeg)) return cv::Mat();
+  return cv::imdecode(bytes, flags);
 }
 
 std::string Lower(std::string s) {
@@ -230,7 +247,7 @@ Dataset Dataset::Open(const fs::path& folder) {
     if (bytes == 0) Fail(p, "empty image file (0 bytes)");
   }
 
-  const cv::Mat first = cv::imread(images.front().string(), cv::IMREAD_COLOR);
+  const cv::Mat first = ReadJpegOrPng(images.front(), cv::IMREAD_COLOR);
   if (first.empty()) Fail(images.front(), "unreadable image (not a JPEG/PNG OpenCV can decode)");
 
   std::vector<fs::path> depths;
@@ -303,7 +320,7 @@ Observation Dataset::Load(int i) const {
   }
   const fs::path& file = images_[i];
   Observation obs;
-  obs.bgr = cv::imread(file.string(), cv::IMREAD_COLOR);
+  obs.bgr = ReadJpegOrPng(file, cv::IMREAD_COLOR);
   if (obs.bgr.empty()) Fail(file, "unreadable image (missing, empty or not a JPEG/PNG)");
   if (obs.bgr.cols != camera_.width() || obs.bgr.rows != camera_.height()) {
     Fail(file, "image is " + std::to_string(obs.bgr.cols) + "x" + std::to_string(obs.bgr.rows) +
@@ -312,7 +329,7 @@ Observation Dataset::Load(int i) const {
   }
   if (has_depth()) {
     const fs::path& dfile = depths_[i];
-    const cv::Mat raw = cv::imread(dfile.string(), cv::IMREAD_UNCHANGED);
+    const cv::Mat raw = ReadJpegOrPng(dfile, cv::IMREAD_UNCHANGED);
     if (raw.empty()) Fail(dfile, "unreadable depth image");
     if (raw.type() != CV_16UC1) Fail(dfile, "depth must be a single-channel 16-bit PNG (mm)");
     if (raw.size() != obs.bgr.size()) {

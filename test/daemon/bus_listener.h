@@ -28,7 +28,9 @@ class BusListener {
  public:
   BusListener() : lcm_(kTestLcmUrl) {
     if (!lcm_.good()) throw std::runtime_error("LCM cannot start on " + std::string(kTestLcmUrl));
-    lcm_.subscribe(".*", &BusListener::OnMessage, this);
+    // The function form: with Debian's LCM 1.3.1 the handler-method form hands its callback
+    // another object than its subscription (UBSan: "invalid vptr" at lcm-cpp-impl.hpp:108).
+    lcm_.subscribeFunction(".*", &BusListener::Dispatch, this);
     thread_ = std::thread([this] {
       while (!stop_) lcm_.handleTimeout(50);
     });
@@ -77,6 +79,10 @@ class BusListener {
     if (n < 0 || static_cast<uint32_t>(n) != rbuf->data_size) return false;
     into[channel].push_back(std::move(msg));
     return true;
+  }
+  static void Dispatch(const lcm::ReceiveBuffer* rbuf, const std::string& channel,
+                       BusListener* self) {
+    self->OnMessage(rbuf, channel);
   }
   void OnMessage(const lcm::ReceiveBuffer* rbuf, const std::string& channel) {
     std::lock_guard lock(mutex_);

@@ -227,13 +227,15 @@ TEST_F(TeamTest, SimulatedBaseFollowsCommandsAndItsWatchdogStopsIt) {
   struct StateSink {
     std::mutex m;
     std::vector<jaguar::motor_state_t> states;
-    void On(const lcm::ReceiveBuffer*, const std::string&, const jaguar::motor_state_t* s) {
-      std::lock_guard lock(m);
-      states.push_back(*s);
+    // The function form of subscribe: see BusListener.
+    static void On(const lcm::ReceiveBuffer*, const std::string&, const jaguar::motor_state_t* s,
+                   StateSink* self) {
+      std::lock_guard lock(self->m);
+      self->states.push_back(*s);
     }
   } sink;
   lcm::LCM own(testing_support::kTestLcmUrl);
-  own.subscribe("JAGUAR_STATE_4", &StateSink::On, &sink);
+  own.subscribeFunction("JAGUAR_STATE_4", &StateSink::On, &sink);
   auto pump = [&](milliseconds d) {
     const auto end = std::chrono::steady_clock::now() + d;
     while (std::chrono::steady_clock::now() < end) own.handleTimeout(20);

@@ -5,6 +5,7 @@
 
 #include <cmath>
 #include <fstream>
+#include <iterator>
 #include <numbers>
 #include <opencv2/imgcodecs.hpp>
 #include <random>
@@ -194,6 +195,22 @@ TEST_F(DatasetTest, UnreadableImageNamesTheFile) {
   // As the first frame it fails at once.
   fs::remove(dir_ / "1.jpg");
   ExpectErrorNaming([&] { Dataset::Open(dir_); }, "2.jpg");
+}
+
+// Regression (fuzz_dataset_image): a frame that OpenCV would hand to another decoder by its
+// content (here GDCM, for the "DICM" inside) is refused by name; GDCM aborted the process.
+TEST_F(DatasetTest, FrameThatIsNotAJpegOrPngIsRefusedNotDecoded) {
+  std::ifstream in(
+      std::string(TSCD_SOURCE_DIR) + "/fuzz/regressions/fuzz_dataset_image/gdcm-assert-dicm",
+      std::ios::binary);
+  ASSERT_TRUE(in);
+  const std::string dicom((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
+  ASSERT_NE(dicom.find("DICM"), std::string::npos);
+  WriteText(dir_ / "1.png", dicom);
+  ExpectErrorNaming([&] { Dataset::Open(dir_); }, "1.png");
+  WriteImage(dir_ / "0.png", Image(0));
+  const Dataset ds = Dataset::Open(dir_);
+  ExpectErrorNaming([&] { ds.Load(1); }, "1.png");
 }
 
 TEST_F(DatasetTest, ImageOfAnotherSizeNamesTheFile) {
