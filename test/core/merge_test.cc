@@ -4,6 +4,7 @@
 
 #include <algorithm>
 #include <array>
+#include <cmath>
 #include <random>
 #include <vector>
 
@@ -294,6 +295,81 @@ TEST(MergeMemories, MergingTheSamePeerTwiceChangesNothing) {
   const MemoryMerge reverse_twice = MergeMemories(reverse.memory, a);
   EXPECT_EQ(reverse_twice.merge_case, MergeCase::kNothingNew);
   ExpectSameMemory(reverse.memory, reverse_twice.memory);
+}
+
+// Single linkage from links over every pair is SLINK's own state, pointer for pointer.
+TEST(SingleLinkage, OverAllPairsEqualsIncrementalSlink) {
+  std::mt19937 rng(7);
+  std::normal_distribution<double> normal;
+  std::vector<Eigen::VectorXd> points;
+  std::vector<Link> links;
+  Slink expected;
+  for (int n = 0; n < 60; ++n) {
+    Eigen::VectorXd p(3);
+    for (int d = 0; d < 3; ++d) p[d] = normal(rng) + (n % 3) * 4.0;
+    std::vector<double> dist;
+    for (size_t i = 0; i < points.size(); ++i) {
+      dist.push_back((points[i] - p).squaredNorm());
+      links.push_back({dist.back(), static_cast<int>(i), n});
+    }
+    expected.Insert(dist);
+    points.push_back(p);
+  }
+  std::shuffle(links.begin(), links.end(), rng);
+  const Slink dut = SingleLinkage(60, links);
+  EXPECT_EQ(dut.pi(), expected.pi());
+  EXPECT_EQ(dut.lambda(), expected.lambda());
+}
+
+TEST(SingleLinkage, JoinsComponentsTheLinksLeaveApartAtTheLargestGamma) {
+  const Slink dut = SingleLinkage(5, {{2.0, 3, 4}, {1.0, 0, 2}});
+  const std::vector<DendrogramMerge> merges = ToDendrogram(dut);
+  ASSERT_EQ(merges.size(), 4u);
+  EXPECT_EQ(merges[0].height, 1.0);
+  EXPECT_EQ(merges[1].height, 2.0);
+  EXPECT_EQ(merges[2].height, 2.0);  // place 1 alone, joined at the top
+  EXPECT_EQ(merges[3].height, 2.0);
+  EXPECT_EQ(dut.pi()[4], 4);
+  EXPECT_EQ(dut.lambda()[4], Slink::kInfinity);
+}
+
+TEST(SingleLinkage, RejectsLinksOutsideThePlacesOrWithBadGamma) {
+  EXPECT_THROW(SingleLinkage(3, {{1.0, 0, 3}}), std::invalid_argument);
+  EXPECT_THROW(SingleLinkage(3, {{-1.0, 0, 1}}), std::invalid_argument);
+  EXPECT_THROW(SingleLinkage(3, {{std::nan(""), 0, 1}}), std::invalid_argument);
+}
+
+// An incoming place that is not recognised is added where chapter 4 puts it, under the
+// matched hyper-terminal N*: it joins its nearest base places below the root, and the merged
+// SLINK state is one later Learn()s continue from.
+TEST(MergeMemories, AddedPlaceJoinsItsNearestPlacesBelowTheRoot) {
+  const std::vector<Eigen::VectorXf> ca = {At(0), At(0.3f), At(8), At(8.3f), At(16), At(16.3f)};
+  const PlaceMemory a = MakeMemory(1, ca, 10);
+  PlaceMemory b(2, PlaceMemoryOptions{});
+  b.Learn(MakePlace(ca[3], 13));          // a's 1:4, absorbed
+  b.Learn(MakePlace(At(8.15f, 1), 50));   // near 1:3 and 1:4, not recognised
+  b.Learn(MakePlace(At(16.15f, 1), 51));  // near 1:5 and 1:6
+  MemoryMerge dut = MergeMemories(a, b);
+  ASSERT_TRUE(dut.merge_case == MergeCase::kIntersecting ||
+              dut.merge_case == MergeCase::kContainedIntersecting)
+      << ToString(dut.merge_case);
+  ASSERT_EQ(dut.added, (std::vector<PlaceId>{{2, 2}, {2, 3}}));
+  const PlaceMemory& m = dut.memory;
+  auto places_under_parent = [&m](PlaceId id) {
+    const MemoryNode& parent =
+        m.nodes()[static_cast<size_t>(m.nodes()[static_cast<size_t>(*m.Find(id))].parent)];
+    std::vector<PlaceId> out;
+    for (int i = parent.first_leaf; i < parent.end_leaf; ++i) {
+      out.push_back(m.places()[static_cast<size_t>(m.leaf_order()[static_cast<size_t>(i)])].id);
+    }
+    std::sort(out.begin(), out.end());
+    return out;
+  };
+  EXPECT_EQ(places_under_parent({2, 2}), (std::vector<PlaceId>{{1, 3}, {1, 4}, {2, 2}}));
+  EXPECT_EQ(places_under_parent({2, 3}), (std::vector<PlaceId>{{1, 5}, {1, 6}, {2, 3}}));
+  const int learned = dut.memory.Learn(MakePlace(At(0.15f, 1), 60));
+  EXPECT_EQ(places_under_parent(dut.memory.places()[static_cast<size_t>(learned)].id),
+            (std::vector<PlaceId>{{1, 1}, {1, 2}, {1, 7}}));
 }
 
 TEST(MergeMaps, AbsorbedNodesCollapseOntoTheirTarget) {
