@@ -437,6 +437,12 @@ PlaceMemory PlaceMemory::Restore(uint32_t robot, PlaceMemoryOptions options,
   memory.places_ = std::move(places);
   memory.slink_ = std::move(slink);
   memory.next_local_ = next_local;
+  if (!memory.places_.empty()) {
+    // The cache at its final size at once (StoreMean grows it by half, copying, one at a time).
+    const Eigen::Index dim = memory.places_.front().mean.size(), stride = (dim + 15) / 16 * 16;
+    memory.means_.resize(stride, static_cast<Eigen::Index>(memory.places_.size()));
+    memory.means_.bottomRows(stride - dim).setZero();
+  }
   for (size_t i = 0; i < memory.places_.size(); ++i) memory.StoreMean(static_cast<int>(i));
   if (!memory.places_.empty()) memory.RebuildTree(&saved);
   return memory;
