@@ -58,23 +58,6 @@ double RecognitionCost(const PlaceMemory& base, const std::vector<int>& candidat
   return g1 + ratio + (1.0 - vote);
 }
 
-// Pairwise squared distances between the columns of a and b (float GEMM; used to rank
-// hyper-terminal pairs, not for recognition).
-Eigen::MatrixXf SquaredDistances(const Eigen::MatrixXf& a, const Eigen::MatrixXf& b) {
-  Eigen::MatrixXf d = -2.0f * (a.transpose() * b);
-  d.colwise() += a.colwise().squaredNorm().transpose();
-  d.rowwise() += b.colwise().squaredNorm();
-  return d.cwiseMax(0.0f);
-}
-
-Eigen::MatrixXf Centroids(const std::vector<HyperTerminal>& hts, Eigen::Index dim) {
-  Eigen::MatrixXf out(dim, static_cast<Eigen::Index>(hts.size()));
-  for (size_t i = 0; i < hts.size(); ++i) {
-    out.col(static_cast<Eigen::Index>(i)) = hts[i].sphere.centroid;
-  }
-  return out;
-}
-
 void AddSource(LearnedPlace& target, PlaceId id) {
   if (id == target.id) return;
   auto it = std::lower_bound(target.sources.begin(), target.sources.end(), id);
@@ -140,6 +123,85 @@ std::vector<HyperTerminal> HyperTerminals(const PlaceMemory& memory) {
 double Overlap(const NodeStatistics& a, const NodeStatistics& b) {
   const double d = (a.centroid - b.centroid).norm();
   return std::min({a.radius + b.radius - d, 2.0 * a.radius, 2.0 * b.radius});
+}
+
+std::vector<size_t> MatchHyperTerminals(const PlaceMemory& base,
+                                        const std::vector<HyperTerminal>& hb,
+                                        const std::vector<HyperTerminal>& hi) {
+  if (hb.empty()) throw std::invalid_argument("matching hyper-terminals against none");
+  const size_t nodes = base.nodes().size();
+  std::vector<int> ht_of(nodes, -1);
+  for (size_t k = 0; k < hb.size(); ++k)
+    ht_of[static_cast<size_t>(hb[k].node)] = static_cast<int>(k);
+  // Each inner node's ball: centre c(N), reach R(N) ≥ ‖c_b − c(N)‖ + ρ_b for every
+  // hyper-terminal b under N (−1: none), bottom-up (children precede parents), widened by a
+  // relative 1e-5 against float rounding. Then for an incoming sphere a at distance d from
+  // c(N), Overlap(a, b) ≤ min(2ρ_a, ρ_a + R(N) − d) for every b under N.
+  std::vector<Eigen::VectorXf> centre(nodes);
+  std::vector<double> reach(nodes, -1.0);
+  for (size_t i = 0; i < nodes; ++i) {
+    const MemoryNode& nd = base.nodes()[i];
+    if (nd.terminal()) continue;
+    centre[i] = base.Centroid(static_cast<int>(i));
+    double r = -1.0;
+    if (ht_of[i] >= 0) {
+      const NodeStatistics& s = hb[static_cast<size_t>(ht_of[i])].sphere;
+      r = (s.centroid - centre[i]).norm() + s.radius;
+    }
+    for (int c : nd.children) {
+      const auto ci = static_cast<size_t>(c);
+      if (reach[ci] >= 0) r = std::max(r, (centre[ci] - centre[i]).norm() + reach[ci]);
+    }
+    reach[i] = r < 0 ? r : r * (1.0 + 1e-5) + 1e-12;
+  }
+  std::vector<size_t> out(hi.size(), 0);
+  std::vector<std::pair<double, int>> heap;  // (bound, node), largest bound first
+  for (size_t a = 0; a < hi.size(); ++a) {
+    const NodeStatistics& sa = hi[a].sphere;
+    const double ra = sa.radius;
+    double best = -std::numeric_limits<double>::infinity(),
+           best_d = std::numeric_limits<double>::infinity();
+    size_t star = hb.size();
+    auto bound = [&](size_t node, double* gap) {
+      const double d = (sa.centroid - centre[node]).norm();
+      *gap = d - reach[node];  // no hyper-terminal under the node is nearer than this
+      return std::min(2.0 * ra, ra + reach[node] - d);
+    };
+    // Worth a visit: a bound above the best, or equal to it with a centre possibly nearer.
+    auto promising = [&](double b, double gap) { return b > best || (b == best && gap <= best_d); };
+    heap.clear();
+    const auto root = static_cast<size_t>(base.root());
+    double gap = 0.0;
+    if (reach[root] >= 0) heap.push_back({bound(root, &gap), base.root()});
+    while (!heap.empty()) {
+      std::pop_heap(heap.begin(), heap.end());
+      const auto node = static_cast<size_t>(heap.back().second);
+      heap.pop_back();
+      if (const int k = ht_of[node]; k >= 0) {
+        const NodeStatistics& sb = hb[static_cast<size_t>(k)].sphere;
+        const double d = (sa.centroid - sb.centroid).norm();
+        const double overlap = std::min({ra + sb.radius - d, 2.0 * ra, 2.0 * sb.radius});
+        if (overlap > best ||
+            (overlap == best && (d < best_d || (d == best_d && static_cast<size_t>(k) < star)))) {
+          best = overlap;
+          best_d = d;
+          star = static_cast<size_t>(k);
+        }
+      }
+      for (int c : base.nodes()[node].children) {
+        const auto ci = static_cast<size_t>(c);
+        if (reach[ci] < 0) continue;
+        const double b = bound(ci, &gap);
+        if (!promising(b, gap)) continue;
+        heap.push_back({b, c});
+        std::push_heap(heap.begin(), heap.end());
+      }
+      // The largest bound queued fell below the best: nothing left can win.
+      if (!heap.empty() && heap.front().first < best) heap.clear();
+    }
+    out[a] = star;
+  }
+  return out;
 }
 
 std::string_view ToString(MergeCase c) {
@@ -244,22 +306,9 @@ MemoryMerge MergeMemories(const PlaceMemory& ours, const PlaceMemory& peer) {
       // places against N*'s places with g ≤ τ_r. With no intersecting N*, the largest
       // overlap is the smallest gap: the nearest sphere, so recognition still decides.
       const std::vector<HyperTerminal> hb = HyperTerminals(base), hi = HyperTerminals(incoming);
-      const Eigen::Index dim = base.places().front().mean.size();
-      const Eigen::MatrixXf d2 = SquaredDistances(Centroids(hi, dim), Centroids(hb, dim));
+      const std::vector<size_t> match_of = MatchHyperTerminals(base, hb, hi);
       for (size_t a = 0; a < hi.size(); ++a) {
-        size_t star = 0;
-        double best = -std::numeric_limits<double>::infinity(), best_d = 0.0;
-        for (size_t b = 0; b < hb.size(); ++b) {
-          const double dist = std::sqrt(
-              static_cast<double>(d2(static_cast<Eigen::Index>(a), static_cast<Eigen::Index>(b))));
-          const double ra = hi[a].sphere.radius, rb = hb[b].sphere.radius;
-          const double overlap = std::min({ra + rb - dist, 2.0 * ra, 2.0 * rb});
-          if (overlap > best || (overlap == best && dist < best_d)) {
-            best = overlap;
-            best_d = dist;
-            star = b;
-          }
-        }
+        const size_t star = match_of[a];
         for (int p : hi[a].places) {
           if (!is_new[static_cast<size_t>(p)]) continue;
           int match = -1;

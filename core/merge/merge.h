@@ -42,6 +42,15 @@ std::vector<HyperTerminal> HyperTerminals(const PlaceMemory& memory);
 /// when they intersect, negative (minus the gap) when they do not.
 double Overlap(const NodeStatistics& a, const NodeStatistics& b);
 
+/// For each hyper-terminal of `incoming` (`hi`), the index in `hb` = HyperTerminals(base) of the
+/// one with the largest Overlap; ties go to the nearer centre, then to the lower index. Exact,
+/// by branch and bound over base's tree (a node's ball bounds the spheres of the
+/// hyper-terminals under it), so a merge does not pay |hi|·|hb| distances. Precondition: `hb`
+/// is non-empty and comes from `base`.
+std::vector<size_t> MatchHyperTerminals(const PlaceMemory& base,
+                                        const std::vector<HyperTerminal>& hb,
+                                        const std::vector<HyperTerminal>& hi);
+
 /// The case of figure 4.4 that the root spheres fall in.
 enum class MergeCase {
   kNothingNew,             ///< every incoming place was merged before (idempotent re-merge)

@@ -109,6 +109,43 @@ TEST(Overlap, IsLensWidthAlongCentreLine) {
   EXPECT_NEAR(Overlap(a, far), -3.0, 1e-6);  // a gap of 3
 }
 
+// The branch and bound picks what comparing every pair picks: the largest overlap, then the
+// nearer centre, then the lower index.
+TEST(MatchHyperTerminals, EqualsExhaustiveBestOverlap) {
+  std::mt19937 rng(11);
+  std::normal_distribution<float> noise(0.0f, 0.4f);
+  std::uniform_int_distribution<int> site(0, 7);
+  auto centres = [&](int n) {
+    std::vector<Eigen::VectorXf> out;
+    for (int i = 0; i < n; ++i) {
+      const int s = site(rng);
+      out.push_back(At(static_cast<float>(s % 4) * 3 + noise(rng),
+                       static_cast<float>(s / 4) * 3 + noise(rng), noise(rng), noise(rng)));
+    }
+    return out;
+  };
+  const PlaceMemory a = MakeMemory(1, centres(80), 100);
+  const PlaceMemory b = MakeMemory(2, centres(50), 300);
+  const std::vector<HyperTerminal> ha = HyperTerminals(a), hb = HyperTerminals(b);
+  ASSERT_GT(ha.size(), 5u);
+  const std::vector<size_t> dut = MatchHyperTerminals(a, ha, hb);
+  ASSERT_EQ(dut.size(), hb.size());
+  for (size_t i = 0; i < hb.size(); ++i) {
+    size_t star = 0;
+    double best = -1e300, best_d = 1e300;
+    for (size_t k = 0; k < ha.size(); ++k) {
+      const double overlap = Overlap(hb[i].sphere, ha[k].sphere);
+      const double d = (hb[i].sphere.centroid - ha[k].sphere.centroid).norm();
+      if (overlap > best || (overlap == best && d < best_d)) {
+        best = overlap;
+        best_d = d;
+        star = k;
+      }
+    }
+    EXPECT_EQ(dut[i], star) << "incoming hyper-terminal " << i;
+  }
+}
+
 // Figure 4.4a.
 TEST(MergeMemories, DisjointSpheresKeepBothPlaceSets) {
   const PlaceMemory a = MakeMemory(1, {At(0), At(0.5f), At(1.5f)}, 10);
