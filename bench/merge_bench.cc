@@ -12,6 +12,8 @@
 #include <utility>
 
 #include "core/merge/merge.h"
+#include "daemon/daemon_options.h"
+#include "daemon/memory_snapshot.h"
 
 namespace tsc {
 namespace {
@@ -157,6 +159,29 @@ BENCHMARK(BM_MergeMemories)
     ->Args({10000, 50})
     ->Unit(benchmark::kMillisecond)
     ->Iterations(1);
+
+// Bytes on the wire per place: the LCM encodings of the snapshot portions a robot publishes
+// (daemon/memory_snapshot: places with mean and samples, tree nodes; empty map here) at the
+// default portion size, divided by the places. Without the HMAC (32 bytes per portion).
+void BM_SnapshotBytesPerPlace(benchmark::State& state) {
+  const int n = static_cast<int>(state.range(0));
+  const PlaceMemory& memory = Pair(n, 50).second;
+  const TopologicalMap map;
+  int64_t bytes = 0;
+  size_t portions = 0;
+  for (auto _ : state) {
+    const MemorySnapshot s =
+        BuildSnapshot(memory, map, SnapshotHeader{2, 1, 1, 0}, BusOptions{}.portion_bytes);
+    bytes = 0;
+    for (const memory_portion_t& portion : s.portions) bytes += portion.getEncodedSize();
+    portions = s.portions.size();
+  }
+  state.counters["bytes_per_place"] = static_cast<double>(bytes) / n;
+  state.counters["portions"] = static_cast<double>(portions);
+  state.counters["dim"] = kDim;
+  state.counters["samples_per_place"] = PlaceMemoryOptions{}.max_samples_per_place;
+}
+BENCHMARK(BM_SnapshotBytesPerPlace)->Arg(1000)->Arg(10000)->Unit(benchmark::kMillisecond);
 
 }  // namespace
 }  // namespace tsc

@@ -45,18 +45,28 @@ void DiscriminantOptions::Validate() const {
 }
 
 OneClassDiscriminant::OneClassDiscriminant(Eigen::MatrixXf support, Eigen::VectorXf coef,
-                                           double rho, double gamma)
-    : support_(std::move(support)), coef_(std::move(coef)), rho_(rho), gamma_(gamma) {
-  if (support_.cols() != coef_.size()) {
-    throw std::invalid_argument("discriminant: " + std::to_string(support_.cols()) +
-                                " support vectors but " + std::to_string(coef_.size()) +
+                                           double rho, double gamma) {
+  if (support.cols() != coef.size()) {
+    throw std::invalid_argument("discriminant: " + std::to_string(support.cols()) +
+                                " support vectors but " + std::to_string(coef.size()) +
                                 " coefficients");
   }
-  if (!support_.allFinite() || !coef_.allFinite() || !std::isfinite(rho) || !std::isfinite(gamma) ||
+  if (!support.allFinite() || !coef.allFinite() || !std::isfinite(rho) || !std::isfinite(gamma) ||
       gamma <= 0) {
     throw std::invalid_argument("discriminant: non-finite values or gamma <= 0");
   }
-  support_sq_norm_ = support_.colwise().squaredNorm().transpose();
+  auto model = std::make_shared<Model>();
+  model->support_sq_norm = support.colwise().squaredNorm().transpose();
+  model->support = std::move(support);
+  model->coef = std::move(coef);
+  model->rho = rho;
+  model->gamma = gamma;
+  model_ = std::move(model);
+}
+
+const OneClassDiscriminant::Model& OneClassDiscriminant::model() const {
+  static const Model kUntrained;
+  return model_ != nullptr ? *model_ : kUntrained;
 }
 
 OneClassDiscriminant OneClassDiscriminant::Train(const Eigen::MatrixXf& samples,
@@ -117,22 +127,25 @@ OneClassDiscriminant OneClassDiscriminant::Train(const Eigen::MatrixXf& samples,
 
 double OneClassDiscriminant::Evaluate(const Eigen::VectorXf& x) const {
   if (!trained()) return -1.0;
+  const Model& m = *model_;
   const Eigen::VectorXf d2 =
-      (support_sq_norm_.array() + x.squaredNorm() - 2.0f * (support_.transpose() * x).array())
+      (m.support_sq_norm.array() + x.squaredNorm() - 2.0f * (m.support.transpose() * x).array())
           .matrix();
-  return (coef_.array() * (-static_cast<float>(gamma_) * d2.array().max(0.0f)).exp()).sum() - rho_;
+  return (m.coef.array() * (-static_cast<float>(m.gamma) * d2.array().max(0.0f)).exp()).sum() -
+         m.rho;
 }
 
 double OneClassDiscriminant::VoteFraction(const Eigen::MatrixXf& xs) const {
   if (!trained() || xs.cols() == 0) return 0.0;
+  const Model& m = *model_;
   // ‖x−s‖² for all pairs at once: one matrix product.
-  Eigen::MatrixXf d2 = (-2.0f * (support_.transpose() * xs)).eval();
-  d2.colwise() += support_sq_norm_;
+  Eigen::MatrixXf d2 = (-2.0f * (m.support.transpose() * xs)).eval();
+  d2.colwise() += m.support_sq_norm;
   d2.rowwise() += xs.colwise().squaredNorm();
   const Eigen::VectorXf k =
-      (coef_.transpose() * (-static_cast<float>(gamma_) * d2.array().max(0.0f)).exp().matrix())
+      (m.coef.transpose() * (-static_cast<float>(m.gamma) * d2.array().max(0.0f)).exp().matrix())
           .transpose();
-  const auto votes = (k.array() > static_cast<float>(rho_)).count();
+  const auto votes = (k.array() > static_cast<float>(m.rho)).count();
   return static_cast<double>(votes) / static_cast<double>(xs.cols());
 }
 

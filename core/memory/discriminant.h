@@ -3,6 +3,7 @@
 // kernel, trained with libsvm, evaluated densely with Eigen.
 
 #include <Eigen/Core>
+#include <memory>
 #include <vector>
 
 namespace tsc {
@@ -14,7 +15,9 @@ struct DiscriminantOptions {
   void Validate() const;
 };
 
-/// d(x) = Σ α_i exp(−γ‖x − s_i‖²) − ρ. Positive inside the learned support.
+/// d(x) = Σ α_i exp(−γ‖x − s_i‖²) − ρ. Positive inside the learned support. Immutable once
+/// trained: copies share the trained model, so copying a memory's discriminants (a merge
+/// reuses thousands) costs no support vectors.
 class OneClassDiscriminant {
  public:
   OneClassDiscriminant() = default;
@@ -26,22 +29,27 @@ class OneClassDiscriminant {
   static OneClassDiscriminant Train(const Eigen::MatrixXf& samples,
                                     const DiscriminantOptions& options);
 
-  bool trained() const { return support_.cols() > 0; }
+  bool trained() const { return model_ != nullptr && model_->support.cols() > 0; }
   double Evaluate(const Eigen::VectorXf& x) const;
   /// Fraction of the columns of `xs` with d > 0, V_N of (3.9)-(3.10).
   double VoteFraction(const Eigen::MatrixXf& xs) const;
 
-  const Eigen::MatrixXf& support() const { return support_; }  ///< dim x n_sv
-  const Eigen::VectorXf& coef() const { return coef_; }
-  double rho() const { return rho_; }
-  double gamma() const { return gamma_; }
+  const Eigen::MatrixXf& support() const { return model().support; }  ///< dim x n_sv
+  const Eigen::VectorXf& coef() const { return model().coef; }
+  double rho() const { return model().rho; }
+  double gamma() const { return model().gamma; }
 
  private:
-  Eigen::MatrixXf support_;
-  Eigen::VectorXf coef_;
-  Eigen::VectorXf support_sq_norm_;
-  double rho_ = 0.0;
-  double gamma_ = 1.0;
+  struct Model {
+    Eigen::MatrixXf support;
+    Eigen::VectorXf coef;
+    Eigen::VectorXf support_sq_norm;
+    double rho = 0.0;
+    double gamma = 1.0;
+  };
+  const Model& model() const;
+
+  std::shared_ptr<const Model> model_;  // null until trained or restored
 };
 
 }  // namespace tsc

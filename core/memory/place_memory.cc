@@ -182,7 +182,7 @@ int PlaceMemory::Learn(const DetectedPlace& d) {
   places_.push_back(std::move(p));
   StoreMean(static_cast<int>(places_.size()) - 1);
   ++next_local_;
-  RebuildTree({});
+  RebuildTree(nullptr);
   return static_cast<int>(places_.size()) - 1;
 }
 
@@ -282,15 +282,14 @@ const PlaceMemory::KeySlot* PlaceMemory::FindOldNode(uint64_t key) const {
   }
 }
 
-void PlaceMemory::RebuildTree(const std::unordered_map<uint64_t, OneClassDiscriminant>& saved) {
+void PlaceMemory::RebuildTree(std::unordered_map<uint64_t, OneClassDiscriminant>* saved) {
   const int n = static_cast<int>(places_.size());
   // Keep the discriminants and centroid sums of nodes whose place set does not change: index
   // the old nodes by set key, then move their state out of the old per-node vectors.
   IndexOldNodes();
   old_sums_.swap(centroid_sums_);
   old_discriminants_.swap(discriminants_);
-  // `saved` (Restore) takes precedence over the old nodes.
-  std::unordered_map<uint64_t, OneClassDiscriminant> previous_saved = saved;
+  // `saved` (Restore) takes precedence over the old nodes; its entries are moved out.
 
   // nodes_ is rebuilt in place: children vectors keep their capacity.
   auto reset = [](MemoryNode& node) {
@@ -401,9 +400,9 @@ void PlaceMemory::RebuildTree(const std::unordered_map<uint64_t, OneClassDiscrim
   for (size_t i = 0; i < nodes_.size(); ++i) {
     if (static_cast<int>(i) == root_) continue;
     const uint64_t key = nodes_[i].set_key;
-    if (!previous_saved.empty()) {
-      auto it = previous_saved.find(key);
-      if (it != previous_saved.end()) {
+    if (saved != nullptr && !saved->empty()) {
+      auto it = saved->find(key);
+      if (it != saved->end()) {
         discriminants_[i] = std::move(it->second);
         continue;
       }
@@ -419,7 +418,7 @@ void PlaceMemory::RebuildTree(const std::unordered_map<uint64_t, OneClassDiscrim
 
 PlaceMemory PlaceMemory::Restore(uint32_t robot, PlaceMemoryOptions options,
                                  std::vector<LearnedPlace> places, Slink slink, uint32_t next_local,
-                                 const std::unordered_map<uint64_t, OneClassDiscriminant>& saved) {
+                                 std::unordered_map<uint64_t, OneClassDiscriminant> saved) {
   PlaceMemory memory(robot, std::move(options));
   if (static_cast<int>(places.size()) != slink.size()) {
     throw std::invalid_argument("place memory: " + std::to_string(places.size()) +
@@ -438,8 +437,14 @@ PlaceMemory PlaceMemory::Restore(uint32_t robot, PlaceMemoryOptions options,
   memory.places_ = std::move(places);
   memory.slink_ = std::move(slink);
   memory.next_local_ = next_local;
+  if (!memory.places_.empty()) {
+    // The cache at its final size at once (StoreMean grows it by half, copying, one at a time).
+    const Eigen::Index dim = memory.places_.front().mean.size(), stride = (dim + 15) / 16 * 16;
+    memory.means_.resize(stride, static_cast<Eigen::Index>(memory.places_.size()));
+    memory.means_.bottomRows(stride - dim).setZero();
+  }
   for (size_t i = 0; i < memory.places_.size(); ++i) memory.StoreMean(static_cast<int>(i));
-  if (!memory.places_.empty()) memory.RebuildTree(saved);
+  if (!memory.places_.empty()) memory.RebuildTree(&saved);
   return memory;
 }
 

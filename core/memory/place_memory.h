@@ -109,10 +109,11 @@ class PlaceMemory {
   int Depth() const;
 
   /// Rebuilds a memory saved earlier. Discriminants are taken from `saved` by set key where
-  /// present and retrained otherwise. Throws std::invalid_argument on inconsistent input.
+  /// present (moved, so pass it as an rvalue to avoid a copy) and retrained otherwise. Throws
+  /// std::invalid_argument on inconsistent input.
   static PlaceMemory Restore(uint32_t robot, PlaceMemoryOptions options,
                              std::vector<LearnedPlace> places, Slink slink, uint32_t next_local,
-                             const std::unordered_map<uint64_t, OneClassDiscriminant>& saved);
+                             std::unordered_map<uint64_t, OneClassDiscriminant> saved);
 
  private:
   // An old node's index by set key: the first inner node (its centroid sum) and the first
@@ -124,7 +125,8 @@ class PlaceMemory {
     bool used() const { return sum >= 0 || discriminant >= 0; }
   };
 
-  void RebuildTree(const std::unordered_map<uint64_t, OneClassDiscriminant>& saved);
+  /// `saved` (may be null): discriminants by set key, moved out of the map when used.
+  void RebuildTree(std::unordered_map<uint64_t, OneClassDiscriminant>* saved);
   void IndexOldNodes();
   const KeySlot* FindOldNode(uint64_t key) const;
   void RetrainDiscriminant(int node);

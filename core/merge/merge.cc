@@ -4,9 +4,11 @@
 #include <cmath>
 #include <limits>
 #include <map>
+#include <numeric>
 #include <set>
 #include <stdexcept>
 #include <string>
+#include <tuple>
 #include <unordered_map>
 #include <unordered_set>
 #include <utility>
@@ -31,10 +33,11 @@ std::vector<int> AllPlaces(const PlaceMemory& memory) {
 }
 
 // g of (3.8) for the incoming place `p` against the terminal children `candidates` of a
-// hyper-terminal of `base`: γ̃ to the nearest place P¹, the ratio to the second nearest P²
-// (1 with one candidate or γ̃(P²) = 0), and 1 − V_{P¹} over p's samples.
+// hyper-terminal of `base`: γ̃ to the nearest place P¹ (`best`, at γ̃ `best_gamma`), the ratio
+// to the second nearest P² (1 with one candidate or γ̃(P²) = 0), and 1 − V_{P¹} over p's
+// samples.
 double RecognitionCost(const PlaceMemory& base, const std::vector<int>& candidates,
-                       const LearnedPlace& p, int* best) {
+                       const LearnedPlace& p, int* best, double* best_gamma) {
   double g1 = std::numeric_limits<double>::infinity(), g2 = g1;
   *best = -1;
   for (int c : candidates) {
@@ -47,28 +50,12 @@ double RecognitionCost(const PlaceMemory& base, const std::vector<int>& candidat
       g2 = g;
     }
   }
+  *best_gamma = g1;
   const double ratio = std::isinf(g2) || g2 <= 0.0 ? 1.0 : g1 / g2;
   const Eigen::MatrixXf votes = EvenlySpaced(p.samples, base.options().max_vote_points);
   // Terminal node i holds place i, and every non-root node has a trained d_N.
   const double vote = base.discriminants()[static_cast<size_t>(*best)].VoteFraction(votes);
   return g1 + ratio + (1.0 - vote);
-}
-
-// Pairwise squared distances between the columns of a and b (float GEMM; used to rank
-// hyper-terminal pairs, not for recognition).
-Eigen::MatrixXf SquaredDistances(const Eigen::MatrixXf& a, const Eigen::MatrixXf& b) {
-  Eigen::MatrixXf d = -2.0f * (a.transpose() * b);
-  d.colwise() += a.colwise().squaredNorm().transpose();
-  d.rowwise() += b.colwise().squaredNorm();
-  return d.cwiseMax(0.0f);
-}
-
-Eigen::MatrixXf Centroids(const std::vector<HyperTerminal>& hts, Eigen::Index dim) {
-  Eigen::MatrixXf out(dim, static_cast<Eigen::Index>(hts.size()));
-  for (size_t i = 0; i < hts.size(); ++i) {
-    out.col(static_cast<Eigen::Index>(i)) = hts[i].sphere.centroid;
-  }
-  return out;
 }
 
 void AddSource(LearnedPlace& target, PlaceId id) {
@@ -138,6 +125,85 @@ double Overlap(const NodeStatistics& a, const NodeStatistics& b) {
   return std::min({a.radius + b.radius - d, 2.0 * a.radius, 2.0 * b.radius});
 }
 
+std::vector<size_t> MatchHyperTerminals(const PlaceMemory& base,
+                                        const std::vector<HyperTerminal>& hb,
+                                        const std::vector<HyperTerminal>& hi) {
+  if (hb.empty()) throw std::invalid_argument("matching hyper-terminals against none");
+  const size_t nodes = base.nodes().size();
+  std::vector<int> ht_of(nodes, -1);
+  for (size_t k = 0; k < hb.size(); ++k)
+    ht_of[static_cast<size_t>(hb[k].node)] = static_cast<int>(k);
+  // Each inner node's ball: centre c(N), reach R(N) ≥ ‖c_b − c(N)‖ + ρ_b for every
+  // hyper-terminal b under N (−1: none), bottom-up (children precede parents), widened by a
+  // relative 1e-5 against float rounding. Then for an incoming sphere a at distance d from
+  // c(N), Overlap(a, b) ≤ min(2ρ_a, ρ_a + R(N) − d) for every b under N.
+  std::vector<Eigen::VectorXf> centre(nodes);
+  std::vector<double> reach(nodes, -1.0);
+  for (size_t i = 0; i < nodes; ++i) {
+    const MemoryNode& nd = base.nodes()[i];
+    if (nd.terminal()) continue;
+    centre[i] = base.Centroid(static_cast<int>(i));
+    double r = -1.0;
+    if (ht_of[i] >= 0) {
+      const NodeStatistics& s = hb[static_cast<size_t>(ht_of[i])].sphere;
+      r = (s.centroid - centre[i]).norm() + s.radius;
+    }
+    for (int c : nd.children) {
+      const auto ci = static_cast<size_t>(c);
+      if (reach[ci] >= 0) r = std::max(r, (centre[ci] - centre[i]).norm() + reach[ci]);
+    }
+    reach[i] = r < 0 ? r : r * (1.0 + 1e-5) + 1e-12;
+  }
+  std::vector<size_t> out(hi.size(), 0);
+  std::vector<std::pair<double, int>> heap;  // (bound, node), largest bound first
+  for (size_t a = 0; a < hi.size(); ++a) {
+    const NodeStatistics& sa = hi[a].sphere;
+    const double ra = sa.radius;
+    double best = -std::numeric_limits<double>::infinity(),
+           best_d = std::numeric_limits<double>::infinity();
+    size_t star = hb.size();
+    auto bound = [&](size_t node, double* gap) {
+      const double d = (sa.centroid - centre[node]).norm();
+      *gap = d - reach[node];  // no hyper-terminal under the node is nearer than this
+      return std::min(2.0 * ra, ra + reach[node] - d);
+    };
+    // Worth a visit: a bound above the best, or equal to it with a centre possibly nearer.
+    auto promising = [&](double b, double gap) { return b > best || (b == best && gap <= best_d); };
+    heap.clear();
+    const auto root = static_cast<size_t>(base.root());
+    double gap = 0.0;
+    if (reach[root] >= 0) heap.push_back({bound(root, &gap), base.root()});
+    while (!heap.empty()) {
+      std::pop_heap(heap.begin(), heap.end());
+      const auto node = static_cast<size_t>(heap.back().second);
+      heap.pop_back();
+      if (const int k = ht_of[node]; k >= 0) {
+        const NodeStatistics& sb = hb[static_cast<size_t>(k)].sphere;
+        const double d = (sa.centroid - sb.centroid).norm();
+        const double overlap = std::min({ra + sb.radius - d, 2.0 * ra, 2.0 * sb.radius});
+        if (overlap > best ||
+            (overlap == best && (d < best_d || (d == best_d && static_cast<size_t>(k) < star)))) {
+          best = overlap;
+          best_d = d;
+          star = static_cast<size_t>(k);
+        }
+      }
+      for (int c : base.nodes()[node].children) {
+        const auto ci = static_cast<size_t>(c);
+        if (reach[ci] < 0) continue;
+        const double b = bound(ci, &gap);
+        if (!promising(b, gap)) continue;
+        heap.push_back({b, c});
+        std::push_heap(heap.begin(), heap.end());
+      }
+      // The largest bound queued fell below the best: nothing left can win.
+      if (!heap.empty() && heap.front().first < best) heap.clear();
+    }
+    out[a] = star;
+  }
+  return out;
+}
+
 std::string_view ToString(MergeCase c) {
   switch (c) {
     case MergeCase::kNothingNew:
@@ -180,10 +246,14 @@ MemoryMerge MergeMemories(const PlaceMemory& ours, const PlaceMemory& peer) {
 
   // Ids the base already holds, as a place or as an absorbed source: those incoming places
   // were merged before (idempotence).
-  std::unordered_set<PlaceId, PlaceIdHash> known;
-  for (const LearnedPlace& p : base.places()) {
-    known.insert(p.id);
-    known.insert(p.sources.begin(), p.sources.end());
+  // Each maps to the base place holding it (its own id before any source).
+  std::unordered_map<PlaceId, int, PlaceIdHash> known;
+  known.reserve(base.places().size());
+  for (size_t b = 0; b < base.places().size(); ++b) {
+    known.emplace(base.places()[b].id, static_cast<int>(b));
+  }
+  for (size_t b = 0; b < base.places().size(); ++b) {
+    for (PlaceId s : base.places()[b].sources) known.emplace(s, static_cast<int>(b));
   }
   std::vector<char> is_new(incoming.places().size(), 0);
   for (size_t i = 0; i < incoming.places().size(); ++i) {
@@ -203,9 +273,14 @@ MemoryMerge MergeMemories(const PlaceMemory& ours, const PlaceMemory& peer) {
   // Case analysis on the root spheres (figure 4.4).
   std::vector<int> target(incoming.places().size(), -1);  // base place absorbing it
   std::vector<double> cost(incoming.places().size(), 0.0);
+  // The base place nearest to each new incoming place among N*'s, and its γ (cross links of
+  // the merged tree); −1 where no recognition ran.
+  std::vector<int> nearest(incoming.places().size(), -1);
+  std::vector<double> nearest_gamma(incoming.places().size(), 0.0);
+  NodeStatistics sb, si;
   if (anything_new && !base.empty()) {
-    const NodeStatistics sb = StatisticsOf(base, AllPlaces(base));
-    const NodeStatistics si = StatisticsOf(incoming, AllPlaces(incoming));
+    sb = StatisticsOf(base, AllPlaces(base));
+    si = StatisticsOf(incoming, AllPlaces(incoming));
     const double d = (sb.centroid - si.centroid).norm();
     if (d > sb.radius + si.radius) {  // (4.5)
       result.merge_case = MergeCase::kDisjoint;
@@ -231,27 +306,16 @@ MemoryMerge MergeMemories(const PlaceMemory& ours, const PlaceMemory& peer) {
       // places against N*'s places with g ≤ τ_r. With no intersecting N*, the largest
       // overlap is the smallest gap: the nearest sphere, so recognition still decides.
       const std::vector<HyperTerminal> hb = HyperTerminals(base), hi = HyperTerminals(incoming);
-      const Eigen::Index dim = base.places().front().mean.size();
-      const Eigen::MatrixXf d2 = SquaredDistances(Centroids(hi, dim), Centroids(hb, dim));
+      const std::vector<size_t> match_of = MatchHyperTerminals(base, hb, hi);
       for (size_t a = 0; a < hi.size(); ++a) {
-        size_t star = 0;
-        double best = -std::numeric_limits<double>::infinity(), best_d = 0.0;
-        for (size_t b = 0; b < hb.size(); ++b) {
-          const double dist = std::sqrt(
-              static_cast<double>(d2(static_cast<Eigen::Index>(a), static_cast<Eigen::Index>(b))));
-          const double ra = hi[a].sphere.radius, rb = hb[b].sphere.radius;
-          const double overlap = std::min({ra + rb - dist, 2.0 * ra, 2.0 * rb});
-          if (overlap > best || (overlap == best && dist < best_d)) {
-            best = overlap;
-            best_d = dist;
-            star = b;
-          }
-        }
+        const size_t star = match_of[a];
         for (int p : hi[a].places) {
           if (!is_new[static_cast<size_t>(p)]) continue;
           int match = -1;
-          const double g = RecognitionCost(base, hb[star].places,
-                                           incoming.places()[static_cast<size_t>(p)], &match);
+          const double g =
+              RecognitionCost(base, hb[star].places, incoming.places()[static_cast<size_t>(p)],
+                              &match, &nearest_gamma[static_cast<size_t>(p)]);
+          nearest[static_cast<size_t>(p)] = match;
           if (g <= options.tau_r) {
             target[static_cast<size_t>(p)] = match;
             cost[static_cast<size_t>(p)] = g;
@@ -300,36 +364,78 @@ MemoryMerge MergeMemories(const PlaceMemory& ours, const PlaceMemory& peer) {
   // Incoming places that are neither known nor absorbed are added; when ours is the smaller
   // memory, our own places already known to the peer are dropped (the peer's place holds them).
   const size_t base_count = places.size();
+  // The merged place that stands for each incoming place: the base place that knew or
+  // absorbed it, or its own copy when added.
+  std::vector<int> merged_index(incoming.places().size(), -1);
   for (size_t i = 0; i < incoming.places().size(); ++i) {
-    if (!is_new[i] || target[i] >= 0) continue;
-    places.push_back(incoming.places()[i]);
-    result.added.push_back(incoming.places()[i].id);
+    if (!is_new[i]) {
+      merged_index[i] = known.at(incoming.places()[i].id);
+    } else if (target[i] >= 0) {
+      merged_index[i] = target[i];
+    } else {
+      merged_index[i] = static_cast<int>(places.size());
+      places.push_back(incoming.places()[i]);
+      result.added.push_back(incoming.places()[i].id);
+    }
   }
-  // SLINK insertion of the added places into the base's state. γ of (3.12) to every earlier
-  // place, by blocks of added places as one matrix product (‖a‖² + ‖b‖² − 2a·b): merging
-  // thousands of places is dominated by these distances.
+  // The merged tree: single linkage over the base's SLINK tree, the incoming SLINK tree with
+  // each incoming place standing for the merged place that holds it, and cross links between
+  // the two (docs/decisions.md, "Merging"). Inserting every added place into the base's SLINK
+  // would need γ to every earlier place, |added|·|places|·dim operations.
   Slink slink = base.slink();
   if (places.size() > base_count) {
-    const Eigen::Index dim = places.front().mean.size();
-    const auto total = static_cast<Eigen::Index>(places.size());
-    Eigen::MatrixXf means(dim, total);
-    for (Eigen::Index j = 0; j < total; ++j) means.col(j) = places[static_cast<size_t>(j)].mean;
-    const Eigen::VectorXf norms = means.colwise().squaredNorm().transpose();
-    constexpr Eigen::Index kBlock = 256;
-    std::vector<double> distances;
-    for (auto first = static_cast<Eigen::Index>(base_count); first < total; first += kBlock) {
-      const Eigen::Index rows = std::min(kBlock, total - first), cols = first + rows;
-      const Eigen::MatrixXf dots = means.middleCols(first, rows).transpose() * means.leftCols(cols);
-      for (Eigen::Index r = 0; r < rows; ++r) {
-        const Eigen::Index k = first + r;
-        distances.resize(static_cast<size_t>(k));
-        for (Eigen::Index j = 0; j < k; ++j) {
-          distances[static_cast<size_t>(j)] =
-              std::max(0.0, static_cast<double>(norms[k]) + norms[j] - 2.0 * dots(r, j));
-        }
-        slink.Insert(distances);
+    std::vector<Link> links;
+    links.reserve(places.size() * 2);
+    const Slink& bs = base.slink();
+    for (int i = 0; i + 1 < bs.size(); ++i) {
+      links.push_back({bs.lambda()[static_cast<size_t>(i)], i, bs.pi()[static_cast<size_t>(i)]});
+    }
+    // Between two base places the base's own links rule: the incoming tree links added ones.
+    const int base_end = static_cast<int>(base_count);
+    for (int i = 0; i + 1 < incoming.slink().size(); ++i) {
+      const int a = merged_index[static_cast<size_t>(i)];
+      const int b =
+          merged_index[static_cast<size_t>(incoming.slink().pi()[static_cast<size_t>(i)])];
+      if (a != b && (a >= base_end || b >= base_end)) {
+        links.push_back({incoming.slink().lambda()[static_cast<size_t>(i)], a, b});
       }
     }
+    bool crossed = false;
+    for (size_t i = 0; i < incoming.places().size(); ++i) {
+      if (nearest[i] < 0 || merged_index[i] < base_end) continue;
+      links.push_back({nearest_gamma[i], nearest[i], merged_index[i]});
+      crossed = true;
+    }
+    if (!crossed && base_count > 0) {
+      // Figure 4.4a/b: the trees join as wholes. The link runs between the base place nearest
+      // the incoming centroid and the added place nearest the base centroid; contained
+      // (4.4b), it joins at the base root's height so the smaller tree hangs under that root;
+      // disjoint (4.4a), no lower than either root, so it makes a new root.
+      auto nearest_to = [&places](const Eigen::VectorXf& c, size_t first, size_t end) {
+        size_t best = first;
+        double best_gamma = std::numeric_limits<double>::infinity();
+        for (size_t j = first; j < end; ++j) {
+          const double g = (places[j].mean - c).squaredNorm();
+          if (g < best_gamma) {
+            best_gamma = g;
+            best = j;
+          }
+        }
+        return best;
+      };
+      const size_t a = nearest_to(si.centroid, 0, base_count);
+      const size_t b = nearest_to(sb.centroid, base_count, places.size());
+      auto top = [](const Slink& tree) {
+        return tree.order().empty() ? 0.0 : tree.order().back().first;
+      };
+      double gamma = std::max(top(base.slink()), top(incoming.slink()));
+      if (result.merge_case == MergeCase::kDisjoint) {
+        gamma =
+            std::max(gamma, static_cast<double>((places[a].mean - places[b].mean).squaredNorm()));
+      }
+      links.push_back({gamma, static_cast<int>(a), static_cast<int>(b)});
+    }
+    slink = SingleLinkage(static_cast<int>(places.size()), std::move(links));
   }
 
   // Discriminants whose training set did not change are reused by set key: the base's nodes
@@ -339,7 +445,9 @@ MemoryMerge MergeMemories(const PlaceMemory& ours, const PlaceMemory& peer) {
   auto keep = [&saved](const PlaceMemory& m, const std::vector<char>& skip) {
     for (size_t i = 0; i < m.nodes().size(); ++i) {
       if (skip[i]) continue;
-      if (m.discriminants()[i].trained()) saved.emplace(m.nodes()[i].set_key, m.discriminants()[i]);
+      if (m.discriminants()[i].trained()) {
+        saved.try_emplace(m.nodes()[i].set_key, m.discriminants()[i]);
+      }
     }
   };
   std::vector<char> foreign(incoming.nodes().size(), 0);
@@ -362,18 +470,74 @@ MemoryMerge MergeMemories(const PlaceMemory& ours, const PlaceMemory& peer) {
   }
   keep(base, stale);
   keep(incoming, foreign);
-  const size_t reusable = saved.size();
-  result.memory = PlaceMemory::Restore(ours.robot(), options, std::move(places), std::move(slink),
-                                       ours.next_local_id(), saved);
-  // Count the non-root nodes whose key was not among the reusable discriminants.
   std::unordered_set<uint64_t> reused_keys;
-  reused_keys.reserve(reusable);
+  reused_keys.reserve(saved.size());
   for (const auto& [key, unused] : saved) reused_keys.insert(key);
+  result.memory = PlaceMemory::Restore(ours.robot(), options, std::move(places), std::move(slink),
+                                       ours.next_local_id(), std::move(saved));
+  // Count the non-root nodes whose key was not among the reusable discriminants.
   for (size_t i = 0; i < result.memory.nodes().size(); ++i) {
     if (static_cast<int>(i) == result.memory.root()) continue;
     if (!reused_keys.contains(result.memory.nodes()[i].set_key)) ++result.retrained;
   }
   return result;
+}
+
+Slink SingleLinkage(int n, std::vector<Link> links) {
+  if (n < 0) throw std::invalid_argument("single linkage over " + std::to_string(n) + " places");
+  for (const Link& l : links) {
+    if (l.a < 0 || l.a >= n || l.b < 0 || l.b >= n) {
+      throw std::invalid_argument("single linkage: link " + std::to_string(l.a) + "-" +
+                                  std::to_string(l.b) + " outside places 0.." +
+                                  std::to_string(n - 1));
+    }
+    if (!std::isfinite(l.gamma) || l.gamma < 0) {
+      throw std::invalid_argument("single linkage: link " + std::to_string(l.a) + "-" +
+                                  std::to_string(l.b) + " has gamma " + std::to_string(l.gamma));
+    }
+  }
+  auto key = [](const Link& l) {
+    return std::tuple(l.gamma, std::min(l.a, l.b), std::max(l.a, l.b));
+  };
+  std::sort(links.begin(), links.end(),
+            [&key](const Link& x, const Link& y) { return key(x) < key(y); });
+  std::vector<int> pi(static_cast<size_t>(n)), parent(static_cast<size_t>(n)),
+      last(static_cast<size_t>(n));
+  std::vector<double> lambda(static_cast<size_t>(n), Slink::kInfinity);
+  std::iota(pi.begin(), pi.end(), 0);
+  std::iota(parent.begin(), parent.end(), 0);
+  std::iota(last.begin(), last.end(), 0);
+  auto find = [&parent](int x) {
+    while (parent[static_cast<size_t>(x)] != x) {
+      x = parent[static_cast<size_t>(x)] =
+          parent[static_cast<size_t>(parent[static_cast<size_t>(x)])];
+    }
+    return x;
+  };
+  // Clusters ra and rb join at γ: the one whose last place is lower stops being last there.
+  auto join = [&](int ra, int rb, double gamma) {
+    const int la = last[static_cast<size_t>(ra)], lb = last[static_cast<size_t>(rb)];
+    const int lo = std::min(la, lb), hi = std::max(la, lb);
+    pi[static_cast<size_t>(lo)] = hi;
+    lambda[static_cast<size_t>(lo)] = gamma;
+    parent[static_cast<size_t>(ra)] = rb;
+    last[static_cast<size_t>(rb)] = hi;
+  };
+  double top = 0.0;
+  for (const Link& l : links) {
+    const int ra = find(l.a), rb = find(l.b);
+    if (ra == rb) continue;
+    join(ra, rb, l.gamma);
+    top = l.gamma;
+  }
+  // Components the links left apart join at the largest γ, in order of their last places.
+  std::vector<std::pair<int, int>> roots;  // (last place, root)
+  for (int i = 0; i < n; ++i) {
+    if (find(i) == i) roots.push_back({last[static_cast<size_t>(i)], i});
+  }
+  std::sort(roots.begin(), roots.end());
+  for (size_t k = 1; k < roots.size(); ++k) join(find(roots[k - 1].second), roots[k].second, top);
+  return Slink(std::move(pi), std::move(lambda));
 }
 
 TopologicalMap MergeMaps(const TopologicalMap& ours, const TopologicalMap& peer,

@@ -2,7 +2,8 @@
 // Merging of place memories and topological maps (chapter 4, DESIGN §3.6): a RACHET-style
 // case analysis on the hyperspheres S(c(N), ρ(N)) of the two trees, recognition of the
 // incoming places against the best-overlapping hyper-terminal, and the map union of §4.6.
-// The merged tree is rebuilt by SLINK over the merged places (docs/decisions.md, "Merging").
+// The merged tree is single linkage over both memories' SLINK trees and the cross links the
+// merge finds (docs/decisions.md, "Merging").
 
 #include <Eigen/Core>
 #include <span>
@@ -41,6 +42,15 @@ std::vector<HyperTerminal> HyperTerminals(const PlaceMemory& memory);
 /// when they intersect, negative (minus the gap) when they do not.
 double Overlap(const NodeStatistics& a, const NodeStatistics& b);
 
+/// For each hyper-terminal of `incoming` (`hi`), the index in `hb` = HyperTerminals(base) of the
+/// one with the largest Overlap; ties go to the nearer centre, then to the lower index. Exact,
+/// by branch and bound over base's tree (a node's ball bounds the spheres of the
+/// hyper-terminals under it), so a merge does not pay |hi|·|hb| distances. Precondition: `hb`
+/// is non-empty and comes from `base`.
+std::vector<size_t> MatchHyperTerminals(const PlaceMemory& base,
+                                        const std::vector<HyperTerminal>& hb,
+                                        const std::vector<HyperTerminal>& hi);
+
 /// The case of figure 4.4 that the root spheres fall in.
 enum class MergeCase {
   kNothingNew,             ///< every incoming place was merged before (idempotent re-merge)
@@ -68,10 +78,26 @@ struct MemoryMerge {
   int retrained = 0;                 ///< discriminants trained (the others were reused)
 };
 
+/// An edge of a spanning graph for single linkage: places a and b at squared distance γ.
+struct Link {
+  double gamma = 0.0;  ///< γ of (3.12), ≥ 0 and finite
+  int a = 0;
+  int b = 0;
+};
+/// The pointer representation (π, λ) of the single-linkage dendrogram of the graph on places
+/// 0..n−1 with edges `links` (Kruskal: λ(i) is the height at which i stops being the last
+/// place of its cluster, π(i) the last place of the cluster it joins). Over all pairs it equals
+/// SLINK's state; over a spanning subset it is single linkage of the minimax path distances of
+/// that graph. Components the links leave apart are joined at the largest γ. Deterministic
+/// (ties by place indices). Throws std::invalid_argument on an index outside [0, n) or a
+/// negative or non-finite γ.
+Slink SingleLinkage(int n, std::vector<Link> links);
+
 /// T^m + T^n of figure 4.6 from the perspective of `ours` (robot m). The smaller memory (by
 /// place count; on a tie, the one of the higher robot id) is merged into the larger, so the
-/// result is the same place set whichever robot computes it. Deterministic; merging the same peer state again changes
-/// nothing. Both memories must have the same descriptor dimension (std::invalid_argument).
+/// result is the same place set whichever robot computes it. Deterministic; merging the same peer
+/// state again changes nothing. Both memories must have the same descriptor dimension
+/// (std::invalid_argument).
 MemoryMerge MergeMemories(const PlaceMemory& ours, const PlaceMemory& peer);
 
 /// G^m + G^n of §4.6 over the merged memory: every place id (own or absorbed) is replaced by

@@ -4,6 +4,7 @@
 
 #include <algorithm>
 #include <array>
+#include <cmath>
 #include <random>
 #include <vector>
 
@@ -106,6 +107,43 @@ TEST(Overlap, IsLensWidthAlongCentreLine) {
   EXPECT_NEAR(Overlap(a, b), 0.5, 1e-6);
   EXPECT_NEAR(Overlap(a, c), 0.2, 1e-6);     // c inside a: the lens is c
   EXPECT_NEAR(Overlap(a, far), -3.0, 1e-6);  // a gap of 3
+}
+
+// The branch and bound picks what comparing every pair picks: the largest overlap, then the
+// nearer centre, then the lower index.
+TEST(MatchHyperTerminals, EqualsExhaustiveBestOverlap) {
+  std::mt19937 rng(11);
+  std::normal_distribution<float> noise(0.0f, 0.4f);
+  std::uniform_int_distribution<int> site(0, 7);
+  auto centres = [&](int n) {
+    std::vector<Eigen::VectorXf> out;
+    for (int i = 0; i < n; ++i) {
+      const int s = site(rng);
+      out.push_back(At(static_cast<float>(s % 4) * 3 + noise(rng),
+                       static_cast<float>(s / 4) * 3 + noise(rng), noise(rng), noise(rng)));
+    }
+    return out;
+  };
+  const PlaceMemory a = MakeMemory(1, centres(80), 100);
+  const PlaceMemory b = MakeMemory(2, centres(50), 300);
+  const std::vector<HyperTerminal> ha = HyperTerminals(a), hb = HyperTerminals(b);
+  ASSERT_GT(ha.size(), 5u);
+  const std::vector<size_t> dut = MatchHyperTerminals(a, ha, hb);
+  ASSERT_EQ(dut.size(), hb.size());
+  for (size_t i = 0; i < hb.size(); ++i) {
+    size_t star = 0;
+    double best = -1e300, best_d = 1e300;
+    for (size_t k = 0; k < ha.size(); ++k) {
+      const double overlap = Overlap(hb[i].sphere, ha[k].sphere);
+      const double d = (hb[i].sphere.centroid - ha[k].sphere.centroid).norm();
+      if (overlap > best || (overlap == best && d < best_d)) {
+        best = overlap;
+        best_d = d;
+        star = k;
+      }
+    }
+    EXPECT_EQ(dut[i], star) << "incoming hyper-terminal " << i;
+  }
 }
 
 // Figure 4.4a.
@@ -294,6 +332,81 @@ TEST(MergeMemories, MergingTheSamePeerTwiceChangesNothing) {
   const MemoryMerge reverse_twice = MergeMemories(reverse.memory, a);
   EXPECT_EQ(reverse_twice.merge_case, MergeCase::kNothingNew);
   ExpectSameMemory(reverse.memory, reverse_twice.memory);
+}
+
+// Single linkage from links over every pair is SLINK's own state, pointer for pointer.
+TEST(SingleLinkage, OverAllPairsEqualsIncrementalSlink) {
+  std::mt19937 rng(7);
+  std::normal_distribution<double> normal;
+  std::vector<Eigen::VectorXd> points;
+  std::vector<Link> links;
+  Slink expected;
+  for (int n = 0; n < 60; ++n) {
+    Eigen::VectorXd p(3);
+    for (int d = 0; d < 3; ++d) p[d] = normal(rng) + (n % 3) * 4.0;
+    std::vector<double> dist;
+    for (size_t i = 0; i < points.size(); ++i) {
+      dist.push_back((points[i] - p).squaredNorm());
+      links.push_back({dist.back(), static_cast<int>(i), n});
+    }
+    expected.Insert(dist);
+    points.push_back(p);
+  }
+  std::shuffle(links.begin(), links.end(), rng);
+  const Slink dut = SingleLinkage(60, links);
+  EXPECT_EQ(dut.pi(), expected.pi());
+  EXPECT_EQ(dut.lambda(), expected.lambda());
+}
+
+TEST(SingleLinkage, JoinsComponentsTheLinksLeaveApartAtTheLargestGamma) {
+  const Slink dut = SingleLinkage(5, {{2.0, 3, 4}, {1.0, 0, 2}});
+  const std::vector<DendrogramMerge> merges = ToDendrogram(dut);
+  ASSERT_EQ(merges.size(), 4u);
+  EXPECT_EQ(merges[0].height, 1.0);
+  EXPECT_EQ(merges[1].height, 2.0);
+  EXPECT_EQ(merges[2].height, 2.0);  // place 1 alone, joined at the top
+  EXPECT_EQ(merges[3].height, 2.0);
+  EXPECT_EQ(dut.pi()[4], 4);
+  EXPECT_EQ(dut.lambda()[4], Slink::kInfinity);
+}
+
+TEST(SingleLinkage, RejectsLinksOutsideThePlacesOrWithBadGamma) {
+  EXPECT_THROW(SingleLinkage(3, {{1.0, 0, 3}}), std::invalid_argument);
+  EXPECT_THROW(SingleLinkage(3, {{-1.0, 0, 1}}), std::invalid_argument);
+  EXPECT_THROW(SingleLinkage(3, {{std::nan(""), 0, 1}}), std::invalid_argument);
+}
+
+// An incoming place that is not recognised is added where chapter 4 puts it, under the
+// matched hyper-terminal N*: it joins its nearest base places below the root, and the merged
+// SLINK state is one later Learn()s continue from.
+TEST(MergeMemories, AddedPlaceJoinsItsNearestPlacesBelowTheRoot) {
+  const std::vector<Eigen::VectorXf> ca = {At(0), At(0.3f), At(8), At(8.3f), At(16), At(16.3f)};
+  const PlaceMemory a = MakeMemory(1, ca, 10);
+  PlaceMemory b(2, PlaceMemoryOptions{});
+  b.Learn(MakePlace(ca[3], 13));          // a's 1:4, absorbed
+  b.Learn(MakePlace(At(8.15f, 1), 50));   // near 1:3 and 1:4, not recognised
+  b.Learn(MakePlace(At(16.15f, 1), 51));  // near 1:5 and 1:6
+  MemoryMerge dut = MergeMemories(a, b);
+  ASSERT_TRUE(dut.merge_case == MergeCase::kIntersecting ||
+              dut.merge_case == MergeCase::kContainedIntersecting)
+      << ToString(dut.merge_case);
+  ASSERT_EQ(dut.added, (std::vector<PlaceId>{{2, 2}, {2, 3}}));
+  const PlaceMemory& m = dut.memory;
+  auto places_under_parent = [&m](PlaceId id) {
+    const MemoryNode& parent =
+        m.nodes()[static_cast<size_t>(m.nodes()[static_cast<size_t>(*m.Find(id))].parent)];
+    std::vector<PlaceId> out;
+    for (int i = parent.first_leaf; i < parent.end_leaf; ++i) {
+      out.push_back(m.places()[static_cast<size_t>(m.leaf_order()[static_cast<size_t>(i)])].id);
+    }
+    std::sort(out.begin(), out.end());
+    return out;
+  };
+  EXPECT_EQ(places_under_parent({2, 2}), (std::vector<PlaceId>{{1, 3}, {1, 4}, {2, 2}}));
+  EXPECT_EQ(places_under_parent({2, 3}), (std::vector<PlaceId>{{1, 5}, {1, 6}, {2, 3}}));
+  const int learned = dut.memory.Learn(MakePlace(At(0.15f, 1), 60));
+  EXPECT_EQ(places_under_parent(dut.memory.places()[static_cast<size_t>(learned)].id),
+            (std::vector<PlaceId>{{1, 1}, {1, 2}, {1, 7}}));
 }
 
 TEST(MergeMaps, AbsorbedNodesCollapseOntoTheirTarget) {
