@@ -55,7 +55,8 @@ double RecognitionCost(const PlaceMemory& base, const std::vector<int>& candidat
   const Eigen::MatrixXf votes = EvenlySpaced(p.samples, base.options().max_vote_points);
   // Terminal node i holds place i, and every non-root node has a trained d_N.
   const double vote = base.discriminants()[static_cast<size_t>(*best)].VoteFraction(votes);
-  return g1 + ratio + (1.0 - vote);
+  // The candidates are terminals: γ̃ enters in the memory's gamma_unit, as in PlaceMemory::Cost.
+  return g1 / base.options().gamma_unit + ratio + (1.0 - vote);
 }
 
 void AddSource(LearnedPlace& target, PlaceId id) {

@@ -34,8 +34,16 @@ DetectedPlace MakePlace(const Eigen::VectorXf& centre, uint32_t seed, int n = 6)
   return d;
 }
 
+// The memories here hold hand-made descriptors on a unit scale (places 0.1-1 apart, members
+// scattered by 0.01): γ̃ is measured in that unit.
+PlaceMemoryOptions UnitScale() {
+  PlaceMemoryOptions o;
+  o.gamma_unit = 1.0;
+  return o;
+}
+
 PlaceMemory MakeMemory(uint32_t robot, const std::vector<Eigen::VectorXf>& centres, uint32_t seed) {
-  PlaceMemory m(robot, PlaceMemoryOptions{});
+  PlaceMemory m(robot, UnitScale());
   for (size_t p = 0; p < centres.size(); ++p) {
     m.Learn(MakePlace(centres[p], seed + static_cast<uint32_t>(p)));
   }
@@ -202,7 +210,7 @@ TEST(MergeMemories, ContainedWithIntersectionAbsorbsRecognisedPlaces) {
                                             At(0, 10),   At(0, 10.3f), At(0, -10), At(0, -10.3f),
                                             At(0, 0, 0), At(0, 0, 3)};
   const PlaceMemory a = MakeMemory(1, big, 10);
-  PlaceMemory b(2, PlaceMemoryOptions{});
+  PlaceMemory b(2, UnitScale());
   b.Learn(MakePlace(big[8], 18));  // exactly a's place 1:9
   b.Learn(MakePlace(At(0, 0, 1.5f), 99));
   const MemoryMerge dut = MergeMemories(a, b);
@@ -210,14 +218,14 @@ TEST(MergeMemories, ContainedWithIntersectionAbsorbsRecognisedPlaces) {
   ASSERT_EQ(dut.absorbed.size(), 1u);
   EXPECT_EQ(dut.absorbed[0].source, (PlaceId{2, 1}));
   EXPECT_EQ(dut.absorbed[0].target, (PlaceId{1, 9}));
-  EXPECT_LE(dut.absorbed[0].cost, PlaceMemoryOptions{}.tau_r);
+  EXPECT_LE(dut.absorbed[0].cost, UnitScale().tau_r);
   EXPECT_EQ(dut.added, (std::vector<PlaceId>{{2, 2}}));
   ASSERT_EQ(dut.memory.places().size(), 11u);
   const LearnedPlace& merged = dut.memory.places()[8];
   EXPECT_EQ(merged.id, (PlaceId{1, 9}));
   EXPECT_EQ(merged.sources, (std::vector<PlaceId>{{2, 1}}));
   EXPECT_EQ(merged.member_count, 12);
-  EXPECT_LE(merged.samples.cols(), PlaceMemoryOptions{}.max_samples_per_place);
+  EXPECT_LE(merged.samples.cols(), UnitScale().max_samples_per_place);
   EXPECT_TRUE(merged.mean.isApprox(a.places()[8].mean, 1e-6f));  // same descriptors
   EXPECT_GT(dut.retrained, 0);
 }
@@ -225,7 +233,7 @@ TEST(MergeMemories, ContainedWithIntersectionAbsorbsRecognisedPlaces) {
 // Figure 4.4d: the spheres intersect, neither contains the other.
 TEST(MergeMemories, IntersectingSpheresRecogniseSharedPlaces) {
   const PlaceMemory a = MakeMemory(1, {At(0), At(1.5f), At(3), At(4.5f)}, 10);
-  PlaceMemory b(2, PlaceMemoryOptions{});
+  PlaceMemory b(2, UnitScale());
   b.Learn(MakePlace(At(4.5f), 13));  // a's 1:4
   b.Learn(MakePlace(At(3.75f, 1.5f), 30));
   b.Learn(MakePlace(At(1, 1.5f), 31));
@@ -294,7 +302,7 @@ TEST(MergeMemories, RootSphereCountsSharedPlaceOnceInBothOrders) {
   const std::vector<Eigen::VectorXf> ca = {At(0), At(1.5f), At(3), At(4.5f), At(3, 1.5f)};
   const std::vector<Eigen::VectorXf> cb = {At(4.5f), At(3.75f, 1.5f), At(1, 1.5f)};
   const PlaceMemory a = MakeMemory(1, ca, 10);
-  PlaceMemory b(2, PlaceMemoryOptions{});
+  PlaceMemory b(2, UnitScale());
   b.Learn(MakePlace(cb[0], 13));  // identical to a's 1:4
   b.Learn(MakePlace(cb[1], 40));
   b.Learn(MakePlace(cb[2], 41));
@@ -318,7 +326,7 @@ TEST(MergeMemories, IsDeterministic) {
 
 TEST(MergeMemories, MergingTheSamePeerTwiceChangesNothing) {
   const PlaceMemory a = MakeMemory(1, {At(0), At(1.5f), At(3), At(4.5f)}, 10);
-  PlaceMemory b(2, PlaceMemoryOptions{});
+  PlaceMemory b(2, UnitScale());
   b.Learn(MakePlace(At(4.5f), 13));
   b.Learn(MakePlace(At(3.75f, 1.5f), 30));
   const MemoryMerge once = MergeMemories(a, b);
@@ -382,7 +390,7 @@ TEST(SingleLinkage, RejectsLinksOutsideThePlacesOrWithBadGamma) {
 TEST(MergeMemories, AddedPlaceJoinsItsNearestPlacesBelowTheRoot) {
   const std::vector<Eigen::VectorXf> ca = {At(0), At(0.3f), At(8), At(8.3f), At(16), At(16.3f)};
   const PlaceMemory a = MakeMemory(1, ca, 10);
-  PlaceMemory b(2, PlaceMemoryOptions{});
+  PlaceMemory b(2, UnitScale());
   b.Learn(MakePlace(ca[3], 13));          // a's 1:4, absorbed
   b.Learn(MakePlace(At(8.15f, 1), 50));   // near 1:3 and 1:4, not recognised
   b.Learn(MakePlace(At(16.15f, 1), 51));  // near 1:5 and 1:6
@@ -411,7 +419,7 @@ TEST(MergeMemories, AddedPlaceJoinsItsNearestPlacesBelowTheRoot) {
 
 TEST(MergeMaps, AbsorbedNodesCollapseOntoTheirTarget) {
   const PlaceMemory a = MakeMemory(1, {At(0), At(1.5f), At(3), At(4.5f)}, 10);
-  PlaceMemory b(2, PlaceMemoryOptions{});
+  PlaceMemory b(2, UnitScale());
   b.Learn(MakePlace(At(4.5f), 13));  // → 1:4
   b.Learn(MakePlace(At(3.75f, 1.5f), 30));
   b.Learn(MakePlace(At(1, 1.5f), 31));
