@@ -86,6 +86,8 @@ RobotRun RunRobot(const std::vector<std::string>& extra, milliseconds tick) {
   if (port == 0) return out;
 
   BusListener bus;
+  // The route is short and, with a sweep, a base point takes several frames: places span few
+  // base points, so tscd runs with the keyframes plenitude threshold (config/keyframes.ini).
   std::vector<std::string> argv = {kBin + "/tscd",
                                    "--robot",
                                    "1",
@@ -106,7 +108,9 @@ RobotRun RunRobot(const std::vector<std::string>& extra, milliseconds tick) {
                                    "--set",
                                    "camera.height=120",
                                    "--set",
-                                   "lcm.announce_period_s=0.2"};
+                                   "lcm.announce_period_s=0.2",
+                                   "--set",
+                                   "detection.tau_p=3"};
   for (const std::string& e : extra) {
     argv.push_back("--set");
     argv.push_back(e);
