@@ -9,6 +9,7 @@
 #include <lcm/lcm-cpp.hpp>
 #include <map>
 #include <mutex>
+#include <optional>
 #include <string>
 #include <thread>
 #include <vector>
@@ -115,5 +116,39 @@ class BusListener {
       GTEST_SKIP() << "no private network namespace (run through test/support/in_netns)"; \
     }                                                                                     \
   } while (0)
+
+/// The last message on one JAGUAR_STATE_<robot> channel (tscd's motor channel: link state,
+/// odometry), decoded on its own LCM thread.
+class MotorStateSink {
+ public:
+  explicit MotorStateSink(const std::string& channel) : lcm_(kTestLcmUrl) {
+    if (!lcm_.good()) throw std::runtime_error("LCM cannot start on " + std::string(kTestLcmUrl));
+    // The function form, as in BusListener (LCM 1.3.1's handler-method form is broken).
+    lcm_.subscribeFunction(channel, &MotorStateSink::On, this);
+    thread_ = std::thread([this] {
+      while (!stop_) lcm_.handleTimeout(20);
+    });
+  }
+  ~MotorStateSink() {
+    stop_ = true;
+    thread_.join();
+  }
+  std::optional<jaguar::motor_state_t> last() {
+    std::lock_guard lock(mutex_);
+    return last_;
+  }
+
+ private:
+  static void On(const lcm::ReceiveBuffer*, const std::string&, const jaguar::motor_state_t* s,
+                 MotorStateSink* self) {
+    std::lock_guard lock(self->mutex_);
+    self->last_ = *s;
+  }
+  lcm::LCM lcm_;
+  std::mutex mutex_;
+  std::optional<jaguar::motor_state_t> last_;
+  std::atomic<bool> stop_{false};
+  std::thread thread_;
+};
 
 }  // namespace tsc::testing_support

@@ -29,6 +29,7 @@ using std::chrono::milliseconds;
 using std::chrono::seconds;
 using testing_support::BusListener;
 using testing_support::ChildProcess;
+using testing_support::MotorStateSink;
 using testing_support::Quote;
 
 const std::string kBin = TSCD_BIN_DIR;
@@ -45,36 +46,6 @@ std::optional<Pose> ReadPose(const fs::path& file) {
 }
 
 double Distance(const Pose& a, const Pose& b) { return std::hypot(a.x - b.x, a.y - b.y); }
-
-/// JAGUAR_STATE_<robot> decoded (the shared listener keeps only tsc types).
-class StateSink {
- public:
-  explicit StateSink(const std::string& channel) : lcm_(testing_support::kTestLcmUrl) {
-    lcm_.subscribe(channel, &StateSink::On, this);
-    thread_ = std::thread([this] {
-      while (!stop_) lcm_.handleTimeout(20);
-    });
-  }
-  ~StateSink() {
-    stop_ = true;
-    thread_.join();
-  }
-  std::optional<jaguar::motor_state_t> last() {
-    std::lock_guard lock(mutex_);
-    return last_;
-  }
-
- private:
-  void On(const lcm::ReceiveBuffer*, const std::string&, const jaguar::motor_state_t* s) {
-    std::lock_guard lock(mutex_);
-    last_ = *s;
-  }
-  lcm::LCM lcm_;
-  std::mutex mutex_;
-  std::optional<jaguar::motor_state_t> last_;
-  std::atomic<bool> stop_{false};
-  std::thread thread_;
-};
 
 class JaguarRobotTest : public ::testing::TestWithParam<std::string> {
  protected:
@@ -156,7 +127,7 @@ class JaguarRobotTest : public ::testing::TestWithParam<std::string> {
     }
     return false;
   }
-  bool LinkUp(StateSink& state, seconds timeout) {
+  bool LinkUp(MotorStateSink& state, seconds timeout) {
     const auto end = std::chrono::steady_clock::now() + timeout;
     while (std::chrono::steady_clock::now() < end) {
       const auto s = state.last();
@@ -188,7 +159,7 @@ std::string Keys(char key, int n) {
 
 TEST_P(JaguarRobotTest, TeleopDrivesTheBoardThroughTscdAndOdometryFollows) {
   BusListener bus;
-  StateSink state("JAGUAR_STATE_1");
+  MotorStateSink state("JAGUAR_STATE_1");
   auto tscd = StartTscd();
   ASSERT_TRUE(LinkUp(state, seconds(20))) << tscd->Log();
   const Pose start = TruePose();
@@ -236,7 +207,7 @@ TEST_P(JaguarRobotTest, TeleopDrivesTheBoardThroughTscdAndOdometryFollows) {
 // the way (3 learned, 2 edges in a manual run; the test asks for at least 2 and 1).
 TEST_P(JaguarRobotTest, LearnsPlacesAlongARouteDrivenByTeleop) {
   BusListener bus;
-  StateSink state("JAGUAR_STATE_1");
+  MotorStateSink state("JAGUAR_STATE_1");
   // An 18 s drive at 10 frames/s is ~180 base points: places of more than 3 base points are
   // kept (the default tau_p = 25 is set for longer runs and would leave one place here).
   auto tscd = StartTscd({"--set", "detection.tau_p=3"});
@@ -262,7 +233,7 @@ TEST_P(JaguarRobotTest, LearnsPlacesAlongARouteDrivenByTeleop) {
 }
 
 TEST_P(JaguarRobotTest, SigtermOfTscdStopsTheMotors) {
-  StateSink state("JAGUAR_STATE_1");
+  MotorStateSink state("JAGUAR_STATE_1");
   auto tscd = StartTscd();
   ASSERT_TRUE(LinkUp(state, seconds(20))) << tscd->Log();
   auto teleop = StartTeleop(Keys('w', 200));  // keeps driving for 10 s
@@ -289,7 +260,7 @@ TEST_P(JaguarRobotTest, SigtermOfTscdStopsTheMotors) {
 // (ASCII: the kernel closes the dead process's socket). A real V2 board documents no such
 // watchdog; see docs/decisions.md.
 TEST_P(JaguarRobotTest, KillNineOfTscdLeavesTheMotorsStoppedByTheBoard) {
-  StateSink state("JAGUAR_STATE_1");
+  MotorStateSink state("JAGUAR_STATE_1");
   auto tscd = StartTscd();
   ASSERT_TRUE(LinkUp(state, seconds(20))) << tscd->Log();
   auto teleop = StartTeleop(Keys('w', 200));

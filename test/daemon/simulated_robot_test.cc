@@ -39,6 +39,7 @@ using std::chrono::milliseconds;
 using std::chrono::seconds;
 using testing_support::BusListener;
 using testing_support::ChildProcess;
+using testing_support::MotorStateSink;
 using testing_support::Quote;
 
 const std::string kBin = TSCD_BIN_DIR;
@@ -68,36 +69,6 @@ std::string WaitForMatch(ChildProcess& p, const std::regex& pattern, seconds tim
   }
   return "";
 }
-
-/// The last JAGUAR_STATE_<robot> (tscd's motor channel: link state, odometry).
-class StateSink {
- public:
-  explicit StateSink(const std::string& channel) : lcm_(testing_support::kTestLcmUrl) {
-    lcm_.subscribe(channel, &StateSink::On, this);
-    thread_ = std::thread([this] {
-      while (!stop_) lcm_.handleTimeout(20);
-    });
-  }
-  ~StateSink() {
-    stop_ = true;
-    thread_.join();
-  }
-  std::optional<jaguar::motor_state_t> last() {
-    std::lock_guard lock(mutex_);
-    return last_;
-  }
-
- private:
-  void On(const lcm::ReceiveBuffer*, const std::string&, const jaguar::motor_state_t* s) {
-    std::lock_guard lock(mutex_);
-    last_ = *s;
-  }
-  lcm::LCM lcm_;
-  std::mutex mutex_;
-  std::optional<jaguar::motor_state_t> last_;
-  std::atomic<bool> stop_{false};
-  std::thread thread_;
-};
 
 // Keys every 50 ms: `n` times `key` (as a held key repeats), then silence.
 std::string Keys(char key, int n) {
@@ -158,7 +129,7 @@ TEST(SimulatedRobot, TeleopDrivesARouteAndTscdLearnsPlacesFromTheAxisCamera) {
   }
 
   BusListener bus;
-  StateSink state("JAGUAR_STATE_1");
+  MotorStateSink state("JAGUAR_STATE_1");
   ChildProcess tscd({kBin + "/tscd", "--config", config.string()}, dir / "tscd.log");
   const auto link_deadline = std::chrono::steady_clock::now() + seconds(20);
   while (std::chrono::steady_clock::now() < link_deadline &&
