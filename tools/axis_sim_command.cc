@@ -101,7 +101,7 @@ int AxisSimMain(const std::vector<std::string>& args) {
       options.password = ReadPasswordFile(vm["password-file"].as<std::string>());
     } catch (const CameraError& e) {
       std::cerr << "tsc axis-sim: " << e.what() << "\n";
-      return 78;
+      return kExitConfig;
     }
   }
   try {
@@ -130,15 +130,7 @@ int AxisSimMain(const std::vector<std::string>& args) {
 }  // namespace
 
 int RunAxisSimCommand(const std::vector<std::string>& args) {
-  try {
-    return AxisSimMain(args);
-  } catch (const UsageError& e) {
-    std::cerr << "tsc axis-sim: " << e.what() << " (see tsc axis-sim --help)\n";
-    return 2;
-  } catch (const std::exception& e) {
-    std::cerr << "tsc axis-sim: " << e.what() << "\n";
-    return 1;
-  }
+  return RunReportingErrors("axis-sim", [&] { return AxisSimMain(args); });
 }
 
 }  // namespace tsc

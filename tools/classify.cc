@@ -1,7 +1,6 @@
 #include "tools/classify.h"
 
 #include <algorithm>
-#include <chrono>
 #include <cstdio>
 #include <fstream>
 #include <map>
@@ -12,13 +11,11 @@
 #include "drivers/dataset/dataset.h"
 #include "tools/eval.h"
 #include "tools/events_json.h"
+#include "tools/frame_view.h"
 
 namespace tsc {
 namespace fs = std::filesystem;
 namespace {
-
-using Clock = std::chrono::steady_clock;
-double Ms(Clock::duration d) { return std::chrono::duration<double, std::milli>(d).count(); }
 
 constexpr const char* kModelMagic = "tsc-classify-model 1";
 
@@ -74,22 +71,9 @@ LabelledFrames ReadLabelledFrames(const std::vector<fs::path>& datasets,
         ++out.unlabelled;
         continue;
       }
-      Observation obs;
-      try {
-        obs = dataset.Load(i);
-      } catch (const DatasetError& e) {
-        throw DatasetError("frame " + std::to_string(i + 1) + ": " + e.what());
-      }
-      const Clock::time_point t0 = Clock::now();
-      try {
-        surface.Observe(obs);
-        columns.push_back(computer.Compute(surface).values());
-        surface.Reset();
-      } catch (const std::exception& e) {
-        throw DatasetError("frame " + std::to_string(i + 1) + " (" +
-                           dataset.image_path(i).string() + "): " + e.what());
-      }
-      out.descriptor_ms.push_back(Ms(Clock::now() - t0));
+      const TimedView frame = DescribeFrame(dataset, i, surface, computer);
+      columns.push_back(frame.view.descriptor.values());
+      out.descriptor_ms.push_back(frame.descriptor_ms);
       out.labels.push_back(label);
     }
   }

@@ -26,11 +26,6 @@ namespace fs = std::filesystem;
 namespace po = boost::program_options;
 using Clock = std::chrono::steady_clock;
 
-constexpr int kExitOk = 0;
-constexpr int kExitFailure = 1;
-constexpr int kExitUsage = 2;
-constexpr int kExitConfig = 78;  // EX_CONFIG of sysexits.h
-
 constexpr const char* kClassifyHelp =
     R"(usage: tsc classify train DATASET... --model FILE [--features L] [options]
        tsc classify test DATASET... --model FILE [--model FILE]... [--tau T]
@@ -215,19 +210,8 @@ void AddCommonOptions(po::options_description& desc) {
                                              po::value<std::string>()->value_name("FROM:TO:STEP"),
                                              "log2 gamma/gamma0 of the grid (default -3:3:1.5)")(
       "seed", po::value<long long>()->default_value(1)->value_name("N"),
-      "seed of the folds and of libsvm's probability fit")(
-      "config", po::value<std::string>()->value_name("F"),
-      "configuration file for bubble.* and descriptor.* (INI)")(
-      "set", po::value<std::vector<std::string>>()->composing()->value_name("KEY=VALUE"),
-      "override one configuration key (repeatable)");
-}
-
-PipelineOptions DescriptorOptions(const po::variables_map& vm) {
-  std::optional<fs::path> file;
-  if (vm.count("config")) file = vm["config"].as<std::string>();
-  std::vector<std::string> overrides;
-  if (vm.count("set")) overrides = vm["set"].as<std::vector<std::string>>();
-  return LoadSettings(file, overrides).pipeline;
+      "seed of the folds and of libsvm's probability fit");
+  AddConfigOptions(desc, "configuration file for bubble.* and descriptor.* (INI)");
 }
 
 FeatureSet Features(const std::string& name) {
@@ -242,7 +226,7 @@ int Train(const po::variables_map& vm, const Common& common) {
   const std::vector<std::string> models =
       vm.count("model") ? vm["model"].as<std::vector<std::string>>() : std::vector<std::string>{};
   if (models.size() != 1) throw UsageError("train needs exactly one --model FILE to write");
-  PipelineOptions options = DescriptorOptions(vm);
+  PipelineOptions options = SettingsFromCommandLine(vm).pipeline;
   options.features = Features(vm.count("features") ? vm["features"].as<std::string>() : "L5");
   const ClassifierOptions grid_options = GridOptions(vm);
 
@@ -356,7 +340,7 @@ int Test(const po::variables_map& vm, const Common& common) {
 
 int CrossValidate(const po::variables_map& vm, const Common& common) {
   if (vm.count("model")) throw UsageError("cv writes no model; use train");
-  const PipelineOptions base = DescriptorOptions(vm);
+  const PipelineOptions base = SettingsFromCommandLine(vm).pipeline;
   const ClassifierOptions grid_options = GridOptions(vm);
   std::vector<std::string> names;
   std::stringstream list(vm.count("features") ? vm["features"].as<std::string>()
@@ -423,18 +407,7 @@ int Classify(const std::vector<std::string>& args) {
 }  // namespace
 
 int RunClassifyCommand(const std::vector<std::string>& args) {
-  try {
-    return Classify(args);
-  } catch (const UsageError& e) {
-    std::cerr << "tsc: " << e.what() << " (try 'tsc classify --help')\n";
-    return kExitUsage;
-  } catch (const ConfigError& e) {
-    std::cerr << "tsc: " << e.what() << "\n";
-    return kExitConfig;
-  } catch (const std::exception& e) {
-    std::cerr << "tsc: " << e.what() << "\n";
-    return kExitFailure;
-  }
+  return RunReportingErrors("classify", [&] { return Classify(args); });
 }
 
 }  // namespace tsc

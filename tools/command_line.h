@@ -1,12 +1,24 @@
 #pragma once
-// What every `tsc` subcommand shares on its command line: the usage error and the parser.
+// What every `tsc` subcommand shares on its command line: the exit codes, the usage error,
+// the parser and the one place where what a subcommand throws becomes an exit code.
 
 #include <boost/program_options.hpp>
+#include <filesystem>
+#include <iostream>
+#include <optional>
 #include <stdexcept>
 #include <string>
 #include <vector>
 
+#include "daemon/settings.h"
+
 namespace tsc {
+
+/// Exit codes of every tsc subcommand (DESIGN §7.2).
+inline constexpr int kExitOk = 0;
+inline constexpr int kExitFailure = 1;
+inline constexpr int kExitUsage = 2;
+inline constexpr int kExitConfig = 78;  // EX_CONFIG of sysexits.h
 
 /// Bad command line; the message is printed after "tsc: " with a pointer to --help.
 class UsageError : public std::runtime_error {
@@ -31,6 +43,50 @@ inline boost::program_options::variables_map ParseCommandLine(
     throw UsageError(e.what());
   }
   return vm;
+}
+
+/// Adds the configuration options every pipeline subcommand takes: --config F and the
+/// repeatable --set KEY=VALUE.
+inline void AddConfigOptions(boost::program_options::options_description& desc,
+                             const char* config_help =
+                                 "configuration file (INI; 'tsc config' "
+                                 "lists the keys)") {
+  namespace po = boost::program_options;
+  desc.add_options()("config", po::value<std::string>()->value_name("F"), config_help)(
+      "set", po::value<std::vector<std::string>>()->composing()->value_name("KEY=VALUE"),
+      "override one configuration key, e.g. --set memory.tau_r=1.5 (repeatable)");
+}
+
+/// The settings those options select: defaults, then --config, then each --set in order, then
+/// `more_overrides` (so they win). Throws ConfigError naming the file or key at fault.
+inline Settings SettingsFromCommandLine(const boost::program_options::variables_map& vm,
+                                        const std::vector<std::string>& more_overrides = {}) {
+  std::optional<std::filesystem::path> file;
+  if (vm.count("config")) file = vm["config"].as<std::string>();
+  std::vector<std::string> overrides;
+  if (vm.count("set")) overrides = vm["set"].as<std::vector<std::string>>();
+  overrides.insert(overrides.end(), more_overrides.begin(), more_overrides.end());
+  return LoadSettings(file, overrides);
+}
+
+/// Runs subcommand `name` and turns what it throws into one line on stderr and an exit code:
+/// UsageError → kExitUsage (with a pointer to its --help), ConfigError → kExitConfig, any
+/// other exception → kExitFailure. Subcommands throw; only `tsc`'s dispatcher (and tests that
+/// call a subcommand directly) come through here.
+template <typename Body>
+int RunReportingErrors(const std::string& name, Body&& body) {
+  try {
+    return body();
+  } catch (const UsageError& e) {
+    std::cerr << "tsc: " << e.what() << " (try 'tsc " << name << " --help')\n";
+    return kExitUsage;
+  } catch (const ConfigError& e) {
+    std::cerr << "tsc: " << e.what() << "\n";
+    return kExitConfig;
+  } catch (const std::exception& e) {  // DatasetError, StoreError, I/O, ...
+    std::cerr << "tsc: " << e.what() << "\n";
+    return kExitFailure;
+  }
 }
 
 }  // namespace tsc

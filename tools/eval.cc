@@ -8,6 +8,7 @@
 
 #include "daemon/settings.h"
 #include "tools/events_json.h"
+#include "tools/frame_view.h"
 
 namespace tsc {
 namespace {
@@ -120,21 +121,9 @@ EvalResult Evaluate(const Dataset& dataset, const PipelineOptions& options,
   inputs.reserve(static_cast<size_t>(dataset.size()));
   std::vector<double> descriptor_ms;
   for (int i = 0; i < dataset.size(); ++i) {
-    Observation obs;
-    try {
-      obs = dataset.Load(i);
-    } catch (const DatasetError& e) {
-      throw DatasetError("frame " + std::to_string(i + 1) + ": " + e.what());
-    }
-    const Clock::time_point t0 = Clock::now();
-    try {
-      surface.Observe(obs);
-      inputs.push_back(FinishBasePoint(surface, computer));
-    } catch (const std::exception& e) {
-      throw std::runtime_error("frame " + std::to_string(i + 1) + " (" +
-                               dataset.image_path(i).string() + "): " + e.what());
-    }
-    descriptor_ms.push_back(Ms(Clock::now() - t0));
+    TimedView frame = DescribeFrame(dataset, i, surface, computer);
+    inputs.push_back(std::move(frame.view));
+    descriptor_ms.push_back(frame.descriptor_ms);
   }
 
   // The main run at the configured τ_r.

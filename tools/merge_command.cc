@@ -18,11 +18,6 @@ namespace {
 namespace fs = std::filesystem;
 namespace po = boost::program_options;
 
-constexpr int kExitOk = 0;
-constexpr int kExitFailure = 1;
-constexpr int kExitUsage = 2;
-constexpr int kExitConfig = 78;  // EX_CONFIG of sysexits.h
-
 constexpr const char* kMergeHelp =
     R"(usage: tsc merge A.db B.db --out C.db [--force] [--config F] [--set section.key=value]...
 
@@ -50,11 +45,8 @@ int Merge(const std::vector<std::string>& args) {
   po::options_description desc(kMergeHelp);
   desc.add_options()("help,h", "show this help")(
       "out", po::value<std::string>()->value_name("C.db"), "merged store to write")(
-      "force", "overwrite C.db if it exists")(
-      "config", po::value<std::string>()->value_name("F"),
-      "configuration file (INI; 'tsc config' lists the keys)")(
-      "set", po::value<std::vector<std::string>>()->composing()->value_name("KEY=VALUE"),
-      "override one configuration key, e.g. --set memory.tau_r=1.5 (repeatable)");
+      "force", "overwrite C.db if it exists");
+  AddConfigOptions(desc);
   po::options_description hidden;
   hidden.add_options()("stores", po::value<std::vector<std::string>>(), "A.db B.db");
   po::options_description all;
@@ -74,11 +66,7 @@ int Merge(const std::vector<std::string>& args) {
   if (!vm.count("out")) throw UsageError("--out C.db is required");
   const fs::path a_path = stores[0], b_path = stores[1], out = vm["out"].as<std::string>();
 
-  std::optional<fs::path> file;
-  if (vm.count("config")) file = vm["config"].as<std::string>();
-  std::vector<std::string> overrides;
-  if (vm.count("set")) overrides = vm["set"].as<std::vector<std::string>>();
-  const PipelineOptions options = LoadPipelineOptions(file, overrides);  // ConfigError → 78
+  const PipelineOptions options = SettingsFromCommandLine(vm).pipeline;  // ConfigError → 78
 
   if (fs::exists(out)) {
     if (!vm.count("force")) {
@@ -127,18 +115,7 @@ int Merge(const std::vector<std::string>& args) {
 }  // namespace
 
 int RunMergeCommand(const std::vector<std::string>& args) {
-  try {
-    return Merge(args);
-  } catch (const UsageError& e) {
-    std::cerr << "tsc: " << e.what() << " (try 'tsc merge --help')\n";
-    return kExitUsage;
-  } catch (const ConfigError& e) {
-    std::cerr << "tsc: " << e.what() << "\n";
-    return kExitConfig;
-  } catch (const std::exception& e) {
-    std::cerr << "tsc: " << e.what() << "\n";
-    return kExitFailure;
-  }
+  return RunReportingErrors("merge", [&] { return Merge(args); });
 }
 
 }  // namespace tsc

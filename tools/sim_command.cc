@@ -14,10 +14,6 @@ namespace {
 
 namespace po = boost::program_options;
 
-constexpr int kExitOk = 0;
-constexpr int kExitFailure = 1;
-constexpr int kExitUsage = 2;
-
 constexpr const char* kSimHelp =
     R"(usage: tsc sim --out DIR --seed N [--route-seed M] [--world office|corridors|outdoor]
                [--robots K] [--revisit-fraction F] [--lighting day|dim|flicker|mixed] [--depth]
@@ -132,15 +128,7 @@ int Sim(const std::vector<std::string>& args) {
 }  // namespace
 
 int RunSimCommand(const std::vector<std::string>& args) {
-  try {
-    return Sim(args);
-  } catch (const UsageError& e) {
-    std::cerr << "tsc: " << e.what() << " (try 'tsc sim --help')\n";
-    return kExitUsage;
-  } catch (const std::exception& e) {
-    std::cerr << "tsc: " << e.what() << "\n";
-    return kExitFailure;
-  }
+  return RunReportingErrors("sim", [&] { return Sim(args); });
 }
 
 }  // namespace tsc

@@ -40,9 +40,6 @@ namespace fs = std::filesystem;
 namespace po = boost::program_options;
 using Clock = std::chrono::steady_clock;
 
-constexpr int kExitOk = 0;
-constexpr int kExitFailure = 1;
-constexpr int kExitUsage = 2;
 constexpr const char* kNetnsEnv = "TSCD_TEAM_NETNS";
 constexpr const char* kLcmUrl = "udpm://239.255.76.67:7667?ttl=0";
 
@@ -468,18 +465,7 @@ int Team(const std::vector<std::string>& args) {
 }  // namespace
 
 int RunTeamCommand(const std::vector<std::string>& args) {
-  try {
-    return Team(args);
-  } catch (const UsageError& e) {
-    std::cerr << "tsc: " << e.what() << " (try 'tsc team --help')\n";
-    return kExitUsage;
-  } catch (const ConfigError& e) {
-    std::cerr << "tsc: " << e.what() << "\n";
-    return 78;
-  } catch (const std::exception& e) {
-    std::cerr << "tsc: " << e.what() << "\n";
-    return kExitFailure;
-  }
+  return RunReportingErrors("team", [&] { return Team(args); });
 }
 
 }  // namespace tsc

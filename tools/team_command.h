@@ -11,7 +11,8 @@
 namespace tsc {
 
 /// Runs `tsc team` with the arguments after the command name. Returns 0 when every robot ran
-/// and stopped cleanly, 1 on a runtime failure, 2 on a usage error. Never throws.
+/// and stopped cleanly, 1 on a runtime failure, 2 on a usage error, 78 on a configuration
+/// error. Never throws.
 int RunTeamCommand(const std::vector<std::string>& args);
 
 }  // namespace tsc

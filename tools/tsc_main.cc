@@ -23,6 +23,7 @@
 #include "tools/command_line.h"
 #include "tools/eval.h"
 #include "tools/events_json.h"
+#include "tools/frame_view.h"
 #include "tools/inspect.h"
 #include "tools/jaguar_commands.h"
 #include "tools/merge_command.h"
@@ -35,11 +36,6 @@ namespace tsc {
 namespace {
 namespace fs = std::filesystem;
 namespace po = boost::program_options;
-
-constexpr int kExitOk = 0;
-constexpr int kExitFailure = 1;
-constexpr int kExitUsage = 2;
-constexpr int kExitConfig = 78;  // EX_CONFIG of sysexits.h
 
 constexpr const char* kMainHelp =
     R"(usage: tsc <command> [options]
@@ -133,21 +129,11 @@ po::variables_map Parse(const std::vector<std::string>& args, const po::options_
   return ParseCommandLine(args, desc, positional);
 }
 
-void AddConfigOptions(po::options_description& desc) {
-  desc.add_options()("config", po::value<std::string>()->value_name("F"),
-                     "configuration file (INI; 'tsc config' lists the keys)")(
-      "set", po::value<std::vector<std::string>>()->composing()->value_name("KEY=VALUE"),
-      "override one configuration key, e.g. --set memory.tau_r=1.5 (repeatable)");
-}
-
 Settings ConfigFrom(const po::variables_map& vm) {
-  std::optional<fs::path> file;
-  if (vm.count("config")) file = vm["config"].as<std::string>();
-  std::vector<std::string> overrides;
-  if (vm.count("set")) overrides = vm["set"].as<std::vector<std::string>>();
   // --robot is robot.id, given last so it wins; checked like every other key.
-  if (vm.count("robot")) overrides.push_back("robot.id=" + vm["robot"].as<std::string>());
-  return LoadSettings(file, overrides);
+  if (vm.count("robot"))
+    return SettingsFromCommandLine(vm, {"robot.id=" + vm["robot"].as<std::string>()});
+  return SettingsFromCommandLine(vm);
 }
 
 double Median(std::vector<double> v) {
@@ -270,12 +256,7 @@ int Run(const std::vector<std::string>& args) {
     const Clock::time_point t0 = Clock::now();
     const std::string where =
         "frame " + std::to_string(i + 1) + " (" + dataset.image_path(i).string() + ")";
-    Observation obs;
-    try {
-      obs = dataset.Load(i);
-    } catch (const DatasetError& e) {  // names the file already
-      throw DatasetError("frame " + std::to_string(i + 1) + ": " + e.what());
-    }
+    const Observation obs = LoadFrame(dataset, i);
     const Clock::time_point t1 = Clock::now();
     FrameResult result;
     try {
@@ -474,11 +455,11 @@ int Main(int argc, char** argv) {
   if (command == "eval") fn = Eval;
   if (command == "inspect") fn = Inspect;
   if (command == "config") fn = Config;
-  if (command == "sim") fn = RunSimCommand;  // reports its own errors and exit codes
+  if (command == "sim") fn = RunSimCommand;
   if (command == "team") fn = RunTeamCommand;
-  if (command == "merge") fn = RunMergeCommand;        // reports its own errors and exit codes
-  if (command == "axis-sim") fn = RunAxisSimCommand;   // reports its own errors and exit codes
-  if (command == "classify") fn = RunClassifyCommand;  // reports its own errors and exit codes
+  if (command == "merge") fn = RunMergeCommand;
+  if (command == "axis-sim") fn = RunAxisSimCommand;
+  if (command == "classify") fn = RunClassifyCommand;
   if (command == "jaguar-sim") fn = RunJaguarSimCommand;
   if (command == "teleop") fn = RunTeleopCommand;
   if (fn == nullptr) {
@@ -486,18 +467,7 @@ int Main(int argc, char** argv) {
     return kExitUsage;
   }
   const std::vector<std::string> args(argv + 2, argv + argc);
-  try {
-    return fn(args);
-  } catch (const UsageError& e) {
-    std::cerr << "tsc: " << e.what() << " (try 'tsc " << command << " --help')\n";
-    return kExitUsage;
-  } catch (const ConfigError& e) {
-    std::cerr << "tsc: " << e.what() << "\n";
-    return kExitConfig;
-  } catch (const std::exception& e) {  // DatasetError, StoreError, InspectError, I/O
-    std::cerr << "tsc: " << e.what() << "\n";
-    return kExitFailure;
-  }
+  return RunReportingErrors(command, [&] { return fn(args); });
 }
 
 }  // namespace
