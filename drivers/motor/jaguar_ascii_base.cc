@@ -66,22 +66,13 @@ void JaguarAsciiBase::Stop() {
 Odometry JaguarAsciiBase::state() const {
   std::lock_guard<std::mutex> lock(mutex_);
   const DriveDemand d = gate_.At(clock_.SteadyMicros());
-  Odometry o;
-  o.utime = clock_.WallMicros();
-  o.x = odometry_.x();
-  o.y = odometry_.y();
-  o.heading = odometry_.heading();
-  o.linear_mps = odometry_.linear_mps();
-  o.angular_radps = odometry_.angular_radps();
-  o.stopped = !sent_.moving() || !link_ok_;
+  Odometry o =
+      SharedState(odometry_, sent_, link_ok_, battery_volts_, temperatures_c_, clock_.WallMicros());
   // Our own reasons first (the board reports our `!EX` as its e-stop bit a moment later).
   o.fault = !link_ok_ ? "link lost" : d.estop || board_fault_.empty() ? d.reason : board_fault_;
   if (o.fault == "stopped") o.fault.clear();
   o.left_ticks = left_ticks_;
   o.right_ticks = right_ticks_;
-  o.battery_volts = battery_volts_;
-  o.temperatures_c = temperatures_c_;
-  o.link_ok = link_ok_;
   return o;
 }
 

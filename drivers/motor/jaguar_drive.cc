@@ -123,4 +123,21 @@ void DifferentialOdometry::Update(int64_t left, int64_t right, int64_t t_us) {
   last_left_ = left, last_right_ = right, last_t_us_ = t_us;
 }
 
+Odometry SharedState(const DifferentialOdometry& odometry, const DriveDemand& sent, bool link_ok,
+                     double battery_volts, const std::vector<double>& temperatures_c,
+                     int64_t utime) {
+  Odometry o;
+  o.utime = utime;
+  o.x = odometry.x();
+  o.y = odometry.y();
+  o.heading = odometry.heading();
+  o.linear_mps = odometry.linear_mps();
+  o.angular_radps = odometry.angular_radps();
+  o.stopped = !sent.moving() || !link_ok;
+  o.battery_volts = battery_volts;
+  o.temperatures_c = temperatures_c;
+  o.link_ok = link_ok;
+  return o;
+}
+
 }  // namespace tsc

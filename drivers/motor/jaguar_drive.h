@@ -5,6 +5,7 @@
 
 #include <cstdint>
 #include <string>
+#include <vector>
 
 #include "drivers/base/motor_base.h"
 
@@ -101,5 +102,12 @@ class DifferentialOdometry {
   double x_, y_, heading_;
   double linear_ = 0.0, angular_ = 0.0;
 };
+
+/// What both drivers report alike: pose and velocities from `odometry`, stopped unless the
+/// last command sent (`sent`) moves the base over a working link, the link state and the
+/// board's battery and temperatures. The fault and the tick counts are each driver's own.
+Odometry SharedState(const DifferentialOdometry& odometry, const DriveDemand& sent, bool link_ok,
+                     double battery_volts, const std::vector<double>& temperatures_c,
+                     int64_t utime);
 
 }  // namespace tsc

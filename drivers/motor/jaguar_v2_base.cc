@@ -79,21 +79,12 @@ void JaguarV2Base::Stop() {
 Odometry JaguarV2Base::state() const {
   std::lock_guard<std::mutex> lock(mutex_);
   const DriveDemand d = gate_.At(clock_.SteadyMicros());
-  Odometry o;
-  o.utime = clock_.WallMicros();
-  o.x = odometry_.x();
-  o.y = odometry_.y();
-  o.heading = odometry_.heading();
-  o.linear_mps = odometry_.linear_mps();
-  o.angular_radps = odometry_.angular_radps();
-  o.stopped = !sent_.moving() || !link_ok_;
+  Odometry o =
+      SharedState(odometry_, sent_, link_ok_, battery_volts_, temperatures_c_, clock_.WallMicros());
   o.fault = link_ok_ ? d.reason : "link lost";
   if (o.fault == "stopped") o.fault.clear();
   o.left_ticks = left_.count() * options_.left_sign;
   o.right_ticks = right_.count() * options_.right_sign;
-  o.battery_volts = battery_volts_;
-  o.temperatures_c = temperatures_c_;
-  o.link_ok = link_ok_;
   return o;
 }
 
