@@ -15,6 +15,8 @@
 #include <iomanip>
 #include <iostream>
 #include <map>
+#include <optional>
+#include <set>
 #include <sstream>
 #include <stdexcept>
 #include <thread>
@@ -51,9 +53,11 @@ constexpr const char* kTeamHelp =
 Runs a team simulation on this host: N tscd processes (robot ids 1..N) in one private network
 namespace (`unshare -n`, multicast routed on lo only, so no packet leaves the namespace), each
 driving its own route through the simulated world generated from SEED. Shows live progress
-per robot, stops the robots cleanly after S seconds or when every route has ended, prints a
-summary per robot and writes DIR/summary.json, DIR/robot-<id>/memory.db, tscd.log and
-memory.png. --netns current runs in the caller's namespace, which must itself be private
+per robot, stops the robots cleanly after S seconds or, with --seconds 0, once every route
+has ended and the memory exchange has settled (every robot has merged every other's last
+memory), prints a summary per robot with merge correctness (DESIGN 7.1b) and whether the
+final memories are consistent (know the same places), and writes DIR/summary.json,
+DIR/robot-<id>/memory.db, tscd.log and memory.png. --netns current runs in the caller's namespace, which must itself be private
 (tests do this to listen in); it is refused when that namespace has any interface but lo.
 
 Options)";
@@ -75,6 +79,8 @@ struct RobotStats {
   int64_t merged = 0;  // "merged" events: peer places absorbed into ours
   std::string status;
   bool route_ended = false;
+  int64_t memory_version = -1;                         // from its last announce
+  std::chrono::steady_clock::time_point version_seen;  // when memory_version last changed
   // Measured from /proc just before the stop.
   double cpu_percent = 0.0;  // of one core, averaged over the run
   double peak_rss_mb = 0.0;  // VmHWM
@@ -224,7 +230,10 @@ int Team(const std::vector<std::string>& args) {
       "world", po::value<long long>()->required()->value_name("SEED"), "seed of the world")(
       "kind", po::value<std::string>()->default_value("office"), "office|corridors|outdoor")(
       "seconds", po::value<double>()->default_value(0.0)->value_name("S"),
-      "stop after S seconds (0: when every route has ended)")(
+      "stop after S seconds (0: when every route has ended and the team has settled)")(
+      "settle", po::value<double>()->default_value(60.0)->value_name("S"),
+      "with --seconds 0: after the routes end, wait up to S seconds until no memory has "
+      "changed for two broadcast periods (every robot has merged every other's last memory)")(
       "out", po::value<std::string>()->default_value("team-out")->value_name("DIR"),
       "output folder (robot state, logs, summary.json)")(
       "fps", po::value<double>()->default_value(10.0), "camera frames per second per robot")(
@@ -241,6 +250,8 @@ int Team(const std::vector<std::string>& args) {
   if (n < 1 || n > 16) throw UsageError("--robots must be in 1..16");
   const double seconds = vm["seconds"].as<double>();
   if (seconds < 0) throw UsageError("--seconds must not be negative");
+  const double settle_limit = vm["settle"].as<double>();
+  if (settle_limit < 0) throw UsageError("--settle must not be negative");
   const std::string netns = vm["netns"].as<std::string>();
   if (netns != "new" && netns != "current") throw UsageError("--netns is new or current");
 
@@ -311,6 +322,10 @@ int Team(const std::vector<std::string>& args) {
     r.detected = a->detected_places;
     r.status = a->status;
     r.route_ended = a->status.find("camera ended") != std::string::npos;
+    if (a->memory_version != r.memory_version) {
+      r.memory_version = a->memory_version;
+      r.version_seen = Clock::now();
+    }
   });
   bus.Subscribe("TSC_EVENT_.*", [&](const std::string&, const uint8_t* data, size_t size) {
     const auto e = LcmBus::Decode<place_event_t>(data, size);
@@ -335,6 +350,11 @@ int Team(const std::vector<std::string>& args) {
   const bool tty = isatty(STDOUT_FILENO) != 0;
   const auto start = Clock::now();
   auto last_print = start;
+  std::optional<Clock::time_point> settling;  // when every route had ended
+  const auto quiet = std::chrono::duration_cast<Clock::duration>(
+      std::chrono::duration<double>(2 * robot_settings.front().daemon.bus.memory_period_s + 2.0));
+  const auto settle_for =
+      std::chrono::duration_cast<Clock::duration>(std::chrono::duration<double>(settle_limit));
   for (;;) {
     bus.HandleTimeout(100);
     const double elapsed = std::chrono::duration<double>(Clock::now() - start).count();
@@ -349,7 +369,21 @@ int Team(const std::vector<std::string>& args) {
       std::cout << (tty ? "\r\033[K" : "") << ProgressLine(robots, elapsed) << (tty ? "" : "\n")
                 << std::flush;
     }
-    if (all_exited || (seconds > 0 && elapsed >= seconds) || (seconds == 0 && all_ended)) break;
+    if (all_exited || (seconds > 0 && elapsed >= seconds)) break;
+    if (seconds == 0 && all_ended) {
+      // Settling: a changed memory is broadcast within one memory period and merged on
+      // arrival, which changes the receiver's version in turn; two quiet periods (and the
+      // merge) mean every robot has merged every other's last memory.
+      if (!settling) settling = Clock::now();
+      auto last_change = *settling;
+      for (const RobotStats& r : robots) last_change = std::max(last_change, r.version_seen);
+      if (Clock::now() - last_change >= quiet) break;
+      if (Clock::now() - *settling >= settle_for) {
+        std::cout << (tty ? "\n" : "") << "tsc team: memories still changing " << settle_limit
+                  << " s after the routes ended; stopping anyway\n";
+        break;
+      }
+    }
   }
   // Let the last announces and events arrive, measure, then stop everyone.
   for (int i = 0; i < 5; ++i) bus.HandleTimeout(50);
@@ -443,10 +477,22 @@ int Team(const std::vector<std::string>& args) {
          << ",\"log\":" << JsonString((r.dir / "tscd.log").string()) << "}";
   }
   const MergeScore merge = ScoreMerges(scoring);
+  // Consistent memories (chapter 4): every robot knows the same places, as places of its own
+  // memory or as the sources they absorbed.
+  std::vector<std::set<PlaceId>> known(scoring.size());
+  for (size_t i = 0; i < scoring.size(); ++i) {
+    for (const std::vector<PlaceId>& g : scoring[i].groups) known[i].insert(g.begin(), g.end());
+  }
+  bool consistent = true;
+  for (const std::set<PlaceId>& k : known) consistent &= k == known.front();
   std::cout << "merges (DESIGN 7.1b): " << merge.merges << " pairs merged, " << merge.correct
             << " correct, " << merge.same_label_pairs
             << " pairs of places of different robots in the same room; precision "
             << JsonNumber(merge.precision) << ", recall " << JsonNumber(merge.recall) << "\n";
+  std::cout << "memories " << (consistent ? "consistent" : "NOT consistent")
+            << ": places known (own, taken or absorbed) per robot:";
+  for (size_t i = 0; i < known.size(); ++i) std::cout << " " << known[i].size();
+  std::cout << "\n";
   if (any_dropped) {
     std::cout << "  (frames were dropped: place labels from the route may be shifted)\n";
   }
@@ -454,6 +500,9 @@ int Team(const std::vector<std::string>& args) {
        << ",\"same_label_pairs\":" << merge.same_label_pairs
        << ",\"precision\":" << JsonNumber(merge.precision)
        << ",\"recall\":" << JsonNumber(merge.recall) << "}";
+  json << ",\"consistent\":" << (consistent ? "true" : "false") << ",\"known_places\":[";
+  for (size_t i = 0; i < known.size(); ++i) json << (i ? "," : "") << known[i].size();
+  json << "]";
   json << ",\"seconds\":" << JsonNumber(run_s) << ",\"fps\":" << JsonNumber(vm["fps"].as<double>())
        << "}\n";
   WriteTextFile(out / "summary.json", json.str());

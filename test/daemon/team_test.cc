@@ -40,6 +40,37 @@ class TeamTest : public ::testing::Test {
   fs::path dir_ = temp_.path();
 };
 
+// The number after "key": in a summary.json (the first occurrence); NaN when absent.
+double JsonNumberAt(const std::string& json, const std::string& key) {
+  const size_t at = json.find("\"" + key + "\":");
+  if (at == std::string::npos) return std::nan("");
+  return std::stod(json.substr(at + key.size() + 3));
+}
+
+// Every place every robot learned itself, from the robots' stores.
+std::set<PlaceId> OwnPlacesOfTheTeam(const fs::path& team, int robots) {
+  std::set<PlaceId> own;
+  for (int r = 1; r <= robots; ++r) {
+    Store store = Store::Open(team / ("robot-" + std::to_string(r)) / "memory.db");
+    for (const auto& [place, members] : store.LoadAssignments()) {
+      if (place.robot == static_cast<uint32_t>(r)) own.insert(place);
+    }
+  }
+  return own;
+}
+
+// The places robot `r` knows at the end: its memory's places and the sources they absorbed.
+std::set<PlaceId> KnownPlaces(const fs::path& team, int r) {
+  Store store = Store::Open(team / ("robot-" + std::to_string(r)) / "memory.db");
+  const StoredState saved = store.Load(static_cast<uint32_t>(r), PlaceMemoryOptions{});
+  std::set<PlaceId> known;
+  for (const LearnedPlace& p : saved.memory.places()) {
+    known.insert(p.id);
+    known.insert(p.sources.begin(), p.sources.end());
+  }
+  return known;
+}
+
 TEST_F(TeamTest, ThreeRobotsLearnAndEveryMessageDecodes) {
   TSCD_REQUIRE_PRIVATE_NETNS();
   BusListener bus;
@@ -111,6 +142,50 @@ TEST_F(TeamTest, ThreeRobotsLearnAndEveryMessageDecodes) {
     EXPECT_NE(text.find(channel), std::string::npos) << channel;
   }
   EXPECT_NE(text.find("places[0].mean="), std::string::npos);
+}
+
+// Chapter 4 on a whole run: the routes end, the exchange settles, and every robot knows every
+// place any robot learned (the three final memories are consistent); no wrong merge (DESIGN
+// 7.1b: at most 5 % wrong).
+TEST_F(TeamTest, AfterTheRoutesEveryRobotKnowsEveryPlaceAndMergesAreCorrect) {
+  TSCD_REQUIRE_PRIVATE_NETNS();
+  ChildProcess team({kBin + "/tsc", "team",
+                     "--robots",    "3",
+                     "--world",     "7",
+                     "--seconds",   "0",
+                     "--settle",    "40",
+                     "--fps",       "50",
+                     "--netns",     "current",
+                     "--out",       (dir_ / "team").string(),
+                     "--set",       "sim.width=160",
+                     "--set",       "sim.height=120",
+                     "--set",       "lcm.memory_period_s=2"},
+                    dir_ / "team.out");
+  ASSERT_EQ(team.Wait(seconds(150)), 0) << team.Log();
+  EXPECT_EQ(team.Log().find("still changing"), std::string::npos) << team.Log();
+  const std::string summary = ReadFile(dir_ / "team" / "summary.json");
+  EXPECT_NE(summary.find("\"consistent\":true"), std::string::npos) << summary;
+
+  const std::set<PlaceId> own = OwnPlacesOfTheTeam(dir_ / "team", 3);
+  ASSERT_GE(own.size(), 6u);
+  for (int r = 1; r <= 3; ++r) EXPECT_EQ(KnownPlaces(dir_ / "team", r), own) << "robot " << r;
+
+  EXPECT_GE(JsonNumberAt(summary, "precision"), 0.95) << summary;  // wrong merges <= 5 %
+}
+
+// DESIGN 7.1b merge recall >= 0.8 is NOT met yet: robots learn the same room or corridor
+// stretch from other headings, and those places lie as far apart as different rooms do
+// (docs/results.md, "Merging"). Last figure: `tsc team --robots 3 --world 5 --fps 30`
+// merges 0 of 59 same-label pairs (precision 1). Run with --gtest_also_run_disabled_tests.
+TEST_F(TeamTest, DISABLED_MergeRecallBar) {
+  TSCD_REQUIRE_PRIVATE_NETNS();
+  ChildProcess team({kBin + "/tsc", "team", "--robots", "3", "--world", "5", "--seconds", "0",
+                     "--fps", "30", "--netns", "current", "--out", (dir_ / "team").string()},
+                    dir_ / "team.out");
+  ASSERT_EQ(team.Wait(seconds(300)), 0) << team.Log();
+  const std::string summary = ReadFile(dir_ / "team" / "summary.json");
+  EXPECT_GE(JsonNumberAt(summary, "recall"), 0.8) << summary;
+  EXPECT_GE(JsonNumberAt(summary, "precision"), 0.95) << summary;
 }
 
 // With a team key every exchange message is signed: robots fetch each other's memories, and
@@ -190,8 +265,9 @@ TEST_F(TeamTest, ExchangeCompletesUnderPacketLoss) {
   ChildProcess team({kBin + "/tsc", "team",
                      "--robots",    "2",
                      "--world",     "4",
-                     "--seconds",   "20",
-                     "--fps",       "25",
+                     "--seconds",   "0",
+                     "--settle",    "60",
+                     "--fps",       "50",
                      "--netns",     "current",
                      "--out",       (dir_ / "team").string(),
                      "--set",       "sim.width=160",
@@ -199,7 +275,12 @@ TEST_F(TeamTest, ExchangeCompletesUnderPacketLoss) {
                      "--set",       "lcm.portion_bytes=4096",
                      "--set",       "lcm.memory_period_s=2"},
                     dir_ / "team.out");
-  ASSERT_EQ(team.Wait(seconds(90)), 0) << team.Log();
+  ASSERT_EQ(team.Wait(seconds(180)), 0) << team.Log();
+  // Every exchange completed: after the routes, each robot knows every place either learned,
+  // as a lossless exchange leaves it.
+  const std::set<PlaceId> own = OwnPlacesOfTheTeam(dir_ / "team", 2);
+  ASSERT_GE(own.size(), 4u);
+  for (int r = 1; r <= 2; ++r) EXPECT_EQ(KnownPlaces(dir_ / "team", r), own) << "robot " << r;
   for (int r = 1; r <= 2; ++r) {
     const std::string log = ReadFile(dir_ / "team" / ("robot-" + std::to_string(r)) / "tscd.log");
     const std::string other = std::to_string(3 - r);
