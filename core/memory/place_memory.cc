@@ -416,6 +416,12 @@ void PlaceMemory::RebuildTree(std::unordered_map<uint64_t, OneClassDiscriminant>
   }
 }
 
+std::vector<LearnedPlace> PlaceMemory::TakePlaces() && {
+  std::vector<LearnedPlace> out = std::move(places_);
+  *this = PlaceMemory(robot_, options_);
+  return out;
+}
+
 PlaceMemory PlaceMemory::Restore(uint32_t robot, PlaceMemoryOptions options,
                                  std::vector<LearnedPlace> places, Slink slink, uint32_t next_local,
                                  std::unordered_map<uint64_t, OneClassDiscriminant> saved) {

@@ -108,6 +108,11 @@ class PlaceMemory {
   Eigen::VectorXf Centroid(int node) const;
   int Depth() const;
 
+  /// Moves the places out and leaves an empty memory of the same robot and options (next
+  /// local id back to 1), so a caller rebuilding a memory from them with Restore (core/merge)
+  /// copies no descriptors.
+  std::vector<LearnedPlace> TakePlaces() &&;
+
   /// Rebuilds a memory saved earlier. Discriminants are taken from `saved` by set key where
   /// present (moved, so pass it as an rvalue to avoid a copy) and retrained otherwise. Throws
   /// std::invalid_argument on inconsistent input.

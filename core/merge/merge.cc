@@ -221,7 +221,19 @@ std::string_view ToString(MergeCase c) {
   return "?";
 }
 
-MemoryMerge MergeMemories(const PlaceMemory& ours, const PlaceMemory& peer) {
+namespace {
+
+// The places of `memory`: moved out of `owned` (the same memory, given up by the caller) when
+// there is one, copied otherwise.
+std::vector<LearnedPlace> PlacesOf(const PlaceMemory& memory, PlaceMemory* owned) {
+  if (owned != nullptr) return std::move(*owned).TakePlaces();
+  return memory.places();
+}
+
+// MergeMemories. `ours_owned` / `peer_owned` point at `ours` / `peer` when the caller gave
+// them up: their places are then moved into the result instead of copied.
+MemoryMerge Merge(const PlaceMemory& ours, const PlaceMemory& peer, PlaceMemory* ours_owned,
+                  PlaceMemory* peer_owned) {
   if (!ours.empty() && !peer.empty() &&
       ours.places().front().mean.size() != peer.places().front().mean.size()) {
     throw std::invalid_argument("cannot merge memories of descriptor dimensions " +
@@ -235,7 +247,11 @@ MemoryMerge MergeMemories(const PlaceMemory& ours, const PlaceMemory& peer) {
       (peer.places().size() == ours.places().size() && ours.robot() <= peer.robot());
   const PlaceMemory& base = peer_into_ours ? ours : peer;
   const PlaceMemory& incoming = peer_into_ours ? peer : ours;
-  const PlaceMemoryOptions& options = ours.options();
+  PlaceMemory* const base_owned = peer_into_ours ? ours_owned : peer_owned;
+  PlaceMemory* const incoming_owned = peer_into_ours ? peer_owned : ours_owned;
+  // Copies: `ours` may be given up (emptied) before the merged memory is made.
+  const PlaceMemoryOptions options = ours.options();
+  const uint32_t robot = ours.robot(), next_local = ours.next_local_id();
 
   MemoryMerge result{PlaceMemory(ours.robot(), ours.options()),
                      MergeCase::kNothingNew,
@@ -267,7 +283,7 @@ MemoryMerge MergeMemories(const PlaceMemory& ours, const PlaceMemory& peer) {
   }
   const bool anything_new = std::find(is_new.begin(), is_new.end(), 1) != is_new.end();
   if (!anything_new && peer_into_ours) {  // ours unchanged
-    result.memory = ours;
+    result.memory = ours_owned != nullptr ? std::move(*ours_owned) : ours;
     return result;
   }
 
@@ -328,120 +344,28 @@ MemoryMerge MergeMemories(const PlaceMemory& ours, const PlaceMemory& peer) {
     result.merge_case = MergeCase::kDisjoint;  // an empty base: everything is added
   }
 
-  // The merged place list: the base's places (updated by what they absorb), then the new
-  // incoming places in their order.
-  std::vector<LearnedPlace> places = base.places();
-  // When ours goes into the larger peer memory, the peer may hold copies of our places taken
-  // from an earlier snapshot of ours. Our own copy is fresher (it may have learned more since)
-  // and only ours has its members, which index our frames: take it, unless the peer has since
-  // absorbed something into its copy, in which case only the members are taken.
-  if (!result.peer_into_ours) {
-    std::unordered_map<PlaceId, const LearnedPlace*, PlaceIdHash> mine;
-    for (const LearnedPlace& p : ours.places()) mine.emplace(p.id, &p);
-    for (LearnedPlace& b : places) {
-      const auto it = mine.find(b.id);
-      if (it == mine.end()) continue;
-      const LearnedPlace& m = *it->second;
-      const bool peer_added_nothing =
-          std::includes(m.sources.begin(), m.sources.end(), b.sources.begin(), b.sources.end());
-      if (peer_added_nothing && m.member_count >= b.member_count) {
-        b = m;
-      } else if (b.members.empty()) {
-        b.members = m.members;
-        b.detected = m.detected;
-      }
-    }
-  }
-  std::vector<char> updated(places.size(), 0);
-  for (size_t i = 0; i < incoming.places().size(); ++i) {
-    if (!is_new[i]) continue;
-    const LearnedPlace& p = incoming.places()[i];
-    if (target[i] >= 0) {
-      Absorb(places[static_cast<size_t>(target[i])], p, options.max_samples_per_place);
-      updated[static_cast<size_t>(target[i])] = 1;
-      result.absorbed.push_back({p.id, places[static_cast<size_t>(target[i])].id, cost[i]});
-    }
-  }
-  // Incoming places that are neither known nor absorbed are added; when ours is the smaller
-  // memory, our own places already known to the peer are dropped (the peer's place holds them).
-  const size_t base_count = places.size();
-  // The merged place that stands for each incoming place: the base place that knew or
+  // Which merged place stands for each incoming place in the merged place list (the base's
+  // places, then the added incoming places in their order): the base place that knew or
   // absorbed it, or its own copy when added.
+  const size_t base_count = base.places().size();
   std::vector<int> merged_index(incoming.places().size(), -1);
+  std::vector<char> updated(base_count, 0);
   for (size_t i = 0; i < incoming.places().size(); ++i) {
     if (!is_new[i]) {
       merged_index[i] = known.at(incoming.places()[i].id);
     } else if (target[i] >= 0) {
       merged_index[i] = target[i];
+      updated[static_cast<size_t>(target[i])] = 1;
     } else {
-      merged_index[i] = static_cast<int>(places.size());
-      places.push_back(incoming.places()[i]);
+      merged_index[i] = static_cast<int>(base_count + result.added.size());
       result.added.push_back(incoming.places()[i].id);
     }
-  }
-  // The merged tree: single linkage over the base's SLINK tree, the incoming SLINK tree with
-  // each incoming place standing for the merged place that holds it, and cross links between
-  // the two (docs/decisions.md, "Merging"). Inserting every added place into the base's SLINK
-  // would need γ to every earlier place, |added|·|places|·dim operations.
-  Slink slink = base.slink();
-  if (places.size() > base_count) {
-    std::vector<Link> links;
-    links.reserve(places.size() * 2);
-    const Slink& bs = base.slink();
-    for (int i = 0; i + 1 < bs.size(); ++i) {
-      links.push_back({bs.lambda()[static_cast<size_t>(i)], i, bs.pi()[static_cast<size_t>(i)]});
-    }
-    // Between two base places the base's own links rule: the incoming tree links added ones.
-    const int base_end = static_cast<int>(base_count);
-    for (int i = 0; i + 1 < incoming.slink().size(); ++i) {
-      const int a = merged_index[static_cast<size_t>(i)];
-      const int b =
-          merged_index[static_cast<size_t>(incoming.slink().pi()[static_cast<size_t>(i)])];
-      if (a != b && (a >= base_end || b >= base_end)) {
-        links.push_back({incoming.slink().lambda()[static_cast<size_t>(i)], a, b});
-      }
-    }
-    bool crossed = false;
-    for (size_t i = 0; i < incoming.places().size(); ++i) {
-      if (nearest[i] < 0 || merged_index[i] < base_end) continue;
-      links.push_back({nearest_gamma[i], nearest[i], merged_index[i]});
-      crossed = true;
-    }
-    if (!crossed && base_count > 0) {
-      // Figure 4.4a/b: the trees join as wholes. The link runs between the base place nearest
-      // the incoming centroid and the added place nearest the base centroid; contained
-      // (4.4b), it joins at the base root's height so the smaller tree hangs under that root;
-      // disjoint (4.4a), no lower than either root, so it makes a new root.
-      auto nearest_to = [&places](const Eigen::VectorXf& c, size_t first, size_t end) {
-        size_t best = first;
-        double best_gamma = std::numeric_limits<double>::infinity();
-        for (size_t j = first; j < end; ++j) {
-          const double g = (places[j].mean - c).squaredNorm();
-          if (g < best_gamma) {
-            best_gamma = g;
-            best = j;
-          }
-        }
-        return best;
-      };
-      const size_t a = nearest_to(si.centroid, 0, base_count);
-      const size_t b = nearest_to(sb.centroid, base_count, places.size());
-      auto top = [](const Slink& tree) {
-        return tree.order().empty() ? 0.0 : tree.order().back().first;
-      };
-      double gamma = std::max(top(base.slink()), top(incoming.slink()));
-      if (result.merge_case == MergeCase::kDisjoint) {
-        gamma =
-            std::max(gamma, static_cast<double>((places[a].mean - places[b].mean).squaredNorm()));
-      }
-      links.push_back({gamma, static_cast<int>(a), static_cast<int>(b)});
-    }
-    slink = SingleLinkage(static_cast<int>(places.size()), std::move(links));
   }
 
   // Discriminants whose training set did not change are reused by set key: the base's nodes
   // not on the path of an updated place, and the incoming nodes all of whose places were
-  // added as they are (children precede parents in node order).
+  // added as they are (children precede parents in node order). Taken before the places are
+  // moved out of a memory given up by the caller (the copies share the trained models).
   std::unordered_map<uint64_t, OneClassDiscriminant> saved;
   auto keep = [&saved](const PlaceMemory& m, const std::vector<char>& skip) {
     for (size_t i = 0; i < m.nodes().size(); ++i) {
@@ -474,14 +398,132 @@ MemoryMerge MergeMemories(const PlaceMemory& ours, const PlaceMemory& peer) {
   std::unordered_set<uint64_t> reused_keys;
   reused_keys.reserve(saved.size());
   for (const auto& [key, unused] : saved) reused_keys.insert(key);
-  result.memory = PlaceMemory::Restore(ours.robot(), options, std::move(places), std::move(slink),
-                                       ours.next_local_id(), std::move(saved));
+  // The SLINK states are small (no descriptors): copies outlive the places' owners.
+  const Slink base_slink = base.slink(), incoming_slink = incoming.slink();
+
+  // The merged place list: the base's places (updated by what they absorb), then the added
+  // incoming places. From here on `base` and `incoming` may be empty (given up): their places
+  // are in `places` and `in`.
+  std::vector<LearnedPlace> places = PlacesOf(base, base_owned);
+  std::vector<LearnedPlace> taken;
+  if (incoming_owned != nullptr) taken = std::move(*incoming_owned).TakePlaces();
+  const std::vector<LearnedPlace>& in = incoming_owned != nullptr ? taken : incoming.places();
+  // Copies an incoming place, or moves it when the caller gave up its memory.
+  auto take = [&](size_t i) -> LearnedPlace {
+    if (incoming_owned != nullptr) return std::move(taken[i]);
+    return in[i];
+  };
+  // When ours goes into the larger peer memory, the peer may hold copies of our places taken
+  // from an earlier snapshot of ours. Our own copy is fresher (it may have learned more since)
+  // and only ours has its members, which index our frames: take it, unless the peer has since
+  // absorbed something into its copy, in which case only the members are taken.
+  if (!result.peer_into_ours) {
+    std::unordered_map<PlaceId, size_t, PlaceIdHash> mine;
+    for (size_t i = 0; i < in.size(); ++i) mine.emplace(in[i].id, i);
+    for (LearnedPlace& b : places) {
+      const auto it = mine.find(b.id);
+      if (it == mine.end()) continue;
+      const LearnedPlace& m = in[it->second];
+      const bool peer_added_nothing =
+          std::includes(m.sources.begin(), m.sources.end(), b.sources.begin(), b.sources.end());
+      if (peer_added_nothing && m.member_count >= b.member_count) {
+        b = take(it->second);  // a known place: never added below
+      } else if (b.members.empty()) {
+        b.members = m.members;
+        b.detected = m.detected;
+      }
+    }
+  }
+  for (size_t i = 0; i < in.size(); ++i) {
+    if (!is_new[i] || target[i] < 0) continue;
+    const LearnedPlace& p = in[i];
+    Absorb(places[static_cast<size_t>(target[i])], p, options.max_samples_per_place);
+    result.absorbed.push_back({p.id, places[static_cast<size_t>(target[i])].id, cost[i]});
+  }
+  // Incoming places that are neither known nor absorbed are added; when ours is the smaller
+  // memory, our own places already known to the peer are dropped (the peer's place holds them).
+  places.reserve(base_count + result.added.size());
+  for (size_t i = 0; i < in.size(); ++i) {
+    if (merged_index[i] >= static_cast<int>(base_count)) places.push_back(take(i));
+  }
+  // The merged tree: single linkage over the base's SLINK tree, the incoming SLINK tree with
+  // each incoming place standing for the merged place that holds it, and cross links between
+  // the two (docs/decisions.md, "Merging"). Inserting every added place into the base's SLINK
+  // would need γ to every earlier place, |added|·|places|·dim operations.
+  Slink slink = base_slink;
+  if (places.size() > base_count) {
+    std::vector<Link> links;
+    links.reserve(places.size() * 2);
+    const Slink& bs = base_slink;
+    for (int i = 0; i + 1 < bs.size(); ++i) {
+      links.push_back({bs.lambda()[static_cast<size_t>(i)], i, bs.pi()[static_cast<size_t>(i)]});
+    }
+    // Between two base places the base's own links rule: the incoming tree links added ones.
+    const int base_end = static_cast<int>(base_count);
+    for (int i = 0; i + 1 < incoming_slink.size(); ++i) {
+      const int a = merged_index[static_cast<size_t>(i)];
+      const int b = merged_index[static_cast<size_t>(incoming_slink.pi()[static_cast<size_t>(i)])];
+      if (a != b && (a >= base_end || b >= base_end)) {
+        links.push_back({incoming_slink.lambda()[static_cast<size_t>(i)], a, b});
+      }
+    }
+    bool crossed = false;
+    for (size_t i = 0; i < in.size(); ++i) {
+      if (nearest[i] < 0 || merged_index[i] < base_end) continue;
+      links.push_back({nearest_gamma[i], nearest[i], merged_index[i]});
+      crossed = true;
+    }
+    if (!crossed && base_count > 0) {
+      // Figure 4.4a/b: the trees join as wholes. The link runs between the base place nearest
+      // the incoming centroid and the added place nearest the base centroid; contained
+      // (4.4b), it joins at the base root's height so the smaller tree hangs under that root;
+      // disjoint (4.4a), no lower than either root, so it makes a new root.
+      auto nearest_to = [&places](const Eigen::VectorXf& c, size_t first, size_t end) {
+        size_t best = first;
+        double best_gamma = std::numeric_limits<double>::infinity();
+        for (size_t j = first; j < end; ++j) {
+          const double g = (places[j].mean - c).squaredNorm();
+          if (g < best_gamma) {
+            best_gamma = g;
+            best = j;
+          }
+        }
+        return best;
+      };
+      const size_t a = nearest_to(si.centroid, 0, base_count);
+      const size_t b = nearest_to(sb.centroid, base_count, places.size());
+      auto top = [](const Slink& tree) {
+        return tree.order().empty() ? 0.0 : tree.order().back().first;
+      };
+      double gamma = std::max(top(base_slink), top(incoming_slink));
+      if (result.merge_case == MergeCase::kDisjoint) {
+        gamma =
+            std::max(gamma, static_cast<double>((places[a].mean - places[b].mean).squaredNorm()));
+      }
+      links.push_back({gamma, static_cast<int>(a), static_cast<int>(b)});
+    }
+    slink = SingleLinkage(static_cast<int>(places.size()), std::move(links));
+  }
+
+  result.memory = PlaceMemory::Restore(robot, options, std::move(places), std::move(slink),
+                                       next_local, std::move(saved));
   // Count the non-root nodes whose key was not among the reusable discriminants.
   for (size_t i = 0; i < result.memory.nodes().size(); ++i) {
     if (static_cast<int>(i) == result.memory.root()) continue;
     if (!reused_keys.contains(result.memory.nodes()[i].set_key)) ++result.retrained;
   }
   return result;
+}
+
+}  // namespace
+
+MemoryMerge MergeMemories(const PlaceMemory& ours, const PlaceMemory& peer) {
+  return Merge(ours, peer, nullptr, nullptr);
+}
+
+MemoryMerge MergeMemories(PlaceMemory&& ours, PlaceMemory&& peer) {
+  if (&ours == &peer) return Merge(ours, peer, nullptr, nullptr);
+  return Merge(ours, peer, &ours, &peer);
 }
 
 Slink SingleLinkage(int n, std::vector<Link> links) {

@@ -99,6 +99,11 @@ Slink SingleLinkage(int n, std::vector<Link> links);
 /// state again changes nothing. Both memories must have the same descriptor dimension
 /// (std::invalid_argument).
 MemoryMerge MergeMemories(const PlaceMemory& ours, const PlaceMemory& peer);
+/// The same merge for a caller that gives up both memories (a daemon replacing its memory by
+/// the merge, a peer's snapshot): their places are moved into the result instead of copied
+/// (at 10⁴ + 10⁴ places the copies were about a third of the merge). Same result as the
+/// copying form; the inputs are left valid but unspecified (their places moved out).
+MemoryMerge MergeMemories(PlaceMemory&& ours, PlaceMemory&& peer);
 
 /// G^m + G^n of §4.6 over the merged memory: every place id (own or absorbed) is replaced by
 /// the merged place that holds it, edges are the union with traversal counts added, and

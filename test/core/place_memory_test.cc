@@ -5,6 +5,7 @@
 #include <algorithm>
 #include <limits>
 #include <random>
+#include <string>
 
 namespace tsc {
 namespace {
@@ -213,6 +214,69 @@ TEST_F(PlaceMemoryTest, LearningAfterUpdateAndRestoreMatchesTheOriginal) {
     nearest = std::min<double>(nearest, (dut_.places()[p].mean - mean).squaredNorm());
   const auto& lambda = dut_.slink().lambda();
   EXPECT_NE(std::find(lambda.begin(), lambda.end(), nearest), lambda.end());
+}
+
+// Learning is incremental: SLINK insertion, the tree rebuilt with the discriminants and
+// centroid sums of unchanged place sets kept, only new sets trained. On random data, with
+// updates in between, it equals a memory rebuilt from scratch (Restore with nothing saved
+// trains every node) from the same places and SLINK state: same tree, same discriminants,
+// centroids equal up to float rounding (sums kept across learns add in another order).
+TEST(PlaceMemoryLearning, IncrementalLearningEqualsRebuildingFromScratch) {
+  std::mt19937 rng(5);
+  std::uniform_real_distribution<float> u(0.0f, 1.0f);
+  std::normal_distribution<float> jitter(0.0f, 0.08f);
+  std::vector<Eigen::VectorXf> sites;
+  for (int s = 0; s < 9; ++s) {
+    Eigen::VectorXf c(kDim);
+    for (int i = 0; i < kDim; ++i) c[i] = u(rng);
+    sites.push_back(c);
+  }
+  PlaceMemoryOptions o;
+  o.gamma_unit = 1.0;
+  o.discriminant.max_training = 24;  // small caps so that large nodes subsample
+  o.max_samples_per_place = 4;
+  PlaceMemory dut(1, o);
+  std::uniform_int_distribution<int> site(0, 8);
+  int checks = 0;
+  for (int p = 0; p < 160; ++p) {
+    Eigen::VectorXf centre = sites[static_cast<size_t>(site(rng))];
+    for (int i = 0; i < kDim; ++i) centre[i] += jitter(rng);
+    dut.Learn(MakePlace(static_cast<DetectedPlaceIndex>(p + 1), centre, rng, 6, 0.02f));
+    if (p % 7 == 3) {  // a revisit of an earlier place
+      const int q = std::uniform_int_distribution<int>(0, p)(rng);
+      dut.Update(q, MakePlace(1000 + p, dut.places()[static_cast<size_t>(q)].mean, rng, 5, 0.02f));
+    }
+    if (p > 3 && p % 13 != 0) continue;
+    ++checks;
+    const PlaceMemory ref =
+        PlaceMemory::Restore(1, o, dut.places(), dut.slink(), dut.next_local_id(), {});
+    SCOPED_TRACE("after place " + std::to_string(p));
+    ASSERT_EQ(dut.nodes().size(), ref.nodes().size());
+    EXPECT_EQ(dut.leaf_order(), ref.leaf_order());
+    EXPECT_EQ(dut.root(), ref.root());
+    for (size_t n = 0; n < ref.nodes().size(); ++n) {
+      const MemoryNode &a = dut.nodes()[n], &b = ref.nodes()[n];
+      EXPECT_EQ(a.parent, b.parent) << n;
+      EXPECT_EQ(a.children, b.children) << n;
+      EXPECT_EQ(a.place, b.place) << n;
+      EXPECT_EQ(a.height, b.height) << n;
+      EXPECT_EQ(a.set_key, b.set_key) << n;
+      EXPECT_EQ(a.first_leaf, b.first_leaf) << n;
+      EXPECT_EQ(a.end_leaf, b.end_leaf) << n;
+      EXPECT_TRUE(
+          dut.Centroid(static_cast<int>(n)).isApprox(ref.Centroid(static_cast<int>(n)), 1e-5f))
+          << n;
+      const OneClassDiscriminant &da = dut.discriminants()[n], &db = ref.discriminants()[n];
+      ASSERT_EQ(da.trained(), db.trained()) << n;
+      if (!db.trained()) continue;
+      EXPECT_EQ(da.rho(), db.rho()) << n;
+      EXPECT_EQ(da.gamma(), db.gamma()) << n;
+      EXPECT_EQ(da.coef(), db.coef()) << n;
+      EXPECT_EQ(da.support(), db.support()) << n;
+    }
+  }
+  EXPECT_GE(checks, 14);
+  EXPECT_GT(dut.Depth(), 2);  // the data gives the tree inner levels, not a flat root
 }
 
 TEST(OneClassDiscriminant, AcceptsTrainingCloudAndRejectsFarPoints) {
