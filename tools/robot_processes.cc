@@ -134,12 +134,16 @@ ProcessSample SampleProcess(pid_t pid) {
   }
   s.cpu_s = (utime + stime) / static_cast<double>(sysconf(_SC_CLK_TCK));
   std::ifstream status("/proc/" + std::to_string(pid) + "/status");
+  bool has_rss = false;  // a process that died since its stat was read has no VmRSS
   for (std::string line; std::getline(status, line);) {
-    if (line.rfind("VmRSS:", 0) == 0) s.rss_mb = std::stod(line.substr(6)) / 1024.0;
+    if (line.rfind("VmRSS:", 0) == 0) {
+      s.rss_mb = std::stod(line.substr(6)) / 1024.0;
+      has_rss = true;
+    }
     if (line.rfind("VmHWM:", 0) == 0) s.peak_rss_mb = std::stod(line.substr(6)) / 1024.0;
     if (line.rfind("Threads:", 0) == 0) s.threads = std::stoi(line.substr(8));
   }
-  s.alive = true;
+  s.alive = has_rss;
   return s;
 }
 

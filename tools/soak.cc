@@ -82,6 +82,19 @@ double WithinGroupSlope(const std::map<int, std::vector<std::pair<double, double
   return den > 0 ? num / den : 0.0;
 }
 
+// True when a robot other than `robot` published a new memory (another version, or a new
+// process) between t0 and t1.
+bool PeersChanged(const std::vector<SoakSample>& samples, int robot, double t0, double t1) {
+  std::map<int, std::pair<int, int64_t>> first;  // robot → (life, memory version)
+  for (const SoakSample& s : samples) {
+    if (s.robot == robot || s.t_s < t0 || s.t_s > t1 || !s.alive || s.stats_age_s < 0) continue;
+    const std::pair<int, int64_t> now{s.life, s.memory_version};
+    auto [it, fresh] = first.try_emplace(s.robot, now);
+    if (!fresh && it->second != now) return true;
+  }
+  return false;
+}
+
 }  // namespace
 
 std::string SoakCsvHeader() {
@@ -265,7 +278,8 @@ SoakVerdict AnalyseSoak(const std::vector<SoakSample>& samples,
     std::map<int, const SoakSample*> last_of_life;
     std::map<int, std::pair<double, double>> life_span;  // first, last t while alive
     std::map<int, int64_t> life_merges;
-    std::map<int, std::vector<std::pair<double, double>>> rss_by_life, places_by_life;
+    std::map<int, std::vector<std::pair<double, double>>> rss_by_life, places_by_life,
+        rss_by_places;
     std::vector<double> middle, late;
     double cpu_sum = 0.0;
     int cpu_n = 0;
@@ -301,6 +315,7 @@ SoakVerdict AnalyseSoak(const std::vector<SoakSample>& samples,
       f.places_max = std::max(f.places_max, s->places);
       rss_by_life[s->life].emplace_back(s->t_s, s->rss_mb);
       places_by_life[s->life].emplace_back(s->t_s, static_cast<double>(s->places));
+      rss_by_places[s->life].emplace_back(static_cast<double>(s->places), s->rss_mb);
       if (s->t_s >= d / 3 && s->t_s <= 2 * d / 3) middle.push_back(s->rss_mb);
       if (s->t_s >= d * 5 / 6) late.push_back(s->rss_mb);
     }
@@ -308,6 +323,7 @@ SoakVerdict AnalyseSoak(const std::vector<SoakSample>& samples,
     f.cpu_percent_mean = cpu_n > 0 ? cpu_sum / cpu_n : 0.0;
     f.rss_slope_mb_per_min = 60.0 * WithinGroupSlope(rss_by_life);
     f.places_slope_per_min = 60.0 * WithinGroupSlope(places_by_life);
+    f.rss_mb_per_place = WithinGroupSlope(rss_by_places);
     f.rss_middle_median_mb = Median(middle);
     f.rss_late_median_mb = Median(late);
     double sent_bytes = 0, received_bytes = 0;
@@ -331,12 +347,16 @@ SoakVerdict AnalyseSoak(const std::vector<SoakSample>& samples,
       f.sent_kb_per_s = sent_bytes / 1024.0 / d;
       f.received_kb_per_s = received_bytes / 1024.0 / d;
     }
-    // A life that began with a restart and lasted long enough to fetch a peer's memory.
+    // A life that began with a restart and lasted long enough to fetch a peer's memory must
+    // have merged one, unless no peer had anything new for it: a robot fetches a memory only
+    // when its digest differs from the one it merged last (kept in its store).
     for (const auto& [life, span] : life_span) {
       if (life == 0 || span.second - span.first < 2 * options.life_warmup_s) continue;
       ++v.lives_after_restart;
       if (life_merges[life] > 0) {
         ++v.lives_after_restart_merged;
+      } else if (!PeersChanged(samples, robot, span.first + options.life_warmup_s, span.second)) {
+        ++v.lives_after_restart_idle;
       } else {
         problem(name + ": no merge completed in its life " + std::to_string(life) + " (" +
                 Num(span.first, 0) + "–" + Num(span.second, 0) + " s) after a restart");
@@ -384,7 +404,8 @@ std::string SoakVerdictJson(const SoakVerdict& v) {
     << ",\"restarts\":" << v.restarts << ",\"kills\":" << v.kills
     << ",\"unexpected_exits\":" << v.unexpected_exits
     << ",\"lives_after_restart\":" << v.lives_after_restart
-    << ",\"lives_after_restart_merged\":" << v.lives_after_restart_merged << ",\"problems\":[";
+    << ",\"lives_after_restart_merged\":" << v.lives_after_restart_merged
+    << ",\"lives_after_restart_idle\":" << v.lives_after_restart_idle << ",\"problems\":[";
   for (size_t i = 0; i < v.problems.size(); ++i) {
     j << (i ? "," : "") << JsonString(v.problems[i]);
   }
@@ -403,9 +424,9 @@ std::string SoakVerdictJson(const SoakVerdict& v) {
       << ",\"places_first\":" << f.places_first << ",\"places_last\":" << f.places_last
       << ",\"places_max\":" << f.places_max
       << ",\"places_slope_per_min\":" << JsonNumber(f.places_slope_per_min)
-      << ",\"frames\":" << f.frames << ",\"merges\":" << f.merges
-      << ",\"merges_changed\":" << f.merges_changed << ",\"merges_failed\":" << f.merges_failed
-      << ",\"max_queue_frames\":" << f.max_queue_frames
+      << ",\"rss_mb_per_place\":" << JsonNumber(f.rss_mb_per_place) << ",\"frames\":" << f.frames
+      << ",\"merges\":" << f.merges << ",\"merges_changed\":" << f.merges_changed
+      << ",\"merges_failed\":" << f.merges_failed << ",\"max_queue_frames\":" << f.max_queue_frames
       << ",\"max_merge_inbox\":" << f.max_merge_inbox
       << ",\"max_pending_commits\":" << f.max_pending_commits << ",\"max_peers\":" << f.max_peers
       << ",\"max_merged_peers\":" << f.max_merged_peers
@@ -429,7 +450,8 @@ std::string SoakVerdictText(const SoakVerdict& v) {
   o << "soak: " << Num(v.duration_s, 0) << " s, " << v.restarts << " restarts (" << v.kills
     << " by SIGKILL), " << v.unexpected_exits << " unexpected exits; "
     << v.lives_after_restart_merged << " of " << v.lives_after_restart
-    << " restarted lives completed a merge\n";
+    << " restarted lives completed a merge (" << v.lives_after_restart_idle
+    << " more had no new peer memory to merge)\n";
   o << "robot lives samples  rss first  last   max  slope MB/min  cpu%  places first last  "
        "merges  msg/s sent recv  KB/s sent recv\n";
   for (const SoakRobotFigures& f : v.robots) {

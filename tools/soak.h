@@ -108,7 +108,10 @@ struct SoakRobotFigures {
   double cpu_percent_mean = 0.0;  ///< over the rows with the process alive
   int64_t places_first = 0, places_last = 0, places_max = 0;
   double places_slope_per_min = 0.0;  ///< as the RSS slope
-  int64_t merges = 0;                 ///< completed over all lives
+  /// Slope of RSS over the place count within each life after the warm-ups, MB per place:
+  /// what a learned place costs when the place count grows.
+  double rss_mb_per_place = 0.0;
+  int64_t merges = 0;  ///< completed over all lives
   int64_t merges_changed = 0;
   int64_t merges_failed = 0;
   int64_t frames = 0;  ///< over all lives
@@ -130,6 +133,7 @@ struct SoakVerdict {
   int unexpected_exits = 0;
   int lives_after_restart = 0;         ///< lives that began with a restart and lasted
   int lives_after_restart_merged = 0;  ///< … and completed a merge
+  int lives_after_restart_idle = 0;    ///< … and had no new peer memory to merge
 };
 
 /// Judges a soak from its records. `team_size` robots 1..team_size are expected; a robot with

@@ -41,12 +41,12 @@ constexpr double kDownS = 1.0;        // a stopped robot starts again this much 
 constexpr const char* kSoakHelp =
     R"(usage: tsc soak [--robots N] [--world SEED] [--kind office|corridors|outdoor]
                 [--minutes M | --seconds S] [--loss PERCENT] [--restart-every R]
-                [--kill-fraction F] [--seed N] [--fps F] [--out DIR] [--set KEY=VALUE]...
+                [--kill-fraction F] [--seed N] [--fps F] [--loop] [--out DIR] [--set KEY=VALUE]...
                 [--netns new|current] [--max-rss-slope MB_PER_MIN] [--max-late-growth F]
        tsc soak --replot DIR [--robots N] [...check options]
 
-A soak and load run: N tscd robots (ids 1..N) on the simulated world, each looping its route,
-in a private network namespace (only lo, multicast on lo: no packet leaves it) where nftables
+A soak and load run: N tscd robots (ids 1..N) on the simulated world, each driving its route
+once per process life (--loop: again and again), in a private network namespace (only lo, multicast on lo: no packet leaves it) where nftables
 drops PERCENT % of all UDP datagrams. Every R seconds a random robot is stopped (SIGTERM, or
 SIGKILL with probability F) and started again from its state database. Every second it
 records per robot the resident set and CPU (/proc) and the daemon's counters (TSC_STATS_<id>:
@@ -198,6 +198,7 @@ int Soak(const std::vector<std::string>& args) {
       "share of restarts by SIGKILL instead of SIGTERM")(
       "seed", po::value<unsigned>()->default_value(1), "seed of the restart schedule")(
       "fps", po::value<double>()->default_value(10.0), "camera frames per second per robot")(
+      "loop", "drive the routes again and again (load) instead of once per process life")(
       "out", po::value<std::string>()->default_value("soak-out")->value_name("DIR"),
       "output folder (soak.csv, restarts.csv, soak.json, soak.png, robot-<id>/)")(
       "set", po::value<std::vector<std::string>>()->composing()->value_name("KEY=VALUE"),
@@ -251,7 +252,7 @@ int Soak(const std::vector<std::string>& args) {
   fps << vm["fps"].as<double>();
   std::vector<std::string> overrides = {
       "camera.source=sim",
-      "camera.loop=true",
+      std::string("camera.loop=") + (vm.count("loop") ? "true" : "false"),
       "lcm.url=" + std::string(kLcmUrl),
       "sim.world_seed=" + std::to_string(vm["world"].as<long long>()),
       "sim.world=" + vm["kind"].as<std::string>(),

@@ -205,7 +205,8 @@ cv::Mat DrawSoak(const std::vector<SoakSample>& samples, const std::vector<SoakR
 
   // Team message rates per family: counter increments between consecutive samples of one
   // process, summed over robots in 10 s bins.
-  const size_t bins = static_cast<size_t>(std::ceil(t_max / kBinS)) + 1;
+  // Whole bins only: a last, partial bin would show a rate that fell.
+  const size_t bins = static_cast<size_t>(std::floor(t_max / kBinS)) + 1;
   std::vector<std::vector<double>> sent(kSoakFamilies.size(), std::vector<double>(bins, 0.0));
   std::vector<double> received(bins, 0.0);
   std::map<int, const SoakSample*> previous;
@@ -215,6 +216,7 @@ cv::Mat DrawSoak(const std::vector<SoakSample>& samples, const std::vector<SoakR
     previous[x.robot] = &x;
     if (p == nullptr || p->life != x.life) continue;
     const size_t bin = static_cast<size_t>(x.t_s / kBinS);
+    if (bin + 1 >= bins) continue;
     for (size_t k = 0; k < kSoakFamilies.size(); ++k) {
       sent[k][bin] += static_cast<double>(x.traffic[k].sent - p->traffic[k].sent);
       received[bin] += static_cast<double>(x.traffic[k].received - p->traffic[k].received);
@@ -263,7 +265,7 @@ void WriteSoakPlot(const std::vector<SoakSample>& samples, const std::vector<Soa
   const cv::Mat img = DrawSoak(samples, restarts, team_size);
   bool ok = false;
   try {
-    ok = cv::imwrite(file.string(), img);
+    ok = cv::imwrite(file.string(), img, {cv::IMWRITE_PNG_COMPRESSION, 9});
   } catch (const cv::Exception& e) {
     throw std::runtime_error(file.string() + ": cannot write PNG: " + e.what());
   }
