@@ -326,7 +326,6 @@ int Soak(const std::vector<std::string>& args) {
   const auto start = Clock::now();
   auto next_sample = start + std::chrono::seconds(1);
   double next_restart = every > 0 ? every : duration + 1;
-  int restart_count = 0;
   for (;;) {
     bus.HandleTimeout(50);
     const auto now = Clock::now();
@@ -375,7 +374,6 @@ int Soak(const std::vector<std::string>& args) {
         r.state_since = now;
         restarts.push_back({t, r.id, kill9 ? "KILL" : "TERM", 0, 0.0});
         r.restart = restarts.size() - 1;
-        ++restart_count;
         std::cout << "  " << static_cast<int>(t) << " s: restarting robot " << r.id << " (SIG"
                   << (kill9 ? "KILL" : "TERM") << ")" << std::endl;
       }

@@ -111,7 +111,8 @@ void DrawPanel(cv::Mat& img, const cv::Rect& area, const std::string& title,
       const cv::Point2d& a = s.points[i - 1];
       const cv::Point2d& b = s.points[i];
       if (!std::isfinite(a.y) || !std::isfinite(b.y)) continue;
-      cv::line(img, px(a.x, a.y), px(b.x, b.y), s.colour, 2, cv::LINE_AA);
+      // Aliased: a few colours keep the PNG small (docs/img), and 2 px lines read well.
+      cv::line(img, px(a.x, a.y), px(b.x, b.y), s.colour, 2, cv::LINE_8);
     }
   }
   cv::rectangle(img, plot, kAxis, 1);
