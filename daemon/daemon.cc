@@ -19,6 +19,7 @@
 #include "tsc/announce_t.hpp"
 #include "tsc/memory_request_t.hpp"
 #include "tsc/place_event_t.hpp"
+#include "tsc/stats_t.hpp"
 
 namespace tsc {
 namespace fs = std::filesystem;
@@ -90,6 +91,22 @@ std::string Describe(const PlaceEvent& e) {
 }
 
 }  // namespace
+
+const char* ChannelFamilyName(ChannelFamily family) {
+  switch (family) {
+    case ChannelFamily::kAnnounce:
+      return "TSC_ANNOUNCE";
+    case ChannelFamily::kMemory:
+      return "TSC_MEMORY";
+    case ChannelFamily::kRequest:
+      return "TSC_REQUEST";
+    case ChannelFamily::kEvent:
+      return "TSC_EVENT";
+    case ChannelFamily::kStats:
+      return "TSC_STATS";
+  }
+  return "?";
+}
 
 struct Daemon::Loop {
   explicit Loop(asio::io_context& io)
@@ -241,11 +258,34 @@ std::optional<T> Daemon::Authentic(const std::string& channel, const uint8_t* da
 }
 
 template <typename T>
-bool Daemon::PublishSigned(const std::string& channel, T msg) {
+bool Daemon::PublishSigned(ChannelFamily family, const std::string& channel, T msg) {
   if (team_key_) {
     SignMessage(*team_key_, msg, [](const T& m) { return LcmBus::Encode(m); });
   }
-  return bus_.Publish(channel, msg);
+  return PublishCounted(family, channel, msg);
+}
+
+template <typename T>
+bool Daemon::PublishCounted(ChannelFamily family, const std::string& channel, const T& msg) {
+  const std::vector<uint8_t> bytes = LcmBus::Encode(msg);
+  if (!bus_.PublishRaw(channel, bytes)) return false;
+  ChannelTraffic& t = traffic_[static_cast<size_t>(family)];
+  ++t.sent;
+  t.sent_bytes += static_cast<int64_t>(bytes.size());
+  return true;
+}
+
+void Daemon::PublishFailed(const std::string& channel) {
+  // A packet filter that drops datagrams makes every such send fail (EPERM): log the first
+  // and then one in a hundred, so a lossy network cannot fill the journal.
+  const int64_t n = ++counters_.publish_failures;
+  if (ShouldLog(n)) spdlog::warn("LCM: cannot publish on {} ({} failed sends so far)", channel, n);
+}
+
+void Daemon::CountReceived(ChannelFamily family, size_t bytes) {
+  ChannelTraffic& t = traffic_[static_cast<size_t>(family)];
+  ++t.received;
+  t.received_bytes += static_cast<int64_t>(bytes);
 }
 
 void Daemon::OnExchangeTimer() {
@@ -254,7 +294,7 @@ void Daemon::OnExchangeTimer() {
     spdlog::debug("asking robot {} for {} portions of version {}", r.robot,
                   r.missing.empty() ? std::string("all") : std::to_string(r.missing.size()),
                   r.version);
-    PublishSigned("TSC_REQUEST_" + std::to_string(r.robot), r);
+    PublishSigned(ChannelFamily::kRequest, "TSC_REQUEST_" + std::to_string(r.robot), r);
   }
   loop_->exchange.expires_after(std::chrono::milliseconds(100));
   loop_->exchange.async_wait([this](const boost::system::error_code& ec) {
@@ -266,6 +306,7 @@ void Daemon::OnPeerPortion(const std::string& channel, const uint8_t* data, size
   if (channel == "TSC_MEMORY_" + std::to_string(robot_)) return;  // our own, looped back
   auto portion = Authentic<memory_portion_t>(channel, data, size, "memory portion");
   if (!portion) return;
+  CountReceived(ChannelFamily::kMemory, size);
   const int64_t rejected_before = exchange_.rejected_portions();
   std::optional<PeerSnapshot> snap = exchange_.OnPortion(*portion, PeerExchange::Clock::now());
   if (exchange_.rejected_portions() > rejected_before) {
@@ -282,6 +323,7 @@ void Daemon::OnPeerSnapshot(PeerSnapshot snapshot) {
                snapshot.robot, snapshot.version, snapshot.places.size(), snapshot.edges.size());
   // Not fetched again while its content stays the same; forgotten again if the merge fails.
   exchange_.MarkMerged(snapshot.robot, {snapshot.version, snapshot.digest});
+  ++counters_.snapshots_received;
   std::lock_guard lock(inbox_mutex_);
   merge_inbox_.push_back(std::move(snapshot));
 }
@@ -300,7 +342,9 @@ void Daemon::PublishMerged(std::vector<std::pair<PlaceId, PlaceId>> absorbed, in
     m.has_from = true;
     m.from = Ref(source);
     m.transition_first = m.transition_last = -1;
-    if (!bus_.Publish(channel, m)) spdlog::warn("LCM: cannot publish on {}", channel);
+    if (!PublishCounted(ChannelFamily::kEvent, channel, m)) {
+      PublishFailed(channel);
+    }
   }
 }
 
@@ -322,7 +366,7 @@ void Daemon::OnMotorTimer() {
   m.stopped = odo.stopped;
   m.fault = odo.fault;
   const std::string channel = "JAGUAR_STATE_" + std::to_string(robot_);
-  if (!bus_.Publish(channel, m)) spdlog::warn("LCM: cannot publish on {}", channel);
+  if (!bus_.Publish(channel, m)) PublishFailed(channel);
   loop_->motor.expires_after(std::chrono::milliseconds(100));
   loop_->motor.async_wait([this](const boost::system::error_code& ec) {
     if (!ec) OnMotorTimer();
@@ -373,12 +417,64 @@ void Daemon::OnAnnounceTimer() {
   a.queue_fill = static_cast<float>(queue_.fill());
   a.status = StatusLine();
   a.hmac_size = 0;
-  if (!PublishSigned("TSC_ANNOUNCE", a)) spdlog::warn("LCM: cannot publish TSC_ANNOUNCE");
+  if (!PublishSigned(ChannelFamily::kAnnounce, "TSC_ANNOUNCE", a)) {
+    PublishFailed("TSC_ANNOUNCE");
+  }
+  PublishStats(a.utime);
   const auto period = std::chrono::duration<double>(settings_.daemon.bus.announce_period_s);
   loop_->announce.expires_after(std::chrono::duration_cast<Clock::duration>(period));
   loop_->announce.async_wait([this](const boost::system::error_code& ec) {
     if (!ec) OnAnnounceTimer();
   });
+}
+
+void Daemon::PublishStats(int64_t utime) {
+  stats_t s{};
+  s.utime = utime;
+  s.robot = static_cast<int32_t>(robot_);
+  s.boot_id = boot_id_;
+  s.uptime_s = std::chrono::duration<double>(Clock::now() - started_).count();
+  s.frames = counters_.frames;
+  s.frames_dropped = queue_.dropped();
+  s.places = counters_.places;
+  s.edges = counters_.edges;
+  s.memory_version = snapshot_ ? snapshot_->version : 0;
+  s.snapshots_received = counters_.snapshots_received;
+  s.merges_completed = counters_.merges_completed;
+  s.merges_changed = counters_.merges_changed;
+  s.merges_failed = counters_.merges_failed;
+  s.exchanges_given_up = exchange_.given_up();
+  s.messages_rejected = counters_.messages_rejected;
+  s.publish_failures = counters_.publish_failures;
+  s.queue_frames = static_cast<int32_t>(queue_.size());
+  {
+    std::lock_guard lock(inbox_mutex_);
+    s.merge_inbox = static_cast<int32_t>(merge_inbox_.size());
+  }
+  s.pending_commits = counters_.pending_commits;
+  s.peers = static_cast<int32_t>(exchange_.peers());
+  s.merged_peers = static_cast<int32_t>(exchange_.merged_peers());
+  s.buffered_portions = static_cast<int32_t>(exchange_.buffered_portions());
+  // The stats message counts itself: it is sent right after.
+  ChannelTraffic& own = traffic_[static_cast<size_t>(ChannelFamily::kStats)];
+  ++own.sent;
+  for (int f = 0; f < kChannelFamilies; ++f) {
+    const ChannelTraffic& t = traffic_[static_cast<size_t>(f)];
+    s.channel.push_back(ChannelFamilyName(static_cast<ChannelFamily>(f)));
+    s.sent.push_back(t.sent);
+    s.sent_bytes.push_back(t.sent_bytes);
+    s.received.push_back(t.received);
+    s.received_bytes.push_back(t.received_bytes);
+  }
+  s.num_channels = static_cast<int16_t>(kChannelFamilies);
+  const std::vector<uint8_t> bytes = LcmBus::Encode(s);
+  const std::string channel = "TSC_STATS_" + std::to_string(robot_);
+  if (bus_.PublishRaw(channel, bytes)) {
+    own.sent_bytes += static_cast<int64_t>(bytes.size());
+  } else {
+    --own.sent;
+    PublishFailed(channel);
+  }
 }
 
 void Daemon::OnStatusTimer() {
@@ -486,6 +582,7 @@ void Daemon::OnRequest(const std::string& channel, const uint8_t* data, size_t s
     if (ShouldLog(n)) spdlog::warn("{}: dropped a request for robot {}", channel, req->robot);
     return;
   }
+  CountReceived(ChannelFamily::kRequest, size);
   const bool rebuilt = RefreshSnapshot();
   std::vector<int32_t> indices;
   if (!rebuilt && req->version == snapshot_->version) {
@@ -507,6 +604,7 @@ void Daemon::OnRequest(const std::string& channel, const uint8_t* data, size_t s
 void Daemon::OnPeerAnnounce(const std::string& channel, const uint8_t* data, size_t size) {
   const auto a = Authentic<announce_t>(channel, data, size, "announce");
   if (!a || a->robot == static_cast<int32_t>(robot_)) return;
+  CountReceived(ChannelFamily::kAnnounce, size);
   if (!exchange_.OnAnnounce(*a, PeerExchange::Clock::now())) {
     const int64_t n = ++counters_.messages_rejected;
     if (ShouldLog(n)) {
@@ -521,8 +619,8 @@ void Daemon::PublishEvents(const std::vector<PlaceEvent>& events, int64_t utime)
   for (const PlaceEvent& e : events) {
     const auto level = e.kind == EventKind::kPruned ? spdlog::level::debug : spdlog::level::info;
     spdlog::log(level, "{}", Describe(e));
-    if (!bus_.Publish(channel, ToMessage(e, robot_, utime))) {
-      spdlog::warn("LCM: cannot publish on {}", channel);
+    if (!PublishCounted(ChannelFamily::kEvent, channel, ToMessage(e, robot_, utime))) {
+      PublishFailed(channel);
     }
   }
 }
@@ -548,8 +646,9 @@ void Daemon::PublishMemoryIfChanged() {
 void Daemon::PublishPortions(const std::vector<int32_t>& indices) {
   const std::string channel = "TSC_MEMORY_" + std::to_string(robot_);
   for (int32_t i : indices) {
-    if (!PublishSigned(channel, snapshot_->portions[static_cast<size_t>(i)])) {
-      spdlog::warn("LCM: cannot publish portion {} on {}", i, channel);
+    if (!PublishSigned(ChannelFamily::kMemory, channel,
+                       snapshot_->portions[static_cast<size_t>(i)])) {
+      PublishFailed(channel);
     }
   }
 }
@@ -662,8 +761,10 @@ void Daemon::MergePeers() {
   for (const PeerSnapshot& s : inbox) {
     try {
       MergePeer(s);
+      ++counters_.merges_completed;
     } catch (const std::exception& e) {
       ++counters_.messages_rejected;
+      ++counters_.merges_failed;
       spdlog::error("merging the memory of robot {} (version {}) failed: {}", s.robot, s.version,
                     e.what());
       asio::post(*io_, [this, robot = s.robot] { exchange_.Forget(robot); });
@@ -705,7 +806,10 @@ void Daemon::MergePeer(const PeerSnapshot& snapshot) {
   unsaved_merge_ = PeerMerge{static_cast<uint32_t>(snapshot.robot), snapshot.version,
                              snapshot.digest, NowUtime()};
   RetryStore();
-  if (changed) ++counters_.memory_version;
+  if (changed) {
+    ++counters_.memory_version;
+    ++counters_.merges_changed;
+  }
   const double ms = std::chrono::duration<double, std::milli>(Clock::now() - start).count();
   spdlog::log(changed ? spdlog::level::info : spdlog::level::debug,
               "merged the memory of robot {} (version {}, {}): case {}, {} places absorbed, {} "
@@ -720,6 +824,7 @@ void Daemon::MergePeer(const PeerSnapshot& snapshot) {
 
 void Daemon::CommitOrKeep(FrameResult result) {
   pending_.push_back(std::move(result));
+  counters_.pending_commits = static_cast<int32_t>(pending_.size());
   RetryStore();
 }
 
@@ -764,6 +869,7 @@ void Daemon::RetryStore() {
     degraded_store_ = true;
   }
   pending_.erase(pending_.begin(), pending_.begin() + static_cast<std::ptrdiff_t>(done));
+  counters_.pending_commits = static_cast<int32_t>(pending_.size());
 }
 
 }  // namespace tsc

@@ -5,6 +5,7 @@
 //   - the pipeline worker: runs the TSC loop and commits every result to SQLite.
 // The worker hands events to the loop, which alone talks to LCM.
 
+#include <array>
 #include <atomic>
 #include <chrono>
 #include <cstdint>
@@ -50,6 +51,27 @@ struct DaemonCounters {
   std::atomic<int32_t> places{0};
   std::atomic<int32_t> edges{0};
   std::atomic<int32_t> detected_places{0};
+  // Peer exchange and merging (chapter 4).
+  std::atomic<int64_t> snapshots_received{0};  ///< complete, checked peer memories
+  std::atomic<int64_t> merges_completed{0};    ///< merged, or found to bring nothing new
+  std::atomic<int64_t> merges_changed{0};      ///< merges that changed our memory
+  std::atomic<int64_t> merges_failed{0};       ///< merges that threw; the peer is fetched again
+  std::atomic<int32_t> pending_commits{0};     ///< results not yet in the store
+  std::atomic<int64_t> publish_failures{0};    ///< sends LCM refused (socket error, filter)
+};
+
+/// The channel families tscd publishes on, for its traffic counters (TSC_STATS_<robot>).
+enum class ChannelFamily { kAnnounce, kMemory, kRequest, kEvent, kStats };
+inline constexpr int kChannelFamilies = 5;
+/// "TSC_ANNOUNCE", "TSC_MEMORY", … (the channel without its robot suffix).
+const char* ChannelFamilyName(ChannelFamily family);
+
+/// Messages and bytes sent and received on one channel family.
+struct ChannelTraffic {
+  int64_t sent = 0;
+  int64_t sent_bytes = 0;
+  int64_t received = 0;  ///< authentic messages of other robots
+  int64_t received_bytes = 0;
 };
 
 class Daemon {
@@ -99,7 +121,13 @@ class Daemon {
   std::optional<T> Authentic(const std::string& channel, const uint8_t* data, size_t size,
                              const char* what);
   template <typename T>
-  bool PublishSigned(const std::string& channel, T msg);
+  bool PublishSigned(ChannelFamily family, const std::string& channel, T msg);
+  /// Publishes and counts the message in its family's traffic.
+  template <typename T>
+  bool PublishCounted(ChannelFamily family, const std::string& channel, const T& msg);
+  void CountReceived(ChannelFamily family, size_t bytes);
+  void PublishFailed(const std::string& channel);
+  void PublishStats(int64_t utime);
   void PublishEvents(const std::vector<PlaceEvent>& events, int64_t utime);
   /// Rebuilds the snapshot when the memory changed since; true when it did.
   bool RefreshSnapshot();
@@ -158,6 +186,8 @@ class Daemon {
   std::shared_ptr<const MemorySnapshot> snapshot_;  // loop thread only
   std::chrono::steady_clock::time_point last_memory_broadcast_{};
   int64_t announces_sent_ = 0;
+  std::array<ChannelTraffic, kChannelFamilies> traffic_{};  // loop thread only
+  const std::chrono::steady_clock::time_point started_ = std::chrono::steady_clock::now();
   int64_t last_rejected_logged_ = 0;
 
   std::thread camera_thread_;

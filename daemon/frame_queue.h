@@ -61,6 +61,11 @@ class FrameQueue {
     return dropped_;
   }
   /// Occupancy in [0, 1].
+  /// Frames waiting now.
+  size_t size() const {
+    std::lock_guard lock(mutex_);
+    return frames_.size();
+  }
   double fill() const {
     std::lock_guard lock(mutex_);
     return static_cast<double>(frames_.size()) / static_cast<double>(capacity_);

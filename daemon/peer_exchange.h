@@ -56,6 +56,12 @@ class PeerExchange {
   int64_t rejected_portions() const { return rejected_portions_; }
   int64_t given_up() const { return given_up_; }
   const std::string& last_rejection() const { return last_rejection_; }
+  /// Peers heard from within the peer timeout (or being fetched).
+  size_t peers() const { return peers_.size(); }
+  /// Peers whose merged memory version is remembered.
+  size_t merged_peers() const { return merged_.size(); }
+  /// Portions of the memory being fetched held until it completes.
+  size_t buffered_portions() const { return assembler_ ? assembler_->buffered() : 0; }
 
  private:
   struct Peer {

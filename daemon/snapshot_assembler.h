@@ -53,6 +53,8 @@ class SnapshotAssembler {
   int64_t version() const { return version_; }
   /// Portion indices not received yet (all of them before the first portion).
   std::vector<int32_t> Missing() const;
+  /// Portions kept so far.
+  size_t buffered() const { return portions_.size(); }
   bool complete() const { return started() && portions_.size() == static_cast<size_t>(count_); }
   /// The snapshot, once complete: the portions joined in order and checked as a whole (digest,
   /// place ranges, node indices, edge places). nullopt with `reason` set when inconsistent;

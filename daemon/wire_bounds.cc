@@ -8,6 +8,7 @@
 #include "tsc/memory_portion_t.hpp"
 #include "tsc/memory_request_t.hpp"
 #include "tsc/place_event_t.hpp"
+#include "tsc/stats_t.hpp"
 
 namespace tsc {
 namespace {
@@ -131,6 +132,18 @@ bool ArrayLengthsFit<place_event_t>(const uint8_t* data, size_t size) {
   WireWalker w(data, size);
   w.Skip(kHash + 8 + 4 + 8);
   w.String();  // event
+  return w.ok();
+}
+
+template <>
+bool ArrayLengthsFit<stats_t>(const uint8_t* data, size_t size) {
+  WireWalker w(data, size);
+  // utime … publish_failures (16 fields), then the six queue sizes.
+  w.Skip(kHash + 8 + 4 + 8 + 8 + 8 + 8 + 4 + 4 + 8 * 8 + 4 * 6);
+  const int64_t channels = w.Length(2);
+  if (w.Fits(channels))
+    for (int64_t i = 0; i < channels && w.ok(); ++i) w.String();
+  for (int column = 0; column < 4; ++column) w.Array(channels, 8);  // sent … received_bytes
   return w.ok();
 }
 

@@ -19,6 +19,7 @@ class announce_t;
 class memory_portion_t;
 class memory_request_t;
 class place_event_t;
+class stats_t;
 
 /// True when every array and string length in the encoding `data[0, size)` of T is
 /// non-negative and claims no more elements than there are bytes left after it (every element
@@ -36,6 +37,8 @@ template <>
 bool ArrayLengthsFit<memory_request_t>(const uint8_t* data, size_t size);
 template <>
 bool ArrayLengthsFit<place_event_t>(const uint8_t* data, size_t size);
+template <>
+bool ArrayLengthsFit<stats_t>(const uint8_t* data, size_t size);
 template <>
 bool ArrayLengthsFit<jaguar::motor_command_t>(const uint8_t* data, size_t size);
 template <>

@@ -1,8 +1,5 @@
 #include "tools/team_command.h"
 
-#include <fcntl.h>
-#include <spawn.h>
-#include <sys/wait.h>
 #include <unistd.h>
 
 #include <boost/program_options.hpp>
@@ -29,11 +26,10 @@
 #include "tools/command_line.h"
 #include "tools/events_json.h"
 #include "tools/inspect.h"
+#include "tools/robot_processes.h"
 #include "tools/scoring.h"
 #include "tsc/announce_t.hpp"
 #include "tsc/place_event_t.hpp"
-
-extern char** environ;
 
 namespace tsc {
 namespace {
@@ -86,111 +82,21 @@ struct RobotStats {
   double peak_rss_mb = 0.0;  // VmHWM
 };
 
-// CPU time (user + system) of `pid` as a share of one core over `elapsed_s`, and its peak
+// CPU time (user + system) of the robot as a share of one core over `elapsed_s`, and its peak
 // resident set in MB, from /proc.
 void MeasureProcess(RobotStats& r, double elapsed_s) {
-  std::ifstream stat("/proc/" + std::to_string(r.pid) + "/stat");
-  std::string text((std::istreambuf_iterator<char>(stat)), std::istreambuf_iterator<char>());
-  const size_t paren = text.rfind(')');
-  if (paren != std::string::npos && elapsed_s > 0) {
-    std::istringstream fields(text.substr(paren + 2));
-    std::string f;
-    double utime = 0, stime = 0;
-    for (int i = 3; fields >> f; ++i) {  // field 3 is the state; 14 utime, 15 stime (ticks)
-      if (i == 14) utime = std::stod(f);
-      if (i == 15) {
-        stime = std::stod(f);
-        break;
-      }
-    }
-    r.cpu_percent = 100.0 * (utime + stime) / static_cast<double>(sysconf(_SC_CLK_TCK)) / elapsed_s;
-  }
-  std::ifstream status("/proc/" + std::to_string(r.pid) + "/status");
-  for (std::string line; std::getline(status, line);) {
-    if (line.rfind("VmHWM:", 0) == 0) r.peak_rss_mb = std::stod(line.substr(6)) / 1024.0;
-  }
-}
-
-// Runs a program (no shell) and waits for it. Returns its exit status, or -1 if it could not
-// start.
-int RunProgram(const std::vector<std::string>& argv) {
-  std::vector<char*> args;
-  for (const std::string& a : argv) args.push_back(const_cast<char*>(a.c_str()));
-  args.push_back(nullptr);
-  pid_t pid = -1;
-  if (posix_spawnp(&pid, args[0], nullptr, nullptr, args.data(), environ) != 0) return -1;
-  int status = 0;
-  if (waitpid(pid, &status, 0) < 0) return -1;
-  return WIFEXITED(status) ? WEXITSTATUS(status) : 128 + WTERMSIG(status);
-}
-
-// True when this network namespace has an interface other than lo, i.e. multicast could
-// leave the host. /proc/self/net/dev lists the interfaces of the caller's namespace.
-bool HasNonLoopbackInterface() {
-  std::ifstream dev("/proc/self/net/dev");
-  if (!dev) return true;
-  std::string line;
-  for (int i = 0; std::getline(dev, line); ++i) {
-    if (i < 2) continue;  // two header lines
-    const size_t colon = line.find(':');
-    if (colon == std::string::npos) continue;
-    std::string name = line.substr(0, colon);
-    name.erase(0, name.find_first_not_of(' '));
-    if (name != "lo") return true;
-  }
-  return false;
-}
-
-// Re-executes this command inside a new network namespace. Returns only on failure.
-int ReexecInNewNamespace(const std::vector<std::string>& args) {
-  std::vector<std::string> argv = {"unshare", getuid() == 0 ? "-n" : "-rn", "--",
-                                   fs::read_symlink("/proc/self/exe").string(), "team"};
-  argv.insert(argv.end(), args.begin(), args.end());
-  std::vector<char*> raw;
-  for (const std::string& a : argv) raw.push_back(const_cast<char*>(a.c_str()));
-  raw.push_back(nullptr);
-  setenv(kNetnsEnv, "1", 1);
-  execvp("unshare", raw.data());
-  std::cerr << "tsc: cannot run unshare to create a private network namespace: "
-            << std::strerror(errno) << "\n";
-  return kExitFailure;
-}
-
-// Host-local multicast inside the private namespace: lo up, multicast on, 224.0.0.0/4 on lo.
-void SetUpLoopbackMulticast() {
-  if (RunProgram({"ip", "link", "set", "lo", "up"}) != 0 ||
-      RunProgram({"ip", "link", "set", "lo", "multicast", "on"}) != 0) {
-    throw std::runtime_error("cannot bring up lo with multicast in the private namespace (ip)");
-  }
-  // "File exists" when a caller already added it: fine.
-  RunProgram({"ip", "route", "add", "224.0.0.0/4", "dev", "lo"});
-}
-
-pid_t SpawnRobot(const fs::path& tscd, const std::vector<std::string>& argv, const fs::path& log) {
-  posix_spawn_file_actions_t actions;
-  posix_spawn_file_actions_init(&actions);
-  posix_spawn_file_actions_addopen(&actions, STDOUT_FILENO, log.c_str(),
-                                   O_WRONLY | O_CREAT | O_APPEND, 0644);
-  posix_spawn_file_actions_adddup2(&actions, STDOUT_FILENO, STDERR_FILENO);
-  std::vector<char*> raw;
-  for (const std::string& a : argv) raw.push_back(const_cast<char*>(a.c_str()));
-  raw.push_back(nullptr);
-  pid_t pid = -1;
-  const int rc = posix_spawn(&pid, tscd.c_str(), &actions, nullptr, raw.data(), environ);
-  posix_spawn_file_actions_destroy(&actions);
-  if (rc != 0) {
-    throw std::runtime_error("cannot start " + tscd.string() + ": " + std::strerror(rc));
-  }
-  return pid;
+  const ProcessSample p = SampleProcess(r.pid);
+  if (!p.alive) return;
+  if (elapsed_s > 0) r.cpu_percent = 100.0 * p.cpu_s / elapsed_s;
+  r.peak_rss_mb = p.peak_rss_mb;
 }
 
 void Reap(RobotStats& r, bool block) {
   if (r.exited || r.pid < 0) return;
-  int status = 0;
-  const pid_t got = waitpid(r.pid, &status, block ? 0 : WNOHANG);
-  if (got == r.pid) {
+  const ChildExit e = ReapChild(r.pid, block);
+  if (e.exited) {
     r.exited = true;
-    r.exit_status = WIFEXITED(status) ? WEXITSTATUS(status) : 128 + WTERMSIG(status);
+    r.exit_status = e.status;
   }
 }
 
@@ -255,7 +161,8 @@ int Team(const std::vector<std::string>& args) {
   const std::string netns = vm["netns"].as<std::string>();
   if (netns != "new" && netns != "current") throw UsageError("--netns is new or current");
 
-  if (netns == "new" && std::getenv(kNetnsEnv) == nullptr) return ReexecInNewNamespace(args);
+  if (netns == "new" && std::getenv(kNetnsEnv) == nullptr)
+    return ReexecInNewNamespace("team", args, kNetnsEnv);
   if (HasNonLoopbackInterface()) {
     std::cerr << "tsc: refusing to run the team in a network namespace with interfaces other "
                  "than lo (its multicast could leave this host); use --netns new\n";
@@ -342,7 +249,7 @@ int Team(const std::vector<std::string>& args) {
     argv.insert(argv.end(), common.begin(), common.end());
     argv.push_back("--set");
     argv.push_back("sim.route=" + std::to_string(r.id - 1));
-    r.pid = SpawnRobot(tscd, argv, r.dir / "tscd.log");
+    r.pid = SpawnProcess(tscd, argv, r.dir / "tscd.log");
   }
   std::cout << "tsc team: " << n << " robots in world " << vm["world"].as<long long>() << " ("
             << vm["kind"].as<std::string>() << "), output in " << out.string() << "\n";

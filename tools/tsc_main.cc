@@ -30,6 +30,7 @@
 #include "tools/plots.h"
 #include "tools/progress.h"
 #include "tools/sim_command.h"
+#include "tools/soak_command.h"
 #include "tools/team_command.h"
 
 namespace tsc {
@@ -48,6 +49,8 @@ Topological spatial cognition, offline. Commands:
   config   print the configuration keys with units, ranges and values as an INI file
   sim      write a simulated dataset (frames and ground truth) from a generated world
   team     run N tscd robots in a private network namespace on the simulated world
+  soak     soak and load: a team under packet loss and restarts for minutes; RSS, CPU,
+           merges and message rates to soak.csv and soak.png; judges growth
   merge    merge two robots' stores (place memories and maps) into a new store
   axis-sim a simulated Axis PTZ camera (VAPIX MJPEG and PTZ over HTTP) on 127.0.0.1
   classify supervised place classification (chapter 2): train, test or cross-validate a
@@ -457,6 +460,7 @@ int Main(int argc, char** argv) {
   if (command == "config") fn = Config;
   if (command == "sim") fn = RunSimCommand;
   if (command == "team") fn = RunTeamCommand;
+  if (command == "soak") fn = RunSoakCommand;
   if (command == "merge") fn = RunMergeCommand;
   if (command == "axis-sim") fn = RunAxisSimCommand;
   if (command == "classify") fn = RunClassifyCommand;

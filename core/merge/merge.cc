@@ -595,9 +595,15 @@ TopologicalMap MergeMaps(const TopologicalMap& ours, const TopologicalMap& peer,
     auto it = holder.find(id);
     return it == holder.end() ? id : it->second;
   };
-  std::map<std::pair<PlaceId, PlaceId>, MapEdge> edges;
+  using Edges = std::map<std::pair<PlaceId, PlaceId>, MapEdge>;
   std::set<PlaceId> places;
-  auto add = [&](const TopologicalMap& map, bool keep_transitions) {
+  // Within one map, edges that collapse onto one pair are distinct transitions: their counts
+  // add up. Between the two maps they are not: memories travel back and forth, so the peer's
+  // map already holds the counts it took from ours, and adding them would double every count
+  // on each exchange (the soak saw them overflow int64 within minutes). The larger count wins:
+  // idempotent, commutative, and never more than was traversed.
+  auto collapse = [&](const TopologicalMap& map, bool keep_transitions) {
+    Edges edges;
     for (PlaceId p : map.places()) places.insert(resolve(p));
     for (const auto& [unused, e] : map.edges()) {
       PlaceId a = resolve(e.a), b = resolve(e.b);
@@ -609,9 +615,13 @@ TopologicalMap MergeMaps(const TopologicalMap& ours, const TopologicalMap& peer,
         out.transitions.insert(out.transitions.end(), e.transitions.begin(), e.transitions.end());
       }
     }
+    return edges;
   };
-  add(ours, true);
-  add(peer, false);
+  Edges edges = collapse(ours, true);
+  for (auto& [key, e] : collapse(peer, false)) {
+    auto [it, fresh] = edges.try_emplace(key, std::move(e));
+    if (!fresh) it->second.traversals = std::max(it->second.traversals, e.traversals);
+  }
   TopologicalMap out;
   for (PlaceId p : places) out.AddPlace(p);
   for (auto& [unused, e] : edges) out.RestoreEdge(std::move(e));

@@ -500,6 +500,26 @@ TEST(MergeMaps, AbsorbedNodesCollapseOntoTheirTarget) {
   EXPECT_EQ(dut.Find({1, 4}, {1, 4}), nullptr);
 }
 
+// Memories travel back and forth: merging the peer's map, which already holds our edges, must
+// not add our counts again (they doubled on every exchange and overflowed in the soak).
+TEST(MergeMaps, MergingBackAndForthKeepsTraversalCounts) {
+  const PlaceMemory a = MakeMemory(1, {At(0), At(1.5f), At(3)}, 10);
+  TopologicalMap ga;
+  ga.RecordTransition({1, 1}, {1, 2}, TransitionRegion{10, 12});
+  ga.RecordTransition({1, 2}, {1, 1}, TransitionRegion{20, 22});
+  ga.RecordTransition({1, 2}, {1, 3}, TransitionRegion{30, 32});
+  TopologicalMap mine = ga;
+  TopologicalMap theirs = ga;  // the peer has merged ours before
+  for (int round = 0; round < 100; ++round) {
+    mine = MergeMaps(mine, theirs, a);
+    theirs = MergeMaps(theirs, mine, a);
+  }
+  ASSERT_NE(mine.Find({1, 1}, {1, 2}), nullptr);
+  EXPECT_EQ(mine.Find({1, 1}, {1, 2})->traversals, 2);
+  EXPECT_EQ(theirs.Find({1, 2}, {1, 3})->traversals, 1);
+  EXPECT_EQ(mine.Find({1, 1}, {1, 2})->transitions.size(), 2u);
+}
+
 }  // namespace
 }  // namespace tsc
 

@@ -20,6 +20,7 @@
 #include "tsc/memory_portion_t.hpp"
 #include "tsc/memory_request_t.hpp"
 #include "tsc/place_event_t.hpp"
+#include "tsc/stats_t.hpp"
 
 namespace tsc::testing_support {
 
@@ -68,6 +69,7 @@ class BusListener {
   std::map<std::string, std::vector<place_event_t>> events;
   std::map<std::string, std::vector<memory_portion_t>> portions;
   std::map<std::string, std::vector<memory_request_t>> requests;
+  std::map<std::string, std::vector<stats_t>> stats;
   std::map<std::string, int> undecodable;  ///< messages on a tsc channel that did not decode
   std::map<std::string, int> received;     ///< every message by channel
 
@@ -97,6 +99,8 @@ class BusListener {
       ok = Decode(rbuf, channel, portions);
     } else if (channel.rfind("TSC_REQUEST_", 0) == 0) {
       ok = Decode(rbuf, channel, requests);
+    } else if (channel.rfind("TSC_STATS_", 0) == 0) {
+      ok = Decode(rbuf, channel, stats);
     }
     if (!ok) ++undecodable[channel];
   }

@@ -18,12 +18,11 @@
 #include <cstdio>
 #include <cstdlib>
 #include <filesystem>
+#include <lcm/lcm-cpp.hpp>
 #include <string>
 #include <string_view>
 #include <thread>
 #include <vector>
-
-#include <lcm/lcm-cpp.hpp>
 
 #include "jaguar/motor_command_t.hpp"
 #include "jaguar/motor_state_t.hpp"
@@ -35,6 +34,7 @@
 #include "tsc/memory_request_t.hpp"
 #include "tsc/place_event_t.hpp"
 #include "tsc/place_ref_t.hpp"
+#include "tsc/stats_t.hpp"
 
 namespace {
 
@@ -200,6 +200,25 @@ jaguar::motor_state_t State() {
   return m;
 }
 
+tsc::stats_t Stats(int32_t robot) {
+  tsc::stats_t m{};
+  m.utime = kUtime + 7;
+  m.robot = robot;
+  m.boot_id = 123456789012345;
+  m.uptime_s = 61.5;
+  m.frames = 1000;
+  m.places = 2;
+  m.merges_completed = 9;
+  m.buffered_portions = 3;
+  m.channel = {"TSC_ANNOUNCE", "TSC_MEMORY"};
+  m.sent = {60, 12};
+  m.sent_bytes = {9000, 120000};
+  m.received = {240, 40};
+  m.received_bytes = {36000, 400000};
+  m.num_channels = static_cast<int16_t>(m.channel.size());
+  return m;
+}
+
 /// Publishes `message` on `channel`; false (with a message) when LCM refuses.
 template <typename Message>
 bool Publish(lcm::LCM& bus, const std::string& channel, const Message& message) {
@@ -224,8 +243,8 @@ bool PublishAll(lcm::LCM& bus, int32_t robot) {
          Publish(bus, "TSC_EVENT_" + id, Event(robot)) &&
          Publish(bus, "TSC_MEMORY_" + id, Portion(robot)) &&
          Publish(bus, "TSC_REQUEST_" + id, Request(robot)) &&
-         Publish(bus, "JAGUAR_CMD_" + id, Command()) &&
-         Publish(bus, "JAGUAR_STATE_" + id, State());
+         Publish(bus, "TSC_STATS_" + id, Stats(robot)) &&
+         Publish(bus, "JAGUAR_CMD_" + id, Command()) && Publish(bus, "JAGUAR_STATE_" + id, State());
 }
 
 bool PublishGarbage(lcm::LCM& bus, int32_t robot) {
@@ -294,8 +313,8 @@ int main(int argc, char** argv) {
     return options.garbage ? PublishGarbage(bus, options.robot) : PublishAll(bus, options.robot);
   };
   if (options.repeat_seconds <= 0.0) return publish() ? 0 : 1;
-  const auto end = std::chrono::steady_clock::now() +
-                   std::chrono::duration<double>(options.repeat_seconds);
+  const auto end =
+      std::chrono::steady_clock::now() + std::chrono::duration<double>(options.repeat_seconds);
   while (std::chrono::steady_clock::now() < end) {
     if (!publish()) return 1;
     std::this_thread::sleep_for(std::chrono::milliseconds(200));

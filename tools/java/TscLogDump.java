@@ -9,6 +9,7 @@
 //   TSC_ANNOUNCE      tsc.announce_t         TSC_REQUEST_<robot>  tsc.memory_request_t
 //   TSC_EVENT_<robot> tsc.place_event_t      JAGUAR_CMD_<robot>   jaguar.motor_command_t
 //   TSC_MEMORY_<robot> tsc.memory_portion_t  JAGUAR_STATE_<robot> jaguar.motor_state_t
+//   TSC_STATS_<robot> tsc.stats_t
 //
 // Other channels print as "<log utime> <channel> - <n> bytes" and are not an error. An event
 // on a TSC_* or JAGUAR_* channel that does not decode (unknown channel, fingerprint mismatch,
@@ -56,6 +57,7 @@ public final class TscLogDump {
     new Route("TSC_EVENT_", true, tsc.place_event_t.class),
     new Route("TSC_MEMORY_", true, tsc.memory_portion_t.class),
     new Route("TSC_REQUEST_", true, tsc.memory_request_t.class),
+    new Route("TSC_STATS_", true, tsc.stats_t.class),
     new Route("JAGUAR_CMD_", true, jaguar.motor_command_t.class),
     new Route("JAGUAR_STATE_", true, jaguar.motor_state_t.class),
   };

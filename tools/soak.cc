@@ -1,0 +1,477 @@
+#include "tools/soak.h"
+
+#include <algorithm>
+#include <cmath>
+#include <fstream>
+#include <iomanip>
+#include <set>
+#include <sstream>
+#include <stdexcept>
+
+#include "tools/events_json.h"
+
+namespace tsc {
+namespace fs = std::filesystem;
+
+namespace {
+
+// The fixed columns of soak.csv before the traffic columns, in SoakSample's order.
+constexpr const char* kFixedColumns =
+    "t_s,robot,life,pid,alive,life_s,rss_mb,cpu_percent,stats_age_s,frames,frames_dropped,"
+    "places,edges,memory_version,snapshots_received,merges_completed,merges_changed,"
+    "merges_failed,exchanges_given_up,messages_rejected,publish_failures,queue_frames,"
+    "merge_inbox,"
+    "pending_commits,peers,merged_peers,buffered_portions";
+constexpr size_t kFixedCount = 27;
+constexpr size_t kTrafficColumns = 4;  // sent, received, sent_bytes, received_bytes
+
+std::string Num(double v, int decimals) {
+  std::ostringstream s;
+  s << std::fixed << std::setprecision(decimals) << v;
+  return s.str();
+}
+
+std::vector<std::string> SplitCsv(const std::string& line) {
+  std::vector<std::string> out;
+  std::string cell;
+  std::istringstream in(line);
+  while (std::getline(in, cell, ',')) out.push_back(cell);
+  if (!line.empty() && line.back() == ',') out.emplace_back();
+  return out;
+}
+
+double ParseNumber(const std::string& cell, const fs::path& file, int line, const char* column) {
+  try {
+    size_t used = 0;
+    const double v = std::stod(cell, &used);
+    if (used == cell.size() && std::isfinite(v)) return v;
+  } catch (const std::exception&) {
+  }
+  throw std::runtime_error(file.string() + ":" + std::to_string(line) + ": column " + column +
+                           ": not a number: '" + cell + "'");
+}
+
+double Median(std::vector<double> v) {
+  if (v.empty()) return 0.0;
+  const size_t mid = v.size() / 2;
+  std::nth_element(v.begin(), v.begin() + static_cast<std::ptrdiff_t>(mid), v.end());
+  const double upper = v[mid];
+  if (v.size() % 2 == 1) return upper;
+  return (*std::max_element(v.begin(), v.begin() + static_cast<std::ptrdiff_t>(mid)) + upper) / 2;
+}
+
+// Slope of y over t with one intercept per group (a fixed-effects least-squares fit): the
+// common growth rate within groups, ignoring the level each group starts at. 0 without
+// spread in t.
+double WithinGroupSlope(const std::map<int, std::vector<std::pair<double, double>>>& groups) {
+  double num = 0.0, den = 0.0;
+  for (const auto& [group, points] : groups) {
+    if (points.size() < 3) continue;
+    double mt = 0.0, my = 0.0;
+    for (const auto& [t, y] : points) {
+      mt += t;
+      my += y;
+    }
+    mt /= static_cast<double>(points.size());
+    my /= static_cast<double>(points.size());
+    for (const auto& [t, y] : points) {
+      num += (t - mt) * (y - my);
+      den += (t - mt) * (t - mt);
+    }
+  }
+  return den > 0 ? num / den : 0.0;
+}
+
+// True when a robot other than `robot` published a new memory (another version, or a new
+// process) between t0 and t1.
+bool PeersChanged(const std::vector<SoakSample>& samples, int robot, double t0, double t1) {
+  std::map<int, std::pair<int, int64_t>> first;  // robot → (life, memory version)
+  for (const SoakSample& s : samples) {
+    if (s.robot == robot || s.t_s < t0 || s.t_s > t1 || !s.alive || s.stats_age_s < 0) continue;
+    const std::pair<int, int64_t> now{s.life, s.memory_version};
+    auto [it, fresh] = first.try_emplace(s.robot, now);
+    if (!fresh && it->second != now) return true;
+  }
+  return false;
+}
+
+}  // namespace
+
+std::string SoakCsvHeader() {
+  std::string h = kFixedColumns;
+  for (const char* f : kSoakFamilies) {
+    const std::string p = f;
+    h += "," + p + "_sent," + p + "_received," + p + "_sent_bytes," + p + "_received_bytes";
+  }
+  return h;
+}
+
+std::string SoakCsvRow(const SoakSample& s) {
+  std::ostringstream o;
+  o << Num(s.t_s, 3) << ',' << s.robot << ',' << s.life << ',' << s.pid << ',' << (s.alive ? 1 : 0)
+    << ',' << Num(s.life_s, 3) << ',' << Num(s.rss_mb, 3) << ',' << Num(s.cpu_percent, 2) << ','
+    << Num(s.stats_age_s, 3) << ',' << s.frames << ',' << s.frames_dropped << ',' << s.places << ','
+    << s.edges << ',' << s.memory_version << ',' << s.snapshots_received << ','
+    << s.merges_completed << ',' << s.merges_changed << ',' << s.merges_failed << ','
+    << s.exchanges_given_up << ',' << s.messages_rejected << ',' << s.publish_failures << ','
+    << s.queue_frames << ',' << s.merge_inbox << ',' << s.pending_commits << ',' << s.peers << ','
+    << s.merged_peers << ',' << s.buffered_portions;
+  for (const SoakTraffic& t : s.traffic) {
+    o << ',' << t.sent << ',' << t.received << ',' << t.sent_bytes << ',' << t.received_bytes;
+  }
+  return o.str();
+}
+
+std::vector<SoakSample> ReadSoakCsv(const fs::path& file) {
+  std::ifstream in(file);
+  if (!in) throw std::runtime_error(file.string() + ": cannot open");
+  std::string line;
+  if (!std::getline(in, line) || line != SoakCsvHeader()) {
+    throw std::runtime_error(file.string() + ":1: not a soak.csv header (tsc soak writes it)");
+  }
+  const size_t columns = kFixedCount + kTrafficColumns * kSoakFamilies.size();
+  std::vector<std::string> names = SplitCsv(SoakCsvHeader());
+  std::vector<SoakSample> out;
+  for (int n = 2; std::getline(in, line); ++n) {
+    if (line.empty()) continue;
+    const std::vector<std::string> c = SplitCsv(line);
+    if (c.size() != columns) {
+      throw std::runtime_error(file.string() + ":" + std::to_string(n) + ": " +
+                               std::to_string(c.size()) + " columns, expected " +
+                               std::to_string(columns));
+    }
+    std::vector<double> v(columns);
+    for (size_t i = 0; i < columns; ++i) v[i] = ParseNumber(c[i], file, n, names[i].c_str());
+    auto i64 = [&](size_t i) { return static_cast<int64_t>(std::llround(v[i])); };
+    SoakSample s;
+    s.t_s = v[0];
+    s.robot = static_cast<int>(i64(1));
+    s.life = static_cast<int>(i64(2));
+    s.pid = i64(3);
+    s.alive = i64(4) != 0;
+    s.life_s = v[5];
+    s.rss_mb = v[6];
+    s.cpu_percent = v[7];
+    s.stats_age_s = v[8];
+    int64_t* counts[] = {&s.frames,
+                         &s.frames_dropped,
+                         &s.places,
+                         &s.edges,
+                         &s.memory_version,
+                         &s.snapshots_received,
+                         &s.merges_completed,
+                         &s.merges_changed,
+                         &s.merges_failed,
+                         &s.exchanges_given_up,
+                         &s.messages_rejected,
+                         &s.publish_failures,
+                         &s.queue_frames,
+                         &s.merge_inbox,
+                         &s.pending_commits,
+                         &s.peers,
+                         &s.merged_peers,
+                         &s.buffered_portions};
+    for (size_t k = 0; k < std::size(counts); ++k) *counts[k] = i64(9 + k);
+    for (size_t f = 0; f < kSoakFamilies.size(); ++f) {
+      const size_t at = kFixedCount + kTrafficColumns * f;
+      s.traffic[f] = {i64(at), i64(at + 2), i64(at + 1), i64(at + 3)};
+    }
+    out.push_back(s);
+  }
+  return out;
+}
+
+std::string RestartsCsvHeader() { return "t_s,robot,signal,exit_status,down_s"; }
+
+std::string RestartsCsvRow(const SoakRestart& r) {
+  return Num(r.t_s, 3) + "," + std::to_string(r.robot) + "," + r.signal + "," +
+         std::to_string(r.exit_status) + "," + Num(r.down_s, 3);
+}
+
+std::vector<SoakRestart> ReadRestartsCsv(const fs::path& file) {
+  std::ifstream in(file);
+  if (!in) throw std::runtime_error(file.string() + ": cannot open");
+  std::string line;
+  if (!std::getline(in, line) || line != RestartsCsvHeader()) {
+    throw std::runtime_error(file.string() + ":1: not a restarts.csv header");
+  }
+  std::vector<SoakRestart> out;
+  for (int n = 2; std::getline(in, line); ++n) {
+    if (line.empty()) continue;
+    const std::vector<std::string> c = SplitCsv(line);
+    if (c.size() != 5) {
+      throw std::runtime_error(file.string() + ":" + std::to_string(n) + ": expected 5 columns");
+    }
+    SoakRestart r;
+    r.t_s = ParseNumber(c[0], file, n, "t_s");
+    r.robot = static_cast<int>(ParseNumber(c[1], file, n, "robot"));
+    r.signal = c[2];
+    if (r.signal != "TERM" && r.signal != "KILL" && r.signal != "none") {
+      throw std::runtime_error(file.string() + ":" + std::to_string(n) +
+                               ": column signal: expected TERM, KILL or none, not '" + c[2] + "'");
+    }
+    r.exit_status = static_cast<int>(ParseNumber(c[3], file, n, "exit_status"));
+    r.down_s = ParseNumber(c[4], file, n, "down_s");
+    out.push_back(r);
+  }
+  return out;
+}
+
+void SoakCheckOptions::Validate() const {
+  auto fail = [](const std::string& what) { throw std::invalid_argument(what); };
+  if (!(warmup_fraction >= 0 && warmup_fraction < 1)) fail("warm-up fraction must be in [0, 1)");
+  if (!(life_warmup_s >= 0)) fail("process warm-up must not be negative");
+  if (!(max_rss_slope_mb_per_min > 0)) fail("RSS slope bound must be positive");
+  if (!(max_late_growth > 0)) fail("late RSS growth bound must be positive");
+  if (expected_restarts < 0) fail("expected restarts must not be negative");
+  if (!(min_sampled_fraction >= 0 && min_sampled_fraction <= 1)) {
+    fail("sampled fraction must be in [0, 1]");
+  }
+  if (max_pending_commits < 0) fail("pending commits bound must not be negative");
+}
+
+SoakVerdict AnalyseSoak(const std::vector<SoakSample>& samples,
+                        const std::vector<SoakRestart>& restarts, int team_size,
+                        const SoakCheckOptions& options) {
+  options.Validate();
+  SoakVerdict v;
+  for (const SoakSample& s : samples) v.duration_s = std::max(v.duration_s, s.t_s);
+  const double d = v.duration_s;
+  const double warm_end = options.warmup_fraction * d;
+  auto problem = [&](const std::string& p) {
+    v.ok = false;
+    v.problems.push_back(p);
+  };
+
+  for (const SoakRestart& r : restarts) {
+    if (r.signal == "none") {
+      ++v.unexpected_exits;
+      problem("robot " + std::to_string(r.robot) + " exited on its own at " + Num(r.t_s, 1) +
+              " s (status " + std::to_string(r.exit_status) + ")");
+      continue;
+    }
+    ++v.restarts;
+    if (r.signal == "KILL") ++v.kills;
+    if (r.signal == "TERM" && r.exit_status != 0) {
+      problem("robot " + std::to_string(r.robot) + " exited with status " +
+              std::to_string(r.exit_status) + " after SIGTERM at " + Num(r.t_s, 1) + " s");
+    }
+  }
+  if (v.restarts < options.expected_restarts) {
+    problem(std::to_string(v.restarts) + " restarts, expected at least " +
+            std::to_string(options.expected_restarts));
+  }
+
+  std::map<int, std::vector<const SoakSample*>> by_robot;
+  for (const SoakSample& s : samples) by_robot[s.robot].push_back(&s);
+  for (int robot = 1; robot <= team_size; ++robot) {
+    const std::string name = "robot " + std::to_string(robot);
+    SoakRobotFigures f;
+    f.robot = robot;
+    const auto it = by_robot.find(robot);
+    if (it == by_robot.end()) {
+      problem(name + ": no sample");
+      v.robots.push_back(f);
+      continue;
+    }
+    const std::vector<const SoakSample*>& rows = it->second;
+    std::map<int, const SoakSample*> last_of_life;
+    std::map<int, std::pair<double, double>> life_span;  // first, last t while alive
+    std::map<int, int64_t> life_merges;
+    std::map<int, std::vector<std::pair<double, double>>> rss_by_life, places_by_life,
+        rss_by_places;
+    std::vector<double> middle, late;
+    double cpu_sum = 0.0;
+    int cpu_n = 0;
+    bool first_after_warmup = true;
+    for (const SoakSample* s : rows) {
+      if (!s->alive) continue;
+      last_of_life[s->life] = s;
+      auto [span, fresh] = life_span.try_emplace(s->life, s->t_s, s->t_s);
+      if (!fresh) span->second.second = s->t_s;
+      life_merges[s->life] = std::max(life_merges[s->life], s->merges_completed);
+      cpu_sum += s->cpu_percent;
+      ++cpu_n;
+      if (s->life_s >= 10.0) {
+        ++f.expected;
+        if (s->stats_age_s >= 0 && s->stats_age_s <= 5.0) ++f.samples;
+      }
+      if (s->t_s < warm_end) continue;
+      f.max_queue_frames = std::max(f.max_queue_frames, s->queue_frames);
+      f.max_merge_inbox = std::max(f.max_merge_inbox, s->merge_inbox);
+      f.max_pending_commits = std::max(f.max_pending_commits, s->pending_commits);
+      f.max_peers = std::max(f.max_peers, s->peers);
+      f.max_merged_peers = std::max(f.max_merged_peers, s->merged_peers);
+      f.max_buffered_portions = std::max(f.max_buffered_portions, s->buffered_portions);
+      if (s->life_s < options.life_warmup_s) continue;
+      if (first_after_warmup) {
+        f.rss_first_mb = s->rss_mb;
+        f.places_first = s->places;
+        first_after_warmup = false;
+      }
+      f.rss_last_mb = s->rss_mb;
+      f.places_last = s->places;
+      f.rss_max_mb = std::max(f.rss_max_mb, s->rss_mb);
+      f.places_max = std::max(f.places_max, s->places);
+      rss_by_life[s->life].emplace_back(s->t_s, s->rss_mb);
+      places_by_life[s->life].emplace_back(s->t_s, static_cast<double>(s->places));
+      rss_by_places[s->life].emplace_back(static_cast<double>(s->places), s->rss_mb);
+      if (s->t_s >= d / 3 && s->t_s <= 2 * d / 3) middle.push_back(s->rss_mb);
+      if (s->t_s >= d * 5 / 6) late.push_back(s->rss_mb);
+    }
+    f.lives = static_cast<int>(life_span.size());
+    f.cpu_percent_mean = cpu_n > 0 ? cpu_sum / cpu_n : 0.0;
+    f.rss_slope_mb_per_min = 60.0 * WithinGroupSlope(rss_by_life);
+    f.places_slope_per_min = 60.0 * WithinGroupSlope(places_by_life);
+    f.rss_mb_per_place = WithinGroupSlope(rss_by_places);
+    f.rss_middle_median_mb = Median(middle);
+    f.rss_late_median_mb = Median(late);
+    double sent_bytes = 0, received_bytes = 0;
+    for (const auto& [life, s] : last_of_life) {
+      f.merges += s->merges_completed;
+      f.merges_changed += s->merges_changed;
+      f.merges_failed += s->merges_failed;
+      f.frames += s->frames;
+      for (size_t k = 0; k < kSoakFamilies.size(); ++k) {
+        f.sent_per_s[k] += static_cast<double>(s->traffic[k].sent);
+        f.received_per_s[k] += static_cast<double>(s->traffic[k].received);
+        sent_bytes += static_cast<double>(s->traffic[k].sent_bytes);
+        received_bytes += static_cast<double>(s->traffic[k].received_bytes);
+      }
+    }
+    if (d > 0) {
+      for (size_t k = 0; k < kSoakFamilies.size(); ++k) {
+        f.sent_per_s[k] /= d;
+        f.received_per_s[k] /= d;
+      }
+      f.sent_kb_per_s = sent_bytes / 1024.0 / d;
+      f.received_kb_per_s = received_bytes / 1024.0 / d;
+    }
+    // A life that began with a restart and lasted long enough to fetch a peer's memory must
+    // have merged one, unless no peer had anything new for it: a robot fetches a memory only
+    // when its digest differs from the one it merged last (kept in its store).
+    for (const auto& [life, span] : life_span) {
+      if (life == 0 || span.second - span.first < 2 * options.life_warmup_s) continue;
+      ++v.lives_after_restart;
+      if (life_merges[life] > 0) {
+        ++v.lives_after_restart_merged;
+      } else if (!PeersChanged(samples, robot, span.first + options.life_warmup_s, span.second)) {
+        ++v.lives_after_restart_idle;
+      } else {
+        problem(name + ": no merge completed in its life " + std::to_string(life) + " (" +
+                Num(span.first, 0) + "–" + Num(span.second, 0) + " s) after a restart");
+      }
+    }
+
+    if (f.expected == 0 || f.samples < options.min_sampled_fraction * f.expected) {
+      problem(name + ": counters in " + std::to_string(f.samples) + " of " +
+              std::to_string(f.expected) + " samples while up");
+    }
+    if (rss_by_life.empty()) {
+      problem(name + ": no sample after the warm-up");
+    } else if (f.rss_slope_mb_per_min > options.max_rss_slope_mb_per_min) {
+      problem(name + ": RSS grows " + Num(f.rss_slope_mb_per_min, 2) +
+              " MB/min after the warm-up"
+              " (bound " +
+              Num(options.max_rss_slope_mb_per_min, 2) + ")");
+    }
+    if (!middle.empty() && !late.empty() &&
+        f.rss_late_median_mb > (1 + options.max_late_growth) * f.rss_middle_median_mb) {
+      problem(name + ": RSS median of the last sixth " + Num(f.rss_late_median_mb, 1) +
+              " MB is more than " + Num(100 * options.max_late_growth, 0) +
+              " % above the middle "
+              "third's " +
+              Num(f.rss_middle_median_mb, 1) + " MB");
+    }
+    if (f.max_pending_commits > options.max_pending_commits) {
+      problem(name + ": " + std::to_string(f.max_pending_commits) +
+              " results waiting for the store");
+    }
+    const int64_t others = team_size - 1;
+    if (f.max_peers > others || f.max_merged_peers > others || f.max_merge_inbox > others) {
+      problem(name + ": more peers or waiting memories than robots in the team (peers " +
+              std::to_string(f.max_peers) + ", merged " + std::to_string(f.max_merged_peers) +
+              ", inbox " + std::to_string(f.max_merge_inbox) + ")");
+    }
+    v.robots.push_back(f);
+  }
+  return v;
+}
+
+std::string SoakVerdictJson(const SoakVerdict& v) {
+  std::ostringstream j;
+  j << "{\"ok\":" << (v.ok ? "true" : "false") << ",\"duration_s\":" << JsonNumber(v.duration_s)
+    << ",\"restarts\":" << v.restarts << ",\"kills\":" << v.kills
+    << ",\"unexpected_exits\":" << v.unexpected_exits
+    << ",\"lives_after_restart\":" << v.lives_after_restart
+    << ",\"lives_after_restart_merged\":" << v.lives_after_restart_merged
+    << ",\"lives_after_restart_idle\":" << v.lives_after_restart_idle << ",\"problems\":[";
+  for (size_t i = 0; i < v.problems.size(); ++i) {
+    j << (i ? "," : "") << JsonString(v.problems[i]);
+  }
+  j << "],\"robots\":[";
+  for (size_t i = 0; i < v.robots.size(); ++i) {
+    const SoakRobotFigures& f = v.robots[i];
+    j << (i ? "," : "") << "{\"robot\":" << f.robot << ",\"samples\":" << f.samples
+      << ",\"expected_samples\":" << f.expected << ",\"lives\":" << f.lives
+      << ",\"rss_first_mb\":" << JsonNumber(f.rss_first_mb)
+      << ",\"rss_last_mb\":" << JsonNumber(f.rss_last_mb)
+      << ",\"rss_max_mb\":" << JsonNumber(f.rss_max_mb)
+      << ",\"rss_middle_median_mb\":" << JsonNumber(f.rss_middle_median_mb)
+      << ",\"rss_late_median_mb\":" << JsonNumber(f.rss_late_median_mb)
+      << ",\"rss_slope_mb_per_min\":" << JsonNumber(f.rss_slope_mb_per_min)
+      << ",\"cpu_percent_mean\":" << JsonNumber(f.cpu_percent_mean)
+      << ",\"places_first\":" << f.places_first << ",\"places_last\":" << f.places_last
+      << ",\"places_max\":" << f.places_max
+      << ",\"places_slope_per_min\":" << JsonNumber(f.places_slope_per_min)
+      << ",\"rss_mb_per_place\":" << JsonNumber(f.rss_mb_per_place) << ",\"frames\":" << f.frames
+      << ",\"merges\":" << f.merges << ",\"merges_changed\":" << f.merges_changed
+      << ",\"merges_failed\":" << f.merges_failed << ",\"max_queue_frames\":" << f.max_queue_frames
+      << ",\"max_merge_inbox\":" << f.max_merge_inbox
+      << ",\"max_pending_commits\":" << f.max_pending_commits << ",\"max_peers\":" << f.max_peers
+      << ",\"max_merged_peers\":" << f.max_merged_peers
+      << ",\"max_buffered_portions\":" << f.max_buffered_portions << ",\"sent_per_s\":{";
+    for (size_t k = 0; k < kSoakFamilies.size(); ++k) {
+      j << (k ? "," : "") << JsonString(kSoakFamilies[k]) << ":" << JsonNumber(f.sent_per_s[k]);
+    }
+    j << "},\"received_per_s\":{";
+    for (size_t k = 0; k < kSoakFamilies.size(); ++k) {
+      j << (k ? "," : "") << JsonString(kSoakFamilies[k]) << ":" << JsonNumber(f.received_per_s[k]);
+    }
+    j << "},\"sent_kb_per_s\":" << JsonNumber(f.sent_kb_per_s)
+      << ",\"received_kb_per_s\":" << JsonNumber(f.received_kb_per_s) << "}";
+  }
+  j << "]}\n";
+  return j.str();
+}
+
+std::string SoakVerdictText(const SoakVerdict& v) {
+  std::ostringstream o;
+  o << "soak: " << Num(v.duration_s, 0) << " s, " << v.restarts << " restarts (" << v.kills
+    << " by SIGKILL), " << v.unexpected_exits << " unexpected exits; "
+    << v.lives_after_restart_merged << " of " << v.lives_after_restart
+    << " restarted lives completed a merge (" << v.lives_after_restart_idle
+    << " more had no new peer memory to merge)\n";
+  o << "robot lives samples  rss first  last   max  slope MB/min  cpu%  places first last  "
+       "merges  msg/s sent recv  KB/s sent recv\n";
+  for (const SoakRobotFigures& f : v.robots) {
+    double sent = 0, received = 0;
+    for (size_t k = 0; k < kSoakFamilies.size(); ++k) {
+      sent += f.sent_per_s[k];
+      received += f.received_per_s[k];
+    }
+    o << std::setw(5) << f.robot << std::setw(6) << f.lives << std::setw(5) << f.samples << "/"
+      << std::setw(3) << f.expected << std::setw(11) << Num(f.rss_first_mb, 1) << std::setw(6)
+      << Num(f.rss_last_mb, 1) << std::setw(6) << Num(f.rss_max_mb, 1) << std::setw(14)
+      << Num(f.rss_slope_mb_per_min, 3) << std::setw(6) << Num(f.cpu_percent_mean, 1)
+      << std::setw(13) << f.places_first << std::setw(5) << f.places_last << std::setw(8)
+      << f.merges << std::setw(15) << Num(sent, 1) << std::setw(5) << Num(received, 1)
+      << std::setw(11) << Num(f.sent_kb_per_s, 1) << std::setw(5) << Num(f.received_kb_per_s, 1)
+      << "\n";
+  }
+  o << (v.ok ? "verdict: bounded (no unbounded growth found)\n" : "verdict: FAILED\n");
+  for (const std::string& p : v.problems) o << "  - " << p << "\n";
+  return o.str();
+}
+
+}  // namespace tsc

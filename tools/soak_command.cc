@@ -1,0 +1,439 @@
+#include "tools/soak_command.h"
+
+#include <unistd.h>
+
+#include <boost/program_options.hpp>
+#include <chrono>
+#include <csignal>
+#include <cstdlib>
+#include <filesystem>
+#include <fstream>
+#include <iostream>
+#include <map>
+#include <optional>
+#include <random>
+#include <set>
+#include <sstream>
+#include <stdexcept>
+
+#include "daemon/lcm_bus.h"
+#include "daemon/settings.h"
+#include "tools/command_line.h"
+#include "tools/inspect.h"
+#include "tools/robot_processes.h"
+#include "tools/soak.h"
+#include "tools/soak_plot.h"
+#include "tsc/stats_t.hpp"
+
+namespace tsc {
+namespace {
+
+namespace fs = std::filesystem;
+namespace po = boost::program_options;
+using Clock = std::chrono::steady_clock;
+
+constexpr const char* kNetnsEnv = "TSCD_SOAK_NETNS";
+constexpr const char* kLcmUrl = "udpm://239.255.76.67:7667?ttl=0";
+constexpr const char* kLossTable = "tscd_soak";
+constexpr double kStopGraceS = 30.0;  // SIGTERM → SIGKILL, as tsc team and systemd
+constexpr double kDownS = 1.0;        // a stopped robot starts again this much later
+
+constexpr const char* kSoakHelp =
+    R"(usage: tsc soak [--robots N] [--world SEED] [--kind office|corridors|outdoor]
+                [--minutes M | --seconds S] [--loss PERCENT] [--restart-every R]
+                [--kill-fraction F] [--seed N] [--fps F] [--loop] [--out DIR] [--set KEY=VALUE]...
+                [--netns new|current] [--max-rss-slope MB_PER_MIN] [--max-late-growth F]
+       tsc soak --replot DIR [--robots N] [...check options]
+
+A soak and load run: N tscd robots (ids 1..N) on the simulated world, each driving its route
+once per process life (--loop: again and again), in a private network namespace (only lo, multicast on lo: no packet leaves it) where nftables
+drops PERCENT % of all UDP datagrams. Every R seconds a random robot is stopped (SIGTERM, or
+SIGKILL with probability F) and started again from its state database. Every second it
+records per robot the resident set and CPU (/proc) and the daemon's counters (TSC_STATS_<id>:
+places, memory version, merges, messages per channel, queues) in DIR/soak.csv, the restarts in
+DIR/restarts.csv, and at the end judges growth (RSS slope within each process life after the
+warm-up, late versus middle RSS, queue bounds, merges after restarts, unexpected exits) into
+DIR/soak.json and draws DIR/soak.png. Exit 0 when bounded, 1 when a check failed.
+--replot judges and draws an existing DIR again without running anything.
+
+Options)";
+
+enum class RobotState { kRunning, kStopping, kDown };
+
+struct Robot {
+  int id = 0;
+  fs::path dir;
+  pid_t pid = -1;
+  int life = 0;
+  RobotState state = RobotState::kDown;
+  Clock::time_point started{};
+  Clock::time_point state_since{};
+  std::optional<size_t> restart;  // index into the restarts of the one in progress
+  // CPU of the previous sample of this process.
+  double last_cpu_s = 0.0;
+  double last_sample_s = 0.0;
+  // Stats of the current process.
+  std::optional<stats_t> stats;
+  Clock::time_point stats_at{};
+  std::set<int64_t> dead_boots;  // boot ids of earlier processes: late stats are ignored
+  int final_status = 0;
+};
+
+double Seconds(Clock::duration d) { return std::chrono::duration<double>(d).count(); }
+
+SoakSample Sample(Robot& r, double t, Clock::time_point now) {
+  SoakSample s;
+  s.t_s = t;
+  s.robot = r.id;
+  s.life = r.life;
+  s.pid = r.pid;
+  if (r.state == RobotState::kDown) return s;
+  const ProcessSample p = SampleProcess(r.pid);
+  s.alive = p.alive;
+  if (!p.alive) return s;
+  s.life_s = Seconds(now - r.started);
+  s.rss_mb = p.rss_mb;
+  const double dt = s.life_s - r.last_sample_s;
+  if (dt > 0) s.cpu_percent = 100.0 * (p.cpu_s - r.last_cpu_s) / dt;
+  r.last_cpu_s = p.cpu_s;
+  r.last_sample_s = s.life_s;
+  if (!r.stats) return s;
+  const stats_t& m = *r.stats;
+  s.stats_age_s = Seconds(now - r.stats_at);
+  s.frames = m.frames;
+  s.frames_dropped = m.frames_dropped;
+  s.places = m.places;
+  s.edges = m.edges;
+  s.memory_version = m.memory_version;
+  s.snapshots_received = m.snapshots_received;
+  s.merges_completed = m.merges_completed;
+  s.merges_changed = m.merges_changed;
+  s.merges_failed = m.merges_failed;
+  s.exchanges_given_up = m.exchanges_given_up;
+  s.messages_rejected = m.messages_rejected;
+  s.publish_failures = m.publish_failures;
+  s.queue_frames = m.queue_frames;
+  s.merge_inbox = m.merge_inbox;
+  s.pending_commits = m.pending_commits;
+  s.peers = m.peers;
+  s.merged_peers = m.merged_peers;
+  s.buffered_portions = m.buffered_portions;
+  for (size_t i = 0; i < m.channel.size(); ++i) {
+    for (size_t k = 0; k < kSoakFamilies.size(); ++k) {
+      std::string family = m.channel[i].rfind("TSC_", 0) == 0 ? m.channel[i].substr(4) : "";
+      for (char& c : family) c = static_cast<char>(std::tolower(static_cast<unsigned char>(c)));
+      if (family != kSoakFamilies[k]) continue;
+      s.traffic[k] = {m.sent[i], m.sent_bytes[i], m.received[i], m.received_bytes[i]};
+    }
+  }
+  return s;
+}
+
+SoakCheckOptions CheckOptions(const po::variables_map& vm) {
+  SoakCheckOptions o;
+  o.max_rss_slope_mb_per_min = vm["max-rss-slope"].as<double>();
+  o.max_late_growth = vm["max-late-growth"].as<double>();
+  try {
+    o.Validate();
+  } catch (const std::invalid_argument& e) {
+    throw UsageError(e.what());
+  }
+  return o;
+}
+
+int Report(const SoakVerdict& v, int team_size, const std::vector<SoakSample>& samples,
+           const std::vector<SoakRestart>& restarts, const fs::path& out) {
+  WriteTextFile(out / "soak.json", SoakVerdictJson(v));
+  WriteSoakPlot(samples, restarts, team_size, out / "soak.png");
+  std::cout << SoakVerdictText(v) << "csv: " << (out / "soak.csv").string()
+            << "\nrestarts: " << (out / "restarts.csv").string()
+            << "\nverdict: " << (out / "soak.json").string()
+            << "\nplot: " << (out / "soak.png").string() << "\n";
+  return v.ok ? kExitOk : kExitFailure;
+}
+
+int Replot(const po::variables_map& vm) {
+  const fs::path dir = vm["replot"].as<std::string>();
+  const std::vector<SoakSample> samples = ReadSoakCsv(dir / "soak.csv");
+  const std::vector<SoakRestart> restarts = ReadRestartsCsv(dir / "restarts.csv");
+  int team = 0;
+  for (const SoakSample& s : samples) team = std::max(team, s.robot);
+  if (!vm["robots"].defaulted()) team = vm["robots"].as<int>();
+  SoakCheckOptions check = CheckOptions(vm);
+  check.expected_restarts = 0;
+  return Report(AnalyseSoak(samples, restarts, team, check), team, samples, restarts, dir);
+}
+
+// Drops `percent` % of every UDP datagram sent in this namespace (nftables output hook), as
+// team_test does: one send is lost for every receiver at once.
+void AddLossRule(int percent) {
+  const std::string table = kLossTable;
+  const std::vector<std::vector<std::string>> steps = {
+      {"nft", "add", "table", "inet", table},
+      {"nft", "add", "chain", "inet", table, "out", "{ type filter hook output priority 0; }"},
+      {"nft", "add", "rule", "inet", table, "out", "meta", "l4proto", "udp", "numgen", "random",
+       "mod", "100", "<", std::to_string(percent), "drop"}};
+  for (const auto& step : steps) {
+    if (RunProgram(step) != 0) {
+      throw std::runtime_error(
+          "nft cannot add the packet loss rule in the private namespace "
+          "(is nftables installed and may this user change it?)");
+    }
+  }
+}
+
+int Soak(const std::vector<std::string>& args) {
+  po::options_description desc(kSoakHelp);
+  desc.add_options()("help,h", "show this help")(
+      "robots", po::value<int>()->default_value(5)->value_name("N"), "robots, 2..16")(
+      "world", po::value<long long>()->default_value(7)->value_name("SEED"), "seed of the world")(
+      "kind", po::value<std::string>()->default_value("office"), "office|corridors|outdoor")(
+      "minutes", po::value<double>()->default_value(10.0)->value_name("M"), "length of the soak")(
+      "seconds", po::value<double>()->value_name("S"), "length in seconds (instead of --minutes)")(
+      "loss", po::value<int>()->default_value(10)->value_name("PERCENT"),
+      "UDP datagrams dropped, 0..90")("restart-every",
+                                      po::value<double>()->default_value(60.0)->value_name("R"),
+                                      "seconds between restarts of a random robot (0: none)")(
+      "kill-fraction", po::value<double>()->default_value(0.3)->value_name("F"),
+      "share of restarts by SIGKILL instead of SIGTERM")(
+      "seed", po::value<unsigned>()->default_value(1), "seed of the restart schedule")(
+      "fps", po::value<double>()->default_value(10.0), "camera frames per second per robot")(
+      "loop", "drive the routes again and again (load) instead of once per process life")(
+      "out", po::value<std::string>()->default_value("soak-out")->value_name("DIR"),
+      "output folder (soak.csv, restarts.csv, soak.json, soak.png, robot-<id>/)")(
+      "set", po::value<std::vector<std::string>>()->composing()->value_name("KEY=VALUE"),
+      "override a tscd key for every robot (repeatable)")(
+      "netns", po::value<std::string>()->default_value("new"), "new|current")(
+      "max-rss-slope",
+      po::value<double>()->default_value(SoakCheckOptions{}.max_rss_slope_mb_per_min),
+      "bound on the RSS slope within a process life after the warm-up, MB/min")(
+      "max-late-growth", po::value<double>()->default_value(SoakCheckOptions{}.max_late_growth),
+      "bound on (RSS median of the last sixth) / (median of the middle third) - 1")(
+      "replot", po::value<std::string>()->value_name("DIR"),
+      "judge and draw DIR/soak.csv again; runs nothing");
+  const po::variables_map vm = ParseCommandLine(args, desc);
+  if (vm.count("help")) {
+    std::cout << desc << "\n";
+    return kExitOk;
+  }
+  if (vm.count("replot")) return Replot(vm);
+  const int n = vm["robots"].as<int>();
+  if (n < 2 || n > 16) throw UsageError("--robots must be in 2..16");
+  const double duration =
+      vm.count("seconds") ? vm["seconds"].as<double>() : 60.0 * vm["minutes"].as<double>();
+  if (!(duration >= 10)) throw UsageError("the soak must last at least 10 seconds");
+  const int loss = vm["loss"].as<int>();
+  if (loss < 0 || loss > 90) throw UsageError("--loss must be in 0..90");
+  const double every = vm["restart-every"].as<double>();
+  if (every < 0 || (every > 0 && every < 5)) throw UsageError("--restart-every is 0 or ≥ 5 s");
+  const double kill_fraction = vm["kill-fraction"].as<double>();
+  if (!(kill_fraction >= 0 && kill_fraction <= 1)) throw UsageError("--kill-fraction is in [0, 1]");
+  const std::string netns = vm["netns"].as<std::string>();
+  if (netns != "new" && netns != "current") throw UsageError("--netns is new or current");
+  SoakCheckOptions check = CheckOptions(vm);
+
+  if (netns == "new" && std::getenv(kNetnsEnv) == nullptr) {
+    return ReexecInNewNamespace("soak", args, kNetnsEnv);
+  }
+  if (HasNonLoopbackInterface()) {
+    std::cerr << "tsc: refusing to run the soak in a network namespace with interfaces other "
+                 "than lo (its multicast could leave this host); use --netns new\n";
+    return kExitFailure;
+  }
+  SetUpLoopbackMulticast();
+
+  const fs::path out = vm["out"].as<std::string>();
+  fs::create_directories(out);
+  const fs::path tscd = fs::read_symlink("/proc/self/exe").parent_path() / "tscd";
+  if (!fs::exists(tscd)) throw std::runtime_error("tscd not found next to tsc: " + tscd.string());
+
+  // Every robot's overrides; the soak's own first so --set can change them.
+  std::ostringstream fps;
+  fps << vm["fps"].as<double>();
+  std::vector<std::string> overrides = {
+      "camera.source=sim",
+      std::string("camera.loop=") + (vm.count("loop") ? "true" : "false"),
+      "lcm.url=" + std::string(kLcmUrl),
+      "sim.world_seed=" + std::to_string(vm["world"].as<long long>()),
+      "sim.world=" + vm["kind"].as<std::string>(),
+      "sim.team_size=" + std::to_string(n),
+      "sim.width=160",
+      "sim.height=120",
+      "camera.fps=" + fps.str()};
+  if (vm.count("set")) {
+    for (const std::string& kv : vm["set"].as<std::vector<std::string>>()) overrides.push_back(kv);
+  }
+  for (int i = 0; i < n; ++i) {  // a bad key is one message here, not N robot logs
+    std::vector<std::string> o = overrides;
+    o.push_back("sim.route=" + std::to_string(i));
+    (void)LoadSettings(std::nullopt, o);
+  }
+  if (loss > 0) AddLossRule(loss);
+  struct RemoveLoss {
+    bool added;
+    ~RemoveLoss() {
+      if (added) RunProgram({"nft", "delete", "table", "inet", kLossTable});
+    }
+  } remove_loss{loss > 0 && netns == "current"};
+
+  std::vector<Robot> robots(static_cast<size_t>(n));
+  for (int i = 0; i < n; ++i) {
+    Robot& r = robots[static_cast<size_t>(i)];
+    r.id = i + 1;
+    r.dir = out / ("robot-" + std::to_string(r.id));
+    fs::remove_all(r.dir);  // a soak starts from empty memories
+    fs::create_directories(r.dir);
+  }
+  auto spawn = [&](Robot& r) {
+    std::vector<std::string> argv = {"tscd", "--robot", std::to_string(r.id), "--state-dir",
+                                     r.dir.string()};
+    for (const std::string& kv : overrides) {
+      argv.push_back("--set");
+      argv.push_back(kv);
+    }
+    argv.push_back("--set");
+    argv.push_back("sim.route=" + std::to_string(r.id - 1));
+    r.pid = SpawnProcess(tscd, argv, r.dir / "tscd.log");
+    r.state = RobotState::kRunning;
+    r.started = r.state_since = Clock::now();
+    r.last_cpu_s = r.last_sample_s = 0.0;
+    if (r.stats) r.dead_boots.insert(r.stats->boot_id);
+    r.stats.reset();
+  };
+
+  LcmBus bus(kLcmUrl);
+  bus.Subscribe("TSC_STATS_.*", [&](const std::string&, const uint8_t* data, size_t size) {
+    const auto m = LcmBus::Decode<stats_t>(data, size);
+    if (!m || m->robot < 1 || m->robot > n) return;
+    Robot& r = robots[static_cast<size_t>(m->robot - 1)];
+    if (r.state == RobotState::kDown || r.dead_boots.count(m->boot_id)) return;
+    if (r.stats && r.stats->boot_id != m->boot_id) r.dead_boots.insert(r.stats->boot_id);
+    r.stats = *m;
+    r.stats_at = Clock::now();
+  });
+
+  std::ofstream csv(out / "soak.csv");
+  if (!csv) throw std::runtime_error((out / "soak.csv").string() + ": cannot write");
+  csv << SoakCsvHeader() << "\n";
+  std::vector<SoakSample> samples;
+  std::vector<SoakRestart> restarts;
+  std::mt19937 rng(vm["seed"].as<unsigned>());
+
+  for (Robot& r : robots) spawn(r);
+  std::cout << "tsc soak: " << n << " robots, " << duration << " s, " << loss
+            << " % UDP loss, a restart every " << every << " s; output in " << out.string()
+            << std::endl;
+  const auto start = Clock::now();
+  auto next_sample = start + std::chrono::seconds(1);
+  double next_restart = every > 0 ? every : duration + 1;
+  for (;;) {
+    bus.HandleTimeout(50);
+    const auto now = Clock::now();
+    const double t = Seconds(now - start);
+    for (Robot& r : robots) {
+      if (r.state == RobotState::kDown) {
+        if (Seconds(now - r.state_since) >= kDownS && t < duration) {
+          spawn(r);
+          ++r.life;
+          if (r.restart) restarts[*r.restart].down_s = t - restarts[*r.restart].t_s;
+          r.restart.reset();
+        }
+        continue;
+      }
+      const ChildExit e = ReapChild(r.pid, false);
+      if (e.exited) {
+        if (r.state == RobotState::kRunning) {  // nobody asked it to stop
+          std::cerr << "tsc: robot " << r.id << " exited on its own (status " << e.status << ") at "
+                    << t << " s; starting it again\n";
+          restarts.push_back({t, r.id, "none", e.status, 0.0});
+          r.restart = restarts.size() - 1;
+        } else if (r.restart) {
+          restarts[*r.restart].exit_status = e.status;
+        }
+        r.state = RobotState::kDown;
+        r.state_since = now;
+        continue;
+      }
+      if (r.state == RobotState::kStopping && Seconds(now - r.state_since) > kStopGraceS) {
+        std::cerr << "tsc: robot " << r.id << " did not stop within " << kStopGraceS
+                  << " s of SIGTERM; killing it\n";
+        kill(r.pid, SIGKILL);
+      }
+    }
+    if (t >= next_restart && t < duration - every / 2) {
+      next_restart += every;
+      std::vector<Robot*> running;
+      for (Robot& r : robots) {
+        if (r.state == RobotState::kRunning) running.push_back(&r);
+      }
+      if (!running.empty()) {
+        Robot& r = *running[std::uniform_int_distribution<size_t>(0, running.size() - 1)(rng)];
+        const bool kill9 = std::bernoulli_distribution(kill_fraction)(rng);
+        kill(r.pid, kill9 ? SIGKILL : SIGTERM);
+        r.state = RobotState::kStopping;
+        r.state_since = now;
+        restarts.push_back({t, r.id, kill9 ? "KILL" : "TERM", 0, 0.0});
+        r.restart = restarts.size() - 1;
+        std::cout << "  " << static_cast<int>(t) << " s: restarting robot " << r.id << " (SIG"
+                  << (kill9 ? "KILL" : "TERM") << ")" << std::endl;
+      }
+    }
+    if (now >= next_sample) {
+      next_sample += std::chrono::seconds(1);
+      for (Robot& r : robots) {
+        samples.push_back(Sample(r, t, now));
+        csv << SoakCsvRow(samples.back()) << "\n";
+      }
+      csv.flush();
+      if (static_cast<int>(t) % 30 == 0) {
+        std::ostringstream line;
+        line << "  " << static_cast<int>(t) << " s:";
+        for (size_t i = samples.size() - robots.size(); i < samples.size(); ++i) {
+          const SoakSample& s = samples[i];
+          line << " r" << s.robot << " " << static_cast<int>(s.rss_mb) << " MB " << s.places
+               << " places " << s.merges_completed << " merges;";
+        }
+        std::cout << line.str() << std::endl;
+      }
+    }
+    if (t >= duration) break;
+  }
+  // Stop everyone; a robot still down is not started again.
+  std::vector<std::string> final_problems;
+  for (Robot& r : robots) {
+    if (r.state != RobotState::kDown) kill(r.pid, SIGTERM);
+  }
+  for (Robot& r : robots) {
+    if (r.state == RobotState::kDown) continue;
+    const ChildExit e = WaitForExit(r.pid, kStopGraceS);
+    if (r.state == RobotState::kRunning && e.status != 0) {
+      final_problems.push_back("robot " + std::to_string(r.id) + " exited with status " +
+                               std::to_string(e.status) + " after the final SIGTERM");
+    }
+  }
+  csv.close();
+  std::ofstream restart_csv(out / "restarts.csv");
+  restart_csv << RestartsCsvHeader() << "\n";
+  for (const SoakRestart& r : restarts) restart_csv << RestartsCsvRow(r) << "\n";
+  restart_csv.close();
+  if (!restart_csv) throw std::runtime_error((out / "restarts.csv").string() + ": cannot write");
+
+  // Restarts scheduled in the run's window, so a short run checks what it asked for.
+  check.expected_restarts =
+      every > 0 ? static_cast<int>(std::ceil((duration - every / 2) / every)) - 1 : 0;
+  check.expected_restarts = std::max(0, check.expected_restarts);
+  SoakVerdict v = AnalyseSoak(samples, restarts, n, check);
+  for (const std::string& p : final_problems) {
+    v.ok = false;
+    v.problems.push_back(p);
+  }
+  return Report(v, n, samples, restarts, out);
+}
+
+}  // namespace
+
+int RunSoakCommand(const std::vector<std::string>& args) {
+  return RunReportingErrors("soak", [&] { return Soak(args); });
+}
+
+}  // namespace tsc
