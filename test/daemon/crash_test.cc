@@ -239,7 +239,7 @@ TEST_F(CrashTest, KillNineWhileLearningLosesNothingAndRestartsFromTheLastCommit)
   BusListener bus("TSC_ANNOUNCE|TSC_EVENT_.*");
   const int instants = TotalInstants() * 3 / 5;
   std::mt19937 rng(20261123);
-  std::uniform_int_distribution<int> delay_ms(100 * Slowdown(), 1000 * Slowdown());
+  std::uniform_int_distribution<int> delay_ms(100 * Slowdown(), 900 * Slowdown());
   const fs::path state = dir_ / "state";
   const fs::path crash = dir_ / "crash.db";
   std::set<Key> announced_places;
@@ -349,7 +349,7 @@ TEST_F(CrashTest, KillNineDuringAMergeLeavesThePreOrPostMergeMemoryAndTheMergeCo
   TSCD_REQUIRE_PRIVATE_NETNS();
   BusListener bus("TSC_ANNOUNCE|TSC_EVENT_.*");
   const int instants = TotalInstants() - TotalInstants() * 3 / 5;
-  const int peer_places = EnvInt("TSCD_KILL_PEER_PLACES", 300);
+  const int peer_places = EnvInt("TSCD_KILL_PEER_PLACES", 200);
 
   // Our memory before the merge: learned by a real tscd from its simulated camera.
   const fs::path pre_dir = dir_ / "pre";
