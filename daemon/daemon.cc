@@ -1,6 +1,8 @@
 #include "daemon/daemon.h"
 
+#include <fcntl.h>
 #include <spdlog/spdlog.h>
+#include <sys/statvfs.h>
 #include <unistd.h>
 
 #include <boost/asio/io_context.hpp>
@@ -8,9 +10,11 @@
 #include <boost/asio/post.hpp>
 #include <boost/asio/signal_set.hpp>
 #include <boost/asio/steady_timer.hpp>
+#include <cerrno>
 #include <csignal>
 #include <limits>
 #include <random>
+#include <set>
 #include <system_error>
 
 #include "core/merge/merge.h"
@@ -50,6 +54,10 @@ int64_t RandomBootId() {
 // frames or messages cannot drown the journal but is never silent.
 bool ShouldLog(int64_t occurrence) { return occurrence <= 10 || occurrence % 100 == 0; }
 
+// A failing store (full disk, read-only or broken file system) is tried again this often, not
+// on every frame: each attempt writes every kept result.
+constexpr int kStoreRetrySeconds = 1;
+
 place_ref_t Ref(const PlaceId& id) {
   place_ref_t r;
   r.robot = static_cast<int32_t>(id.robot);
@@ -88,6 +96,28 @@ std::string Describe(const PlaceEvent& e) {
   }
   if (e.members > 0) s += ", " + std::to_string(e.members) + " base points";
   return s;
+}
+
+/// What the file system under `dir` says when a small file is written there, for a failing
+/// store's log line: SQLite's own text ("disk I/O error") tells neither a full disk from a
+/// read-only file system nor either from a failing device.
+std::string FileSystemState(const fs::path& dir) {
+  const fs::path probe = dir / ".tscd-write-probe";
+  const auto describe = [&](int error) {
+    return dir.string() + ": " + std::system_category().message(error);
+  };
+  const int fd = ::open(probe.c_str(), O_WRONLY | O_CREAT | O_TRUNC | O_CLOEXEC, 0600);
+  if (fd < 0) return describe(errno);
+  const char byte = 0;
+  const bool written = ::write(fd, &byte, 1) == 1 && ::fsync(fd) == 0;
+  const int error = errno;
+  ::close(fd);
+  ::unlink(probe.c_str());
+  if (!written) return describe(error);
+  struct statvfs st {};
+  if (::statvfs(dir.c_str(), &st) != 0) return describe(errno);
+  return dir.string() + ": writable, " + std::to_string(st.f_bavail * st.f_frsize / 1024) +
+         " KiB free";
 }
 
 }  // namespace
@@ -167,6 +197,7 @@ Daemon::Daemon(Settings settings, SettingsSource source, std::unique_ptr<CameraS
       exchange_.MarkMerged(static_cast<int32_t>(robot), {peer.version, peer.digest});
     }
     store_ = std::move(store);
+    committed_next_base_ = state.next_base;
     spdlog::info("memory loaded from {}: {} places, {} map edges, continuing at base point {}",
                  db_path_.string(), memory.places().size(), map.edges().size(), state.next_base);
   } catch (const std::exception& e) {
@@ -659,7 +690,10 @@ std::string Daemon::StatusLine() const {
                   std::to_string(counters_.places.load()) + ", edges " +
                   std::to_string(counters_.edges.load()) + ", detected " +
                   std::to_string(counters_.detected_places.load());
-  if (degraded_store_) s += "; degraded: memory not persisted";
+  if (degraded_store_) {
+    s += "; degraded: memory not persisted (" + std::to_string(pending_results_.load()) +
+         " results kept)";
+  }
   if (degraded_camera_) s += "; degraded: camera failed";
   if (camera_ended_) s += "; camera ended";
   return s;
@@ -776,7 +810,7 @@ void Daemon::MergePeers() {
 // memory and the peer's version in one transaction.
 void Daemon::MergePeer(const PeerSnapshot& snapshot) {
   const auto start = Clock::now();
-  RetryStore();  // results from before the merge go in first
+  RetryStore(true);  // results from before the merge go in first
   PlaceMemory peer = ToPlaceMemory(snapshot, settings_.pipeline.memory);
   const TopologicalMap peer_map = ToTopologicalMap(snapshot);
   std::vector<std::pair<PlaceId, PlaceId>> absorbed;
@@ -805,7 +839,7 @@ void Daemon::MergePeer(const PeerSnapshot& snapshot) {
   }
   unsaved_merge_ = PeerMerge{static_cast<uint32_t>(snapshot.robot), snapshot.version,
                              snapshot.digest, NowUtime()};
-  RetryStore();
+  RetryStore(true);
   if (changed) {
     ++counters_.memory_version;
     ++counters_.merges_changed;
@@ -824,52 +858,126 @@ void Daemon::MergePeer(const PeerSnapshot& snapshot) {
 
 void Daemon::CommitOrKeep(FrameResult result) {
   pending_.push_back(std::move(result));
+  const size_t limit = static_cast<size_t>(settings_.daemon.max_pending_results);
+  if (pending_.size() > limit) {
+    // The learned memory and map stay whole in the pipeline and are written in full by the
+    // next commit; what is given up is the raw record (base point descriptors, detected
+    // places, transition regions) of the oldest results.
+    const size_t drop = pending_.size() - limit;
+    const int64_t first = pending_.front().has_base ? pending_.front().base.index : -1;
+    const int64_t last = pending_[drop - 1].has_base ? pending_[drop - 1].base.index : first;
+    pending_.erase(pending_.begin(), pending_.begin() + static_cast<std::ptrdiff_t>(drop));
+    replace_knowledge_ = true;
+    const int64_t n = counters_.results_dropped += static_cast<int64_t>(drop);
+    if (ShouldLog(n)) {
+      spdlog::error(
+          "store unavailable and {} results kept (daemon.max_pending_results): the records of "
+          "base points {}..{} are dropped ({} so far); learned places and map edges are kept "
+          "and written in full once the store works",
+          limit, first, last, n);
+    }
+  }
+  pending_results_ = static_cast<int64_t>(pending_.size());
   counters_.pending_commits = static_cast<int32_t>(pending_.size());
   RetryStore();
 }
 
-void Daemon::RetryStore() {
-  if (pending_.empty() && !unsaved_merge_) return;
-  if (!store_) {
-    if (Clock::now() < next_store_retry_) return;
-    next_store_retry_ = Clock::now() + std::chrono::seconds(10);
-    try {
-      Store store = Store::Open(db_path_);
-      const StoredState saved = store.Load(robot_, settings_.pipeline.memory);
-      if (!saved.memory.empty() || saved.pipeline.next_base > 0) {
-        throw StoreError(db_path_.string() +
-                         " now holds a memory this process did not load; leaving it untouched");
-      }
-      store_ = std::move(store);
-      spdlog::info("store {} opened; writing {} kept results", db_path_.string(), pending_.size());
-    } catch (const std::exception& e) {
-      if (e.what() != store_problem_) spdlog::error("store still unavailable: {}", e.what());
-      store_problem_ = e.what();
-      return;
-    }
-  }
-  size_t done = 0;
+void Daemon::RetryStore(bool now) {
+  if (pending_.empty() && !unsaved_merge_ && !replace_knowledge_) return;
+  // While the store fails, a retry per frame would rewrite every kept result each time.
+  if (!now && degraded_store_ && Clock::now() < next_store_retry_) return;
+  if (!store_ && !ReopenStore()) return;
   try {
+    // One transaction for everything kept: the database goes from its last committed state
+    // straight to the current one, whatever instant the process dies at.
     std::lock_guard lock(pipeline_mutex_);
-    for (; done < pending_.size(); ++done) store_->Commit(pending_[done], *pipeline_);
-    if (unsaved_merge_) {
-      store_->ReplaceKnowledge(pipeline_->memory(), pipeline_->map(), unsaved_merge_);
-      unsaved_merge_.reset();
+    store_->CommitPending(pending_, *pipeline_, replace_knowledge_, unsaved_merge_);
+    if (degraded_store_) {
+      spdlog::info("store {} writable again: {} kept results committed{}", db_path_.string(),
+                   pending_.size(), unsaved_merge_ ? " with the merged memory" : "");
     }
-    if (degraded_store_)
-      spdlog::info("store {} writable again; nothing was lost", db_path_.string());
+    committed_next_base_ = pipeline_->state().next_base;
+    pending_.clear();
+    pending_results_ = 0;
+    counters_.pending_commits = 0;
+    unsaved_merge_.reset();
+    replace_knowledge_ = false;
     degraded_store_ = false;
     store_problem_.clear();
   } catch (const std::exception& e) {
     const int64_t n = ++counters_.store_failures;
-    if (ShouldLog(n)) {
-      spdlog::error("commit failed, {} results kept for retry: {}", pending_.size() - done,
-                    e.what());
+    const auto* store_error = dynamic_cast<const StoreError*>(&e);
+    const bool file_system = store_error != nullptr && store_error->file_system();
+    if (ShouldLog(n) || e.what() != store_problem_) {
+      spdlog::error(
+          "commit failed, {} results kept (recognition goes on from memory), retrying every "
+          "{} s: {} [{}]",
+          pending_.size(), kStoreRetrySeconds, e.what(), FileSystemState(db_path_.parent_path()));
     }
+    if (file_system) {
+      // A file system that failed under SQLite (I/O error, remounted read-only) may come back
+      // only once repaired and mounted again, which our open files would prevent.
+      spdlog::error("closing {} until its file system works again", db_path_.string());
+      store_.reset();
+    }
+    store_problem_ = e.what();
     degraded_store_ = true;
+    next_store_retry_ = Clock::now() + std::chrono::seconds(kStoreRetrySeconds);
   }
-  pending_.erase(pending_.begin(), pending_.begin() + static_cast<std::ptrdiff_t>(done));
-  counters_.pending_commits = static_cast<int32_t>(pending_.size());
+}
+
+bool Daemon::ReopenStore() {
+  if (Clock::now() < next_store_retry_) return false;
+  // Never opened: every 10 s; closed after a file system failure: as often as commits retry.
+  next_store_retry_ =
+      Clock::now() + std::chrono::seconds(committed_next_base_ ? kStoreRetrySeconds : 10);
+  try {
+    Store store = Store::Open(db_path_);
+    const StoredState saved = store.Load(robot_, settings_.pipeline.memory);
+    if (!committed_next_base_) {
+      // The store failed at start, so our memory does not hold what a database there holds.
+      if (!saved.memory.empty() || saved.pipeline.next_base > 0) {
+        throw StoreError(db_path_.string() +
+                         " now holds a memory this process did not load; leaving it untouched");
+      }
+    } else {
+      // Ours, closed after a failure: take it back only if it holds nothing we do not (it
+      // may have lost its last commits with the file system), then write the whole memory.
+      std::set<PlaceId> ours;
+      {
+        std::lock_guard lock(pipeline_mutex_);
+        for (const LearnedPlace& p : pipeline_->memory().places()) {
+          ours.insert(p.id);
+          ours.insert(p.sources.begin(), p.sources.end());
+        }
+      }
+      for (const LearnedPlace& p : saved.memory.places()) {
+        if (!ours.contains(p.id)) {
+          throw StoreError(db_path_.string() + " now holds place " + p.id.ToString() +
+                           " this process never had; leaving it untouched");
+        }
+      }
+      if (saved.pipeline.next_base > *committed_next_base_) {
+        throw StoreError(db_path_.string() + " is ahead of this process (base point " +
+                         std::to_string(saved.pipeline.next_base) + "); leaving it untouched");
+      }
+      if (saved.pipeline.next_base < *committed_next_base_) {
+        spdlog::error(
+            "store {} lost its commits after base point {} with its file system: the records "
+            "of base points {}..{} are gone; the memory is written in full",
+            db_path_.string(), saved.pipeline.next_base, saved.pipeline.next_base,
+            *committed_next_base_ - 1);
+      }
+      replace_knowledge_ = true;
+    }
+    store_ = std::move(store);
+    spdlog::info("store {} opened; writing {} kept results", db_path_.string(), pending_.size());
+    return true;
+  } catch (const std::exception& e) {
+    if (e.what() != store_problem_) spdlog::error("store still unavailable: {}", e.what());
+    store_problem_ = e.what();
+    return false;
+  }
 }
 
 }  // namespace tsc

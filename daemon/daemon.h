@@ -46,6 +46,7 @@ struct DaemonCounters {
   std::atomic<int64_t> frames{0};             ///< base points processed
   std::atomic<int64_t> camera_errors{0};      ///< frames the camera could not deliver
   std::atomic<int64_t> store_failures{0};     ///< commits that failed (kept and retried)
+  std::atomic<int64_t> results_dropped{0};    ///< kept results beyond max_pending_results
   std::atomic<int64_t> messages_rejected{0};  ///< malformed messages on our channels
   std::atomic<int64_t> memory_version{0};     ///< bumped on every memory or map change
   std::atomic<int32_t> places{0};
@@ -146,7 +147,12 @@ class Daemon {
   void MergePeers();
   void MergePeer(const PeerSnapshot& snapshot);
   void PublishMerged(std::vector<std::pair<PlaceId, PlaceId>> absorbed, int64_t utime);
-  void RetryStore();
+  /// Commits what is kept (results, a merge) when the store works; while it fails, at most
+  /// once a second unless `now`.
+  void RetryStore(bool now = false);
+  /// Opens the store again (after it failed to open, or was closed after a file system
+  /// failure); true when it is open.
+  bool ReopenStore();
 
   Settings settings_;
   SettingsSource source_;
@@ -168,6 +174,10 @@ class Daemon {
   std::optional<Store> store_;
   std::vector<FrameResult> pending_;        // results not yet committed (store missing or failing)
   std::optional<PeerMerge> unsaved_merge_;  // a merged memory the store has not taken yet
+  bool replace_knowledge_ = false;          // results were dropped: write the whole memory
+  // Base point the store's last commit reached; nullopt while it never opened.
+  std::optional<int64_t> committed_next_base_;
+  std::atomic<int64_t> pending_results_{0};  // pending_.size(), for the status line
   std::mutex inbox_mutex_;
   std::vector<PeerSnapshot> merge_inbox_;  // complete peer memories waiting for the worker
   std::string store_problem_;              // "" when the store works

@@ -9,6 +9,9 @@ namespace tsc {
 void DaemonOptions::Validate() const {
   if (state_dir.empty()) throw std::invalid_argument("daemon.state_dir: a folder is required");
   if (queue_frames < 1) throw std::invalid_argument("daemon.queue_frames: must be at least 1");
+  if (max_pending_results < 1) {
+    throw std::invalid_argument("daemon.max_pending_results: must be at least 1");
+  }
   if (camera.source == "axis") {
     if (camera.axis_host.empty()) {
       throw std::invalid_argument("camera.axis_host: required for camera.source = axis");

@@ -86,7 +86,10 @@ struct MotorOptions {
 struct DaemonOptions {
   std::string state_dir = "/var/lib/tscd";  ///< holds memory.db
   int queue_frames = 8;                     ///< frames waiting for the pipeline (drop-oldest)
-  std::string log_level = "info";           ///< trace | debug | info | warn | error
+  /// Results kept in memory while the store cannot be written (full disk, read-only); beyond
+  /// it the oldest results' base point records are dropped (learned places and edges never).
+  int max_pending_results = 10000;
+  std::string log_level = "info";  ///< trace | debug | info | warn | error
   CameraOptions camera;
   SimOptions sim;
   BusOptions bus;

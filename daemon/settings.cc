@@ -308,6 +308,11 @@ std::vector<ConfigKey> BuildTable() {
       "daemon.queue_frames",
       "frames waiting for the pipeline; when full the oldest is dropped and counted", "frames", 1,
       1000, [](auto& o) -> auto& { return o.daemon.queue_frames; }));
+  t.push_back(Number(
+      "daemon.max_pending_results",
+      "results kept in memory while the store cannot be written; beyond it the oldest base "
+      "point records are dropped (learned places and map edges are always kept)",
+      "results", 1, 10000000, [](auto& o) -> auto& { return o.daemon.max_pending_results; }));
   t.push_back(Text(
       "daemon.log_level", "least severe log level written", "trace|debug|info|warn|error",
       [](auto& o) -> auto& { return o.daemon.log_level; },

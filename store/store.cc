@@ -7,6 +7,7 @@
 #include <limits>
 #include <span>
 #include <string_view>
+#include <system_error>
 #include <type_traits>
 #include <unordered_map>
 #include <unordered_set>
@@ -262,17 +263,39 @@ struct Db {
   throw StoreError(db.path.string() + ": " + what);
 }
 
+/// The last failure came from the file system under SQLite (not a full disk: that passes).
+bool FileSystemFailure(const Db& db) {
+  if (db.handle == nullptr) return false;
+  const int primary = sqlite3_errcode(db.handle) & 0xff;
+  return primary == SQLITE_IOERR || primary == SQLITE_READONLY || primary == SQLITE_CANTOPEN;
+}
+
+/// " (No space left on device)" when the last failure came from the file system: SQLite's own
+/// text says "disk I/O error" or "database or disk is full", the operating system's says which.
+std::string OsError(const Db& db) {
+  const int primary = sqlite3_errcode(db.handle) & 0xff;
+  const bool io = primary == SQLITE_IOERR || primary == SQLITE_FULL || primary == SQLITE_CANTOPEN ||
+                  primary == SQLITE_READONLY;
+  const int os_errno = sqlite3_system_errno(db.handle);
+  if (!io || os_errno == 0) return "";
+  return " (" + std::system_category().message(os_errno) + ")";
+}
+
 [[noreturn]] void FailSqlite(const Db& db, const std::string& what) {
-  Fail(db, what + ": " + (db.handle ? sqlite3_errmsg(db.handle) : "out of memory"));
+  if (db.handle == nullptr) Fail(db, what + ": out of memory");
+  throw StoreError(db.path.string() + ": " + what + ": " + sqlite3_errmsg(db.handle) + OsError(db),
+                   FileSystemFailure(db));
 }
 
 void Exec(const Db& db, const char* sql) {
   char* message = nullptr;
   if (sqlite3_exec(db.handle, sql, nullptr, nullptr, &message) != SQLITE_OK) {
-    const std::string text = message ? message : sqlite3_errmsg(db.handle);
+    const std::string text = (message ? message : sqlite3_errmsg(db.handle)) + OsError(db);
     sqlite3_free(message);
     const std::string_view head(sql);
-    Fail(db, "cannot execute `" + std::string(head.substr(0, 60)) + "`: " + text);
+    throw StoreError(
+        db.path.string() + ": cannot execute `" + std::string(head.substr(0, 60)) + "`: " + text,
+        FileSystemFailure(db));
   }
 }
 
@@ -753,6 +776,55 @@ void WritePipelineState(const Db& db, const PipelineState& state) {
       state.previous_place ? std::optional<int64_t>(state.previous_place->local) : std::nullopt);
 }
 
+/// Replaces the learned places, the tree, its discriminants and the map by `memory` and `map`
+/// (inside the caller's transaction); records `peer` when given. The pipeline's previous place
+/// may have been absorbed: it continues from the place that holds it.
+void WriteKnowledge(const Db& db, const PlaceMemory& memory, const TopologicalMap& map,
+                    const std::optional<PeerMerge>& peer) {
+  if (peer) {
+    Statement(db,
+              "INSERT OR REPLACE INTO peers(robot, last_merged_version, merged_at_utime, digest) "
+              "VALUES(?1, ?2, ?3, ?4)")
+        .Int(1, peer->robot)
+        .Int(2, peer->version)
+        .Int(3, peer->utime)
+        .Int(4, peer->digest)
+        .Run();
+  }
+  Exec(db, "DELETE FROM learned_places");
+  std::vector<int> all(memory.places().size());
+  for (size_t i = 0; i < all.size(); ++i) all[i] = static_cast<int>(i);
+  UpsertLearnedPlaces(db, memory, all);
+  WriteTree(db, memory, all);
+  Exec(db, "DELETE FROM map_edges; DELETE FROM map_places;");
+  Statement place(db, "INSERT INTO map_places(robot, local) VALUES(?1, ?2)");
+  for (const PlaceId& p : map.places()) place.Place(1, p).Run();
+  Statement edge(db,
+                 "INSERT INTO map_edges(a_robot, a_local, b_robot, b_local, traversals, "
+                 "transitions) VALUES(?1, ?2, ?3, ?4, ?5, ?6)");
+  for (const auto& [key, e] : map.edges()) {
+    edge.Place(1, e.a)
+        .Place(3, e.b)
+        .Int(5, e.traversals)
+        .Blob(6, EncodeTransitions(e.transitions))
+        .Run();
+  }
+  // The pipeline's previous place may have been absorbed: continue from its holder.
+  const std::optional<int64_t> robot =
+      MetaInt(db, kMetaPreviousRobot, 0, std::numeric_limits<uint32_t>::max());
+  const std::optional<int64_t> local =
+      MetaInt(db, kMetaPreviousLocal, 0, std::numeric_limits<uint32_t>::max());
+  if (robot && local) {
+    const PlaceId previous{static_cast<uint32_t>(*robot), static_cast<uint32_t>(*local)};
+    for (const LearnedPlace& p : memory.places()) {
+      if (std::binary_search(p.sources.begin(), p.sources.end(), previous)) {
+        SetMeta(db, kMetaPreviousRobot, p.id.robot);
+        SetMeta(db, kMetaPreviousLocal, p.id.local);
+      }
+    }
+  }
+}
+
 // ---------------------------------------------------------------------------------------
 // Load helpers.
 
@@ -934,6 +1006,14 @@ Store Store::Open(const std::filesystem::path& path) {
   Store store(path, handle);  // owns the handle from here, even when opening failed
   const Db db{handle, store.path_};
   if (rc != SQLITE_OK) FailSqlite(db, "cannot open the database");
+  // SQLite falls back to reading when the file cannot be opened for writing (a read-only file
+  // system): such a store would fail at its first commit, so it is refused now.
+  if (sqlite3_db_readonly(handle, "main") == 1) {
+    throw StoreError(path.string() +
+                         ": opened read-only: the file or its file system cannot be "
+                         "written",
+                     true);
+  }
   sqlite3_extended_result_codes(handle, 1);
   if (sqlite3_busy_timeout(handle, kBusyTimeoutMs) != SQLITE_OK) {
     FailSqlite(db, "cannot set the busy timeout");
@@ -1037,49 +1117,8 @@ void Store::ReplaceKnowledge(const PlaceMemory& memory, const TopologicalMap& ma
   const Db db{db_, path_};
   try {
     Transaction tx(db);
-    if (peer) {
-      Statement(db,
-                "INSERT OR REPLACE INTO peers(robot, last_merged_version, merged_at_utime, digest) "
-                "VALUES(?1, ?2, ?3, ?4)")
-          .Int(1, peer->robot)
-          .Int(2, peer->version)
-          .Int(3, peer->utime)
-          .Int(4, peer->digest)
-          .Run();
-    }
     CheckRobot(db, memory.robot());
-    Exec(db, "DELETE FROM learned_places");
-    std::vector<int> all(memory.places().size());
-    for (size_t i = 0; i < all.size(); ++i) all[i] = static_cast<int>(i);
-    UpsertLearnedPlaces(db, memory, all);
-    WriteTree(db, memory, all);
-    Exec(db, "DELETE FROM map_edges; DELETE FROM map_places;");
-    Statement place(db, "INSERT INTO map_places(robot, local) VALUES(?1, ?2)");
-    for (const PlaceId& p : map.places()) place.Place(1, p).Run();
-    Statement edge(db,
-                   "INSERT INTO map_edges(a_robot, a_local, b_robot, b_local, traversals, "
-                   "transitions) VALUES(?1, ?2, ?3, ?4, ?5, ?6)");
-    for (const auto& [key, e] : map.edges()) {
-      edge.Place(1, e.a)
-          .Place(3, e.b)
-          .Int(5, e.traversals)
-          .Blob(6, EncodeTransitions(e.transitions))
-          .Run();
-    }
-    // The pipeline's previous place may have been absorbed: continue from its holder.
-    const std::optional<int64_t> robot =
-        MetaInt(db, kMetaPreviousRobot, 0, std::numeric_limits<uint32_t>::max());
-    const std::optional<int64_t> local =
-        MetaInt(db, kMetaPreviousLocal, 0, std::numeric_limits<uint32_t>::max());
-    if (robot && local) {
-      const PlaceId previous{static_cast<uint32_t>(*robot), static_cast<uint32_t>(*local)};
-      for (const LearnedPlace& p : memory.places()) {
-        if (std::binary_search(p.sources.begin(), p.sources.end(), previous)) {
-          SetMeta(db, kMetaPreviousRobot, p.id.robot);
-          SetMeta(db, kMetaPreviousLocal, p.id.local);
-        }
-      }
-    }
+    WriteKnowledge(db, memory, map, peer);
     tx.Commit();
   } catch (const StoreError&) {
     throw;
@@ -1089,20 +1128,37 @@ void Store::ReplaceKnowledge(const PlaceMemory& memory, const TopologicalMap& ma
 }
 
 void Store::Commit(const FrameResult& result, const Pipeline& pipeline) {
+  CommitPending(std::span<const FrameResult>(&result, 1), pipeline, false, std::nullopt);
+}
+
+void Store::CommitPending(std::span<const FrameResult> results, const Pipeline& pipeline,
+                          bool replace_knowledge, const std::optional<PeerMerge>& peer) {
   const Db db{db_, path_};
   try {
     Transaction tx(db);
     const PlaceMemory& memory = pipeline.memory();
     CheckRobot(db, memory.robot());
-    if (result.has_base) InsertBasePoint(db, result.base);
-    InsertDetectedPlaces(db, result);
-    InsertTransitions(db, result);
-    if (!result.changed_places.empty()) UpsertLearnedPlaces(db, memory, result.changed_places);
-    if (result.memory_changed || !result.changed_places.empty()) {
-      WriteTree(db, memory, result.changed_places);
+    std::vector<int> changed;
+    bool tree_changed = false;
+    for (const FrameResult& result : results) {
+      if (result.has_base) InsertBasePoint(db, result.base);
+      InsertDetectedPlaces(db, result);
+      InsertTransitions(db, result);
+      changed.insert(changed.end(), result.changed_places.begin(), result.changed_places.end());
+      tree_changed |= result.memory_changed || !result.changed_places.empty();
     }
-    WriteMap(db, result, pipeline.map());
     WritePipelineState(db, pipeline.state());
+    if (replace_knowledge || peer) {
+      // Positions and map edges of older results may not exist any more (a merge renumbers
+      // places and collapses edges): the whole current knowledge replaces the stored one.
+      WriteKnowledge(db, memory, pipeline.map(), peer);
+    } else {
+      std::sort(changed.begin(), changed.end());
+      changed.erase(std::unique(changed.begin(), changed.end()), changed.end());
+      if (!changed.empty()) UpsertLearnedPlaces(db, memory, changed);
+      if (tree_changed) WriteTree(db, memory, changed);
+      for (const FrameResult& result : results) WriteMap(db, result, pipeline.map());
+    }
     tx.Commit();
   } catch (const StoreError&) {
     throw;

@@ -10,6 +10,7 @@
 #include <map>
 #include <memory>
 #include <optional>
+#include <span>
 #include <stdexcept>
 #include <string>
 
@@ -35,7 +36,14 @@ struct PeerMerge {
 /// Thrown with a message naming the database file and what failed.
 class StoreError : public std::runtime_error {
  public:
-  using std::runtime_error::runtime_error;
+  /// `file_system`: the failure came from below SQLite (an I/O error, a read-only or vanished
+  /// file system), so the connection is best closed and the file opened again later.
+  explicit StoreError(const std::string& what, bool file_system = false)
+      : std::runtime_error(what), file_system_(file_system) {}
+  bool file_system() const { return file_system_; }
+
+ private:
+  bool file_system_ = false;
 };
 
 class Store {
@@ -57,6 +65,15 @@ class Store {
   /// transitions, changed learned places, the tree and discriminants when they changed, map
   /// edges of mapped events, and the pipeline position. Throws StoreError (rolled back).
   void Commit(const FrameResult& result, const Pipeline& pipeline);
+  /// Writes `results`, kept while the store failed, in ONE transaction that takes the database
+  /// from its last committed state to `pipeline`'s current one (only the current memory
+  /// exists, so committing them one by one would store a tree ahead of its places if the
+  /// process died in between). With `replace_knowledge` or a `peer` merge, the whole memory and
+  /// map are written as ReplaceKnowledge does (needed after a merge, or when results were
+  /// dropped and their changes are known only from the memory). Throws StoreError (rolled
+  /// back).
+  void CommitPending(std::span<const FrameResult> results, const Pipeline& pipeline,
+                     bool replace_knowledge, const std::optional<PeerMerge>& peer);
 
   /// The robot id recorded in the database, if any. Throws StoreError.
   std::optional<uint32_t> robot() const;

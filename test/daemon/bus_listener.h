@@ -28,11 +28,13 @@ inline constexpr const char* kTestLcmUrl = "udpm://239.255.76.67:7667?ttl=0";
 
 class BusListener {
  public:
-  BusListener() : lcm_(kTestLcmUrl) {
+  /// Listens on the channels matching `channels` (an LCM regular expression): a test that
+  /// moves large memories can leave TSC_MEMORY_* out rather than keep every portion.
+  explicit BusListener(const std::string& channels = ".*") : lcm_(kTestLcmUrl) {
     if (!lcm_.good()) throw std::runtime_error("LCM cannot start on " + std::string(kTestLcmUrl));
     // The function form: with Debian's LCM 1.3.1 the handler-method form hands its callback
     // another object than its subscription (UBSan: "invalid vptr" at lcm-cpp-impl.hpp:108).
-    lcm_.subscribeFunction(".*", &BusListener::Dispatch, this);
+    lcm_.subscribeFunction(channels, &BusListener::Dispatch, this);
     thread_ = std::thread([this] {
       while (!stop_) lcm_.handleTimeout(50);
     });

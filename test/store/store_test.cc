@@ -12,6 +12,7 @@
 #include <string>
 #include <vector>
 
+#include "test/support/memory_compare.h"
 #include "test/support/temp_dir.h"
 
 namespace tsc {
@@ -551,6 +552,99 @@ TEST_F(StoreTest, LoadRejectsBlobsOfTheWrongShape) {
       EXPECT_NE(std::string(e.what()).find(c.table), std::string::npos) << e.what();
     }
   }
+}
+
+// tscd keeps results while its store fails and commits them together once it works: the one
+// transaction must leave exactly what committing each result at its time would have left.
+TEST_F(StoreTest, KeptResultsCommittedTogetherEqualResultsCommittedOneByOne) {
+  Stream stream(41);
+  for (int c = 0; c < 4; ++c) stream.AddCluster();
+  std::vector<Descriptor> frames;
+  for (int c : {0, 1, 2, 0, 3, 1}) {
+    for (Descriptor& d : stream.Visit(c, 14)) frames.push_back(std::move(d));
+  }
+  const fs::path one_by_one = dir_ / "one_by_one.db";
+  const fs::path together = dir_ / "together.db";
+  const fs::path rewritten = dir_ / "rewritten.db";
+  {
+    Store a = Store::Open(one_by_one);
+    Store b = Store::Open(together);
+    Store c = Store::Open(rewritten);
+    Pipeline pipeline = Continue(a);
+    std::vector<FrameResult> kept_b, kept_c;
+    for (size_t i = 0; i < frames.size(); ++i) {
+      FrameResult r = pipeline.ProcessDescriptor(frames[i], IntensityStats{0.5, 0.05});
+      a.Commit(r, pipeline);
+      // b: the first third committed at once, the rest kept until the end; c: everything
+      // kept, and written with the whole memory (as after dropped results).
+      if (i < frames.size() / 3) {
+        b.Commit(r, pipeline);
+      } else {
+        kept_b.push_back(r);
+      }
+      kept_c.push_back(std::move(r));
+    }
+    FrameResult last = pipeline.Finish();
+    a.Commit(last, pipeline);
+    kept_b.push_back(last);
+    kept_c.push_back(std::move(last));
+    b.CommitPending(kept_b, pipeline, false, std::nullopt);
+    c.CommitPending(kept_c, pipeline, true, std::nullopt);
+    ASSERT_GE(pipeline.memory().places().size(), 3u);
+  }
+  const auto expected = testing_support::LoadKnowledge(one_by_one, kRobot);
+  EXPECT_EQ(testing_support::DescribeDifferences(expected,
+                                                 testing_support::LoadKnowledge(together, kRobot)),
+            "");
+  EXPECT_EQ(testing_support::DescribeDifferences(expected,
+                                                 testing_support::LoadKnowledge(rewritten, kRobot)),
+            "");
+  for (const char* table : {"base_points", "detected_places", "transition_regions"}) {
+    const std::string count = std::string("SELECT COUNT(*) FROM ") + table;
+    EXPECT_EQ(Sql(together, count), Sql(one_by_one, count)) << table;
+    EXPECT_EQ(Sql(rewritten, count), Sql(one_by_one, count)) << table;
+  }
+}
+
+// The crash tests' comparison sees one bit of one mean, one traversal and one merged version.
+TEST_F(StoreTest, StructuralComparisonNamesTheSmallestDifference) {
+  Stream stream(43);
+  for (int c = 0; c < 3; ++c) stream.AddCluster();
+  Committed committed;
+  {
+    Store dut = Store::Open(path_);
+    Pipeline pipeline = Continue(dut);
+    for (int c : {0, 1, 2, 0}) Feed(pipeline, dut, stream.Visit(c, 14), committed);
+    Finish(pipeline, dut, committed);
+  }
+  const auto a = testing_support::LoadKnowledge(path_, kRobot);
+  ASSERT_GE(a.state.memory.places().size(), 2u);
+  EXPECT_EQ(testing_support::DescribeDifferences(a, testing_support::LoadKnowledge(path_, kRobot)),
+            "");
+
+  std::vector<LearnedPlace> places = a.state.memory.places();
+  places[1].mean[5] = std::nextafter(places[1].mean[5], 1.0f);
+  testing_support::Knowledge b{
+      StoredState{PlaceMemory::Restore(kRobot, Options().memory, places, a.state.memory.slink(),
+                                       a.state.memory.next_local_id(), {}),
+                  a.state.map, a.state.pipeline},
+      a.peers};
+  const std::string d = testing_support::DescribeDifferences(a, b);
+  EXPECT_NE(d.find("place at position 1"), std::string::npos) << d;
+  EXPECT_NE(d.find("mean differs"), std::string::npos) << d;
+
+  testing_support::Knowledge c{
+      StoredState{PlaceMemory::Restore(kRobot, Options().memory, a.state.memory.places(),
+                                       a.state.memory.slink(), a.state.memory.next_local_id(), {}),
+                  a.state.map, a.state.pipeline},
+      a.peers};
+  ASSERT_FALSE(c.state.map.edges().empty());
+  const MapEdge& e = c.state.map.edges().begin()->second;
+  c.state.map.RecordTransition(e.a, e.b, TransitionRegion{1, 2});
+  c.peers[7] = PeerMerge{7, 3, 4, 5};
+  const std::string f = testing_support::DescribeDifferences(a, c);
+  EXPECT_NE(f.find("traversals differ"), std::string::npos) << f;
+  EXPECT_NE(f.find("peer 7 merged only in the second"), std::string::npos) << f;
 }
 
 }  // namespace
