@@ -107,9 +107,9 @@ extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
   Require(whole.finished == cut.finished, "the same end whatever the reads");
   Require(whole.skipped == cut.skipped, "the same skipped bytes whatever the reads");
 
-  // Content types with a line break cannot be written back as a header; a body holding the
-  // delimiter cannot be sent without a length.
-  // (or one too long for the header limit with a Content-Length beside it)
+  // A content type with a line break cannot be written back as a header, nor one too long for
+  // the header limit with a Content-Length beside it; a body holding the delimiter cannot be
+  // sent without a length.
   const bool writable = std::none_of(whole.parts.begin(), whole.parts.end(), [](const auto& p) {
     return p.content_type.find_first_of("\r\n") != std::string::npos || p.content_type.size() > 200;
   });
