@@ -548,16 +548,33 @@ const ConfigKey* FindConfigKey(const std::string& key) {
   return nullptr;
 }
 
+namespace {
+
+// ConfigTable() as boost's INI parser sees it: every key a string option. Built once per
+// process, like the table (the parser only reads it); rebuilt per file it was ~15 % of the
+// configuration fuzz target's CPU time.
+const po::options_description& IniOptions() {
+  struct Ini {
+    po::options_description desc;
+    Ini() {
+      for (const ConfigKey& k : ConfigTable()) {
+        desc.add_options()(k.key.c_str(), po::value<std::string>());
+      }
+    }
+  };
+  static const Ini ini;
+  return ini.desc;
+}
+
+}  // namespace
+
 void ApplyConfigFile(const fs::path& file, Settings& options) {
   const std::string name = file.string();
   std::error_code ec;
   if (fs::is_directory(file, ec)) throw ConfigError(name + ": is a folder, not a config file");
   std::ifstream in(file);
   if (!in) throw ConfigError(name + ": cannot open config file");
-  po::options_description desc;
-  for (const ConfigKey& k : ConfigTable()) {
-    desc.add_options()(k.key.c_str(), po::value<std::string>());
-  }
+  const po::options_description& desc = IniOptions();
   po::parsed_options parsed(&desc);
   try {
     parsed = po::parse_config_file(in, desc, /*allow_unregistered=*/true);

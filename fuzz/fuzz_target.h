@@ -5,5 +5,19 @@
 
 #include <cstddef>
 #include <cstdint>
+#include <cstdio>
+#include <cstdlib>
 
 extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size);
+
+namespace tsc::fuzz {
+
+/// A property a target checks: when it does not hold, says which and aborts, so libFuzzer
+/// keeps the input as a crash and the replay test fails.
+inline void Require(bool holds, const char* property) {
+  if (holds) return;
+  std::fprintf(stderr, "fuzz property violated: %s\n", property);
+  std::abort();
+}
+
+}  // namespace tsc::fuzz

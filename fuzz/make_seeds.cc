@@ -1,16 +1,20 @@
-// Writes the seed corpus of the fuzz targets that read binary encodings, from the real
-// encoders, into FOLDER/<target>/ (the checked-in fuzz/corpus was made by
-// `build/bin/fuzz_make_seeds fuzz/corpus`; the text targets' seeds are written by hand).
+// Writes the seed corpus of the fuzz targets that read binary encodings or device streams, from
+// the real encoders, into FOLDER/<target>/ (the checked-in fuzz/corpus was made by
+// `build/bin/fuzz_make_seeds fuzz/corpus`; the configuration and dataset text seeds are
+// written by hand).
 
 #include <cstdio>
 #include <filesystem>
 #include <fstream>
+#include <initializer_list>
 #include <opencv2/imgcodecs.hpp>
 #include <string>
 #include <vector>
 
 #include "daemon/lcm_bus.h"
 #include "daemon/memory_snapshot.h"
+#include "drivers/motor/jaguar_ascii_protocol.h"
+#include "drivers/motor/jaguar_v2_protocol.h"
 #include "jaguar/motor_command_t.hpp"
 #include "test/support/random_memory.h"
 #include "tsc/announce_t.hpp"
@@ -27,6 +31,17 @@ void Write(const fs::path& file, const std::vector<uint8_t>& bytes) {
   out.write(reinterpret_cast<const char*>(bytes.data()),
             static_cast<std::streamsize>(bytes.size()));
   if (!out) throw std::runtime_error(file.string() + ": cannot write");
+}
+void Write(const fs::path& file, const std::string& text) {
+  Write(file, std::vector<uint8_t>(text.begin(), text.end()));
+}
+
+// The read sizes of fuzz/chunked_input.h before a stream: none (one read), or these.
+std::string InOneRead(const std::string& stream) { return std::string(1, '\0') + stream; }
+std::string InReads(const std::string& stream, std::initializer_list<uint8_t> sizes) {
+  std::string s(1, static_cast<char>(sizes.size()));
+  for (uint8_t n : sizes) s += static_cast<char>(n);
+  return s + stream;
 }
 
 // The snapshot assembler's input framing: 4-byte big-endian length, then the encoding.
@@ -122,6 +137,77 @@ int main(int argc, char** argv) {
     cv::imencode(ext, frame, bytes);
     Write(out / "fuzz_dataset_image" / (std::string("frame") + ext), bytes);
   }
+
+  // Jaguar V2/V4 datagrams: the board's three sensor frames and ACK as `tsc jaguar-sim` sends
+  // them (tools/jaguar_sim.cc), the PC's PWM, ACK and ping as JaguarV2Base sends them.
+  namespace v2 = tsc::jaguar_v2;
+  v2::MotorSensor ms;
+  ms.output_pwm = {16384, 16384, 0, 17000, 15800, 0};
+  ms.ch0_encoder = 1200;
+  ms.ch1_encoder = 64000;
+  ms.direction_bits = 0x05;
+  v2::CustomSensor cs;
+  cs.analog = {0, 2980, 1800, 1810, 1790, 1805, 1795, 1800};
+  cs.ch3_encoder = 65500;
+  cs.ch4_encoder = 120;
+  cs.ch3_velocity = 300;
+  cs.ch4_velocity = 310;
+  cs.ch4_direction = 1;
+  const v2::StandardSensor ss{2275, 2991};
+  auto to_pc = [](v2::FrameType type, std::vector<uint8_t> data) {
+    return v2::Encode({v2::kDestPc, 0, static_cast<uint8_t>(type), std::move(data)});
+  };
+  const fs::path v2_dir = out / "fuzz_jaguar_v2_frame";
+  Write(v2_dir / "motor-sensor", to_pc(v2::FrameType::kMotorSensor, v2::SerializeMotorSensor(ms)));
+  Write(v2_dir / "custom-sensor",
+        to_pc(v2::FrameType::kCustomSensor, v2::SerializeCustomSensor(cs)));
+  Write(v2_dir / "standard-sensor",
+        to_pc(v2::FrameType::kStandardSensor, v2::SerializeStandardSensor(ss)));
+  Write(v2_dir / "ack-to-pc", v2::EncodeAck(v2::kDestPc));
+  Write(v2_dir / "ack-to-board", v2::EncodeAck());
+  Write(v2_dir / "pwm-all-stop", v2::EncodePwmAll(v2::AllStop()));
+  Write(v2_dir / "ping-to-board", v2::Encode({v2::kDestBoard,
+                                              7,
+                                              static_cast<uint8_t>(v2::FrameType::kSystem),
+                                              {static_cast<uint8_t>(v2::SystemCommand::kPing)}}));
+
+  // Jaguar 4x4/V6 TCP stream: the board's report lines as `tsc jaguar-sim` writes them
+  // (tools/jaguar_sim.cc), then the PC's command lines as JaguarAsciiBase sends them; in one
+  // read and cut into small reads.
+  namespace ascii = tsc::jaguar_ascii;
+  const std::string replies =
+      "MM0 C=1234:-5678\r\nMM0 V=120:252:50\r\nMM0 T=28:29\r\nMM0 FF=16\r\n"
+      "#17,YAW,0.7854,GYRO,0,0,0.1250,ACC,0,0,9.81,COMP,0.2,0,0.4\r\n"
+      "MMW +\r\nMMW -\r\nMM2 +\r\nMM3 -\r\n$GPRMC,123519,A\r\n";
+  const std::string commands = ascii::Stop() + ascii::EmergencyStop() + ascii::Release() +
+                               ascii::WheelPower(250, -300) + ascii::Ping() +
+                               ascii::FlipperMove(2, 1, -400) + "SYS MMC 255\r\n";
+  const fs::path ascii_dir = out / "fuzz_jaguar_ascii_line";
+  Write(ascii_dir / "replies", InOneRead(replies));
+  Write(ascii_dir / "replies-cut", InReads(replies, {1, 5, 17}));
+  Write(ascii_dir / "commands", InOneRead(commands));
+  Write(ascii_dir / "commands-cut", InReads(commands, {3, 0, 11}));
+
+  // An MJPEG stream as `tsc axis-sim` serves it (tools/axis_sim.cc): the Content-Type line,
+  // then parts with Content-Length, or without (its omit_content_length mode), closed.
+  std::vector<uint8_t> jpeg;
+  cv::imencode(".jpg", frame, jpeg);
+  const std::string boundary = "axis-sim-3fa2b1";
+  auto mjpeg = [&](bool with_length) {
+    std::string s = "multipart/x-mixed-replace; boundary=" + boundary + "\r\n";
+    for (int i = 0; i < 2; ++i) {
+      s += "--" + boundary + "\r\nContent-Type: image/jpeg\r\n";
+      if (with_length) s += "Content-Length: " + std::to_string(jpeg.size()) + "\r\n";
+      s += "\r\n" + std::string(jpeg.begin(), jpeg.end()) + "\r\n";
+    }
+    return s + "--" + boundary + "--\r\n";
+  };
+  const fs::path axis_dir = out / "fuzz_axis_multipart";
+  Write(axis_dir / "with-length", InOneRead(mjpeg(true)));
+  Write(axis_dir / "with-length-cut", InReads(mjpeg(true), {7, 200, 1}));
+  Write(axis_dir / "without-length", InOneRead(mjpeg(false)));
+  Write(axis_dir / "without-length-cut", InReads(mjpeg(false), {13, 0, 64, 2}));
+
   std::printf("seeds written to %s (%zu portions)\n", out.c_str(), snapshot.portions.size());
   return 0;
 }

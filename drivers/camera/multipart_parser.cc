@@ -152,16 +152,16 @@ bool MultipartParser::BoundaryLine() {
     state_ = State::kFinished;
     return false;
   }
+  // Only transport padding (RFC 2046), at most max_header_bytes of it, may follow the boundary
+  // on its line; anything else means the delimiter was the prefix of some other text. The same
+  // verdict whatever the reads: without a CRLF yet, wait while the padding could still fit
+  // (a CR may be its last byte).
   const size_t eol = pending.find("\r\n");
-  if (eol == std::string_view::npos) {
-    if (pending.size() <= options_.max_header_bytes) return false;
-    state_ = State::kSeekBoundary;  // not a delimiter line after all: keep looking
-    return true;
+  if (eol == std::string_view::npos && pending.size() <= options_.max_header_bytes + 1) {
+    return false;
   }
-  // Only transport padding (RFC 2046) may follow the boundary on its line; anything else means
-  // the delimiter was the prefix of some other text.
-  const std::string_view padding = pending.substr(0, eol);
-  if (!Trim(padding).empty()) {
+  if (eol == std::string_view::npos || eol > options_.max_header_bytes ||
+      !Trim(pending.substr(0, eol)).empty()) {
     skipped_ += static_cast<int64_t>(delimiter_.size());
     state_ = State::kSeekBoundary;
     return true;
@@ -179,7 +179,9 @@ bool MultipartParser::Headers() {
   } else {
     const size_t at = pending.find("\r\n\r\n");
     if (at == std::string_view::npos) {
-      if (pending.size() > options_.max_header_bytes) {
+      // Refused once the block cannot fit any more, whatever the reads: the blank line may have
+      // begun in the last three bytes.
+      if (pending.size() > options_.max_header_bytes + 3) {
         return Fail("multipart: a part's header block exceeds " +
                     std::to_string(options_.max_header_bytes) + " bytes");
       }

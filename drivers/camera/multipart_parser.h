@@ -55,6 +55,9 @@ class MultipartParser {
   int64_t parts() const { return parts_; }
   /// Bytes skipped while looking for a boundary (garbage between parts, preamble).
   int64_t skipped_bytes() const { return skipped_; }
+  /// Bytes held between calls: at most a part (max_part_bytes) and the delimiter after it, or a
+  /// header block (max_header_bytes) and its blank line, whatever the stream.
+  size_t buffered_bytes() const { return buffer_.size() - start_; }
 
  private:
   enum class State {

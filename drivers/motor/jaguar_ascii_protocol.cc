@@ -116,11 +116,13 @@ ReplyLine ParseReply(std::string_view raw) {
       return out;
     }
     const size_t eq = rest.find('=');
-    if (eq == std::string_view::npos || eq == 0) return malformed();
+    if (eq == std::string_view::npos) return malformed();
+    const std::string_view key = Trim(rest.substr(0, eq));
+    if (key.empty()) return malformed();  // "MM0 =1", "MM0\r=1"
     out.motor.board = board;
-    out.motor.key = std::string(Trim(rest.substr(0, eq)));
+    out.motor.key = std::string(key);
     for (std::string_view v : Split(rest.substr(eq + 1), ':')) {
-      int64_t n = 0;
+      int32_t n = 0;  // the boards' registers are 32-bit: a larger value is no report of theirs
       if (!ParseNumber(v, n)) return malformed();
       out.motor.values.push_back(n);
     }
@@ -162,9 +164,19 @@ void LineSplitter::Feed(std::string_view bytes) { buffer_.append(bytes); }
 std::optional<std::string> LineSplitter::Next() {
   while (true) {
     const size_t nl = buffer_.find('\n');
-    if (nl == std::string::npos) {
-      if (buffer_.size() > max_line_) {  // no end in sight: drop what we have
+    if (skipping_) {
+      if (nl == std::string::npos) {
         buffer_.clear();
+        return std::nullopt;
+      }
+      buffer_.erase(0, nl + 1);  // the end of the overlong line
+      skipping_ = false;
+      continue;
+    }
+    if (nl == std::string::npos) {
+      if (buffer_.size() > max_line_) {  // no end in sight: drop it, and the rest up to its end
+        buffer_.clear();
+        skipping_ = true;
         ++overlong_;
       }
       return std::nullopt;

@@ -27,6 +27,8 @@ std::string FlipperMove(int board, int channel, int counts);
 struct MotorBoardLine {
   int board = 0;
   std::string key;  ///< A, C, CR, P, S, T, V, FF, …
+  /// Each within int32 (the boards' registers), so the driver's arithmetic on them (sign flips,
+  /// count differences) cannot overflow; a line with a larger value is kMalformed.
   std::vector<int64_t> values;
 };
 /// `#seq,YAW,y,GYRO,gx,gy,gz,ACC,ax,ay,az,COMP,cx,cy,cz,...`
@@ -69,18 +71,21 @@ struct CommandLine {
 CommandLine ParseCommand(std::string_view line);
 
 /// Splits a TCP byte stream into lines: Feed() bytes, Next() whole lines without "\r\n".
-/// A line longer than `max_line` bytes is dropped and counted (a stream that lost its framing).
+/// A line longer than `max_line` bytes (with its "\r") is dropped whole and counted once (a
+/// stream that lost its framing): once it outgrows the limit the splitter holds none of it and
+/// skips to the next "\n", so no tail of it is ever taken for a line.
 class LineSplitter {
  public:
   explicit LineSplitter(size_t max_line = 1024) : max_line_(max_line) {}
   void Feed(std::string_view bytes);
   std::optional<std::string> Next();
   int64_t overlong() const { return overlong_; }
-  void Clear() { buffer_.clear(); }
+  void Clear() { buffer_.clear(), skipping_ = false; }
 
  private:
   size_t max_line_;
   std::string buffer_;
+  bool skipping_ = false;  // inside an overlong line already counted: drop up to its "\n"
   int64_t overlong_ = 0;
 };
 

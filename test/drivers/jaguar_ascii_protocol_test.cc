@@ -82,6 +82,28 @@ TEST(JaguarAsciiReplies, MalformedAndForeignLines) {
   EXPECT_EQ(ParseReply("").kind, ReplyLine::Kind::kOther);
 }
 
+// Found by fuzz_jaguar_ascii_line (fuzz/regressions/fuzz_jaguar_ascii_line/empty-motor-key): a
+// key of only blanks and a carriage return ("MM0\r=8") was taken as a motor report with an
+// empty key.
+// Found by review, confirmed by fuzz_jaguar_ascii_line under UBSan with
+// fuzz/regressions/fuzz_jaguar_ascii_line/int64-*: encoder counts near the int64 limits
+// overflowed the driver's sign flip of the mirrored side and the odometry's count difference.
+TEST(JaguarAsciiReplies, ValuesBeyondThe32BitRegistersAreMalformed) {
+  auto r = ParseReply("MM0 C=2147483647:-2147483648");
+  ASSERT_EQ(r.kind, ReplyLine::Kind::kMotorBoard);
+  EXPECT_EQ(r.motor.values, (std::vector<int64_t>{2147483647, -2147483648LL}));
+  for (const char* bad : {"MM0 C=2147483648:0", "MM0 C=0:-2147483649",
+                          "MM0 C=0:-9223372036854775808", "MM0 FF=99999999999999999999"}) {
+    EXPECT_EQ(ParseReply(bad).kind, ReplyLine::Kind::kMalformed) << bad;
+  }
+}
+
+TEST(JaguarAsciiReplies, KeyOfOnlyBlanksIsMalformed) {
+  for (const char* bad : {"MM0\r=8", "MM1 \r =8", "MM0  =1:2"}) {
+    EXPECT_EQ(ParseReply(bad).kind, ReplyLine::Kind::kMalformed) << bad;
+  }
+}
+
 TEST(LineSplitter, SplitsAStreamInAnyChunking) {
   const std::string stream = "MM0 C=1:2\r\nMM0 V=1:2:3\r\n#1,YAW\r\n";
   for (size_t chunk : {1u, 3u, 7u, 100u}) {
@@ -97,9 +119,38 @@ TEST(LineSplitter, SplitsAStreamInAnyChunking) {
   dut.Feed("0123456789abc");  // no end of line within 8 bytes: dropped
   EXPECT_FALSE(dut.Next());
   dut.Feed("\r\nok\r\n");
-  EXPECT_EQ(dut.Next(), std::optional<std::string>(""));
   EXPECT_EQ(dut.Next(), "ok");
+  EXPECT_FALSE(dut.Next());
   EXPECT_EQ(dut.overlong(), 1);
+}
+
+// Found by fuzz_jaguar_ascii_line (fuzz/regressions/fuzz_jaguar_ascii_line/): the splitter
+// dropped the first bytes of an overlong line once they outgrew the limit, then handed the
+// rest of that line, when its "\n" came in a later read, to the driver as a line of its own —
+// here a forged encoder report.
+TEST(LineSplitter, OverlongLineCutAcrossReadsIsDroppedWholeAndCountedOnce) {
+  LineSplitter dut(16);
+  std::vector<std::string> lines;
+  for (std::string_view read :
+       {"MM0 V=1:2\r\nxxxxxxxxxxxx", "xxxxxxxxxxxx", "xxxMM0 C=999:", "1\r\nMM0 T=28:29\r\n"}) {
+    dut.Feed(read);
+    while (auto l = dut.Next()) lines.push_back(*l);
+  }
+  EXPECT_EQ(lines, (std::vector<std::string>{"MM0 V=1:2", "MM0 T=28:29"}));
+  EXPECT_EQ(dut.overlong(), 1);
+  // Cut anywhere, the same stream gives the same lines.
+  const std::string stream =
+      "MM0 V=1:2\r\n" + std::string(27, 'x') + "MM0 C=999:1\r\nMM0 T=28:29\r\n";
+  for (size_t chunk = 1; chunk <= stream.size(); ++chunk) {
+    LineSplitter cut(16);
+    std::vector<std::string> got;
+    for (size_t i = 0; i < stream.size(); i += chunk) {
+      cut.Feed(std::string_view(stream).substr(i, chunk));
+      while (auto l = cut.Next()) got.push_back(*l);
+    }
+    EXPECT_EQ(got, lines) << chunk;
+    EXPECT_EQ(cut.overlong(), 1) << chunk;
+  }
 }
 
 }  // namespace

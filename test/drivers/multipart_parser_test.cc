@@ -125,6 +125,53 @@ TEST(MultipartParser, RefusesMalformedLengthsAndOversizedParts) {
   EXPECT_TRUE(parts.empty());
 }
 
+// Found by fuzz_axis_multipart (fuzz/regressions/fuzz_axis_multipart/header-end-across-reads):
+// a header block that just fits was refused when its blank line arrived split across reads,
+// and accepted in one read.
+TEST(MultipartParser, HeaderBlockAtTheLimitIsAcceptedWhereverTheReadsEnd) {
+  MultipartParserOptions options;
+  options.max_header_bytes = 32;
+  // "X: …\r\n" of 32 bytes, then the blank line: the block is exactly at the limit.
+  const std::string stream = "--bound\r\nX: " + std::string(27, 'h') + "\r\n\r\nbody\r\n--bound--";
+  for (size_t split = 0; split <= stream.size(); ++split) {
+    MultipartParser dut("bound", options);
+    std::vector<MultipartPart> parts;
+    EXPECT_TRUE(dut.Feed(std::string_view(stream).substr(0, split), &parts)) << split;
+    EXPECT_TRUE(dut.Feed(std::string_view(stream).substr(split), &parts)) << split;
+    ASSERT_EQ(parts.size(), 1u) << split;
+    EXPECT_EQ(parts[0].body, "body");
+    EXPECT_LE(dut.buffered_bytes(), options.max_header_bytes + 4);
+  }
+  MultipartParser too_long("bound", options);  // one byte more is refused, also in one read
+  std::vector<MultipartPart> parts;
+  EXPECT_FALSE(too_long.Feed("--bound\r\nX: " + std::string(30, 'h') + "\r\n\r\nbody", &parts));
+}
+
+// Found by fuzz_axis_multipart (fuzz/regressions/fuzz_axis_multipart/
+// boundary-line-skips-depend-on-reads): text after a boundary-like prefix was counted as skipped
+// or not depending on where the reads ended, and long padding was accepted only in one read.
+TEST(MultipartParser, BoundaryLineVerdictDoesNotDependOnTheReads) {
+  MultipartParserOptions options;
+  options.max_header_bytes = 16;
+  const std::string padded =
+      "--bound" + std::string(17, ' ') + "\r\n\r\nx\r\n--bound\r\n\r\ny\r\n--bound--";
+  const std::string prose =
+      "--boundless " + std::string(40, 'z') + "\r\n--bound\r\n\r\ny\r\n--bound--";
+  for (const std::string& stream : {padded, prose}) {
+    int64_t skipped = -1;
+    for (size_t split = 0; split <= stream.size(); ++split) {
+      MultipartParser dut("bound", options);
+      std::vector<MultipartPart> parts;
+      ASSERT_TRUE(dut.Feed(std::string_view(stream).substr(0, split), &parts));
+      ASSERT_TRUE(dut.Feed(std::string_view(stream).substr(split), &parts));
+      // Padding longer than the header limit makes no delimiter line: only "y" is a part.
+      ASSERT_EQ(Bodies(parts), std::vector<std::string>{"y"}) << split;
+      if (skipped < 0) skipped = dut.skipped_bytes();
+      EXPECT_EQ(dut.skipped_bytes(), skipped) << split;
+    }
+  }
+}
+
 // What a fuzz target checks, on seeded mutations of a valid stream: never more bytes out than
 // went in, every part within the limit, and a refused stream stays refused.
 TEST(MultipartParser, SurvivesMutatedStreams) {
