@@ -72,6 +72,31 @@ void SetUpLoopbackMulticast() {
   RunProgram({"ip", "route", "add", "224.0.0.0/4", "dev", "lo"});
 }
 
+std::optional<int> EnterPrivateNetwork(const std::string& subcommand,
+                                       const std::vector<std::string>& args,
+                                       const std::string& netns, const char* marker) {
+  if (netns == "new" && std::getenv(marker) == nullptr) {
+    return ReexecInNewNamespace(subcommand, args, marker);
+  }
+  if (HasNonLoopbackInterface()) {
+    std::cerr << "tsc: refusing to run the " << subcommand
+              << " in a network namespace with interfaces other than lo (its multicast could "
+                 "leave this host); use --netns new\n";
+    return 1;
+  }
+  SetUpLoopbackMulticast();
+  return std::nullopt;
+}
+
+std::filesystem::path TscdBesideThisTsc() {
+  const std::filesystem::path tscd =
+      std::filesystem::read_symlink("/proc/self/exe").parent_path() / "tscd";
+  if (!std::filesystem::exists(tscd)) {
+    throw std::runtime_error("tscd not found next to tsc: " + tscd.string());
+  }
+  return tscd;
+}
+
 pid_t SpawnProcess(const fs::path& program, const std::vector<std::string>& argv,
                    const fs::path& log) {
   posix_spawn_file_actions_t actions;

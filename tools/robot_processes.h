@@ -6,6 +6,7 @@
 #include <sys/types.h>
 
 #include <filesystem>
+#include <optional>
 #include <string>
 #include <vector>
 
@@ -28,6 +29,17 @@ int ReexecInNewNamespace(const std::string& subcommand, const std::vector<std::s
 /// Host-local multicast inside the private namespace: lo up, multicast on, 224.0.0.0/4 on lo.
 /// Throws std::runtime_error when `ip` fails.
 void SetUpLoopbackMulticast();
+
+/// Where `tsc team` and `tsc soak` run their robots. With `netns` "new" (and not yet inside)
+/// re-executes `tsc <subcommand> <args>` in a new private namespace and returns its failure;
+/// otherwise refuses (exit 1, reason on stderr) a namespace with interfaces other than lo,
+/// sets up host-local multicast and returns nothing: the caller goes on here.
+std::optional<int> EnterPrivateNetwork(const std::string& subcommand,
+                                       const std::vector<std::string>& args,
+                                       const std::string& netns, const char* marker);
+
+/// The tscd binary next to this tsc. Throws std::runtime_error when it is missing.
+std::filesystem::path TscdBesideThisTsc();
 
 /// Starts `program` with `argv` (argv[0] included), stdout and stderr appended to `log`.
 /// Throws std::runtime_error naming the program when it cannot start.

@@ -232,20 +232,11 @@ int Soak(const std::vector<std::string>& args) {
   if (netns != "new" && netns != "current") throw UsageError("--netns is new or current");
   SoakCheckOptions check = CheckOptions(vm);
 
-  if (netns == "new" && std::getenv(kNetnsEnv) == nullptr) {
-    return ReexecInNewNamespace("soak", args, kNetnsEnv);
-  }
-  if (HasNonLoopbackInterface()) {
-    std::cerr << "tsc: refusing to run the soak in a network namespace with interfaces other "
-                 "than lo (its multicast could leave this host); use --netns new\n";
-    return kExitFailure;
-  }
-  SetUpLoopbackMulticast();
+  if (const auto failed = EnterPrivateNetwork("soak", args, netns, kNetnsEnv)) return *failed;
 
   const fs::path out = vm["out"].as<std::string>();
   fs::create_directories(out);
-  const fs::path tscd = fs::read_symlink("/proc/self/exe").parent_path() / "tscd";
-  if (!fs::exists(tscd)) throw std::runtime_error("tscd not found next to tsc: " + tscd.string());
+  const fs::path tscd = TscdBesideThisTsc();
 
   // Every robot's overrides; the soak's own first so --set can change them.
   std::ostringstream fps;

@@ -161,19 +161,11 @@ int Team(const std::vector<std::string>& args) {
   const std::string netns = vm["netns"].as<std::string>();
   if (netns != "new" && netns != "current") throw UsageError("--netns is new or current");
 
-  if (netns == "new" && std::getenv(kNetnsEnv) == nullptr)
-    return ReexecInNewNamespace("team", args, kNetnsEnv);
-  if (HasNonLoopbackInterface()) {
-    std::cerr << "tsc: refusing to run the team in a network namespace with interfaces other "
-                 "than lo (its multicast could leave this host); use --netns new\n";
-    return kExitFailure;
-  }
-  SetUpLoopbackMulticast();
+  if (const auto failed = EnterPrivateNetwork("team", args, netns, kNetnsEnv)) return *failed;
 
   const fs::path out = vm["out"].as<std::string>();
   fs::create_directories(out);
-  const fs::path tscd = fs::read_symlink("/proc/self/exe").parent_path() / "tscd";
-  if (!fs::exists(tscd)) throw std::runtime_error("tscd not found next to tsc: " + tscd.string());
+  const fs::path tscd = TscdBesideThisTsc();
 
   std::vector<std::string> common;
   if (vm.count("config")) common = {"--config", vm["config"].as<std::string>()};

@@ -22,6 +22,7 @@
 #include "daemon/memory_snapshot.h"
 #include "store/store.h"
 #include "test/daemon/bus_listener.h"
+#include "test/daemon/fast_sim_robot.h"
 #include "test/support/child_process.h"
 #include "test/support/memory_compare.h"
 #include "test/support/random_memory.h"
@@ -38,6 +39,7 @@ using testing_support::BusListener;
 using testing_support::ChildProcess;
 using testing_support::CopyCrashImage;
 using testing_support::DescribeDifferences;
+using testing_support::FastSimRobot;
 using testing_support::Knowledge;
 using testing_support::LoadKnowledge;
 
@@ -51,26 +53,6 @@ int EnvInt(const char* name, int fallback) {
 int TotalInstants() { return EnvInt("TSCD_KILL_INSTANTS", 100); }
 // Sanitizer builds run tscd several times slower (scripts/test --sanitize).
 int Slowdown() { return EnvInt("TSCD_TEST_SLOWDOWN", 1); }
-
-// A small, fast simulated robot (as in tscd_test): 160x120 frames as fast as the pipeline
-// takes them, the keyframes plenitude threshold so sparse places are not pruned.
-std::vector<std::string> LearningRobot(const fs::path& state) {
-  return {kTscd,
-          "--robot",
-          "1",
-          "--state-dir",
-          state.string(),
-          "--set",
-          "camera.fps=0",
-          "--set",
-          "sim.width=160",
-          "--set",
-          "sim.height=120",
-          "--set",
-          "lcm.announce_period_s=0.2",
-          "--set",
-          "detection.tau_p=3"};
-}
 
 // A robot that only serves and merges memories: its camera is a folder of one frame, read
 // once (one base point cannot make a place, so its own memory does not change).
@@ -251,7 +233,7 @@ TEST_F(CrashTest, KillNineWhileLearningLosesNothingAndRestartsFromTheLastCommit)
   for (int instant = 0; instant < instants; ++instant) {
     {
       const size_t before = Announces(bus, 1);
-      ChildProcess dut(LearningRobot(state), dir_ / "tscd.log");
+      ChildProcess dut(FastSimRobot(state), dir_ / "tscd.log");
       ASSERT_TRUE(WaitNewAnnounce(bus, 1, before, seconds(60))) << dut.Log();
       std::this_thread::sleep_for(milliseconds(delay_ms(rng)));
       dut.Signal(SIGKILL);
@@ -354,7 +336,7 @@ TEST_F(CrashTest, KillNineDuringAMergeLeavesThePreOrPostMergeMemoryAndTheMergeCo
   // Our memory before the merge: learned by a real tscd from its simulated camera.
   const fs::path pre_dir = dir_ / "pre";
   {
-    ChildProcess dut(LearningRobot(pre_dir), dir_ / "learn.log");
+    ChildProcess dut(FastSimRobot(pre_dir), dir_ / "learn.log");
     ASSERT_TRUE(bus.WaitFor(
         [](const BusListener& b) {
           if (!b.announces.count("TSC_ANNOUNCE")) return false;

@@ -17,6 +17,7 @@
 #include "daemon/lcm_bus.h"
 #include "store/store.h"
 #include "test/daemon/bus_listener.h"
+#include "test/daemon/fast_sim_robot.h"
 #include "test/support/child_process.h"
 #include "test/support/temp_dir.h"
 
@@ -28,31 +29,9 @@ using std::chrono::milliseconds;
 using std::chrono::seconds;
 using testing_support::BusListener;
 using testing_support::ChildProcess;
+using testing_support::FastSimRobot;
 
 const std::string kTscd = std::string(TSCD_BIN_DIR) + "/tscd";
-
-// A small, fast simulated robot: 160x120 frames as fast as the pipeline takes them. The camera
-// drops the oldest frame when the pipeline falls behind, so on a loaded machine the route is
-// sampled sparsely; the keyframes plenitude threshold keeps such places from being pruned.
-std::vector<std::string> SimRobot(const fs::path& state, std::vector<std::string> extra = {}) {
-  std::vector<std::string> argv = {kTscd,
-                                   "--robot",
-                                   "1",
-                                   "--state-dir",
-                                   state.string(),
-                                   "--set",
-                                   "camera.fps=0",
-                                   "--set",
-                                   "sim.width=160",
-                                   "--set",
-                                   "sim.height=120",
-                                   "--set",
-                                   "lcm.announce_period_s=0.2",
-                                   "--set",
-                                   "detection.tau_p=3"};
-  argv.insert(argv.end(), extra.begin(), extra.end());
-  return argv;
-}
 
 class TscdTest : public ::testing::Test {
  protected:
@@ -79,7 +58,7 @@ TEST_F(TscdTest, ServesEveryChannelRejectsGarbageReloadsAndStopsCleanly) {
   BusListener bus;
   const fs::path ini = dir_ / "tscd.ini";
   std::ofstream(ini) << "[daemon]\nlog_level = info\n";
-  ChildProcess dut(SimRobot(dir_ / "state", {"--config", ini.string()}), dir_ / "tscd.log");
+  ChildProcess dut(FastSimRobot(dir_ / "state", {"--config", ini.string()}), dir_ / "tscd.log");
 
   ASSERT_TRUE(bus.WaitFor(
       [](const BusListener& b) {
@@ -151,7 +130,7 @@ TEST_F(TscdTest, UnwritableStateDirectoryIsReportedAndTheDaemonKeepsRunning) {
   TSCD_REQUIRE_PRIVATE_NETNS();
   BusListener bus;
   std::ofstream(dir_ / "a-file") << "not a folder\n";
-  ChildProcess dut(SimRobot(dir_ / "a-file" / "state"), dir_ / "tscd.log");
+  ChildProcess dut(FastSimRobot(dir_ / "a-file" / "state"), dir_ / "tscd.log");
   ASSERT_TRUE(bus.WaitFor(
       [](const BusListener& b) {
         return b.announces.count("TSC_ANNOUNCE") &&
@@ -240,7 +219,7 @@ TEST_F(TscdTest, TellsSystemdReadyWatchdogAndStopping) {
 
   ::setenv("NOTIFY_SOCKET", sock_path.c_str(), 1);
   ::setenv("WATCHDOG_USEC", "400000", 1);  // pet every 0.2 s
-  ChildProcess dut(SimRobot(dir_ / "state"), dir_ / "tscd.log");
+  ChildProcess dut(FastSimRobot(dir_ / "state"), dir_ / "tscd.log");
   ::unsetenv("NOTIFY_SOCKET");
   ::unsetenv("WATCHDOG_USEC");
 
