@@ -339,19 +339,21 @@ cv::Mat DrawTimeline(const EvalResult& r) {
   return img;
 }
 
-cv::Mat DrawPrCurve(const EvalResult& r) {
-  const int x0 = 80, y0 = 60, size = 440;
-  cv::Mat img(y0 + size + 120, x0 + size + 80, CV_8UC3, kWhite);
-  const auto px = [&](double recall, double precision) {
+namespace {
+
+// The square plot area of a precision-recall plot (tsc eval's curve over tau_r, tsc classify's
+// curves over the confidence tau): recall to the right, precision up, both in [0, 1].
+struct PrAxes {
+  int x0 = 80, y0 = 60;  ///< top-left corner of the plot area, px
+  int size = 440;        ///< side of the plot area, px
+  cv::Point operator()(double recall, double precision) const {
     return cv::Point(x0 + static_cast<int>(std::lround(recall * size)),
                      y0 + size - static_cast<int>(std::lround(precision * size)));
-  };
-  Text(img, "recognition PR curve over tau_r", {x0, 26}, 0.6);
-  Text(img,
-       "sweep " + Fixed(r.eval.sweep_from, 2) + ".." + Fixed(r.eval.sweep_to, 2) + " step " +
-           Fixed(r.eval.sweep_step, 2) + ", recall at full precision " +
-           Fixed(r.recall_at_full_precision, 3),
-       {x0, 46}, 0.42);
+  }
+};
+
+// Grid every 0.2 with its tick labels, the frame and the axis titles.
+void DrawPrAxes(cv::Mat& img, const PrAxes& px) {
   for (int i = 0; i <= 5; ++i) {
     const double v = i / 5.0;
     cv::line(img, px(v, 0), px(v, 1), kGrid, 1);
@@ -362,7 +364,22 @@ cv::Mat DrawPrCurve(const EvalResult& r) {
   }
   cv::rectangle(img, px(0, 1), px(1, 0), kAxis, 1);
   Text(img, "recall", px(0.5, 0) + cv::Point(-25, 44), 0.5);
-  VerticalText(img, "precision", {12, y0 + size / 2 - 40}, 0.5);
+  VerticalText(img, "precision", {12, px.y0 + px.size / 2 - 40}, 0.5);
+}
+
+}  // namespace
+
+cv::Mat DrawPrCurve(const EvalResult& r) {
+  const PrAxes px;
+  const int x0 = px.x0, y0 = px.y0, size = px.size;
+  cv::Mat img(y0 + size + 120, x0 + size + 80, CV_8UC3, kWhite);
+  Text(img, "recognition PR curve over tau_r", {x0, 26}, 0.6);
+  Text(img,
+       "sweep " + Fixed(r.eval.sweep_from, 2) + ".." + Fixed(r.eval.sweep_to, 2) + " step " +
+           Fixed(r.eval.sweep_step, 2) + ", recall at full precision " +
+           Fixed(r.recall_at_full_precision, 3),
+       {x0, 46}, 0.42);
+  DrawPrAxes(img, px);
 
   const cv::Scalar curve(180, 119, 31);
   for (size_t i = 1; i < r.pr_curve.size(); ++i) {
@@ -404,26 +421,13 @@ cv::Mat DrawPrCurve(const EvalResult& r) {
 }
 
 cv::Mat DrawTauPrCurves(const std::vector<NamedTauCurve>& curves, const std::string& title) {
-  const int x0 = 80, y0 = 60, size = 440;
+  const PrAxes px;
+  const int x0 = px.x0, y0 = px.y0, size = px.size;
   const int legend_rows = static_cast<int>(curves.size());
   cv::Mat img(y0 + size + 80 + 24 * legend_rows, x0 + size + 60, CV_8UC3, kWhite);
-  const auto px = [&](double recall, double precision) {
-    return cv::Point(x0 + static_cast<int>(std::lround(recall * size)),
-                     y0 + size - static_cast<int>(std::lround(precision * size)));
-  };
   Text(img, title, {x0, 26}, 0.6);
   Text(img, "one point per confidence threshold tau; ring: tau = 0.5", {x0, 46}, 0.42);
-  for (int i = 0; i <= 5; ++i) {
-    const double v = i / 5.0;
-    cv::line(img, px(v, 0), px(v, 1), kGrid, 1);
-    cv::line(img, px(0, v), px(1, v), kGrid, 1);
-    const std::string s = Fixed(v, 1);
-    Text(img, s, px(v, 0) + cv::Point(-TextSize(s, 0.4).width / 2, 20), 0.4);
-    Text(img, s, px(0, v) + cv::Point(-TextSize(s, 0.4).width - 8, 5), 0.4);
-  }
-  cv::rectangle(img, px(0, 1), px(1, 0), kAxis, 1);
-  Text(img, "recall", px(0.5, 0) + cv::Point(-25, 44), 0.5);
-  VerticalText(img, "precision", {12, y0 + size / 2 - 40}, 0.5);
+  DrawPrAxes(img, px);
   cv::Point legend(x0, y0 + size + 72);
   for (size_t c = 0; c < curves.size(); ++c) {
     const cv::Scalar colour = Palette(c);

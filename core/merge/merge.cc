@@ -221,6 +221,11 @@ std::string_view ToString(MergeCase c) {
   return "?";
 }
 
+bool PeerGoesIntoOurs(const PlaceMemory& ours, const PlaceMemory& peer) {
+  return peer.places().size() < ours.places().size() ||
+         (peer.places().size() == ours.places().size() && ours.robot() <= peer.robot());
+}
+
 namespace {
 
 // The places of `memory`: moved out of `owned` (the same memory, given up by the caller) when
@@ -240,11 +245,8 @@ MemoryMerge Merge(const PlaceMemory& ours, const PlaceMemory& peer, PlaceMemory*
                                 std::to_string(ours.places().front().mean.size()) + " and " +
                                 std::to_string(peer.places().front().mean.size()));
   }
-  // The smaller memory is merged into the larger (§4.5.2); on a tie the memory of the lower
-  // robot id is the larger, so both robots compute the same place set.
-  const bool peer_into_ours =
-      peer.places().size() < ours.places().size() ||
-      (peer.places().size() == ours.places().size() && ours.robot() <= peer.robot());
+  // Both robots compute the same place set whichever of them merges.
+  const bool peer_into_ours = PeerGoesIntoOurs(ours, peer);
   const PlaceMemory& base = peer_into_ours ? ours : peer;
   const PlaceMemory& incoming = peer_into_ours ? peer : ours;
   PlaceMemory* const base_owned = peer_into_ours ? ours_owned : peer_owned;

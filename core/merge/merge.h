@@ -93,6 +93,11 @@ struct Link {
 /// negative or non-finite γ.
 Slink SingleLinkage(int n, std::vector<Link> links);
 
+/// Whether MergeMemories(ours, peer) merges the peer into ours (ours is the base, so a merge
+/// that brings nothing new returns ours unchanged): the smaller memory by place count goes
+/// into the larger; on a tie the memory of the lower robot id is the larger (§4.5.2).
+bool PeerGoesIntoOurs(const PlaceMemory& ours, const PlaceMemory& peer);
+
 /// T^m + T^n of figure 4.6 from the perspective of `ours` (robot m). The smaller memory (by
 /// place count; on a tie, the one of the higher robot id) is merged into the larger, so the
 /// result is the same place set whichever robot computes it. Deterministic; merging the same peer

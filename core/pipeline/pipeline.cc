@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <stdexcept>
 #include <string>
+#include <utility>
 
 namespace tsc {
 namespace {
@@ -79,6 +80,7 @@ FrameResult Pipeline::Process(const Observation& obs) {
 
 FrameResult Pipeline::ProcessDescriptor(const Descriptor& descriptor,
                                         const IntensityStats& intensity) {
+  RequireMemory("process a base point");
   if (!memory_.empty() && descriptor.dim() != memory_.places().front().mean.size()) {
     throw std::invalid_argument("descriptor of dimension " + std::to_string(descriptor.dim()) +
                                 " for a memory of dimension " +
@@ -115,11 +117,41 @@ void Pipeline::AdoptMerged(PlaceMemory memory, TopologicalMap map) {
   partial_recognition_.reset();
   memory_ = std::move(memory);
   map_ = std::move(map);
+  handed_over_ = false;
+}
+
+PlaceMemory Pipeline::HandOverMemory() {
+  RequireMemory("hand the memory over");
+  PlaceMemory out = std::exchange(memory_, PlaceMemory(memory_.robot(), memory_.options()));
+  handed_over_ = true;
+  return out;
+}
+
+void Pipeline::TakeBack(PlaceMemory memory) {
+  if (!handed_over_)
+    throw std::logic_error("pipeline: a memory taken back that was not handed over");
+  if (memory.robot() != memory_.robot()) {
+    throw std::invalid_argument("memory of robot " + std::to_string(memory.robot()) +
+                                " taken back by the pipeline of robot " +
+                                std::to_string(memory_.robot()));
+  }
+  memory_ = std::move(memory);
+  handed_over_ = false;
+}
+
+// Learning into the placeholder of a memory on loan would lose what was learned when the
+// memory comes back.
+void Pipeline::RequireMemory(const char* what) const {
+  if (handed_over_) {
+    throw std::logic_error(std::string("pipeline: cannot ") + what +
+                           " while its memory is handed over to a merge");
+  }
 }
 
 FrameResult Pipeline::Finish() {
   FrameResult out;
   out.has_base = false;
+  RequireMemory("finish the stream");
   HandleDetection(detector_.Finish(), next_base_ - 1, out);
   TrimDescriptors();
   return out;

@@ -4,6 +4,10 @@
 
 #include <map>
 #include <random>
+#include <stdexcept>
+
+#include "core/merge/merge.h"
+#include "test/support/random_memory.h"
 
 namespace tsc {
 namespace {
@@ -92,6 +96,72 @@ TEST_F(PipelineTest, StateContinuesIndices) {
   EXPECT_EQ(s.next_detected, 2);
   ASSERT_TRUE(s.previous_place.has_value());
   EXPECT_EQ(*s.previous_place, (PlaceId{1, 1}));
+}
+
+// The parts of a memory a hand-over could lose or scramble.
+void ExpectSameMemory(const PlaceMemory& a, const PlaceMemory& b) {
+  ASSERT_EQ(a.places().size(), b.places().size());
+  for (size_t i = 0; i < a.places().size(); ++i) {
+    EXPECT_EQ(a.places()[i].id, b.places()[i].id);
+    EXPECT_TRUE(a.places()[i].mean == b.places()[i].mean) << "mean of place " << i;
+    EXPECT_EQ(a.places()[i].members, b.places()[i].members);
+  }
+  EXPECT_EQ(a.nodes().size(), b.nodes().size());
+  EXPECT_EQ(a.slink().pi(), b.slink().pi());
+  EXPECT_EQ(a.next_local_id(), b.next_local_id());
+}
+
+TEST_F(PipelineTest, MemoryHandedOverToAMergeThatBringsNothingNewComesBackUnchanged) {
+  Visit(0, 15);
+  Visit(1, 15);
+  Visit(2, 15);  // closes place 1; place 2 stays open across the hand-over
+  ASSERT_EQ(dut_.memory().places().size(), 2u);
+  const PlaceMemory before = dut_.memory();
+
+  // A peer that knows nothing new: the merge returns ours as it was.
+  MemoryMerge merged = MergeMemories(dut_.HandOverMemory(), PlaceMemory(2, Options().memory));
+  ASSERT_EQ(merged.merge_case, MergeCase::kNothingNew);
+  ASSERT_TRUE(merged.peer_into_ours);
+  EXPECT_TRUE(dut_.memory_handed_over());
+  EXPECT_TRUE(dut_.memory().empty());
+  // On loan: nothing may learn into the placeholder, nothing is half done.
+  const BaseIndex next = dut_.state().next_base;
+  EXPECT_THROW(dut_.ProcessDescriptor(Descriptor(centres_[0]), IntensityStats{0.5, 0.05}),
+               std::logic_error);
+  EXPECT_THROW(dut_.Finish(), std::logic_error);
+  EXPECT_THROW(dut_.HandOverMemory(), std::logic_error);
+  EXPECT_THROW(dut_.TakeBack(PlaceMemory(2, Options().memory)), std::invalid_argument);
+  EXPECT_EQ(dut_.state().next_base, next);
+
+  dut_.TakeBack(std::move(merged.memory));
+  EXPECT_FALSE(dut_.memory_handed_over());
+  ExpectSameMemory(dut_.memory(), before);
+  EXPECT_THROW(dut_.TakeBack(PlaceMemory(1, Options().memory)), std::logic_error);
+  // The pipeline goes on with it: place 2 is learned, the revisit of place 0 recognised.
+  Visit(0, 15);
+  Visit(1, 15);
+  EXPECT_EQ(dut_.memory().places().size(), 3u);
+  EXPECT_GE(Count(EventKind::kRecognized), 1);
+}
+
+TEST_F(PipelineTest, AdoptingTheMergedMemoryEndsAHandOver) {
+  Visit(0, 15);
+  Visit(1, 15);
+  Visit(2, 15);
+  testing_support::RandomMemory peer = testing_support::MakeRandomMemory(2, 1, kDim, 5);
+  const PlaceMemory copy_of_ours = dut_.memory();
+  const MemoryMerge reference = MergeMemories(copy_of_ours, peer.memory);
+  MemoryMerge merged = MergeMemories(dut_.HandOverMemory(), std::move(peer.memory));
+  ASSERT_NE(merged.merge_case, MergeCase::kNothingNew);
+  TopologicalMap map = MergeMaps(dut_.map(), peer.map, merged.memory);
+  dut_.AdoptMerged(std::move(merged.memory), std::move(map));
+  EXPECT_FALSE(dut_.memory_handed_over());
+  ExpectSameMemory(dut_.memory(), reference.memory);
+  EXPECT_EQ(dut_.memory().places().size(), 3u);
+  Visit(0, 15);
+  Visit(1, 15);
+  EXPECT_EQ(dut_.memory().places().size(), 4u);
+  EXPECT_GE(Count(EventKind::kRecognized), 1);
 }
 
 TEST(PipelineOptions, RequiresIntensity) {

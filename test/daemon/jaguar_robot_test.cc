@@ -9,7 +9,6 @@
 
 #include <cmath>
 #include <filesystem>
-#include <fstream>
 #include <lcm/lcm-cpp.hpp>
 #include <mutex>
 #include <optional>
@@ -19,6 +18,7 @@
 #include "jaguar/motor_state_t.hpp"
 #include "test/daemon/bus_listener.h"
 #include "test/support/child_process.h"
+#include "test/support/sim_pose.h"
 #include "test/support/temp_dir.h"
 
 namespace tsc {
@@ -29,23 +29,13 @@ using std::chrono::milliseconds;
 using std::chrono::seconds;
 using testing_support::BusListener;
 using testing_support::ChildProcess;
+using testing_support::Distance;
 using testing_support::MotorStateSink;
 using testing_support::Quote;
+using testing_support::ReadSimPose;
+using testing_support::SimPose;
 
 const std::string kBin = TSCD_BIN_DIR;
-
-struct Pose {
-  double x = 0, y = 0, heading = 0;
-};
-
-std::optional<Pose> ReadPose(const fs::path& file) {
-  std::ifstream in(file);
-  Pose p;
-  if (!(in >> p.x >> p.y >> p.heading)) return std::nullopt;
-  return p;
-}
-
-double Distance(const Pose& a, const Pose& b) { return std::hypot(a.x - b.x, a.y - b.y); }
 
 class JaguarRobotTest : public ::testing::TestWithParam<std::string> {
  protected:
@@ -101,14 +91,14 @@ class JaguarRobotTest : public ::testing::TestWithParam<std::string> {
     return std::make_unique<ChildProcess>(std::vector<std::string>{"/bin/sh", "-c", cmd},
                                           dir_ / "teleop.log");
   }
-  Pose TruePose() {
-    const auto p = ReadPose(pose_file_);
+  SimPose TruePose() {
+    const auto p = ReadSimPose(pose_file_);
     EXPECT_TRUE(p) << "no pose in " << pose_file_;
-    return p.value_or(Pose{});
+    return p.value_or(SimPose{});
   }
   /// True when the board's pose stays put for `window`.
   bool Still(milliseconds window) {
-    const Pose a = TruePose();
+    const SimPose a = TruePose();
     std::this_thread::sleep_for(window);
     return Distance(a, TruePose()) < 1e-6 && std::abs(a.heading - TruePose().heading) < 1e-6;
   }
@@ -162,7 +152,7 @@ TEST_P(JaguarRobotTest, TeleopDrivesTheBoardThroughTscdAndOdometryFollows) {
   MotorStateSink state("JAGUAR_STATE_1");
   auto tscd = StartTscd();
   ASSERT_TRUE(LinkUp(state, seconds(20))) << tscd->Log();
-  const Pose start = TruePose();
+  const SimPose start = TruePose();
   const jaguar::motor_state_t odo_start = *state.last();
   EXPECT_NEAR(odo_start.x, start.x, 0.01);  // both start at the route's first pose
   EXPECT_NEAR(odo_start.y, start.y, 0.01);
@@ -175,7 +165,7 @@ TEST_P(JaguarRobotTest, TeleopDrivesTheBoardThroughTscdAndOdometryFollows) {
   ASSERT_TRUE(WaitStill(seconds(10))) << "the board kept moving after the keys stopped";
   EXPECT_TRUE(teleop->running()) << "teleop ended early: " << teleop->Log();
   std::this_thread::sleep_for(milliseconds(400));  // the last encoder report reaches tscd
-  const Pose end = TruePose();
+  const SimPose end = TruePose();
   const jaguar::motor_state_t odo = *state.last();
   EXPECT_GT(Distance(start, end), 1.0) << "the board hardly moved";
   EXPECT_GT(std::abs(std::remainder(end.heading - start.heading, 2 * M_PI)), 0.8);

@@ -29,6 +29,7 @@
 #include "store/store.h"
 #include "test/daemon/bus_listener.h"
 #include "test/support/child_process.h"
+#include "test/support/sim_pose.h"
 #include "test/support/temp_dir.h"
 
 namespace tsc {
@@ -39,23 +40,13 @@ using std::chrono::milliseconds;
 using std::chrono::seconds;
 using testing_support::BusListener;
 using testing_support::ChildProcess;
+using testing_support::Distance;
 using testing_support::MotorStateSink;
 using testing_support::Quote;
+using testing_support::ReadSimPose;
+using testing_support::SimPose;
 
 const std::string kBin = TSCD_BIN_DIR;
-
-struct Pose {
-  double x = 0, y = 0, heading = 0;
-};
-
-std::optional<Pose> ReadPose(const fs::path& file) {
-  std::ifstream in(file);
-  Pose p;
-  if (!(in >> p.x >> p.y >> p.heading)) return std::nullopt;
-  return p;
-}
-
-double Distance(const Pose& a, const Pose& b) { return std::hypot(a.x - b.x, a.y - b.y); }
 
 /// Waits until `pattern`'s first group appears in the process's output; "" if it never does.
 std::string WaitForMatch(ChildProcess& p, const std::regex& pattern, seconds timeout) {
@@ -91,10 +82,10 @@ TEST(SimulatedRobot, TeleopDrivesARouteAndTscdLearnsPlacesFromTheAxisCamera) {
   const std::string motor_port =
       WaitForMatch(board, std::regex("udp 127\\.0\\.0\\.1:(\\d+)"), seconds(10));
   ASSERT_FALSE(motor_port.empty()) << board.Log();
-  for (int i = 0; i < 250 && !ReadPose(pose_file); ++i) {
+  for (int i = 0; i < 250 && !ReadSimPose(pose_file); ++i) {
     std::this_thread::sleep_for(milliseconds(20));
   }
-  const std::optional<Pose> start = ReadPose(pose_file);
+  const std::optional<SimPose> start = ReadSimPose(pose_file);
   ASSERT_TRUE(start) << "no pose in " << pose_file << "\n" << board.Log();
 
   // The camera: the same world, at the board's pose.
@@ -158,11 +149,11 @@ TEST(SimulatedRobot, TeleopDrivesARouteAndTscdLearnsPlacesFromTheAxisCamera) {
   // Follow the board's true pose while it drives: the path length and how far it got from the
   // start.
   double path_m = 0, farthest_m = 0;
-  Pose last = *start;
+  SimPose last = *start;
   const auto drive_deadline = std::chrono::steady_clock::now() + seconds(45);
   while (teleop.running() && std::chrono::steady_clock::now() < drive_deadline) {
     std::this_thread::sleep_for(milliseconds(100));
-    if (const auto p = ReadPose(pose_file)) {
+    if (const auto p = ReadSimPose(pose_file)) {
       path_m += Distance(last, *p);
       farthest_m = std::max(farthest_m, Distance(*start, *p));
       last = *p;
@@ -170,7 +161,7 @@ TEST(SimulatedRobot, TeleopDrivesARouteAndTscdLearnsPlacesFromTheAxisCamera) {
   }
   EXPECT_EQ(teleop.Wait(seconds(5)), 0) << teleop.Log();
   std::this_thread::sleep_for(milliseconds(500));
-  const std::optional<Pose> end = ReadPose(pose_file);
+  const std::optional<SimPose> end = ReadSimPose(pose_file);
   ASSERT_TRUE(end);
   std::printf("route: %.2f m driven, %.2f m at the farthest, %.2f m from the start at the end\n",
               path_m, farthest_m, Distance(*start, *end));
@@ -219,7 +210,7 @@ TEST(SimulatedRobot, TeleopDrivesARouteAndTscdLearnsPlacesFromTheAxisCamera) {
 
   // The board: stopped, and by a command (tscd's stop on SIGTERM or the dead man's), not by
   // its own silence rule.
-  EXPECT_TRUE(std::abs(ReadPose(pose_file).value_or(Pose{}).x - end->x) < 1e-6)
+  EXPECT_TRUE(std::abs(ReadSimPose(pose_file).value_or(SimPose{}).x - end->x) < 1e-6)
       << "the board moved after the route";
   board.Signal(SIGTERM);
   EXPECT_EQ(board.Wait(seconds(10)), 0) << board.Log();
