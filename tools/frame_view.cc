@@ -5,7 +5,7 @@
 
 namespace tsc {
 
-Observation LoadFrame(const Dataset& dataset, int i) {
+std::vector<Observation> LoadFrame(const Dataset& dataset, int i) {
   try {
     return dataset.Load(i);
   } catch (const DatasetError& e) {  // names the file already
@@ -15,11 +15,11 @@ Observation LoadFrame(const Dataset& dataset, int i) {
 
 TimedView DescribeFrame(const Dataset& dataset, int i, BubbleSurface& surface,
                         const DescriptorComputer& computer) {
-  const Observation obs = LoadFrame(dataset, i);
+  const std::vector<Observation> views = LoadFrame(dataset, i);
   using Clock = std::chrono::steady_clock;
   const Clock::time_point t0 = Clock::now();
   try {
-    surface.Observe(obs);
+    for (const Observation& view : views) surface.Observe(view);
     TimedView out;
     if (surface.features().IndexOf(Feature::kIntensity) >= 0) {
       out.view = FinishBasePoint(surface, computer);

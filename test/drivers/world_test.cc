@@ -169,7 +169,7 @@ TEST_F(WorldTest, WrittenDatasetLoadsWithFramesCameraAndLabels) {
   EXPECT_FALSE(ds.labels()[0].empty());
   ASSERT_EQ(ds.poses().size(), 40u);
   EXPECT_TRUE(ds.poses()[0].has_value());
-  const Observation obs = ds.Load(0);
+  const Observation obs = ds.Load(0).front();
   EXPECT_EQ(obs.bgr.cols, 160);
   EXPECT_TRUE(fs::exists(dir_ / "world.json"));
   // The same seed writes the same bytes.
@@ -208,7 +208,7 @@ TEST_F(WorldTest, MixedLightingDimsRevisits) {
       current = l;
     }
     const int revisit = done.count(l) ? 1 : 0;
-    const cv::Scalar m = cv::mean(ds.Load(i).bgr);
+    const cv::Scalar m = cv::mean(ds.Load(i).front().bgr);
     sum[revisit] += m[0] + m[1] + m[2];
     ++count[revisit];
   }
