@@ -52,6 +52,11 @@ struct SimOptions {
   /// base point): the views are written side by side into one image per frame, and
   /// camera.json says so (drivers/dataset/dataset.h). One view: a fixed forward camera.
   PanSweep sweep;
+  /// With a sweep: take its views at fixed headings of the world (a sweep started from the
+  /// robot's heading estimate, odometry or compass) instead of relative to the robot, so a
+  /// turn on the spot leaves the views where they were. The pans written and tagged stay
+  /// relative to the first view.
+  bool sweep_world_aligned = false;
   RouteOptions route;
   double jitter_heading_deg = 1.0;   ///< standard deviation of the camera heading noise
   double jitter_position_m = 0.02;   ///< standard deviation of the camera position noise

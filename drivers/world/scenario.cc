@@ -65,6 +65,8 @@ Pose2 RenderRouteFrame(const World& world, const Renderer& renderer, const Route
   std::vector<cv::Mat> views(static_cast<size_t>(options.sweep.views())), depths(views.size());
   for (size_t v = 0; v < views.size(); ++v) {
     Pose2 view_pose = pose;
+    // World-aligned: the heading estimate is exact up to the camera's own jitter.
+    if (options.sweep_world_aligned) view_pose.heading -= frame.pose.heading;
     view_pose.heading += options.sweep.View(static_cast<int>(v)).pan_rad;
     cv::Mat& bgr_v = views[v];
     renderer.Render(view_pose, &bgr_v, depth != nullptr ? &depths[v] : nullptr);
