@@ -19,14 +19,20 @@ TimedView DescribeFrame(const Dataset& dataset, int i, BubbleSurface& surface,
   using Clock = std::chrono::steady_clock;
   const Clock::time_point t0 = Clock::now();
   try {
-    for (const Observation& view : views) surface.Observe(view);
     TimedView out;
+    Descriptor coherence;
+    for (size_t j = 0; j < views.size(); ++j) {
+      surface.Observe(views[j]);
+      // A sweep: the first view alone gives the coherence descriptor (Pipeline::AccumulateView).
+      if (j == 0 && views.size() > 1) coherence = computer.Compute(surface);
+    }
     if (surface.features().IndexOf(Feature::kIntensity) >= 0) {
       out.view = FinishBasePoint(surface, computer);
     } else {  // a classification feature set without intensity: no reliability statistics
       out.view.descriptor = computer.Compute(surface);
       surface.Reset();
     }
+    out.view.coherence = std::move(coherence);
     out.descriptor_ms = std::chrono::duration<double, std::milli>(Clock::now() - t0).count();
     return out;
   } catch (const std::exception& e) {

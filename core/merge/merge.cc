@@ -309,7 +309,13 @@ MemoryMerge Merge(const PlaceMemory& ours, const PlaceMemory& peer, PlaceMemory*
     sb = StatisticsOf(base, AllPlaces(base));
     si = StatisticsOf(incoming, AllPlaces(incoming));
     const double d = (sb.centroid - si.centroid).norm();
-    if (d > sb.radius + si.radius) {  // (4.5)
+    // The spheres reach a recognition radius further: two places nearer than
+    // sqrt(τ_r·gamma_unit) may be one (g ≥ γ̃/gamma_unit), so spheres closer than that must
+    // not count as apart. Without it two small memories (a single place has radius 0) are
+    // always disjoint, and a team exchanging memories as it learns would never recognise
+    // a place (docs/decisions.md, "Merging": recognition reach).
+    const double reach = std::sqrt(options.tau_r * base.options().gamma_unit);
+    if (d > sb.radius + si.radius + reach) {  // (4.5)
       result.merge_case = MergeCase::kDisjoint;
     } else {
       const bool base_large = sb.radius >= si.radius;
@@ -319,7 +325,7 @@ MemoryMerge Merge(const PlaceMemory& ours, const PlaceMemory& peer, PlaceMemory*
         bool intersects = false;
         for (const HyperTerminal& h : HyperTerminals(base_large ? base : incoming)) {
           intersects = intersects || (h.sphere.centroid - small.centroid).norm() <=
-                                         h.sphere.radius + small.radius;
+                                         h.sphere.radius + small.radius + reach;
         }
         result.merge_case = intersects ? MergeCase::kContainedIntersecting : MergeCase::kContained;
       } else {
