@@ -93,16 +93,16 @@ FrameResult Pipeline::ProcessDescriptor(const Descriptor& descriptor,
                                 " for a memory of dimension " +
                                 std::to_string(memory_.places().front().mean.size()));
   }
-  FrameResult out;
-  const BaseIndex k = next_base_++;
-  out.base.index = k;
-  out.base.descriptor = descriptor.values();
-  out.base.intensity = intensity;
   if (coherence != nullptr && coherence->dim() != descriptor.dim()) {
     throw std::invalid_argument("coherence descriptor of dimension " +
                                 std::to_string(coherence->dim()) + " for a descriptor of " +
                                 std::to_string(descriptor.dim()));
   }
+  FrameResult out;
+  const BaseIndex k = next_base_++;
+  out.base.index = k;
+  out.base.descriptor = descriptor.values();
+  out.base.intensity = intensity;
   const Eigen::VectorXf& judged = coherence != nullptr ? coherence->values() : descriptor.values();
   out.base.status = ClassifyBasePoint(options_.reliability, intensity, judged,
                                       previous_descriptor_ ? &*previous_descriptor_ : nullptr);
