@@ -374,12 +374,13 @@ std::vector<ConfigKey> BuildTable() {
       [](auto& o) -> auto& { return o.daemon.camera.axis_timeout_s; }, true));
   t.push_back(Number(
       "camera.sweep_steps",
-      "axis: views per base point (PTZ pan sweep accumulated into one bubble surface); 1 = no "
-      "sweep",
+      "axis and sim: views per base point (a pan sweep accumulated into one bubble surface); "
+      "1 = no sweep",
       "views", 1, 360, [](auto& o) -> auto& { return o.daemon.camera.sweep_steps; }));
   t.push_back(Number(
-      "camera.sweep_deg", "axis: pan covered by a sweep; views are sweep_deg / sweep_steps apart",
-      "degrees", 0, 360, [](auto& o) -> auto& { return o.daemon.camera.sweep_deg; }, true));
+      "camera.sweep_deg",
+      "axis and sim: pan covered by a sweep; views are sweep_deg / sweep_steps apart", "degrees", 0,
+      360, [](auto& o) -> auto& { return o.daemon.camera.sweep_deg; }, true));
   t.push_back(Number(
       "camera.sweep_start_deg", "axis: camera pan of a sweep's first view (Axis convention)",
       "degrees", -360, 360, [](auto& o) -> auto& { return o.daemon.camera.sweep_start_deg; }));

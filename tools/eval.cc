@@ -50,7 +50,8 @@ EvalRun Replay(const Dataset& dataset, const PipelineOptions& options,
     const Clock::time_point t0 = Clock::now();
     FrameResult r;
     try {
-      r = pipeline.ProcessDescriptor(inputs[i].descriptor, inputs[i].intensity);
+      r = pipeline.ProcessDescriptor(inputs[i].descriptor, inputs[i].intensity,
+                                     inputs[i].coherence.empty() ? nullptr : &inputs[i].coherence);
     } catch (const std::exception& e) {
       throw std::runtime_error("frame " + std::to_string(i + 1) + " (" +
                                dataset.image_path(static_cast<int>(i)).string() + "): " + e.what());

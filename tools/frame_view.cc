@@ -5,7 +5,7 @@
 
 namespace tsc {
 
-Observation LoadFrame(const Dataset& dataset, int i) {
+std::vector<Observation> LoadFrame(const Dataset& dataset, int i) {
   try {
     return dataset.Load(i);
   } catch (const DatasetError& e) {  // names the file already
@@ -15,18 +15,24 @@ Observation LoadFrame(const Dataset& dataset, int i) {
 
 TimedView DescribeFrame(const Dataset& dataset, int i, BubbleSurface& surface,
                         const DescriptorComputer& computer) {
-  const Observation obs = LoadFrame(dataset, i);
+  const std::vector<Observation> views = LoadFrame(dataset, i);
   using Clock = std::chrono::steady_clock;
   const Clock::time_point t0 = Clock::now();
   try {
-    surface.Observe(obs);
     TimedView out;
+    Descriptor coherence;
+    for (size_t j = 0; j < views.size(); ++j) {
+      surface.Observe(views[j]);
+      // A sweep: the first view alone gives the coherence descriptor (Pipeline::AccumulateView).
+      if (j == 0 && views.size() > 1) coherence = computer.Compute(surface);
+    }
     if (surface.features().IndexOf(Feature::kIntensity) >= 0) {
       out.view = FinishBasePoint(surface, computer);
     } else {  // a classification feature set without intensity: no reliability statistics
       out.view.descriptor = computer.Compute(surface);
       surface.Reset();
     }
+    out.view.coherence = std::move(coherence);
     out.descriptor_ms = std::chrono::duration<double, std::milli>(Clock::now() - t0).count();
     return out;
   } catch (const std::exception& e) {

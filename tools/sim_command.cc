@@ -18,7 +18,8 @@ constexpr const char* kSimHelp =
     R"(usage: tsc sim --out DIR --seed N [--route-seed M] [--world office|corridors|outdoor]
                [--robots K] [--revisit-fraction F] [--lighting day|dim|flicker|mixed] [--depth]
                [--size WxH] [--frames-per-room N] [--turn-step-deg D]
-               [--scan-step-deg D] [--png] [--max-frames N]
+               [--scan-step-deg D] [--sweep-views K] [--sweep-deg D]
+               [--sweep-world-aligned] [--png] [--max-frames N]
 
 Writes a simulated dataset (DESIGN §7.1): frames rendered from a generated floor plan along a
 scripted route that tours every room and revisits some of them, camera.json, groundtruth.csv
@@ -27,7 +28,12 @@ scripted route that tours every room and revisits some of them, camera.json, gro
 (id = 1..K) with routes that share some rooms. The same seed gives the same bytes. DIR must
 not exist or be empty. --lighting mixed lights first visits by day and revisits dim.
 --route-seed walks the same world (--seed) along another route with other camera noise; the
-same seeds with another --lighting give the same poses.
+same seeds with another --lighting give the same poses. --sweep-views K > 1 gives the robot a
+pan-tilt camera that sweeps K views (--sweep-deg apart in all, counter-clockwise from straight
+ahead) at every frame, as tscd's Axis camera does in sweep mode: each image holds the K views
+side by side and camera.json says so; the pipeline accumulates them into one bubble surface.
+--sweep-world-aligned takes the views at fixed world headings (a sweep started from the
+robot's heading estimate), so turning on the spot does not move them.
 
 Options)";
 
@@ -71,7 +77,13 @@ int Sim(const std::vector<std::string>& args) {
       "of travel, ~3 per second)")(
       "scan-step-deg", po::value<double>()->default_value(5.0)->value_name("D"),
       "turning between frames while looking around at a room's centre, degrees")(
-      "png", "write PNG frames instead of JPEG (quality 90)")(
+      "sweep-views", po::value<int>()->default_value(1)->value_name("K"),
+      "views of a pan sweep per frame, written side by side (1 = forward camera only)")(
+      "sweep-deg", po::value<double>()->default_value(360.0)->value_name("D"),
+      "pan covered by a sweep, degrees in (0, 360]")(
+      "sweep-world-aligned",
+      "take the sweep's views at fixed world headings, not relative to "
+      "the robot")("png", "write PNG frames instead of JPEG (quality 90)")(
       "max-frames", po::value<int>()->default_value(0)->value_name("N"),
       "cut each robot's route after N frames (0 = whole route)");
   const po::variables_map vm = ParseCommandLine(args, desc);
@@ -83,6 +95,7 @@ int Sim(const std::vector<std::string>& args) {
   sim::SimOptions options;
   try {
     options.world = sim::ParseWorldKind(vm["world"].as<std::string>());
+    options.sweep = PanSweep(vm["sweep-views"].as<int>(), vm["sweep-deg"].as<double>());
     options.lighting = sim::ParseLightingMode(vm["lighting"].as<std::string>());
   } catch (const std::invalid_argument& e) {
     throw UsageError(e.what());
@@ -107,6 +120,7 @@ int Sim(const std::vector<std::string>& args) {
   options.route.scan_step_deg = vm["scan-step-deg"].as<double>();
   options.depth = vm.count("depth") > 0;
   options.png = vm.count("png") > 0;
+  options.sweep_world_aligned = vm.count("sweep-world-aligned") > 0;
   options.max_frames = vm["max-frames"].as<int>();
   ParseSize(vm["size"].as<std::string>(), &options.render.width, &options.render.height);
   try {

@@ -259,11 +259,12 @@ int Run(const std::vector<std::string>& args) {
     const Clock::time_point t0 = Clock::now();
     const std::string where =
         "frame " + std::to_string(i + 1) + " (" + dataset.image_path(i).string() + ")";
-    const Observation obs = LoadFrame(dataset, i);
+    const std::vector<Observation> views = LoadFrame(dataset, i);
     const Clock::time_point t1 = Clock::now();
     FrameResult result;
     try {
-      result = pipeline.Process(obs);
+      for (size_t v = 0; v + 1 < views.size(); ++v) pipeline.AccumulateView(views[v]);
+      result = pipeline.Process(views.back());
     } catch (const std::exception& e) {
       throw std::runtime_error(where + ": " + e.what());
     }

@@ -58,4 +58,17 @@ std::string CameraIntrinsics::ToString() const {
   return s.str();
 }
 
+PanSweep::PanSweep(int views, double deg) : views_(views), deg_(deg) {
+  if (views < 1 || views > 360) {
+    throw std::invalid_argument("sweep views " + std::to_string(views) + " must be in [1, 360]");
+  }
+  if (!(deg > 0.0 && deg <= 360.0)) {
+    throw std::invalid_argument("sweep of " + std::to_string(deg) + "° must be in (0, 360]");
+  }
+}
+
+PanTilt PanSweep::View(int j) const {
+  return PanTilt{deg_ / views_ * j * std::numbers::pi / 180.0, 0.0};
+}
+
 }  // namespace tsc

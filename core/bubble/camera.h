@@ -36,4 +36,21 @@ struct PanTilt {
   double tilt_rad = 0.0;
 };
 
+/// A pan sweep of a pan-tilt camera at one base point (section 2.2: the bubble surface is
+/// accumulated over the views of a sweep): `views` frames, `deg / views` degrees apart,
+/// counter-clockwise (to the left) from straight ahead. One view is no sweep. Invariants
+/// (checked at construction): views in [1, 360], deg in (0, 360].
+class PanSweep {
+ public:
+  explicit PanSweep(int views = 1, double deg = 360.0);
+  int views() const { return views_; }
+  double deg() const { return deg_; }
+  /// Pan of view j (0-based), radians.
+  PanTilt View(int j) const;
+
+ private:
+  int views_;
+  double deg_;
+};
+
 }  // namespace tsc

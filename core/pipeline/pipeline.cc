@@ -64,36 +64,49 @@ PipelineState Pipeline::state() const {
   return PipelineState{next_base_, detector_.next_place(), previous_place_};
 }
 
-void Pipeline::AccumulateView(const Observation& obs) { surface_.Observe(obs); }
+void Pipeline::AccumulateView(const Observation& obs) {
+  surface_.Observe(obs);
+  // The surface holds the first view alone: its descriptor is a forward camera's.
+  if (!first_view_) first_view_ = computer_.Compute(surface_);
+}
 
 BasePointView FinishBasePoint(BubbleSurface& surface, const DescriptorComputer& computer) {
-  BasePointView view{computer.Compute(surface), IntensityStatistics(surface)};
+  BasePointView view{computer.Compute(surface), IntensityStatistics(surface), Descriptor()};
   surface.Reset();
   return view;
 }
 
 FrameResult Pipeline::Process(const Observation& obs) {
   surface_.Observe(obs);
-  const BasePointView view = FinishBasePoint(surface_, computer_);  // one frame, one base point
-  return ProcessDescriptor(view.descriptor, view.intensity);
+  const BasePointView view = FinishBasePoint(surface_, computer_);
+  const std::optional<Descriptor> first = std::move(first_view_);
+  first_view_.reset();
+  return ProcessDescriptor(view.descriptor, view.intensity, first ? &*first : nullptr);
 }
 
 FrameResult Pipeline::ProcessDescriptor(const Descriptor& descriptor,
-                                        const IntensityStats& intensity) {
+                                        const IntensityStats& intensity,
+                                        const Descriptor* coherence) {
   RequireMemory("process a base point");
   if (!memory_.empty() && descriptor.dim() != memory_.places().front().mean.size()) {
     throw std::invalid_argument("descriptor of dimension " + std::to_string(descriptor.dim()) +
                                 " for a memory of dimension " +
                                 std::to_string(memory_.places().front().mean.size()));
   }
+  if (coherence != nullptr && coherence->dim() != descriptor.dim()) {
+    throw std::invalid_argument("coherence descriptor of dimension " +
+                                std::to_string(coherence->dim()) + " for a descriptor of " +
+                                std::to_string(descriptor.dim()));
+  }
   FrameResult out;
   const BaseIndex k = next_base_++;
   out.base.index = k;
   out.base.descriptor = descriptor.values();
   out.base.intensity = intensity;
-  out.base.status = ClassifyBasePoint(options_.reliability, intensity, descriptor.values(),
+  const Eigen::VectorXf& judged = coherence != nullptr ? coherence->values() : descriptor.values();
+  out.base.status = ClassifyBasePoint(options_.reliability, intensity, judged,
                                       previous_descriptor_ ? &*previous_descriptor_ : nullptr);
-  previous_descriptor_ = descriptor.values();
+  previous_descriptor_ = judged;
   recent_.emplace_back(k, descriptor.values());
   HandleDetection(detector_.Add(k, out.base.status == BaseStatus::kGood), k, out);
   TrimDescriptors();

@@ -52,10 +52,14 @@ struct FrameResult {
   bool memory_changed = false;                ///< tree / discriminants changed
 };
 
-/// What the pipeline needs of one base point: its descriptor and its intensity statistics.
+/// What the pipeline needs of one base point: its descriptor and its intensity statistics,
+/// and, for a base point observed by a pan sweep, the descriptor of the sweep's first view
+/// alone, on which coherence is judged (empty: the descriptor itself; docs/decisions.md,
+/// "Pan sweeps").
 struct BasePointView {
   Descriptor descriptor;
   IntensityStats intensity;
+  Descriptor coherence;
 };
 /// Computes the view of the base point observed in `surface`, then resets the surface for the
 /// next base point.
@@ -85,12 +89,16 @@ class Pipeline {
   Pipeline(CameraIntrinsics camera, PipelineOptions options, PlaceMemory memory, TopologicalMap map,
            PipelineState state = {});
 
-  /// Adds a view to the current base point without finishing it (a PTZ sweep).
+  /// Adds a view to the current base point without finishing it (a PTZ sweep). The first
+  /// view of a sweep also gives the base point's coherence descriptor.
   void AccumulateView(const Observation& obs);
   /// Adds the last view of a base point and runs the loop on it.
   FrameResult Process(const Observation& obs);
-  /// Runs the loop on a ready descriptor (benchmarks, tests, replay).
-  FrameResult ProcessDescriptor(const Descriptor& descriptor, const IntensityStats& intensity);
+  /// Runs the loop on a ready descriptor (benchmarks, tests, replay). `coherence`, when not
+  /// null, is the descriptor incoherency κ is judged on (a sweep's first view); by default
+  /// the descriptor itself.
+  FrameResult ProcessDescriptor(const Descriptor& descriptor, const IntensityStats& intensity,
+                                const Descriptor* coherence = nullptr);
   /// End of the stream: closes the open window and place.
   FrameResult Finish();
 
@@ -132,7 +140,8 @@ class Pipeline {
   TopologicalMap map_;
   BaseIndex next_base_;
   std::optional<PlaceId> previous_place_;
-  std::optional<Eigen::VectorXf> previous_descriptor_;
+  std::optional<Eigen::VectorXf> previous_descriptor_;  // coherence descriptor of x_{k−1}
+  std::optional<Descriptor> first_view_;  // coherence descriptor of the sweep under way
   std::deque<std::pair<BaseIndex, Eigen::VectorXf>> recent_;  // descriptors not yet closed
   std::optional<int> partial_recognition_;  // place the open place was recognised as
   bool handed_over_ = false;                // memory_ is on loan to a merge (HandOverMemory)

@@ -83,24 +83,31 @@ FolderCamera::FolderCamera(const FolderCameraOptions& options, Clock& clock)
       pacer_(options.fps, clock) {}
 
 std::optional<CameraFrame> FolderCamera::Next() {
-  if (next_index_ >= dataset_.size()) {
-    if (!options_.loop) return std::nullopt;
-    next_index_ = 0;
+  if (pending_.empty()) {
+    if (next_index_ >= dataset_.size()) {
+      if (!options_.loop) return std::nullopt;
+      next_index_ = 0;
+    }
+    const int i = next_index_++;  // advance first: a bad frame is skipped, not retried
+    pacer_.Wait();
+    const fs::path& file = dataset_.image_path(i);
+    if (!ImageFileLooksComplete(file)) {
+      throw CameraError(name() + ": frame " + std::to_string(i) + " " + file.string() +
+                            ": truncated or unreadable image",
+                        true);
+    }
+    try {
+      std::vector<Observation> views = dataset_.Load(i);
+      pending_.assign(std::make_move_iterator(views.begin()), std::make_move_iterator(views.end()));
+    } catch (const DatasetError& e) {
+      throw CameraError(name() + ": frame " + std::to_string(i) + " " + e.what(), true);
+    }
   }
-  const int i = next_index_++;  // advance first: a bad frame is skipped, not retried
-  pacer_.Wait();
-  const fs::path& file = dataset_.image_path(i);
-  if (!ImageFileLooksComplete(file)) {
-    throw CameraError(name() + ": frame " + std::to_string(i) + " " + file.string() +
-                          ": truncated or unreadable image",
-                      true);
-  }
+  // A frame of a sweep dataset is delivered view by view; its last view ends the base point.
   CameraFrame frame;
-  try {
-    frame.observation = dataset_.Load(i);
-  } catch (const DatasetError& e) {
-    throw CameraError(name() + ": frame " + std::to_string(i) + " " + e.what(), true);
-  }
+  frame.observation = std::move(pending_.front());
+  pending_.pop_front();
+  frame.ends_base_point = pending_.empty();
   frame.utime = clock_.WallMicros();
   frame.sequence = delivered_++;
   return frame;

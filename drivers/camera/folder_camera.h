@@ -2,6 +2,7 @@
 // Frames of a dataset folder (DESIGN §7.1) as a camera: natural name order, with depth when
 // the folder has it, paced to a frame rate, optionally looping.
 
+#include <deque>
 #include <filesystem>
 #include <optional>
 #include <string>
@@ -30,7 +31,8 @@ class FolderCamera : public CameraSource {
   /// the camera.
   explicit FolderCamera(const FolderCameraOptions& options, Clock& clock = Clock::System());
 
-  /// The next frame in name order, at most fps per second. A frame that cannot be decoded
+  /// The next frame in name order, at most fps per second; a frame of a pan-sweep dataset
+  /// comes as its views, the last one ending the base point. A frame that cannot be decoded
   /// (missing, truncated or corrupt file, other size) throws CameraError(recoverable = true)
   /// naming the file; the following call continues with the frame after it. nullopt after
   /// the last frame unless looping.
@@ -47,7 +49,8 @@ class FolderCamera : public CameraSource {
   Dataset dataset_;
   CameraIntrinsics intrinsics_;
   Pacer pacer_;
-  int next_index_ = 0;  ///< frame read by the next Next()
+  int next_index_ = 0;               ///< frame read by the next Next()
+  std::deque<Observation> pending_;  ///< views of the current frame not yet delivered
   int64_t delivered_ = 0;
 };
 

@@ -42,6 +42,11 @@ SimCameraOptions ToSimCameraOptions(const CameraOptions& camera, const SimOption
   out.scene.render.width = sim.width;
   out.scene.render.height = sim.height;
   out.scene.route.revisit_fraction = sim.revisit_fraction;
+  try {
+    out.scene.sweep = PanSweep(camera.sweep_steps, camera.sweep_deg);
+  } catch (const std::invalid_argument& e) {
+    throw std::invalid_argument(std::string("camera.sweep_steps / camera.sweep_deg: ") + e.what());
+  }
   out.robot = sim.route;
   out.fps = camera.fps;
   out.loop = camera.loop;

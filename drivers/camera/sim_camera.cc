@@ -61,29 +61,47 @@ sim::RouteFrame SimCamera::FrameAtBase() {
 }
 
 std::optional<CameraFrame> SimCamera::Next() {
-  sim::RouteFrame frame;
-  if (base_ == nullptr) {
-    const size_t end =
-        options_.scene.max_frames > 0
-            ? std::min(route_->size(), static_cast<size_t>(options_.scene.max_frames))
-            : route_->size();
-    if (next_index_ >= end) {
-      if (!options_.loop) return std::nullopt;
-      next_index_ = 0;
+  if (pending_.empty()) {
+    sim::RouteFrame frame;
+    if (base_ == nullptr) {
+      const size_t end =
+          options_.scene.max_frames > 0
+              ? std::min(route_->size(), static_cast<size_t>(options_.scene.max_frames))
+              : route_->size();
+      if (next_index_ >= end) {
+        if (!options_.loop) return std::nullopt;
+        next_index_ = 0;
+      }
+      frame = (*route_)[next_index_++];
     }
-    frame = (*route_)[next_index_++];
-  }
-  pacer_.Wait();
-  if (base_ != nullptr) frame = FrameAtBase();  // the pose at capture time
+    pacer_.Wait();
+    if (base_ != nullptr) frame = FrameAtBase();  // the pose at capture time
 
+    Observation strip;
+    const sim::Pose2 pose =
+        sim::RenderRouteFrame(scenario_.world, renderer_, frame, options_.scene, rng_, draws_,
+                              &strip.bgr, options_.scene.depth ? &strip.depth_m : nullptr);
+    last_ = frame;
+    last_.pose = pose;
+    last_.label = scenario_.world.LabelAt(pose.x, pose.y);
+    // A pan sweep renders its views side by side; they are delivered one by one, the last
+    // one ending the base point (Pipeline::AccumulateView).
+    const PanSweep& sweep = options_.scene.sweep;
+    for (int j = 0; j < sweep.views(); ++j) {
+      Observation view;
+      const cv::Rect roi(j * intrinsics_.width(), 0, intrinsics_.width(), intrinsics_.height());
+      view.bgr = sweep.views() == 1 ? strip.bgr : strip.bgr(roi).clone();
+      if (!strip.depth_m.empty()) {
+        view.depth_m = sweep.views() == 1 ? strip.depth_m : strip.depth_m(roi).clone();
+      }
+      view.pan_tilt = sweep.View(j);
+      pending_.push_back(std::move(view));
+    }
+  }
   CameraFrame out;
-  Observation& obs = out.observation;
-  const sim::Pose2 pose =
-      sim::RenderRouteFrame(scenario_.world, renderer_, frame, options_.scene, rng_, draws_,
-                            &obs.bgr, options_.scene.depth ? &obs.depth_m : nullptr);
-  last_ = frame;
-  last_.pose = pose;
-  last_.label = scenario_.world.LabelAt(pose.x, pose.y);
+  out.observation = std::move(pending_.front());
+  pending_.pop_front();
+  out.ends_base_point = pending_.empty();
   out.utime = clock_.WallMicros();
   out.sequence = delivered_++;
   return out;

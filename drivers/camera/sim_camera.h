@@ -3,6 +3,7 @@
 // robot's scripted route (the same world and routes `tsc sim` writes for the seed) or the
 // pose of a base (normally a SimBase driven by teleop or a planner).
 
+#include <deque>
 #include <optional>
 #include <random>
 #include <set>
@@ -45,7 +46,8 @@ class SimCamera : public CameraSource {
   SimCamera(const SimCamera&) = delete;
   SimCamera& operator=(const SimCamera&) = delete;
 
-  /// The next rendered frame (with depth_m when scene.depth), at most fps per second.
+  /// The next rendered frame (with depth_m when scene.depth), at most fps per second; with a
+  /// pan sweep (scene.sweep) the views of one pose, the last one ending the base point.
   /// Scripted route: nullopt after its last frame unless looping.
   std::optional<CameraFrame> Next() override;
   const CameraIntrinsics& intrinsics() const override { return intrinsics_; }
@@ -78,6 +80,7 @@ class SimCamera : public CameraSource {
   size_t next_index_ = 0;
   int64_t delivered_ = 0;
   sim::RouteFrame last_;
+  std::deque<Observation> pending_;  ///< views of the current sweep not yet delivered
   // Revisit tracking when driven by a base (labels of finished visits, the current one).
   std::set<std::string> done_labels_;
   std::string current_label_;

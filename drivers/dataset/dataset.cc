@@ -163,13 +163,35 @@ std::map<std::string, double> ReadNumbers(const fs::path& file, const std::strin
   return out;
 }
 
-CameraIntrinsics ReadCamera(const fs::path& file, int width, int height) {
+struct CameraFile {
+  CameraIntrinsics camera;  ///< of one view
+  PanSweep sweep;
+};
+
+CameraFile ReadCamera(const fs::path& file, int image_width, int height) {
   std::ifstream in(file);
   if (!in) Fail(file, "cannot open");
   std::stringstream text;
   text << in.rdbuf();
   const std::map<std::string, double> v = ReadNumbers(file, text.str());
   const auto has = [&](const char* k) { return v.count(k) > 0; };
+  PanSweep sweep;
+  try {
+    if (has("sweep_views") || has("sweep_deg")) {
+      const double views = has("sweep_views") ? v.at("sweep_views") : 1.0;
+      if (views != std::floor(views) || views < 1 || views > 360) {
+        Fail(file, "\"sweep_views\" must be a whole number in [1, 360]");
+      }
+      sweep = PanSweep(static_cast<int>(views), has("sweep_deg") ? v.at("sweep_deg") : 360.0);
+    }
+  } catch (const std::invalid_argument& e) {
+    Fail(file, e.what());
+  }
+  if (image_width % sweep.views() != 0) {
+    Fail(file, "images are " + std::to_string(image_width) + " pixels wide, not a multiple of " +
+                   std::to_string(sweep.views()) + " sweep views");
+  }
+  const int width = image_width / sweep.views();  // one view's
   const int cam_w = has("width") ? static_cast<int>(v.at("width")) : width;
   const int cam_h = has("height") ? static_cast<int>(v.at("height")) : height;
   try {
@@ -181,15 +203,16 @@ CameraIntrinsics ReadCamera(const fs::path& file, int width, int height) {
     } else {
       Fail(file, "needs \"hfov_deg\" or all of \"fx\", \"fy\", \"cx\", \"cy\"");
     }
-    if (cam_w == width && cam_h == height) return *camera;
+    if (cam_w == width && cam_h == height) return CameraFile{*camera, sweep};
     // Calibrated at another resolution: scale when the aspect ratio is the same.
     const double ratio =
         (static_cast<double>(cam_w) / cam_h) / (static_cast<double>(width) / height);
     if (std::abs(ratio - 1.0) > 0.01) {
       Fail(file, "camera is " + std::to_string(cam_w) + "x" + std::to_string(cam_h) +
-                     " but the images are " + std::to_string(width) + "x" + std::to_string(height));
+                     " but the images' views are " + std::to_string(width) + "x" +
+                     std::to_string(height));
     }
-    return camera->Scaled(width, height);
+    return CameraFile{camera->Scaled(width, height), sweep};
   } catch (const std::invalid_argument& e) {
     Fail(file, e.what());
   }
@@ -226,11 +249,12 @@ bool NaturalLess(const std::string& a, const std::string& b) {
 }
 
 Dataset::Dataset(fs::path folder, std::vector<fs::path> images, std::vector<fs::path> depths,
-                 CameraIntrinsics camera)
+                 CameraIntrinsics camera, PanSweep sweep)
     : folder_(std::move(folder)),
       images_(std::move(images)),
       depths_(std::move(depths)),
-      camera_(camera) {}
+      camera_(camera),
+      sweep_(sweep) {}
 
 Dataset Dataset::Open(const fs::path& folder) {
   std::error_code ec;
@@ -264,12 +288,13 @@ Dataset Dataset::Open(const fs::path& folder) {
   }
 
   const fs::path camera_file = folder / "camera.json";
-  CameraIntrinsics camera =
+  const CameraFile camera =
       fs::exists(camera_file, ec)
           ? ReadCamera(camera_file, first.cols, first.rows)
-          : CameraIntrinsics::FromHorizontalFov(first.cols, first.rows, kDefaultHfovDeg);
+          : CameraFile{CameraIntrinsics::FromHorizontalFov(first.cols, first.rows, kDefaultHfovDeg),
+                       PanSweep()};
 
-  Dataset ds(folder, std::move(images), std::move(depths), camera);
+  Dataset ds(folder, std::move(images), std::move(depths), camera.camera, camera.sweep);
   const int n = ds.size();
 
   const fs::path truth_file = folder / "groundtruth.csv";
@@ -314,7 +339,7 @@ Dataset Dataset::Open(const fs::path& folder) {
   return ds;
 }
 
-Observation Dataset::Load(int i) const {
+std::vector<Observation> Dataset::Load(int i) const {
   if (i < 0 || i >= size()) {
     throw DatasetError(folder_.string() + ": frame index " + std::to_string(i) + " out of range");
   }
@@ -322,10 +347,11 @@ Observation Dataset::Load(int i) const {
   Observation obs;
   obs.bgr = ReadJpegOrPng(file, cv::IMREAD_COLOR);
   if (obs.bgr.empty()) Fail(file, "unreadable image (missing, empty or not a JPEG/PNG)");
-  if (obs.bgr.cols != camera_.width() || obs.bgr.rows != camera_.height()) {
+  const int views = sweep_.views();
+  if (obs.bgr.cols != camera_.width() * views || obs.bgr.rows != camera_.height()) {
     Fail(file, "image is " + std::to_string(obs.bgr.cols) + "x" + std::to_string(obs.bgr.rows) +
-                   " but the dataset's frames are " + std::to_string(camera_.width()) + "x" +
-                   std::to_string(camera_.height()));
+                   " but the dataset's frames are " + std::to_string(camera_.width() * views) +
+                   "x" + std::to_string(camera_.height()));
   }
   if (has_depth()) {
     const fs::path& dfile = depths_[i];
@@ -339,7 +365,17 @@ Observation Dataset::Load(int i) const {
     }
     raw.convertTo(obs.depth_m, CV_32F, 0.001);  // mm → m; 0 stays "no reading"
   }
-  return obs;
+  if (views == 1) return {std::move(obs)};
+  // A pan sweep: the views side by side, each with its pan.
+  std::vector<Observation> out(static_cast<size_t>(views));
+  for (int j = 0; j < views; ++j) {
+    const cv::Rect roi(j * camera_.width(), 0, camera_.width(), camera_.height());
+    Observation& view = out[static_cast<size_t>(j)];
+    view.bgr = obs.bgr(roi).clone();
+    if (!obs.depth_m.empty()) view.depth_m = obs.depth_m(roi).clone();
+    view.pan_tilt = sweep_.View(j);
+  }
+  return out;
 }
 
 }  // namespace tsc

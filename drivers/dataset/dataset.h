@@ -5,7 +5,10 @@
 //   DATASET/            frames (*.jpg, *.jpeg, *.png) here, or in DATASET/rgb/ when it exists
 //   DATASET/depth/      optional: <stem>.png per frame, 16-bit, millimetres (0 = no reading)
 //   DATASET/camera.json optional: {"width":W,"height":H,"hfov_deg":F} or fx, fy, cx, cy
-//                       (default: 60° horizontal field of view at the first image's size)
+//                       (default: 60° horizontal field of view at the first image's size);
+//                       "sweep_views":K,"sweep_deg":D: every image holds the K views of a
+//                       pan sweep side by side (view j at pan j·D/K, counter-clockwise), and
+//                       the intrinsics are those of one view
 //   DATASET/groundtruth.csv  optional: frame,place[,x,y,heading]   (frame 1-based)
 //   DATASET/revisits.csv     optional: frame,revisits              (1-based, space separated)
 //
@@ -55,12 +58,14 @@ class Dataset {
   bool has_depth() const { return !depths_.empty(); }
   /// Depth file of frame i; precondition: has_depth().
   const std::filesystem::path& depth_path(int i) const { return depths_.at(i); }
-  /// Intrinsics for the frames' size (from camera.json or the 60° default).
+  /// Intrinsics of one view (from camera.json or the 60° default).
   const CameraIntrinsics& camera() const { return camera_; }
-  /// Reads frame i: CV_8UC3 colour and, with depth, CV_32F metres; pan/tilt zero.
-  /// Throws DatasetError naming the file when it cannot be read or has another size than
-  /// the first frame.
-  Observation Load(int i) const;
+  /// The pan sweep of every frame (one view without "sweep_views" in camera.json).
+  const PanSweep& sweep() const { return sweep_; }
+  /// Reads frame i as its views (one without a sweep): CV_8UC3 colour and, with depth,
+  /// CV_32F metres, each with its pan (zero without a sweep). Throws DatasetError naming the
+  /// file when it cannot be read or has another size than the first frame.
+  std::vector<Observation> Load(int i) const;
 
   /// Per-frame place label (0-based frames, "" where unlabelled); empty without
   /// groundtruth.csv.
@@ -72,12 +77,13 @@ class Dataset {
 
  private:
   Dataset(std::filesystem::path folder, std::vector<std::filesystem::path> images,
-          std::vector<std::filesystem::path> depths, CameraIntrinsics camera);
+          std::vector<std::filesystem::path> depths, CameraIntrinsics camera, PanSweep sweep);
 
   std::filesystem::path folder_;
   std::vector<std::filesystem::path> images_;
   std::vector<std::filesystem::path> depths_;
   CameraIntrinsics camera_;
+  PanSweep sweep_;
   std::vector<std::string> labels_;
   std::vector<std::optional<GroundTruthPose>> poses_;
   std::vector<std::vector<int>> revisits_;

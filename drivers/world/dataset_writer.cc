@@ -67,9 +67,14 @@ int WriteRobotDataset(const fs::path& folder, const World& world,
   if (ec) throw std::runtime_error("cannot create " + folder.string() + ": " + ec.message());
 
   const RenderOptions& ro = options.render;
-  WriteText(folder / "camera.json", "{\"width\":" + std::to_string(ro.width) +
-                                        ",\"height\":" + std::to_string(ro.height) +
-                                        ",\"hfov_deg\":" + std::to_string(ro.hfov_deg) + "}\n");
+  std::string sweep;
+  if (options.sweep.views() > 1) {
+    sweep = ",\"sweep_views\":" + std::to_string(options.sweep.views()) +
+            ",\"sweep_deg\":" + std::to_string(options.sweep.deg());
+  }
+  WriteText(folder / "camera.json",
+            "{\"width\":" + std::to_string(ro.width) + ",\"height\":" + std::to_string(ro.height) +
+                ",\"hfov_deg\":" + std::to_string(ro.hfov_deg) + sweep + "}\n");
   WriteText(folder / "world.json", world.ToJson());
 
   const Renderer renderer(world, ro, static_cast<std::uint32_t>(rng()));

@@ -3,7 +3,8 @@
 //
 //   OUT/000001.jpg ...        colour frames (JPEG quality 90, or PNG), 1-based, zero-padded
 //   OUT/depth/000001.png ...  with depth: 16-bit PNG, millimetres, 0 = no reading (sky)
-//   OUT/camera.json           {"width":W,"height":H,"hfov_deg":F}
+//   OUT/camera.json           {"width":W,"height":H,"hfov_deg":F}, with a pan sweep also
+//                             "sweep_views":K,"sweep_deg":D (each image is K views wide)
 //   OUT/groundtruth.csv       frame,place,x,y,heading   (frame 1-based; place "" in doorways;
 //                             x, y in metres, heading in radians CCW from +x, world.json frame)
 //   OUT/world.json            the floor plan, format in drivers/world/world.h (World::ToJson)
@@ -18,6 +19,7 @@
 #include <string>
 #include <vector>
 
+#include "core/bubble/camera.h"
 #include "drivers/world/renderer.h"
 #include "drivers/world/routes.h"
 #include "drivers/world/world.h"
@@ -46,6 +48,15 @@ struct SimOptions {
   bool depth = false;  ///< also write depth/<stem>.png
   bool png = false;    ///< colour frames as PNG instead of JPEG
   RenderOptions render;
+  /// A pan sweep per frame (a pan-tilt camera turning through `sweep.views()` views at every
+  /// base point): the views are written side by side into one image per frame, and
+  /// camera.json says so (drivers/dataset/dataset.h). One view: a fixed forward camera.
+  PanSweep sweep;
+  /// With a sweep: take its views at fixed headings of the world (a sweep started from the
+  /// robot's heading estimate, odometry or compass) instead of relative to the robot, so a
+  /// turn on the spot leaves the views where they were. The pans written and tagged stay
+  /// relative to the first view.
+  bool sweep_world_aligned = false;
   RouteOptions route;
   double jitter_heading_deg = 1.0;   ///< standard deviation of the camera heading noise
   double jitter_position_m = 0.02;   ///< standard deviation of the camera position noise

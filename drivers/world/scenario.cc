@@ -2,7 +2,9 @@
 
 #include <cmath>
 #include <numbers>
+#include <opencv2/core.hpp>
 #include <opencv2/imgproc.hpp>
+#include <vector>
 
 namespace tsc::sim {
 
@@ -38,11 +40,6 @@ Pose2 RenderRouteFrame(const World& world, const Renderer& renderer, const Route
   pose.heading += options.jitter_heading_deg * std::numbers::pi / 180.0 * jh;
   if (world.RoomAt(pose.x, pose.y) < 0) pose = frame.pose;  // never through a wall
 
-  renderer.Render(pose, bgr, depth);
-  // Motion blur of a turn: the view sweeps shutter_fraction of the heading change.
-  const int blur_px = static_cast<int>(
-      std::lround(options.shutter_fraction * frame.turn_rad * renderer.focal_px()));
-  if (blur_px >= 2) cv::blur(*bgr, *bgr, cv::Size(blur_px, 1));
   Lighting light = Lighting::Day();
   switch (options.lighting) {
     case LightingMode::kDay:
@@ -59,10 +56,33 @@ Pose2 RenderRouteFrame(const World& world, const Renderer& renderer, const Route
   }
   const bool glitched = glitch < options.glitch_probability;
   if (glitched && glitch_kind >= 0.5) light.gain *= 0.2;  // a dark frame
-  if (glitched && glitch_kind < 0.5) {                    // a blurred frame
-    cv::GaussianBlur(*bgr, *bgr, cv::Size(0, 0), renderer.options().width / 80.0);
+  // Motion blur of a turn: the view sweeps shutter_fraction of the heading change.
+  const int blur_px = static_cast<int>(
+      std::lround(options.shutter_fraction * frame.turn_rad * renderer.focal_px()));
+
+  // One view straight ahead, or the views of a pan sweep side by side, each rendered, blurred
+  // and lit on its own (the seams stay sharp).
+  std::vector<cv::Mat> views(static_cast<size_t>(options.sweep.views())), depths(views.size());
+  for (size_t v = 0; v < views.size(); ++v) {
+    Pose2 view_pose = pose;
+    // World-aligned: the heading estimate is exact up to the camera's own jitter.
+    if (options.sweep_world_aligned) view_pose.heading -= frame.pose.heading;
+    view_pose.heading += options.sweep.View(static_cast<int>(v)).pan_rad;
+    cv::Mat& bgr_v = views[v];
+    renderer.Render(view_pose, &bgr_v, depth != nullptr ? &depths[v] : nullptr);
+    if (blur_px >= 2) cv::blur(bgr_v, bgr_v, cv::Size(blur_px, 1));
+    if (glitched && glitch_kind < 0.5) {  // a blurred frame
+      cv::GaussianBlur(bgr_v, bgr_v, cv::Size(0, 0), renderer.options().width / 80.0);
+    }
+    renderer.ApplyLighting(light, rng, &bgr_v);
   }
-  renderer.ApplyLighting(light, rng, bgr);
+  if (views.size() == 1) {
+    *bgr = views[0];
+    if (depth != nullptr) *depth = depths[0];
+  } else {
+    cv::hconcat(views, *bgr);
+    if (depth != nullptr) cv::hconcat(depths, *depth);
+  }
   return pose;
 }
 

@@ -64,6 +64,24 @@ class PipelineTest : public ::testing::Test {
   Pipeline dut_;
 };
 
+// A pan sweep's base point is judged coherent or not on its coherence descriptor (the
+// sweep's first view), not on the whole sweep's.
+TEST_F(PipelineTest, IncoherencyIsJudgedOnTheCoherenceDescriptorWhenGiven) {
+  const Descriptor sweep(centres_[0]);
+  const Descriptor ahead(centres_[1]), elsewhere(centres_[2]);
+  const IntensityStats lit{0.5, 0.05};
+  dut_.ProcessDescriptor(sweep, lit, &ahead);
+  // The same sweep, but the view ahead changed completely: incoherent.
+  EXPECT_EQ(dut_.ProcessDescriptor(sweep, lit, &elsewhere).base.status, BaseStatus::kIncoherent);
+  // Another sweep, the same view ahead: coherent. The stored descriptor is the sweep's.
+  const FrameResult r = dut_.ProcessDescriptor(Descriptor(centres_[1]), lit, &elsewhere);
+  EXPECT_EQ(r.base.status, BaseStatus::kGood);
+  EXPECT_EQ(r.base.descriptor, centres_[1]);
+  // A coherence descriptor of another dimension is refused.
+  const Descriptor short_one(Eigen::VectorXf::Constant(10, 0.1f));
+  EXPECT_THROW(dut_.ProcessDescriptor(sweep, lit, &short_one), std::invalid_argument);
+}
+
 TEST_F(PipelineTest, LearnsNewPlacesRecognisesRevisitsAndMapsTransitions) {
   Visit(0, 15);
   Visit(1, 15);

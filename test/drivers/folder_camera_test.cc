@@ -6,6 +6,8 @@
 #include <cmath>
 #include <filesystem>
 #include <fstream>
+#include <numbers>
+#include <opencv2/core.hpp>
 #include <opencv2/imgcodecs.hpp>
 #include <string>
 #include <vector>
@@ -81,6 +83,44 @@ TEST_F(FolderCameraTest, IntrinsicsFromCameraJsonWhenPresent) {
   EXPECT_DOUBLE_EQ(dut.intrinsics().fx(), 50.0);
   EXPECT_DOUBLE_EQ(dut.intrinsics().fy(), 51.0);
   EXPECT_DOUBLE_EQ(dut.intrinsics().cx(), 30.0);
+}
+
+TEST_F(FolderCameraTest, PanSweepFrameComesAsItsViewsAndItsLastViewEndsTheBasePoint) {
+  for (int i = 1; i <= 2; ++i) {  // each frame: two views side by side, blue 10i and 10i + 5
+    cv::Mat strip;
+    cv::hconcat(Frame(10 * i), Frame(10 * i + 5), strip);
+    ASSERT_TRUE(cv::imwrite((temp_.path() / (std::to_string(i) + ".png")).string(), strip));
+  }
+  std::ofstream(temp_.path() / "camera.json")
+      << "{\"hfov_deg\":60,\"sweep_views\":2,\"sweep_deg\":180}";
+  FolderCamera dut(Options(), clock_);
+  EXPECT_EQ(dut.intrinsics().width(), kWidth);  // one view's
+  std::vector<int> blues;
+  std::vector<bool> ends;
+  std::vector<double> pans;
+  while (auto frame = dut.Next()) {
+    blues.push_back(BlueOf(*frame));
+    ends.push_back(frame->ends_base_point);
+    pans.push_back(frame->observation.pan_tilt.pan_rad);
+    EXPECT_EQ(frame->observation.bgr.size(), cv::Size(kWidth, kHeight));
+  }
+  EXPECT_EQ(blues, (std::vector<int>{10, 15, 20, 25}));
+  EXPECT_EQ(ends, (std::vector<bool>{false, true, false, true}));
+  EXPECT_NEAR(pans[1], std::numbers::pi / 2.0, 1e-12);
+  EXPECT_EQ(pans[2], 0.0);
+}
+
+TEST_F(FolderCameraTest, SweepThatDoesNotDivideTheImageWidthIsFatalNamingCameraJson) {
+  Write(temp_.path() / "1.png", 10);  // 64 px wide
+  std::ofstream(temp_.path() / "camera.json") << "{\"hfov_deg\":60,\"sweep_views\":3}";
+  try {
+    FolderCamera dut(Options(), clock_);
+    FAIL() << "expected CameraError";
+  } catch (const CameraError& e) {
+    EXPECT_FALSE(e.recoverable());
+    EXPECT_NE(std::string(e.what()).find("camera.json"), std::string::npos) << e.what();
+    EXPECT_NE(std::string(e.what()).find("multiple of 3"), std::string::npos) << e.what();
+  }
 }
 
 TEST_F(FolderCameraTest, TruncatedJpegIsRecoverableErrorNamingFileAndNextFrameArrives) {

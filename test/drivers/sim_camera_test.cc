@@ -3,7 +3,9 @@
 #include <gtest/gtest.h>
 
 #include <filesystem>
+#include <numbers>
 #include <opencv2/imgcodecs.hpp>
+#include <optional>
 #include <stdexcept>
 #include <string>
 #include <vector>
@@ -64,6 +66,31 @@ TEST_F(SimCameraTest, OneRobotFramesAreTheFramesTscSimWrites) {
         cv::imread((temp.path() / "out" / ("00000" + std::to_string(i) + ".png")).string());
     ASSERT_FALSE(written.empty());
     EXPECT_EQ(Difference(dut.Next().value().observation.bgr, written), 0.0) << "frame " << i;
+  }
+  EXPECT_FALSE(dut.Next().has_value());
+}
+
+TEST_F(SimCameraTest, PanSweepDeliversTheViewsOfEachPoseAndTscSimWritesThemSideBySide) {
+  testing_support::TempDir temp("tscd_sim_camera_test");
+  SimCameraOptions options = Small(11);
+  options.scene.png = true;
+  options.scene.max_frames = 2;
+  options.scene.sweep = PanSweep(3, 360.0);
+  sim::WriteSimulatedDataset(temp.path() / "out", options.scene);
+  SimCamera dut(options, clock_);
+  EXPECT_EQ(dut.intrinsics().width(), 80);  // one view's
+  for (int i = 1; i <= 2; ++i) {
+    const cv::Mat written =
+        cv::imread((temp.path() / "out" / ("00000" + std::to_string(i) + ".png")).string());
+    ASSERT_EQ(written.size(), cv::Size(3 * 80, 60));
+    for (int j = 0; j < 3; ++j) {
+      const std::optional<CameraFrame> view = dut.Next();
+      ASSERT_TRUE(view.has_value());
+      EXPECT_EQ(view->ends_base_point, j == 2) << "frame " << i << " view " << j;
+      EXPECT_NEAR(view->observation.pan_tilt.pan_rad, j * 2.0 * std::numbers::pi / 3.0, 1e-12);
+      EXPECT_EQ(Difference(view->observation.bgr, written(cv::Rect(80 * j, 0, 80, 60))), 0.0)
+          << "frame " << i << " view " << j;
+    }
   }
   EXPECT_FALSE(dut.Next().has_value());
 }

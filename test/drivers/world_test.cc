@@ -3,16 +3,22 @@
 #include <gtest/gtest.h>
 #include <unistd.h>
 
+#include <algorithm>
 #include <cmath>
+#include <cstdio>
 #include <filesystem>
 #include <fstream>
+#include <limits>
 #include <map>
 #include <numbers>
+#include <opencv2/imgcodecs.hpp>
 #include <random>
 #include <set>
 #include <string>
 #include <vector>
 
+#include "core/bubble/descriptor.h"
+#include "core/pipeline/pipeline.h"
 #include "drivers/dataset/dataset.h"
 #include "drivers/world/dataset_writer.h"
 #include "drivers/world/renderer.h"
@@ -169,7 +175,7 @@ TEST_F(WorldTest, WrittenDatasetLoadsWithFramesCameraAndLabels) {
   EXPECT_FALSE(ds.labels()[0].empty());
   ASSERT_EQ(ds.poses().size(), 40u);
   EXPECT_TRUE(ds.poses()[0].has_value());
-  const Observation obs = ds.Load(0);
+  const Observation obs = ds.Load(0).front();
   EXPECT_EQ(obs.bgr.cols, 160);
   EXPECT_TRUE(fs::exists(dir_ / "world.json"));
   // The same seed writes the same bytes.
@@ -183,6 +189,80 @@ TEST_F(WorldTest, WrittenDatasetLoadsWithFramesCameraAndLabels) {
   EXPECT_EQ(bytes(dir_ / "000017.jpg"), bytes(again / "000017.jpg"));
   EXPECT_EQ(bytes(dir_ / "groundtruth.csv"), bytes(again / "groundtruth.csv"));
   fs::remove_all(again);
+}
+
+TEST_F(WorldTest, PanSweepDatasetHoldsTheViewsSideBySide) {
+  SimOptions options;
+  options.seed = 12;
+  options.render = Small();
+  options.depth = true;
+  options.png = true;
+  options.max_frames = 3;
+  options.sweep = PanSweep(4, 360.0);
+  WriteSimulatedDataset(dir_, options);
+  const cv::Mat strip = cv::imread((dir_ / "000002.png").string());
+  ASSERT_EQ(strip.size(), cv::Size(4 * 160, 120));
+  const Dataset ds = Dataset::Open(dir_);
+  EXPECT_EQ(ds.camera().width(), 160);  // the intrinsics are one view's
+  EXPECT_EQ(ds.sweep().views(), 4);
+  const std::vector<Observation> views = ds.Load(1);
+  ASSERT_EQ(views.size(), 4u);
+  for (int j = 0; j < 4; ++j) {
+    const Observation& v = views[static_cast<size_t>(j)];
+    EXPECT_NEAR(v.pan_tilt.pan_rad, j * std::numbers::pi / 2.0, 1e-12);
+    ASSERT_EQ(v.bgr.size(), cv::Size(160, 120));
+    ASSERT_EQ(v.depth_m.size(), cv::Size(160, 120));
+    EXPECT_EQ(cv::norm(v.bgr, strip(cv::Rect(160 * j, 0, 160, 120)), cv::NORM_L1), 0.0);
+  }
+  // Views look in different directions: no two are the same picture.
+  EXPECT_GT(cv::norm(views[0].bgr, views[2].bgr, cv::NORM_L1), 0.0);
+}
+
+// What a sweep is for: the bubble descriptor of a full pan sweep depends little on where the
+// robot faces (appendix A's pan invariance, over the whole circle), while a forward view
+// changes as much as going to another room. Not exactly invariant: a turn that is not a whole
+// number of pan cells (and views) samples the patches at other places and scales.
+TEST_F(WorldTest, SweepDescriptorChangesLessWithTheHeadingThanAForwardViewOrAnotherRoom) {
+  std::mt19937 rng(3);
+  const World world = World::Generate(WorldKind::kOffice, rng);
+  const Renderer renderer(world, Small(), 1);
+  const Room* first_room = nullptr;
+  for (const Room& r : world.rooms()) {
+    if (!r.transit && first_room == nullptr) first_room = &r;
+  }
+  ASSERT_NE(first_room, nullptr);
+  const Room& room = *first_room;
+  const CameraIntrinsics camera = CameraIntrinsics::FromHorizontalFov(160, 120, Small().hfov_deg);
+  const FeatureSet features = FeatureSet::Thesis(2, true);
+  BubbleSurface surface(features, camera);
+  const DescriptorComputer computer(surface.grid());
+  const auto describe = [&](const Room& at, double heading, const PanSweep& sweep) {
+    for (int j = 0; j < sweep.views(); ++j) {
+      Observation obs;
+      renderer.Render(Pose2{at.cx(), at.cy(), heading + sweep.View(j).pan_rad}, &obs.bgr, nullptr);
+      obs.pan_tilt = sweep.View(j);
+      surface.Observe(obs);
+    }
+    return FinishBasePoint(surface, computer).descriptor.values();
+  };
+  const PanSweep sweep(6, 360.0), forward;
+  const double quarter = 0.5 * std::numbers::pi;
+  // Turned by a quarter: a shift of 36 pan cells, not a whole number of views, so parts of
+  // the room fall on the views' edges, where a patch is sampled at another scale.
+  const Eigen::VectorXf here = describe(room, 0.0, sweep);
+  const double sweep_turn = ChiSquared(here, describe(room, quarter, sweep));
+  const double view_turn =
+      ChiSquared(describe(room, 0.0, forward), describe(room, quarter, forward));
+  double other_room = std::numeric_limits<double>::infinity();  // the nearest other room
+  for (const Room& r : world.rooms()) {
+    if (r.label == room.label || r.transit) continue;
+    other_room = std::min(other_room, ChiSquared(here, describe(r, 0.0, sweep)));
+  }
+  std::printf(
+      "χ² after a quarter turn: sweep %.4f, forward view %.4f; sweep to another room %.4f\n",
+      sweep_turn, view_turn, other_room);
+  EXPECT_LT(sweep_turn, 0.6 * view_turn);
+  EXPECT_LT(sweep_turn, 0.5 * other_room);
 }
 
 TEST_F(WorldTest, MixedLightingDimsRevisits) {
@@ -208,7 +288,7 @@ TEST_F(WorldTest, MixedLightingDimsRevisits) {
       current = l;
     }
     const int revisit = done.count(l) ? 1 : 0;
-    const cv::Scalar m = cv::mean(ds.Load(i).bgr);
+    const cv::Scalar m = cv::mean(ds.Load(i).front().bgr);
     sum[revisit] += m[0] + m[1] + m[2];
     ++count[revisit];
   }

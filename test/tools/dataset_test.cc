@@ -65,7 +65,7 @@ TEST_F(DatasetTest, FramesAreInNaturalOrder) {
   EXPECT_EQ(ds.image_path(1).filename(), "2.png");
   EXPECT_EQ(ds.image_path(2).filename(), "10.png");
   EXPECT_EQ(ds.image_path(3).filename(), "33.png");
-  const Observation obs = ds.Load(2);
+  const Observation obs = ds.Load(2).front();
   ASSERT_EQ(obs.bgr.type(), CV_8UC3);
   EXPECT_EQ(obs.bgr.at<cv::Vec3b>(0, 0)[0], 10);
   EXPECT_TRUE(obs.depth_m.empty());
@@ -93,7 +93,7 @@ TEST_F(DatasetTest, FramesInRgbSubfolderWithDepth) {
   ASSERT_EQ(ds.size(), 3);
   EXPECT_EQ(ds.image_path(0).parent_path().filename(), "rgb");
   ASSERT_TRUE(ds.has_depth());
-  const Observation obs = ds.Load(1);
+  const Observation obs = ds.Load(1).front();
   ASSERT_EQ(obs.depth_m.type(), CV_32F);
   EXPECT_FLOAT_EQ(obs.depth_m.at<float>(5, 5), 3.0f);  // 3000 mm
 }
