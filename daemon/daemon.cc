@@ -12,9 +12,7 @@
 #include <boost/asio/steady_timer.hpp>
 #include <cerrno>
 #include <csignal>
-#include <cstdlib>
 #include <limits>
-#include <optional>
 #include <random>
 #include <set>
 #include <system_error>
@@ -824,39 +822,17 @@ void Daemon::MergePeer(const PeerSnapshot& snapshot) {
   {
     std::lock_guard lock(pipeline_mutex_);
     places_before = pipeline_->memory().places().size();
-    // The merge moves the places of both memories instead of copying them when ours can be
-    // handed over: ours must be the base, so a merge that brings nothing new returns it
-    // unchanged, and the store must hold exactly it, so a merge that fails after taking it
-    // can load it again. Otherwise it takes a copy of ours (docs/decisions.md).
-    const bool hand_over = PeerGoesIntoOurs(pipeline_->memory(), peer) && StoreHoldsOurMemory();
-    std::optional<MemoryMerge> merged;
-    std::optional<TopologicalMap> map;
-    if (hand_over) {
-      try {
-        merged.emplace(MergeMemories(pipeline_->HandOverMemory(), std::move(peer)));
-        map.emplace(MergeMaps(pipeline_->map(), peer_map, merged->memory));
-      } catch (...) {
-        TakeBackCommittedMemory();
-        throw;
-      }
-    } else {
-      merged.emplace(MergeMemories(PlaceMemory(pipeline_->memory()), std::move(peer)));
-      map.emplace(MergeMaps(pipeline_->map(), peer_map, merged->memory));
-    }
-    merge_case = merged->merge_case;
-    peer_into_ours = merged->peer_into_ours;
-    added = merged->added.size();
-    for (const Absorption& a : merged->absorbed) absorbed.emplace_back(a.source, a.target);
+    MemoryMerge merged = MergeMemories(pipeline_->memory(), peer);
+    merge_case = merged.merge_case;
+    peer_into_ours = merged.peer_into_ours;
+    added = merged.added.size();
+    for (const Absorption& a : merged.absorbed) absorbed.emplace_back(a.source, a.target);
+    TopologicalMap map = MergeMaps(pipeline_->map(), peer_map, merged.memory);
     // Nothing new (every place known, no new edge): keep our memory exactly as it is, so an
     // unchanged memory is not broadcast again and peers do not fetch it back and forth.
     changed = merge_case != MergeCase::kNothingNew ||
-              map->edges().size() != pipeline_->map().edges().size();
-    if (changed) {
-      pipeline_->AdoptMerged(std::move(merged->memory), std::move(*map));
-    } else if (hand_over) {
-      // Ours was the base and nothing was new: the merge returned ours untouched.
-      pipeline_->TakeBack(std::move(merged->memory));
-    }
+              map.edges().size() != pipeline_->map().edges().size();
+    if (changed) pipeline_->AdoptMerged(std::move(merged.memory), std::move(map));
     places_after = pipeline_->memory().places().size();
     counters_.places = static_cast<int32_t>(places_after);
     counters_.edges = static_cast<int32_t>(pipeline_->map().edges().size());
@@ -878,29 +854,6 @@ void Daemon::MergePeer(const PeerSnapshot& snapshot) {
   asio::post(*io_, [this, absorbed = std::move(absorbed)]() mutable {
     PublishMerged(std::move(absorbed), NowUtime());
   });
-}
-
-bool Daemon::StoreHoldsOurMemory() const {
-  return store_ && !degraded_store_ && pending_.empty() && !unsaved_merge_ && !replace_knowledge_;
-}
-
-// The way back from a merge that failed after taking our memory: the store held exactly it
-// (StoreHoldsOurMemory), so it is loaded again. Should the store fail right now too, tscd exits
-// without committing anything: the database still holds the memory and a restart loads it,
-// whereas running on would learn into an empty memory and write it over the saved one.
-void Daemon::TakeBackCommittedMemory() {
-  try {
-    pipeline_->TakeBack(store_->Load(robot_, settings_.pipeline.memory).memory);
-    spdlog::warn("the merge failed after taking our memory: loaded it again from {}",
-                 db_path_.string());
-  } catch (const std::exception& e) {
-    spdlog::critical(
-        "the merge failed after taking our memory and {} cannot give it back ({}); exiting "
-        "without a commit, the database holds the memory for a restart",
-        db_path_.string(), e.what());
-    spdlog::shutdown();
-    std::_Exit(1);
-  }
 }
 
 void Daemon::CommitOrKeep(FrameResult result) {

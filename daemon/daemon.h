@@ -147,10 +147,6 @@ class Daemon {
   void MergePeers();
   void MergePeer(const PeerSnapshot& snapshot);
   void PublishMerged(std::vector<std::pair<PlaceId, PlaceId>> absorbed, int64_t utime);
-  /// True when the store's last commit is exactly the pipeline's memory (nothing kept back).
-  bool StoreHoldsOurMemory() const;
-  /// Ends a hand-over of the pipeline's memory with the memory as the store committed it.
-  void TakeBackCommittedMemory();
   /// Commits what is kept (results, a merge) when the store works; while it fails, at most
   /// once a second unless `now`.
   void RetryStore(bool now = false);

@@ -206,27 +206,6 @@ class CrashTest : public ::testing::Test {
     return LoadKnowledge(state / "memory.db", static_cast<uint32_t>(robot));
   }
 
-  /// Runs robot 1 on `state` with the fast simulated camera until it announces at least four
-  /// learned places, then stops it (SIGTERM, exit 0): a memory to merge into.
-  ::testing::AssertionResult LearnFourPlaces(const fs::path& state, BusListener& bus) {
-    ChildProcess dut(FastSimRobot(state), dir_ / "learn.log");
-    const bool learned = bus.WaitFor(
-        [](const BusListener& b) {
-          if (!b.announces.count("TSC_ANNOUNCE")) return false;
-          for (const announce_t& a : b.announces.at("TSC_ANNOUNCE")) {
-            if (a.robot == 1 && a.places >= 4) return true;
-          }
-          return false;
-        },
-        seconds(120));
-    if (!learned) return ::testing::AssertionFailure() << "no 4 places learned\n" << dut.Log();
-    dut.Signal(SIGTERM);
-    if (dut.Wait(seconds(30)) != 0) {
-      return ::testing::AssertionFailure() << "tscd did not exit 0\n" << dut.Log();
-    }
-    return ::testing::AssertionSuccess();
-  }
-
   testing_support::TempDir temp_{"crash_test"};
   fs::path dir_ = temp_.path();
   fs::path frames_ = dir_ / "frames";
@@ -356,7 +335,21 @@ TEST_F(CrashTest, KillNineDuringAMergeLeavesThePreOrPostMergeMemoryAndTheMergeCo
 
   // Our memory before the merge: learned by a real tscd from its simulated camera.
   const fs::path pre_dir = dir_ / "pre";
-  ASSERT_TRUE(LearnFourPlaces(pre_dir, bus));
+  {
+    ChildProcess dut(FastSimRobot(pre_dir), dir_ / "learn.log");
+    ASSERT_TRUE(bus.WaitFor(
+        [](const BusListener& b) {
+          if (!b.announces.count("TSC_ANNOUNCE")) return false;
+          for (const announce_t& a : b.announces.at("TSC_ANNOUNCE")) {
+            if (a.robot == 1 && a.places >= 4) return true;
+          }
+          return false;
+        },
+        seconds(120)))
+        << dut.Log();
+    dut.Signal(SIGTERM);
+    ASSERT_EQ(dut.Wait(seconds(30)), 0) << dut.Log();
+  }
   const Knowledge pre = LoadKnowledge(pre_dir / "memory.db", 1);
   ASSERT_GE(pre.state.memory.places().size(), 4u);
 
@@ -470,59 +463,6 @@ TEST_F(CrashTest, KillNineDuringAMergeLeavesThePreOrPostMergeMemoryAndTheMergeCo
       pre.state.memory.places().size(), post.state.memory.places().size(), s);
   EXPECT_GT(phases["merging or committing"] + phases["committed, not yet logged"], 0)
       << "no instant fell inside the merge";
-}
-
-// A merge that fails after tscd handed our memory over to it (daemon MergePeer): teammate 2
-// holds a place 1:999 of ours that we never learned, far from everything so the merge adds it,
-// and PlaceMemory::Restore refuses it only once the places have been moved into the merged
-// memory. tscd must load its memory back from the store and go on: teammate 3's merge, before
-// or after the failures, must end with exactly the memory of a run that never met teammate 2.
-TEST_F(CrashTest, FailureDuringAMergeThatTookOurMemoryLoadsItBackFromTheStore) {
-  TSCD_REQUIRE_PRIVATE_NETNS();
-  BusListener bus("TSC_ANNOUNCE");
-  const fs::path pre_dir = dir_ / "pre";
-  ASSERT_TRUE(LearnFourPlaces(pre_dir, bus));
-  const Knowledge pre = LoadKnowledge(pre_dir / "memory.db", 1);
-  ASSERT_GE(pre.state.memory.places().size(), 4u);
-  const auto run = [&](const std::string& name, const std::string& until) {
-    const fs::path state = dir_ / name;
-    fs::create_directories(state);
-    fs::copy_file(pre_dir / "memory.db", state / "memory.db");
-    const size_t before = Announces(bus, 1);
-    ChildProcess dut(IdleRobot(1, state, frames_), dir_ / (name + ".log"));
-    EXPECT_TRUE(WaitNewAnnounce(bus, 1, before, seconds(60))) << dut.Log();
-    EXPECT_TRUE(WaitLog(dut, "merged the memory of robot 3", seconds(60))) << dut.Log();
-    EXPECT_TRUE(until.empty() || WaitLog(dut, until, seconds(60))) << dut.Log();
-    dut.Signal(SIGTERM);
-    EXPECT_EQ(dut.Wait(seconds(30)), 0) << dut.Log();
-    return std::make_pair(LoadKnowledge(state / "memory.db", 1), dut.Log());
-  };
-
-  // Teammate 3: a few places like ours, merged into ours.
-  const auto good = PeerMemory(pre.state.memory, 3, 3, 7);
-  PeerServer good_server(
-      3, BuildSnapshot(good.memory, good.map, SnapshotHeader{3, 4243, 1, 1}, 60000));
-  const Knowledge reference = run("reference", "").first;
-  ASSERT_NE(DescribeDifferences(pre, reference), "") << "teammate 3 changed nothing: no teeth";
-
-  // Teammate 2: fewer places than ours (so ours is the base and is handed over), one of them
-  // carrying our robot id above our next local id.
-  const testing_support::RandomMemory random = testing_support::MakeRandomMemory(
-      2, 2, static_cast<int>(pre.state.memory.places()[0].mean.size()), 5);
-  std::vector<LearnedPlace> places = random.memory.places();
-  places[1].id = PlaceId{1, 999};
-  const PlaceMemory bad = PlaceMemory::Restore(
-      2, PlaceMemoryOptions{}, places, random.memory.slink(), random.memory.next_local_id(), {});
-  TopologicalMap bad_map;
-  bad_map.AddPlace(places[0].id);
-  bad_map.AddPlace(places[1].id);
-  bad_map.RecordTransition(places[0].id, places[1].id, {});
-  PeerServer bad_server(2, BuildSnapshot(bad, bad_map, SnapshotHeader{2, 4242, 1, 1}, 60000));
-
-  const auto [got, log] = run("with_failure", "loaded it again");
-  EXPECT_NE(log.find("merging the memory of robot 2 (version 1) failed"), std::string::npos) << log;
-  EXPECT_EQ(DescribeDifferences(reference, got), "") << log;
-  EXPECT_FALSE(got.peers.count(2));
 }
 
 }  // namespace
