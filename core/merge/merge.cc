@@ -36,9 +36,8 @@ std::vector<int> AllPlaces(const PlaceMemory& memory) {
 // hyper-terminal of `base`: γ̃ to the nearest place P¹ (`best`, at γ̃ `best_gamma`), the ratio
 // to the second nearest P² (1 with one candidate or γ̃(P²) = 0), and 1 − V_{P¹} over p's
 // samples.
-double RecognitionCost(const PlaceMemory& base, const HyperTerminal& h, const LearnedPlace& p,
-                       int* best, double* best_gamma) {
-  const std::vector<int>& candidates = h.places;
+double RecognitionCost(const PlaceMemory& base, const std::vector<int>& candidates,
+                       const LearnedPlace& p, int* best, double* best_gamma) {
   double g1 = std::numeric_limits<double>::infinity(), g2 = g1;
   *best = -1;
   for (int c : candidates) {
@@ -50,13 +49,6 @@ double RecognitionCost(const PlaceMemory& base, const HyperTerminal& h, const Le
     } else if (g < g2) {
       g2 = g;
     }
-  }
-  // (3.8) at N*: the second most similar child may be an inner child of N* (a hyper-terminal
-  // also has subtrees); only a terminal can absorb p, so an inner child nearer than every
-  // terminal makes the ratio exceed 1.
-  for (int c : base.nodes()[static_cast<size_t>(h.node)].children) {
-    if (base.nodes()[static_cast<size_t>(c)].terminal()) continue;
-    g2 = std::min(g2, static_cast<double>((p.mean - base.Centroid(c)).squaredNorm()));
   }
   *best_gamma = g1;
   const double ratio = std::isinf(g2) || g2 <= 0.0 ? 1.0 : g1 / g2;
@@ -309,13 +301,7 @@ MemoryMerge Merge(const PlaceMemory& ours, const PlaceMemory& peer, PlaceMemory*
     sb = StatisticsOf(base, AllPlaces(base));
     si = StatisticsOf(incoming, AllPlaces(incoming));
     const double d = (sb.centroid - si.centroid).norm();
-    // The spheres reach a recognition radius further: two places nearer than
-    // sqrt(τ_r·gamma_unit) may be one (g ≥ γ̃/gamma_unit), so spheres closer than that must
-    // not count as apart. Without it two small memories (a single place has radius 0) are
-    // always disjoint, and a team exchanging memories as it learns would never recognise
-    // a place (docs/decisions.md, "Merging": recognition reach).
-    const double reach = std::sqrt(options.tau_r * base.options().gamma_unit);
-    if (d > sb.radius + si.radius + reach) {  // (4.5)
+    if (d > sb.radius + si.radius) {  // (4.5)
       result.merge_case = MergeCase::kDisjoint;
     } else {
       const bool base_large = sb.radius >= si.radius;
@@ -325,7 +311,7 @@ MemoryMerge Merge(const PlaceMemory& ours, const PlaceMemory& peer, PlaceMemory*
         bool intersects = false;
         for (const HyperTerminal& h : HyperTerminals(base_large ? base : incoming)) {
           intersects = intersects || (h.sphere.centroid - small.centroid).norm() <=
-                                         h.sphere.radius + small.radius + reach;
+                                         h.sphere.radius + small.radius;
         }
         result.merge_case = intersects ? MergeCase::kContainedIntersecting : MergeCase::kContained;
       } else {
@@ -346,8 +332,8 @@ MemoryMerge Merge(const PlaceMemory& ours, const PlaceMemory& peer, PlaceMemory*
           if (!is_new[static_cast<size_t>(p)]) continue;
           int match = -1;
           const double g =
-              RecognitionCost(base, hb[star], incoming.places()[static_cast<size_t>(p)], &match,
-                              &nearest_gamma[static_cast<size_t>(p)]);
+              RecognitionCost(base, hb[star].places, incoming.places()[static_cast<size_t>(p)],
+                              &match, &nearest_gamma[static_cast<size_t>(p)]);
           nearest[static_cast<size_t>(p)] = match;
           if (g <= options.tau_r) {
             target[static_cast<size_t>(p)] = match;

@@ -189,17 +189,6 @@ TEST(MergeMemories, DisjointSpheresKeepBothPlaceSets) {
   }());
 }
 
-// A memory of one place has a sphere of radius 0: two such memories would always be
-// disjoint and never compared. Their spheres reach sqrt(τ_r·gamma_unit) further, the distance
-// within which two places may still be recognised as one (here 1.14 in the unit scale).
-TEST(MergeMemories, SinglePlacesWithinTheRecognitionReachAreNotDisjoint) {
-  const PlaceMemory a = MakeMemory(1, {At(0)}, 10);
-  const PlaceMemory near = MakeMemory(2, {At(0.3f)}, 30);
-  const PlaceMemory far = MakeMemory(2, {At(0, 2.0f)}, 30);
-  EXPECT_NE(MergeMemories(a, near).merge_case, MergeCase::kDisjoint);
-  EXPECT_EQ(MergeMemories(a, far).merge_case, MergeCase::kDisjoint);
-}
-
 // Figure 4.4b: the small sphere lies inside the large one, between its hyper-terminals.
 TEST(MergeMemories, ContainedWithoutIntersectingHyperTerminalAddsEverything) {
   const PlaceMemory a = MakeMemory(
