@@ -3,6 +3,8 @@
 #include <algorithm>
 #include <stdexcept>
 
+#include "drivers/dataset/dataset.h"
+
 namespace tsc {
 
 void SimCameraOptions::Validate() const {
@@ -86,15 +88,7 @@ std::optional<CameraFrame> SimCamera::Next() {
     last_.label = scenario_.world.LabelAt(pose.x, pose.y);
     // A pan sweep renders its views side by side; they are delivered one by one, the last
     // one ending the base point (Pipeline::AccumulateView).
-    const PanSweep& sweep = options_.scene.sweep;
-    for (int j = 0; j < sweep.views(); ++j) {
-      Observation view;
-      const cv::Rect roi(j * intrinsics_.width(), 0, intrinsics_.width(), intrinsics_.height());
-      view.bgr = sweep.views() == 1 ? strip.bgr : strip.bgr(roi).clone();
-      if (!strip.depth_m.empty()) {
-        view.depth_m = sweep.views() == 1 ? strip.depth_m : strip.depth_m(roi).clone();
-      }
-      view.pan_tilt = sweep.View(j);
+    for (Observation& view : SplitSweep(std::move(strip), options_.scene.sweep)) {
       pending_.push_back(std::move(view));
     }
   }

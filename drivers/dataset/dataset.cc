@@ -365,15 +365,20 @@ std::vector<Observation> Dataset::Load(int i) const {
     }
     raw.convertTo(obs.depth_m, CV_32F, 0.001);  // mm → m; 0 stays "no reading"
   }
-  if (views == 1) return {std::move(obs)};
-  // A pan sweep: the views side by side, each with its pan.
+  return SplitSweep(std::move(obs), sweep_);
+}
+
+std::vector<Observation> SplitSweep(Observation strip, const PanSweep& sweep) {
+  const int views = sweep.views();
+  if (views == 1) return {std::move(strip)};
+  const int width = strip.bgr.cols / views;
   std::vector<Observation> out(static_cast<size_t>(views));
   for (int j = 0; j < views; ++j) {
-    const cv::Rect roi(j * camera_.width(), 0, camera_.width(), camera_.height());
+    const cv::Rect roi(j * width, 0, width, strip.bgr.rows);
     Observation& view = out[static_cast<size_t>(j)];
-    view.bgr = obs.bgr(roi).clone();
-    if (!obs.depth_m.empty()) view.depth_m = obs.depth_m(roi).clone();
-    view.pan_tilt = sweep_.View(j);
+    view.bgr = strip.bgr(roi).clone();
+    if (!strip.depth_m.empty()) view.depth_m = strip.depth_m(roi).clone();
+    view.pan_tilt = sweep.View(j);
   }
   return out;
 }

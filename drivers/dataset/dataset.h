@@ -42,6 +42,11 @@ struct GroundTruthPose {
 /// "2.jpg" < "10.jpg": runs of digits compare by value, everything else byte-wise.
 bool NaturalLess(const std::string& a, const std::string& b);
 
+/// The views of a pan sweep written side by side in `strip` (each `strip.cols / views` wide),
+/// each with its pan; `strip` itself, unchanged, for one view. Precondition: the width is a
+/// multiple of sweep.views().
+std::vector<Observation> SplitSweep(Observation strip, const PanSweep& sweep);
+
 class Dataset {
  public:
   /// Lists the frames and reads the side files. Checks at once what is cheap to check: the
