@@ -32,10 +32,34 @@ std::vector<int> AllPlaces(const PlaceMemory& memory) {
   return all;
 }
 
-// g of (3.8) for the incoming place `p` against the terminal children `candidates` of a
+// The sphere S(Ī_P, ρ_P) of one place: its mean and the root mean squared distance of its
+// stored samples to the mean (the samples stand for its members).
+NodeStatistics PlaceSphere(const LearnedPlace& p) {
+  NodeStatistics s;
+  s.centroid = p.mean;
+  s.num_places = 1;
+  if (p.samples.cols() > 0) {
+    s.radius = std::sqrt(static_cast<double>((p.samples.colwise() - p.mean).squaredNorm()) /
+                         static_cast<double>(p.samples.cols()));
+  }
+  return s;
+}
+
+// V of (4.1) between two places: the overlap of their spheres as a fraction of the smaller
+// one, with the overlap proxy of (4.7) (docs/decisions.md, "Merging": the merge vote). 1 when
+// one sphere holds the other, 0 when they do not meet.
+double SphereVote(const NodeStatistics& a, const NodeStatistics& b) {
+  const double smaller = std::min(a.radius, b.radius);
+  if (smaller <= 0.0) {  // a point: inside the other sphere or not
+    return (a.centroid - b.centroid).norm() <= std::max(a.radius, b.radius) ? 1.0 : 0.0;
+  }
+  return std::clamp(Overlap(a, b) / (2.0 * smaller), 0.0, 1.0);
+}
+
+// g of (4.1) for the incoming place `p` against the terminal children `candidates` of a
 // hyper-terminal of `base`: γ̃ to the nearest place P¹ (`best`, at γ̃ `best_gamma`), the ratio
-// to the second nearest P² (1 with one candidate or γ̃(P²) = 0), and 1 − V_{P¹} over p's
-// samples.
+// to the second nearest P² (1 with one candidate or γ̃(P²) = 0), and 1 − V(P¹, p), the
+// overlap of the two places' spheres.
 double RecognitionCost(const PlaceMemory& base, const std::vector<int>& candidates,
                        const LearnedPlace& p, int* best, double* best_gamma) {
   double g1 = std::numeric_limits<double>::infinity(), g2 = g1;
@@ -52,9 +76,8 @@ double RecognitionCost(const PlaceMemory& base, const std::vector<int>& candidat
   }
   *best_gamma = g1;
   const double ratio = std::isinf(g2) || g2 <= 0.0 ? 1.0 : g1 / g2;
-  const Eigen::MatrixXf votes = EvenlySpaced(p.samples, base.options().max_vote_points);
-  // Terminal node i holds place i, and every non-root node has a trained d_N.
-  const double vote = base.discriminants()[static_cast<size_t>(*best)].VoteFraction(votes);
+  const double vote =
+      SphereVote(PlaceSphere(p), PlaceSphere(base.places()[static_cast<size_t>(*best)]));
   // The candidates are terminals: γ̃ enters in the memory's gamma_unit, as in PlaceMemory::Cost.
   return g1 / base.options().gamma_unit + ratio + (1.0 - vote);
 }
