@@ -830,8 +830,7 @@ void Daemon::MergePeer(const PeerSnapshot& snapshot) {
     TopologicalMap map = MergeMaps(pipeline_->map(), peer_map, merged.memory);
     // Nothing new (every place known, no new edge): keep our memory exactly as it is, so an
     // unchanged memory is not broadcast again and peers do not fetch it back and forth.
-    changed = merge_case != MergeCase::kNothingNew ||
-              map.edges().size() != pipeline_->map().edges().size();
+    changed = merged.changed || map.edges().size() != pipeline_->map().edges().size();
     if (changed) pipeline_->AdoptMerged(std::move(merged.memory), std::move(map));
     places_after = pipeline_->memory().places().size();
     counters_.places = static_cast<int32_t>(places_after);
