@@ -559,7 +559,7 @@ void Daemon::Shutdown() {
   // Camera first (no new frames), then the worker drains the queue, finishes the stream and
   // commits; the loop stays alive meanwhile so it could still publish.
   if (camera_thread_.joinable()) camera_thread_.join();
-  queue_.Push(WorkItem{std::nullopt});  // end of stream: close the open place and commit
+  queue_.PushEnd();  // end of stream: close the open place and commit
   queue_.Close();
   if (worker_thread_.joinable()) worker_thread_.join();
   // The loop runs what is still queued (the worker's last events), then this, then returns.
@@ -709,10 +709,11 @@ void Daemon::CameraLoop() {
       if (!frame) {
         spdlog::info("camera {} ended; tscd keeps serving its memory", camera_->name());
         camera_ended_ = true;
-        queue_.Push(WorkItem{std::nullopt});
+        queue_.PushEnd();
         return;
       }
-      queue_.Push(WorkItem{std::move(frame)});
+      const bool ends = frame->ends_base_point;
+      queue_.Push(std::move(*frame), ends);
     } catch (const CameraError& e) {
       const int64_t n = ++counters_.camera_errors;
       if (ShouldLog(n)) spdlog::warn("camera: {} ({} camera errors so far)", e.what(), n);
@@ -739,7 +740,7 @@ void Daemon::CameraLoop() {
 void Daemon::WorkerLoop() {
   for (;;) {
     worker_heartbeat_ms_ = SteadyMs();
-    std::optional<WorkItem> item = queue_.Pop(std::chrono::milliseconds(500));
+    std::optional<BasePoint> item = queue_.Pop(std::chrono::milliseconds(500));
     MergePeers();
     if (!item) {
       if (queue_.closed()) return;
@@ -747,7 +748,7 @@ void Daemon::WorkerLoop() {
       continue;
     }
     try {
-      Handle(*item);
+      Handle(std::move(*item));
     } catch (const std::exception& e) {
       // A frame the pipeline refuses (wrong size, say) is logged and skipped.
       const int64_t n = ++counters_.camera_errors;
@@ -756,17 +757,19 @@ void Daemon::WorkerLoop() {
   }
 }
 
-void Daemon::Handle(const WorkItem& item) {
+void Daemon::Handle(BasePoint views) {
   FrameResult result;
+  const int64_t utime = views.empty() ? NowUtime() : views.back().utime;
   {
     std::lock_guard lock(pipeline_mutex_);
-    if (!item.frame) {
+    if (views.empty()) {
       result = pipeline_->Finish();
-    } else if (!item.frame->ends_base_point) {
-      pipeline_->AccumulateView(item.frame->observation);
-      return;
     } else {
-      result = pipeline_->Process(item.frame->observation);
+      // The queue hands over whole sweeps only (FrameQueue), so the first view is the sweep's.
+      std::vector<Observation> observations;
+      observations.reserve(views.size());
+      for (CameraFrame& v : views) observations.push_back(std::move(v.observation));
+      result = pipeline_->Process(observations);
       ++counters_.frames;
     }
     const PipelineState state = pipeline_->state();
@@ -781,7 +784,6 @@ void Daemon::Handle(const WorkItem& item) {
   CommitOrKeep(std::move(result));
   if (changed) ++counters_.memory_version;
   if (!events.empty()) {
-    const int64_t utime = item.frame ? item.frame->utime : NowUtime();
     asio::post(*io_, [this, events = std::move(events), utime] { PublishEvents(events, utime); });
   }
 }

@@ -99,9 +99,8 @@ class Daemon {
   const DaemonCounters& counters() const { return counters_; }
 
  private:
-  struct WorkItem {
-    std::optional<CameraFrame> frame;  // nullopt: the camera ended
-  };
+  // The views of one base point (a pan sweep's, whole); none: the camera ended.
+  using BasePoint = FrameQueue<CameraFrame>::BasePoint;
 
   // Event loop side.
   void StartTimers();
@@ -142,7 +141,7 @@ class Daemon {
   void CameraLoop();
   // Worker thread.
   void WorkerLoop();
-  void Handle(const WorkItem& item);
+  void Handle(BasePoint views);
   void CommitOrKeep(FrameResult result);
   void MergePeers();
   void MergePeer(const PeerSnapshot& snapshot);
@@ -183,7 +182,7 @@ class Daemon {
   std::string store_problem_;              // "" when the store works
   std::chrono::steady_clock::time_point next_store_retry_{};
 
-  FrameQueue<WorkItem> queue_;
+  FrameQueue<CameraFrame> queue_;
   std::atomic<bool> stopping_{false};
   std::atomic<bool> camera_ended_{false};
   std::atomic<int64_t> worker_heartbeat_ms_{0};

@@ -85,7 +85,9 @@ struct MotorOptions {
 
 struct DaemonOptions {
   std::string state_dir = "/var/lib/tscd";  ///< holds memory.db
-  int queue_frames = 8;                     ///< frames waiting for the pipeline (drop-oldest)
+  /// Base points waiting for the pipeline, a pan sweep's views counting once (drop-oldest
+  /// whole sweeps: daemon/frame_queue.h).
+  int queue_frames = 8;
   /// Results kept in memory while the store cannot be written (full disk, read-only); beyond
   /// it the oldest results' base point records are dropped (learned places and edges never).
   int max_pending_results = 10000;

@@ -1,49 +1,75 @@
 #pragma once
-// The bounded queue between the camera thread and the pipeline worker. The camera never
-// blocks: when the queue is full the oldest frame is dropped and counted (a robot would rather
-// see now than catch up on the past).
+// The bounded queue between the camera thread and the pipeline worker, in base points. The
+// camera never blocks: when the queue is full the oldest base point is dropped and counted (a
+// robot would rather see now than catch up on the past). A pan sweep delivers a base point as
+// several views, the last one ending it; the queue gathers them and queues, hands out and
+// drops only whole sweeps, so the pipeline never builds a base point from part of one (whose
+// first view, which judges coherence, might be the part missing).
 
+#include <algorithm>
 #include <chrono>
 #include <condition_variable>
 #include <cstdint>
 #include <deque>
 #include <mutex>
 #include <optional>
+#include <utility>
+#include <vector>
 
 namespace tsc {
 
-template <typename Frame>
+template <typename View>
 class FrameQueue {
  public:
-  /// Precondition: capacity ≥ 1.
+  /// The views of one base point in the order taken; empty: the end of the stream.
+  using BasePoint = std::vector<View>;
+
+  /// `capacity`: whole base points waiting, besides the one being gathered and ends of the
+  /// stream. Precondition: ≥ 1.
   explicit FrameQueue(size_t capacity) : capacity_(capacity) {}
 
-  /// Adds a frame, dropping the oldest when full. Returns false once closed.
-  bool Push(Frame frame) {
+  /// Adds a view to the base point being gathered. The view that ends it queues the whole
+  /// base point, dropping the oldest waiting one (every view of it, counted once) when full.
+  /// Returns false once closed.
+  bool Push(View view, bool ends_base_point) {
     {
       std::lock_guard lock(mutex_);
       if (closed_) return false;
-      if (frames_.size() >= capacity_) {
-        frames_.pop_front();
-        ++dropped_;
-      }
-      frames_.push_back(std::move(frame));
+      gathering_.push_back(std::move(view));
+      if (!ends_base_point) return true;
+      Enqueue(std::exchange(gathering_, {}));
     }
     ready_.notify_one();
     return true;
   }
 
-  /// Waits up to `timeout` for a frame. nullopt on timeout or when closed and empty.
-  std::optional<Frame> Pop(std::chrono::milliseconds timeout) {
-    std::unique_lock lock(mutex_);
-    ready_.wait_for(lock, timeout, [&] { return closed_ || !frames_.empty(); });
-    if (frames_.empty()) return std::nullopt;
-    Frame f = std::move(frames_.front());
-    frames_.pop_front();
-    return f;
+  /// Queues the end of the stream (an empty base point) after what waits; it takes no room of
+  /// the capacity (nothing waiting is dropped for it) and is never dropped. The views of a
+  /// base point still being gathered (the source ended or stopped mid-sweep) are discarded,
+  /// not counted: nothing fell behind. Returns false once closed.
+  bool PushEnd() {
+    {
+      std::lock_guard lock(mutex_);
+      if (closed_) return false;
+      gathering_.clear();
+      waiting_.emplace_back();
+    }
+    ready_.notify_one();
+    return true;
   }
 
-  /// Wakes every waiter; later pushes are refused, frames already queued can still be popped.
+  /// Waits up to `timeout` for a whole base point. nullopt on timeout or when closed and empty.
+  std::optional<BasePoint> Pop(std::chrono::milliseconds timeout) {
+    std::unique_lock lock(mutex_);
+    ready_.wait_for(lock, timeout, [&] { return closed_ || !waiting_.empty(); });
+    if (waiting_.empty()) return std::nullopt;
+    BasePoint b = std::move(waiting_.front());
+    waiting_.pop_front();
+    return b;
+  }
+
+  /// Wakes every waiter; later pushes are refused, base points already queued can still be
+  /// popped.
   void Close() {
     {
       std::lock_guard lock(mutex_);
@@ -56,26 +82,44 @@ class FrameQueue {
     std::lock_guard lock(mutex_);
     return closed_;
   }
+  /// Base points dropped because the queue was full (a sweep of K views counts once).
   int64_t dropped() const {
     std::lock_guard lock(mutex_);
     return dropped_;
   }
-  /// Occupancy in [0, 1].
-  /// Frames waiting now.
+  /// Base points waiting now (the one being gathered is not counted).
   size_t size() const {
     std::lock_guard lock(mutex_);
-    return frames_.size();
+    return Waiting();
   }
+  /// Occupancy in [0, 1].
   double fill() const {
     std::lock_guard lock(mutex_);
-    return static_cast<double>(frames_.size()) / static_cast<double>(capacity_);
+    return static_cast<double>(Waiting()) / static_cast<double>(capacity_);
   }
 
  private:
+  // Base points waiting, not counting ends of the stream. mutex_ held.
+  size_t Waiting() const {
+    return static_cast<size_t>(std::count_if(waiting_.begin(), waiting_.end(),
+                                             [](const BasePoint& w) { return !w.empty(); }));
+  }
+
+  void Enqueue(BasePoint b) {  // mutex_ held
+    if (Waiting() >= capacity_) {
+      // The oldest base point goes, every view of it; an end of the stream is never dropped.
+      waiting_.erase(std::find_if(waiting_.begin(), waiting_.end(),
+                                  [](const BasePoint& w) { return !w.empty(); }));
+      ++dropped_;
+    }
+    waiting_.push_back(std::move(b));
+  }
+
   const size_t capacity_;
   mutable std::mutex mutex_;
   std::condition_variable ready_;
-  std::deque<Frame> frames_;
+  std::deque<BasePoint> waiting_;
+  BasePoint gathering_;  // views of the base point under way
   bool closed_ = false;
   int64_t dropped_ = 0;
 };

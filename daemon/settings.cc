@@ -306,8 +306,9 @@ std::vector<ConfigKey> BuildTable() {
       }));
   t.push_back(Number(
       "daemon.queue_frames",
-      "frames waiting for the pipeline; when full the oldest is dropped and counted", "frames", 1,
-      1000, [](auto& o) -> auto& { return o.daemon.queue_frames; }));
+      "base points waiting for the pipeline (a pan sweep's views count as one); when full the "
+      "oldest is dropped, all its views, and counted once (frames_dropped)",
+      "base points", 1, 1000, [](auto& o) -> auto& { return o.daemon.queue_frames; }));
   t.push_back(Number(
       "daemon.max_pending_results",
       "results kept in memory while the store cannot be written; beyond it the oldest base "

@@ -20,23 +20,10 @@ TimedView DescribeFrame(const Dataset& dataset, int i, BubbleSurface& surface,
   const Clock::time_point t0 = Clock::now();
   try {
     TimedView out;
-    Descriptor coherence;
-    for (size_t j = 0; j < views.size(); ++j) {
-      surface.Observe(views[j]);
-      // A sweep: the first view alone gives the coherence descriptor (Pipeline::AccumulateView).
-      if (j == 0 && views.size() > 1) coherence = computer.Compute(surface);
-    }
-    if (surface.features().IndexOf(Feature::kIntensity) >= 0) {
-      out.view = FinishBasePoint(surface, computer);
-    } else {  // a classification feature set without intensity: no reliability statistics
-      out.view.descriptor = computer.Compute(surface);
-      surface.Reset();
-    }
-    out.view.coherence = std::move(coherence);
+    out.view = DescribeBasePoint(views, surface, computer);
     out.descriptor_ms = std::chrono::duration<double, std::milli>(Clock::now() - t0).count();
     return out;
-  } catch (const std::exception& e) {
-    surface.Reset();
+  } catch (const std::exception& e) {  // the surface is reset already
     throw DatasetError("frame " + std::to_string(i + 1) + " (" + dataset.image_path(i).string() +
                        "): " + e.what());
   }

@@ -14,9 +14,9 @@ namespace tsc {
 std::vector<Observation> LoadFrame(const Dataset& dataset, int i);
 
 /// The base point view of one frame (a frame, with all the views of its sweep, is one base
-/// point) and the milliseconds its
-/// descriptor took (observing it in `surface`, computing, resetting; not the loading). The
-/// intensity statistics stay zero when the feature set has no intensity feature.
+/// point; DescribeBasePoint) and the milliseconds its descriptor took (observing it in
+/// `surface`, computing, resetting; not the loading). The intensity statistics stay zero when
+/// the feature set has no intensity feature.
 struct TimedView {
   BasePointView view;
   double descriptor_ms = 0.0;

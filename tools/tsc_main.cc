@@ -263,8 +263,7 @@ int Run(const std::vector<std::string>& args) {
     const Clock::time_point t1 = Clock::now();
     FrameResult result;
     try {
-      for (size_t v = 0; v + 1 < views.size(); ++v) pipeline.AccumulateView(views[v]);
-      result = pipeline.Process(views.back());
+      result = pipeline.Process(views);
     } catch (const std::exception& e) {
       throw std::runtime_error(where + ": " + e.what());
     }

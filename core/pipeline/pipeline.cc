@@ -64,24 +64,41 @@ PipelineState Pipeline::state() const {
   return PipelineState{next_base_, detector_.next_place(), previous_place_};
 }
 
-void Pipeline::AccumulateView(const Observation& obs) {
-  surface_.Observe(obs);
-  // The surface holds the first view alone: its descriptor is a forward camera's.
-  if (!first_view_) first_view_ = computer_.Compute(surface_);
-}
-
 BasePointView FinishBasePoint(BubbleSurface& surface, const DescriptorComputer& computer) {
   BasePointView view{computer.Compute(surface), IntensityStatistics(surface), Descriptor()};
   surface.Reset();
   return view;
 }
 
-FrameResult Pipeline::Process(const Observation& obs) {
-  surface_.Observe(obs);
-  const BasePointView view = FinishBasePoint(surface_, computer_);
-  const std::optional<Descriptor> first = std::move(first_view_);
-  first_view_.reset();
-  return ProcessDescriptor(view.descriptor, view.intensity, first ? &*first : nullptr);
+BasePointView DescribeBasePoint(std::span<const Observation> views, BubbleSurface& surface,
+                                const DescriptorComputer& computer) {
+  if (views.empty()) throw std::invalid_argument("a base point of no views");
+  try {
+    Descriptor coherence;
+    for (size_t j = 0; j < views.size(); ++j) {
+      surface.Observe(views[j]);
+      // The surface holds the sweep's first view alone: its descriptor is a forward camera's.
+      if (j == 0 && views.size() > 1) coherence = computer.Compute(surface);
+    }
+    BasePointView out;
+    if (surface.features().IndexOf(Feature::kIntensity) >= 0) {
+      out = FinishBasePoint(surface, computer);
+    } else {
+      out.descriptor = computer.Compute(surface);
+      surface.Reset();
+    }
+    out.coherence = std::move(coherence);
+    return out;
+  } catch (...) {
+    surface.Reset();  // the next base point starts from nothing
+    throw;
+  }
+}
+
+FrameResult Pipeline::Process(std::span<const Observation> views) {
+  const BasePointView view = DescribeBasePoint(views, surface_, computer_);
+  return ProcessDescriptor(view.descriptor, view.intensity,
+                           view.coherence.empty() ? nullptr : &view.coherence);
 }
 
 FrameResult Pipeline::ProcessDescriptor(const Descriptor& descriptor,

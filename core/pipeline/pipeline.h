@@ -5,6 +5,7 @@
 
 #include <deque>
 #include <optional>
+#include <span>
 #include <utility>
 #include <vector>
 
@@ -64,6 +65,15 @@ struct BasePointView {
 /// Computes the view of the base point observed in `surface`, then resets the surface for the
 /// next base point.
 BasePointView FinishBasePoint(BubbleSurface& surface, const DescriptorComputer& computer);
+/// The view of the base point observed by `views`: one view, or all the views of a pan sweep
+/// in the order taken. Every view goes into the descriptor and the intensity statistics; of a
+/// sweep (two views or more) the first view alone also gives the coherence descriptor
+/// (docs/decisions.md, "Pan sweeps"). The intensity statistics stay zero when the feature set
+/// has no intensity feature (the classifier's sets). Precondition: `surface` holds no view;
+/// it is left reset, also when this throws. Throws std::invalid_argument on no views, and
+/// what BubbleSurface::Observe throws on a bad view.
+BasePointView DescribeBasePoint(std::span<const Observation> views, BubbleSurface& surface,
+                                const DescriptorComputer& computer);
 
 struct PipelineOptions {
   uint32_t robot = 1;
@@ -89,11 +99,11 @@ class Pipeline {
   Pipeline(CameraIntrinsics camera, PipelineOptions options, PlaceMemory memory, TopologicalMap map,
            PipelineState state = {});
 
-  /// Adds a view to the current base point without finishing it (a PTZ sweep). The first
-  /// view of a sweep also gives the base point's coherence descriptor.
-  void AccumulateView(const Observation& obs);
-  /// Adds the last view of a base point and runs the loop on it.
-  FrameResult Process(const Observation& obs);
+  /// Runs the loop on one base point observed by `views`: one view, or every view of a pan
+  /// sweep in the order taken (DescribeBasePoint). The caller hands over whole sweeps only: a
+  /// sweep missing views would be another base point. Throws std::invalid_argument on no
+  /// views or a view the surface refuses; the pipeline is then as before the call.
+  FrameResult Process(std::span<const Observation> views);
   /// Runs the loop on a ready descriptor (benchmarks, tests, replay). `coherence`, when not
   /// null, is the descriptor incoherency κ is judged on (a sweep's first view); by default
   /// the descriptor itself.
@@ -140,8 +150,7 @@ class Pipeline {
   TopologicalMap map_;
   BaseIndex next_base_;
   std::optional<PlaceId> previous_place_;
-  std::optional<Eigen::VectorXf> previous_descriptor_;  // coherence descriptor of x_{k−1}
-  std::optional<Descriptor> first_view_;  // coherence descriptor of the sweep under way
+  std::optional<Eigen::VectorXf> previous_descriptor_;        // coherence descriptor of x_{k−1}
   std::deque<std::pair<BaseIndex, Eigen::VectorXf>> recent_;  // descriptors not yet closed
   std::optional<int> partial_recognition_;  // place the open place was recognised as
   bool handed_over_ = false;                // memory_ is on loan to a merge (HandOverMemory)

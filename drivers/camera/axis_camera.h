@@ -4,7 +4,7 @@
 // and position queries (`/axis-cgi/com/ptz.cgi`), HTTP Basic or Digest authentication. Every
 // frame carries the pan/tilt it was taken at. In sweep mode the camera pans through
 // sweep_steps views at each base point and only the last view ends the base point, so the
-// pipeline accumulates the sweep into one bubble surface (Pipeline::AccumulateView). A dropped
+// pipeline takes the whole sweep as one bubble surface (Pipeline::Process). A dropped
 // stream is reconnected with a bounded exponential backoff.
 
 #include <cstdint>

@@ -32,8 +32,8 @@ struct CameraFrame {
   Observation observation;  ///< colour (+ depth), and the pan/tilt it was taken at
   int64_t utime = 0;        ///< capture time, microseconds since the epoch
   int64_t sequence = 0;     ///< frames delivered by this source so far, 0-based
-  /// True when this view completes a base point; false while a PTZ sweep continues (the
-  /// pipeline accumulates such views into the bubble surface, AccumulateView).
+  /// True when this view completes a base point; false while a PTZ sweep continues (tscd
+  /// gathers the views of a sweep and the pipeline takes them together, Pipeline::Process).
   bool ends_base_point = true;
 };
 

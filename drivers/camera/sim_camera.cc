@@ -87,7 +87,7 @@ std::optional<CameraFrame> SimCamera::Next() {
     last_.pose = pose;
     last_.label = scenario_.world.LabelAt(pose.x, pose.y);
     // A pan sweep renders its views side by side; they are delivered one by one, the last
-    // one ending the base point (Pipeline::AccumulateView).
+    // one ending the base point (Pipeline::Process takes them together).
     for (Observation& view : SplitSweep(std::move(strip), options_.scene.sweep)) {
       pending_.push_back(std::move(view));
     }

@@ -3,6 +3,7 @@
 #include <gtest/gtest.h>
 
 #include <map>
+#include <opencv2/imgproc.hpp>
 #include <random>
 #include <stdexcept>
 
@@ -80,6 +81,84 @@ TEST_F(PipelineTest, IncoherencyIsJudgedOnTheCoherenceDescriptorWhenGiven) {
   // A coherence descriptor of another dimension is refused.
   const Descriptor short_one(Eigen::VectorXf::Constant(10, 0.1f));
   EXPECT_THROW(dut_.ProcessDescriptor(sweep, lit, &short_one), std::invalid_argument);
+}
+
+// The views of a pan sweep of `views` views over a scene of random colour blocks (seeded).
+std::vector<Observation> SweepViews(int views, uint32_t seed) {
+  std::mt19937 rng(seed);
+  std::uniform_int_distribution<int> byte(0, 255);
+  const PanSweep sweep(views, 360.0);
+  std::vector<Observation> out;
+  for (int j = 0; j < views; ++j) {
+    Observation o;
+    o.bgr = cv::Mat(48, 64, CV_8UC3);
+    for (int by = 0; by < 48; by += 8) {
+      for (int bx = 0; bx < 64; bx += 8) {
+        const cv::Vec3b colour(static_cast<uint8_t>(byte(rng)), static_cast<uint8_t>(byte(rng)),
+                               static_cast<uint8_t>(byte(rng)));
+        o.bgr(cv::Rect(bx, by, 8, 8)).setTo(colour);
+      }
+    }
+    o.pan_tilt = sweep.View(j);
+    out.push_back(std::move(o));
+  }
+  return out;
+}
+
+// Process over a sweep is the sweep written out: every view observed into one surface, the
+// descriptor of the surface after the first view alone judging coherence.
+TEST_F(PipelineTest, ProcessOfASweepIsTheSweepWrittenOut) {
+  BubbleSurface surface(Options().features, CameraIntrinsics::FromHorizontalFov(64, 48, 60),
+                        Options().surface);
+  const DescriptorComputer computer(surface.grid(), Options().descriptor);
+  Pipeline reference(CameraIntrinsics::FromHorizontalFov(64, 48, 60), Options(),
+                     PlaceMemory(1, Options().memory), TopologicalMap());
+  // Sweeps of three scenes, some repeated, and one forward view.
+  for (const uint32_t scene : {1u, 1u, 2u, 2u, 3u, 1u}) {
+    const std::vector<Observation> views = SweepViews(scene == 3 ? 1 : 6, scene);
+    surface.Observe(views[0]);
+    const Descriptor first = computer.Compute(surface);
+    for (size_t j = 1; j < views.size(); ++j) surface.Observe(views[j]);
+    const Descriptor whole = computer.Compute(surface);
+    const IntensityStats intensity = IntensityStatistics(surface);
+    surface.Reset();
+
+    const BasePointView described = DescribeBasePoint(views, surface, computer);
+    EXPECT_EQ(described.descriptor.values(), whole.values());
+    EXPECT_EQ(described.intensity.mean, intensity.mean);
+    EXPECT_EQ(described.intensity.variance, intensity.variance);
+    if (views.size() == 1) {
+      EXPECT_TRUE(described.coherence.empty());  // a forward view is judged on itself
+    } else {
+      EXPECT_EQ(described.coherence.values(), first.values());
+    }
+
+    const FrameResult got = dut_.Process(views);
+    const FrameResult want =
+        reference.ProcessDescriptor(whole, intensity, views.size() > 1 ? &first : nullptr);
+    EXPECT_EQ(got.base.index, want.base.index);
+    EXPECT_EQ(got.base.status, want.base.status) << "scene " << scene;
+    EXPECT_EQ(got.base.descriptor, want.base.descriptor);
+  }
+  // A sweep differs from the same scene's forward view: the views do reach the descriptor.
+  const std::vector<Observation> sweep = SweepViews(6, 1);
+  const std::vector<Observation> forward(sweep.begin(), sweep.begin() + 1);
+  EXPECT_NE(DescribeBasePoint(sweep, surface, computer).descriptor.values(),
+            DescribeBasePoint(forward, surface, computer).descriptor.values());
+}
+
+TEST_F(PipelineTest, ProcessRefusesNoViewsAndABadViewAndStartsTheNextBasePointClean) {
+  EXPECT_THROW(dut_.Process({}), std::invalid_argument);
+  std::vector<Observation> views = SweepViews(6, 4);
+  const Eigen::VectorXf whole = dut_.Process(views).base.descriptor;
+  std::vector<Observation> bad = views;
+  cv::resize(bad[3].bgr, bad[3].bgr, cv::Size(32, 24));  // not the camera's size
+  EXPECT_THROW(dut_.Process(bad), std::invalid_argument);
+  EXPECT_EQ(dut_.state().next_base, 1);  // nothing counted
+  // No view of the refused sweep stays in the surface.
+  const FrameResult r = dut_.Process(views);
+  EXPECT_EQ(r.base.index, 1);
+  EXPECT_EQ(r.base.descriptor, whole);
 }
 
 TEST_F(PipelineTest, LearnsNewPlacesRecognisesRevisitsAndMapsTransitions) {

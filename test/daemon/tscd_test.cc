@@ -3,6 +3,7 @@
 // kill -9 at random instants is crash_test, storage faults storage_fault_test.
 
 #include <gtest/gtest.h>
+#include <sqlite3.h>
 #include <sys/socket.h>
 #include <sys/un.h>
 #include <unistd.h>
@@ -12,9 +13,14 @@
 #include <cstring>
 #include <filesystem>
 #include <fstream>
+#include <functional>
 #include <thread>
 
+#include "core/pipeline/pipeline.h"
 #include "daemon/lcm_bus.h"
+#include "daemon/settings.h"
+#include "drivers/dataset/dataset.h"
+#include "drivers/world/dataset_writer.h"
 #include "store/store.h"
 #include "test/daemon/bus_listener.h"
 #include "test/daemon/fast_sim_robot.h"
@@ -201,6 +207,116 @@ TEST_F(TscdTest, TruncatedFrameAndVanishingCameraAreLoggedAndSurvived) {
   EXPECT_NE(dut.Log().find("camera:"), std::string::npos) << dut.Log();
   dut.Signal(SIGTERM);
   EXPECT_EQ(dut.Wait(seconds(20)), 0) << dut.Log();
+}
+
+// The descriptors of the base points tscd stored (table base_points), in base point order.
+std::vector<Eigen::VectorXf> StoredDescriptors(const fs::path& db_path) {
+  std::vector<Eigen::VectorXf> out;
+  sqlite3* db = nullptr;
+  EXPECT_EQ(sqlite3_open_v2(db_path.c_str(), &db, SQLITE_OPEN_READONLY, nullptr), SQLITE_OK);
+  sqlite3_stmt* stmt = nullptr;
+  EXPECT_EQ(
+      sqlite3_prepare_v2(db, "SELECT descriptor FROM base_points ORDER BY idx", -1, &stmt, nullptr),
+      SQLITE_OK)
+      << sqlite3_errmsg(db);
+  while (stmt != nullptr && sqlite3_step(stmt) == SQLITE_ROW) {
+    const int bytes = sqlite3_column_bytes(stmt, 0);
+    Eigen::VectorXf v(bytes / static_cast<int>(sizeof(float)));
+    std::memcpy(v.data(), sqlite3_column_blob(stmt, 0), static_cast<size_t>(bytes));
+    out.push_back(std::move(v));
+  }
+  sqlite3_finalize(stmt);
+  sqlite3_close(db);
+  return out;
+}
+
+// A pan-sweep camera (6 views per base point, a folder of simulated sweeps) whose pipeline
+// falls behind: the test holds the store's write lock, so the worker waits in its commit while
+// the camera goes on into a queue of 2 base points. The queue must drop whole sweeps: every
+// base point tscd stored is the descriptor of one complete sweep of the dataset, in order, and
+// the sweeps it skipped are exactly the dropped count.
+TEST_F(TscdTest, AFullQueueDropsWholeSweepsAndCountsEachOnce) {
+  TSCD_REQUIRE_PRIVATE_NETNS();
+  sim::SimOptions world;
+  world.seed = 5;
+  world.render.width = 160;
+  world.render.height = 120;
+  world.sweep = PanSweep(6, 360.0);
+  world.max_frames = 80;
+  const fs::path frames = dir_ / "sweeps";
+  sim::WriteSimulatedDataset(frames, world);
+  const Dataset dataset = Dataset::Open(frames);
+  ASSERT_EQ(dataset.size(), 80);
+
+  // What a whole sweep gives, with tscd's default parameters.
+  const PipelineOptions options = Settings{}.pipeline;
+  BubbleSurface surface(options.features, dataset.camera(), options.surface);
+  const DescriptorComputer computer(surface.grid(), options.descriptor);
+  std::vector<Eigen::VectorXf> sweeps;
+  for (int i = 0; i < dataset.size(); ++i) {
+    sweeps.push_back(DescribeBasePoint(dataset.Load(i), surface, computer).descriptor.values());
+  }
+  const auto same = [](const Eigen::VectorXf& a, const Eigen::VectorXf& b) {
+    return a.size() == b.size() && (a - b).cwiseAbs().maxCoeff() <= 1e-6f;
+  };
+  // The comparison tells a partial sweep from the whole one: without its first view, a
+  // base point is another.
+  {
+    const std::vector<Observation> views = dataset.Load(10);
+    const std::vector<Observation> partial(views.begin() + 1, views.end());
+    ASSERT_FALSE(
+        same(DescribeBasePoint(partial, surface, computer).descriptor.values(), sweeps[10]));
+  }
+
+  BusListener bus;
+  const fs::path db_path = dir_ / "state" / "memory.db";
+  ChildProcess dut(
+      {kTscd, "--robot", "1", "--state-dir", (dir_ / "state").string(), "--set",
+       "camera.source=folder", "--set", "camera.path=" + frames.string(), "--set", "camera.fps=25",
+       "--set", "daemon.queue_frames=2", "--set", "lcm.announce_period_s=0.1"},
+      dir_ / "tscd.log");
+  const auto announced = [&](const std::function<bool(const announce_t&)>& predicate) {
+    return bus.WaitFor(
+        [&](const BusListener& b) {
+          return b.announces.count("TSC_ANNOUNCE") &&
+                 predicate(b.announces.at("TSC_ANNOUNCE").back());
+        },
+        seconds(60));
+  };
+  ASSERT_TRUE(announced([](const announce_t& a) { return a.frames >= 1; })) << dut.Log();
+
+  // Stall the worker: it waits for the write lock in its next commit (busy timeout), while
+  // the camera delivers a sweep every 40 ms.
+  sqlite3* lock = nullptr;
+  ASSERT_EQ(sqlite3_open(db_path.c_str(), &lock), SQLITE_OK);
+  ASSERT_EQ(sqlite3_exec(lock, "BEGIN IMMEDIATE", nullptr, nullptr, nullptr), SQLITE_OK)
+      << sqlite3_errmsg(lock);
+  const bool dropped = announced([](const announce_t& a) { return a.frames_dropped >= 3; });
+  EXPECT_EQ(sqlite3_exec(lock, "ROLLBACK", nullptr, nullptr, nullptr), SQLITE_OK);
+  sqlite3_close(lock);
+  ASSERT_TRUE(dropped) << dut.Log();
+
+  // The folder ends; everything the queue kept is processed.
+  ASSERT_TRUE(announced([&](const announce_t& a) {
+    return a.frames + a.frames_dropped == dataset.size();
+  })) << dut.Log();
+  announce_t last{};
+  bus.Inspect([&](const BusListener& b) { last = b.announces.at("TSC_ANNOUNCE").back(); });
+  dut.Signal(SIGTERM);
+  ASSERT_EQ(dut.Wait(seconds(20)), 0) << dut.Log();
+
+  const std::vector<Eigen::VectorXf> stored = StoredDescriptors(db_path);
+  ASSERT_EQ(static_cast<int64_t>(stored.size()), last.frames);
+  // Each stored base point is a whole sweep, later than the previous one.
+  int next = 0;
+  for (size_t k = 0; k < stored.size(); ++k) {
+    while (next < dataset.size() && !same(stored[k], sweeps[static_cast<size_t>(next)])) ++next;
+    ASSERT_LT(next, dataset.size()) << "base point " << k << " is no whole sweep of the dataset";
+    ++next;
+  }
+  EXPECT_EQ(dataset.size() - static_cast<int>(stored.size()), last.frames_dropped);
+  RecordProperty("processed", static_cast<int>(stored.size()));
+  RecordProperty("dropped", static_cast<int>(last.frames_dropped));
 }
 
 // systemd's notify protocol over a real AF_UNIX datagram socket, as Type=notify sees it.
