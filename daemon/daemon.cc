@@ -830,10 +830,10 @@ void Daemon::MergePeer(const PeerSnapshot& snapshot) {
     added = merged.added.size();
     for (const Absorption& a : merged.absorbed) absorbed.emplace_back(a.source, a.target);
     TopologicalMap map = MergeMaps(pipeline_->map(), peer_map, merged.memory);
-    // Nothing new (every place known, no new edge): keep our memory exactly as it is, so an
-    // unchanged memory is not broadcast again and peers do not fetch it back and forth.
-    changed = merge_case != MergeCase::kNothingNew ||
-              map.edges().size() != pipeline_->map().edges().size();
+    // Nothing new (no place, absorption or edge we did not hold): keep our memory exactly as
+    // it is, so an unchanged memory is not broadcast again and peers do not fetch it back and
+    // forth.
+    changed = merged.changed || map.edges().size() != pipeline_->map().edges().size();
     if (changed) pipeline_->AdoptMerged(std::move(merged.memory), std::move(map));
     places_after = pipeline_->memory().places().size();
     counters_.places = static_cast<int32_t>(places_after);

@@ -202,6 +202,13 @@ MergeScore ScoreMerges(const std::vector<TeamMemoryForScoring>& robots) {
       if (ids[i].robot != ids[j].robot && same_label(ids[i], ids[j])) ++s.same_label_pairs;
     }
   }
+  for (const TeamMemoryForScoring& r : robots) {
+    for (const auto& [place, l] : r.peer_recognitions) {
+      ++s.peer_recognitions;
+      const auto it = label.find(place);
+      if (it != label.end() && !l.empty() && it->second == l) ++s.peer_recognitions_correct;
+    }
+  }
   if (s.merges > 0) s.precision = static_cast<double>(s.correct) / s.merges;
   if (s.same_label_pairs > 0) s.recall = static_cast<double>(s.correct) / s.same_label_pairs;
   return s;

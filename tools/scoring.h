@@ -114,16 +114,24 @@ double RecallAtFullPrecision(const std::vector<PrPoint>& curve);
 /// absorbed). A merge is a pair of places of different robots in one group, counted once
 /// however many robots made it; it is correct when their labels agree (and are not empty).
 /// recall = correct merges / pairs of places of different robots with the same label.
+///
+/// Beside merges, a robot's pipeline can recognise a peer's place it received (it then learns
+/// no place of its own there, so no pair exists to merge): `peer_recognitions` counts those
+/// detected places, correct when the peer place's label agrees with the detected place's.
 struct TeamMemoryForScoring {
   std::map<PlaceId, std::string> own_labels;  ///< this robot's own places and their labels
   std::vector<std::vector<PlaceId>> groups;   ///< per place of its final memory: id + sources
+  /// Detected places this robot's pipeline assigned to a peer's place: (that place, label).
+  std::vector<std::pair<PlaceId, std::string>> peer_recognitions;
 };
 struct MergeScore {
   int merges = 0;
   int correct = 0;
   int same_label_pairs = 0;
-  double precision = 1.0;  ///< correct / merges (1 when nothing was merged)
-  double recall = 0.0;     ///< correct / same_label_pairs (0 when there are none)
+  double precision = 1.0;             ///< correct / merges (1 when nothing was merged)
+  double recall = 0.0;                ///< correct / same_label_pairs (0 when there are none)
+  int peer_recognitions = 0;          ///< detected places recognised as a peer's place
+  int peer_recognitions_correct = 0;  ///< of those, with the peer place's label
 };
 MergeScore ScoreMerges(const std::vector<TeamMemoryForScoring>& robots);
 

@@ -327,12 +327,20 @@ int Team(const std::vector<std::string>& args) {
       // them (these survive a merge that absorbed the place into a peer's).
       std::map<PlaceId, std::vector<int>> frames_of;
       for (const auto& [place, members] : Store::Open(r.dir / "memory.db").LoadAssignments()) {
-        if (place.robot != static_cast<uint32_t>(r.id)) continue;
+        std::vector<int> frames;
         for (BaseIndex b : members) {
           if (b >= 0 && b < static_cast<BaseIndex>(truth.labels.size())) {
-            frames_of[place].push_back(static_cast<int>(b));
+            frames.push_back(static_cast<int>(b));
           }
         }
+        if (place.robot != static_cast<uint32_t>(r.id)) {
+          if (!frames.empty()) {
+            scoring[i].peer_recognitions.emplace_back(place, MajorityLabel(truth, frames));
+          }
+          continue;
+        }
+        std::vector<int>& all = frames_of[place];
+        all.insert(all.end(), frames.begin(), frames.end());
       }
       for (const auto& [place, frames] : frames_of) {
         scoring[i].own_labels[place] = MajorityLabel(truth, frames);
@@ -387,7 +395,9 @@ int Team(const std::vector<std::string>& args) {
   std::cout << "merges (DESIGN 7.1b): " << merge.merges << " pairs merged, " << merge.correct
             << " correct, " << merge.same_label_pairs
             << " pairs of places of different robots in the same room; precision "
-            << JsonNumber(merge.precision) << ", recall " << JsonNumber(merge.recall) << "\n";
+            << JsonNumber(merge.precision) << ", recall " << JsonNumber(merge.recall) << "\n"
+            << "peer places recognised by the robots' pipelines: " << merge.peer_recognitions
+            << " detected places, " << merge.peer_recognitions_correct << " correct\n";
   std::cout << "memories " << (consistent ? "consistent" : "NOT consistent")
             << ": places known (own, taken or absorbed) per robot:";
   for (size_t i = 0; i < known.size(); ++i) std::cout << " " << known[i].size();
@@ -398,7 +408,9 @@ int Team(const std::vector<std::string>& args) {
   json << "],\"merge\":{\"merges\":" << merge.merges << ",\"correct\":" << merge.correct
        << ",\"same_label_pairs\":" << merge.same_label_pairs
        << ",\"precision\":" << JsonNumber(merge.precision)
-       << ",\"recall\":" << JsonNumber(merge.recall) << "}";
+       << ",\"recall\":" << JsonNumber(merge.recall)
+       << ",\"peer_recognitions\":" << merge.peer_recognitions
+       << ",\"peer_recognitions_correct\":" << merge.peer_recognitions_correct << "}";
   json << ",\"consistent\":" << (consistent ? "true" : "false") << ",\"known_places\":[";
   for (size_t i = 0; i < known.size(); ++i) json << (i ? "," : "") << known[i].size();
   json << "]";

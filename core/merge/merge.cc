@@ -32,12 +32,37 @@ std::vector<int> AllPlaces(const PlaceMemory& memory) {
   return all;
 }
 
-// g of (3.8) for the incoming place `p` against the terminal children `candidates` of a
+// The sphere S(Ī_P, ρ_P) of one place: its mean and the root mean squared distance of its
+// stored samples to the mean (the samples stand for its members).
+NodeStatistics PlaceSphere(const LearnedPlace& p) {
+  NodeStatistics s;
+  s.centroid = p.mean;
+  s.num_places = 1;
+  if (p.samples.cols() > 0) {
+    s.radius = std::sqrt(static_cast<double>((p.samples.colwise() - p.mean).squaredNorm()) /
+                         static_cast<double>(p.samples.cols()));
+  }
+  return s;
+}
+
+// V of (4.1) between two places: the overlap of their spheres as a fraction of the smaller
+// one, with the overlap proxy of (4.7) (docs/decisions.md, "Merging": the merge vote). 1 when
+// one sphere holds the other, 0 when they do not meet.
+double SphereVote(const NodeStatistics& a, const NodeStatistics& b) {
+  const double smaller = std::min(a.radius, b.radius);
+  if (smaller <= 0.0) {  // a point: inside the other sphere or not
+    return (a.centroid - b.centroid).norm() <= std::max(a.radius, b.radius) ? 1.0 : 0.0;
+  }
+  return std::clamp(Overlap(a, b) / (2.0 * smaller), 0.0, 1.0);
+}
+
+// g of (4.1) for the incoming place `p` against the terminal children `candidates` of a
 // hyper-terminal of `base`: γ̃ to the nearest place P¹ (`best`, at γ̃ `best_gamma`), the ratio
-// to the second nearest P² (1 with one candidate or γ̃(P²) = 0), and 1 − V_{P¹} over p's
-// samples.
-double RecognitionCost(const PlaceMemory& base, const std::vector<int>& candidates,
-                       const LearnedPlace& p, int* best, double* best_gamma) {
+// to the second nearest child P² of N* (1 with one child or γ̃(P²) = 0), and 1 − V(P¹, p),
+// the overlap of the two places' spheres.
+double RecognitionCost(const PlaceMemory& base, const HyperTerminal& h, const LearnedPlace& p,
+                       int* best, double* best_gamma) {
+  const std::vector<int>& candidates = h.places;
   double g1 = std::numeric_limits<double>::infinity(), g2 = g1;
   *best = -1;
   for (int c : candidates) {
@@ -50,11 +75,17 @@ double RecognitionCost(const PlaceMemory& base, const std::vector<int>& candidat
       g2 = g;
     }
   }
+  // (3.8) at N*: the second most similar child may be an inner child of N* (a hyper-terminal
+  // also has subtrees); only a terminal can absorb p, so an inner child nearer than every
+  // terminal makes the ratio exceed 1.
+  for (int c : base.nodes()[static_cast<size_t>(h.node)].children) {
+    if (base.nodes()[static_cast<size_t>(c)].terminal()) continue;
+    g2 = std::min(g2, static_cast<double>((p.mean - base.Centroid(c)).squaredNorm()));
+  }
   *best_gamma = g1;
   const double ratio = std::isinf(g2) || g2 <= 0.0 ? 1.0 : g1 / g2;
-  const Eigen::MatrixXf votes = EvenlySpaced(p.samples, base.options().max_vote_points);
-  // Terminal node i holds place i, and every non-root node has a trained d_N.
-  const double vote = base.discriminants()[static_cast<size_t>(*best)].VoteFraction(votes);
+  const double vote =
+      SphereVote(PlaceSphere(p), PlaceSphere(base.places()[static_cast<size_t>(*best)]));
   // The candidates are terminals: γ̃ enters in the memory's gamma_unit, as in PlaceMemory::Cost.
   return g1 / base.options().gamma_unit + ratio + (1.0 - vote);
 }
@@ -77,6 +108,88 @@ void Absorb(LearnedPlace& target, const LearnedPlace& p, int max_samples) {
   target.samples = EvenlySpaced(both, max_samples);
   AddSource(target, p.id);
   for (PlaceId s : p.sources) AddSource(target, s);
+}
+
+// Folds the base place `b` into `target` when the peer's records say they are one place:
+// as Absorb, and members and detected places are kept too when both are one robot's places
+// (they index the same stream).
+void Fold(LearnedPlace& target, const LearnedPlace& b, int max_samples) {
+  if (target.id.robot == b.id.robot) {
+    target.members.insert(target.members.end(), b.members.begin(), b.members.end());
+    std::sort(target.members.begin(), target.members.end());
+    target.detected.insert(target.detected.end(), b.detected.begin(), b.detected.end());
+    std::sort(target.detected.begin(), target.detected.end());
+  }
+  Absorb(target, b, max_samples);
+}
+
+// Base places that are one place: a union-find whose class root is its lowest index, so the
+// result does not depend on the order in which unions are found.
+class PlaceUnion {
+ public:
+  explicit PlaceUnion(size_t n) : holder_(n) { std::iota(holder_.begin(), holder_.end(), 0); }
+  int Find(int x) {
+    while (holder_[static_cast<size_t>(x)] != x) {
+      x = holder_[static_cast<size_t>(x)] =
+          holder_[static_cast<size_t>(holder_[static_cast<size_t>(x)])];
+    }
+    return x;
+  }
+  void Unite(int a, int b) {
+    a = Find(a);
+    b = Find(b);
+    if (a == b) return;
+    if (b < a) std::swap(a, b);
+    holder_[static_cast<size_t>(b)] = a;
+    united_ = true;
+  }
+  bool united() const { return united_; }
+  /// Per place, the place holding it (itself if none).
+  std::vector<int> Holders() {
+    std::vector<int> out(holder_.size());
+    for (size_t i = 0; i < out.size(); ++i) out[i] = Find(static_cast<int>(i));
+    return out;
+  }
+
+ private:
+  std::vector<int> holder_;
+  bool united_ = false;
+};
+
+// What the incoming memory's records of absorptions (its places' sources) say about the base.
+// A place is one place with every place it shares an id with, whichever robot recognised them:
+// two base places that one incoming place holds are one (`places`), an incoming place new to
+// the base that holds a base place's id is absorbed by it without recognition (`linked`), and
+// ids a known incoming place absorbed become sources of its holder (`learned`). Then every
+// robot ends up with the union of the team's recognitions whatever the order of the exchanges,
+// and the final memories agree (docs/decisions.md, "Merging": joining by ids).
+struct IdJoin {
+  PlaceUnion places;
+  std::vector<int> linked;  ///< per incoming place new to the base: a base place holding one of
+                            ///< its sources, −1 if none
+  std::vector<std::pair<int, PlaceId>> learned;  ///< (base place, id) for ids new to the base
+};
+
+IdJoin JoinByIds(const PlaceMemory& base, const PlaceMemory& incoming,
+                 const std::unordered_map<PlaceId, int, PlaceIdHash>& known) {
+  IdJoin j{PlaceUnion(base.places().size()), std::vector<int>(incoming.places().size(), -1), {}};
+  for (size_t i = 0; i < incoming.places().size(); ++i) {
+    const LearnedPlace& p = incoming.places()[i];
+    const auto own = known.find(p.id);
+    int h = own == known.end() ? -1 : own->second;
+    for (PlaceId s : p.sources) {
+      const auto k = known.find(s);
+      if (k == known.end()) {
+        if (own != known.end()) j.learned.emplace_back(own->second, s);
+      } else if (h < 0) {
+        h = k->second;
+      } else {
+        j.places.Unite(h, k->second);
+      }
+    }
+    if (own == known.end() && h >= 0) j.linked[i] = h;
+  }
+  return j;
 }
 
 }  // namespace
@@ -284,25 +397,52 @@ MemoryMerge Merge(const PlaceMemory& ours, const PlaceMemory& peer, PlaceMemory*
     }
   }
   const bool anything_new = std::find(is_new.begin(), is_new.end(), 1) != is_new.end();
-  if (!anything_new && peer_into_ours) {  // ours unchanged
+  IdJoin join = JoinByIds(base, incoming, known);
+  // Base places the incoming memory has never held (a peer's places learned since it last
+  // merged ours, when the peer is the base).
+  std::vector<int> fresh;
+  bool base_knows_more = false;  // an id, as a place or a source, the incoming never held
+  {
+    std::unordered_set<PlaceId, PlaceIdHash> seen;
+    for (const LearnedPlace& p : incoming.places()) {
+      seen.insert(p.id);
+      seen.insert(p.sources.begin(), p.sources.end());
+    }
+    for (size_t b = 0; b < base.places().size(); ++b) {
+      const LearnedPlace& p = base.places()[b];
+      if (!seen.contains(p.id)) fresh.push_back(static_cast<int>(b));
+      base_knows_more = base_knows_more || !seen.contains(p.id) ||
+                        !std::all_of(p.sources.begin(), p.sources.end(),
+                                     [&seen](PlaceId id) { return seen.contains(id); });
+    }
+  }
+  if (!anything_new && fresh.empty() && !join.places.united() && join.learned.empty() &&
+      peer_into_ours) {  // ours unchanged
     result.memory = ours_owned != nullptr ? std::move(*ours_owned) : ours;
     return result;
   }
 
   // Case analysis on the root spheres (figure 4.4).
-  std::vector<int> target(incoming.places().size(), -1);  // base place absorbing it
+  std::vector<int> target = join.linked;  // base place absorbing it, −1: none (yet)
   std::vector<double> cost(incoming.places().size(), 0.0);
   // The base place nearest to each new incoming place among N*'s, and its γ (cross links of
   // the merged tree); −1 where no recognition ran.
   std::vector<int> nearest(incoming.places().size(), -1);
   std::vector<double> nearest_gamma(incoming.places().size(), 0.0);
   NodeStatistics sb, si;
-  if (anything_new && !base.empty()) {
+  if ((anything_new || !fresh.empty()) && !base.empty() && !incoming.empty()) {
     sb = StatisticsOf(base, AllPlaces(base));
     si = StatisticsOf(incoming, AllPlaces(incoming));
     const double d = (sb.centroid - si.centroid).norm();
-    if (d > sb.radius + si.radius) {  // (4.5)
-      result.merge_case = MergeCase::kDisjoint;
+    // The spheres reach a recognition radius further: two places nearer than
+    // sqrt(τ_r·gamma_unit) may be one (g ≥ γ̃/gamma_unit), so spheres closer than that must
+    // not count as apart. Without it two small memories (a single place has radius 0) are
+    // always disjoint, and a team exchanging memories as it learns would never recognise
+    // a place (docs/decisions.md, "Merging": recognition reach).
+    const double reach = std::sqrt(options.tau_r * base.options().gamma_unit);
+    MergeCase sphere_case = MergeCase::kDisjoint;
+    if (d > sb.radius + si.radius + reach) {  // (4.5)
+      sphere_case = MergeCase::kDisjoint;
     } else {
       const bool base_large = sb.radius >= si.radius;
       const NodeStatistics& small = base_large ? si : sb;
@@ -311,15 +451,46 @@ MemoryMerge Merge(const PlaceMemory& ours, const PlaceMemory& peer, PlaceMemory*
         bool intersects = false;
         for (const HyperTerminal& h : HyperTerminals(base_large ? base : incoming)) {
           intersects = intersects || (h.sphere.centroid - small.centroid).norm() <=
-                                         h.sphere.radius + small.radius;
+                                         h.sphere.radius + small.radius + reach;
         }
-        result.merge_case = intersects ? MergeCase::kContainedIntersecting : MergeCase::kContained;
+        sphere_case = intersects ? MergeCase::kContainedIntersecting : MergeCase::kContained;
       } else {
-        result.merge_case = MergeCase::kIntersecting;
+        sphere_case = MergeCase::kIntersecting;
       }
     }
-    if (result.merge_case == MergeCase::kContainedIntersecting ||
-        result.merge_case == MergeCase::kIntersecting) {
+    if (anything_new) result.merge_case = sphere_case;
+    if ((sphere_case == MergeCase::kContainedIntersecting ||
+         sphere_case == MergeCase::kIntersecting) &&
+        !fresh.empty()) {
+      // Repeated exchanges: the base may hold places the incoming memory never saw (a peer's
+      // places learned since it last merged ours, or ours the peer has not merged yet). Nobody
+      // compares them with the places both memories hold (those are known on both sides), so
+      // they are recognised here the other way round, against the incoming memory's places
+      // the base knows; a match joins the two base places (docs/decisions.md, "Merging":
+      // recognition both ways).
+      const std::vector<HyperTerminal> hb = HyperTerminals(base), hi = HyperTerminals(incoming);
+      const std::vector<size_t> match_of = MatchHyperTerminals(incoming, hi, hb);
+      std::vector<char> is_fresh(base.places().size(), 0);
+      for (int b : fresh) is_fresh[static_cast<size_t>(b)] = 1;
+      for (size_t a = 0; a < hb.size(); ++a) {
+        for (int b : hb[a].places) {
+          if (!is_fresh[static_cast<size_t>(b)]) continue;
+          int match = -1;
+          double gamma = 0.0;
+          const double g = RecognitionCost(incoming, hi[match_of[a]],
+                                           base.places()[static_cast<size_t>(b)], &match, &gamma);
+          const PlaceId match_id = incoming.places()[static_cast<size_t>(match)].id;
+          if (g > options.tau_r || is_new[static_cast<size_t>(match)] ||
+              match_id.robot == base.places()[static_cast<size_t>(b)].id.robot) {
+            continue;
+          }
+          const int holder = known.at(match_id);
+          if (holder != b) join.places.Unite(b, holder);
+        }
+      }
+    }
+    if (sphere_case == MergeCase::kContainedIntersecting ||
+        sphere_case == MergeCase::kIntersecting) {
       // (4.6)-(4.7): match each incoming hyper-terminal N' to the base hyper-terminal N* of
       // largest overlap (ties: nearer centre, then lower node index), then recognise its
       // places against N*'s places with g ≤ τ_r. With no intersecting N*, the largest
@@ -329,13 +500,15 @@ MemoryMerge Merge(const PlaceMemory& ours, const PlaceMemory& peer, PlaceMemory*
       for (size_t a = 0; a < hi.size(); ++a) {
         const size_t star = match_of[a];
         for (int p : hi[a].places) {
-          if (!is_new[static_cast<size_t>(p)]) continue;
+          if (!is_new[static_cast<size_t>(p)] || target[static_cast<size_t>(p)] >= 0) continue;
           int match = -1;
           const double g =
-              RecognitionCost(base, hb[star].places, incoming.places()[static_cast<size_t>(p)],
-                              &match, &nearest_gamma[static_cast<size_t>(p)]);
+              RecognitionCost(base, hb[star], incoming.places()[static_cast<size_t>(p)], &match,
+                              &nearest_gamma[static_cast<size_t>(p)]);
           nearest[static_cast<size_t>(p)] = match;
-          if (g <= options.tau_r) {
+          // A robot's own places stay apart: its pipeline already judged them different.
+          if (g <= options.tau_r && base.places()[static_cast<size_t>(match)].id.robot !=
+                                        incoming.places()[static_cast<size_t>(p)].id.robot) {
             target[static_cast<size_t>(p)] = match;
             cost[static_cast<size_t>(p)] = g;
           }
@@ -345,6 +518,14 @@ MemoryMerge Merge(const PlaceMemory& ours, const PlaceMemory& peer, PlaceMemory*
   } else if (anything_new) {
     result.merge_case = MergeCase::kDisjoint;  // an empty base: everything is added
   }
+  // Every union is known now: each base place's holder, and the targets through them.
+  const std::vector<int> holder = join.places.Holders();
+  for (int& t : target) {
+    if (t >= 0) t = holder[static_cast<size_t>(t)];
+  }
+  for (auto& [b, unused] : join.learned) b = holder[static_cast<size_t>(b)];
+  result.changed = anything_new || join.places.united() || !join.learned.empty() ||
+                   (!peer_into_ours && base_knows_more);
 
   // Which merged place stands for each incoming place in the merged place list (the base's
   // places, then the added incoming places in their order): the base place that knew or
@@ -354,7 +535,7 @@ MemoryMerge Merge(const PlaceMemory& ours, const PlaceMemory& peer, PlaceMemory*
   std::vector<char> updated(base_count, 0);
   for (size_t i = 0; i < incoming.places().size(); ++i) {
     if (!is_new[i]) {
-      merged_index[i] = known.at(incoming.places()[i].id);
+      merged_index[i] = holder[static_cast<size_t>(known.at(incoming.places()[i].id))];
     } else if (target[i] >= 0) {
       merged_index[i] = target[i];
       updated[static_cast<size_t>(target[i])] = 1;
@@ -362,6 +543,12 @@ MemoryMerge Merge(const PlaceMemory& ours, const PlaceMemory& peer, PlaceMemory*
       merged_index[i] = static_cast<int>(base_count + result.added.size());
       result.added.push_back(incoming.places()[i].id);
     }
+  }
+
+  for (size_t b = 0; b < base_count; ++b) {
+    if (holder[b] == static_cast<int>(b)) continue;
+    updated[b] = 1;
+    updated[static_cast<size_t>(holder[b])] = 1;
   }
 
   // Discriminants whose training set did not change are reused by set key: the base's nodes
@@ -442,6 +629,17 @@ MemoryMerge Merge(const PlaceMemory& ours, const PlaceMemory& peer, PlaceMemory*
     Absorb(places[static_cast<size_t>(target[i])], p, options.max_samples_per_place);
     result.absorbed.push_back({p.id, places[static_cast<size_t>(target[i])].id, cost[i]});
   }
+  // What the peer's records join (JoinByIds): base places fold into their holder (they leave
+  // the list with the tree below), and ids a known incoming place absorbed become sources.
+  bool folds = false;
+  for (size_t b = 0; b < base_count; ++b) {
+    const auto h = static_cast<size_t>(holder[b]);
+    if (h == b) continue;
+    folds = true;
+    result.absorbed.push_back({places[b].id, places[h].id, 0.0});
+    Fold(places[h], places[b], options.max_samples_per_place);
+  }
+  for (const auto& [b, id] : join.learned) AddSource(places[static_cast<size_t>(b)], id);
   // Incoming places that are neither known nor absorbed are added; when ours is the smaller
   // memory, our own places already known to the peer are dropped (the peer's place holds them).
   places.reserve(base_count + result.added.size());
@@ -453,7 +651,7 @@ MemoryMerge Merge(const PlaceMemory& ours, const PlaceMemory& peer, PlaceMemory*
   // the two (docs/decisions.md, "Merging"). Inserting every added place into the base's SLINK
   // would need γ to every earlier place, |added|·|places|·dim operations.
   Slink slink = base_slink;
-  if (places.size() > base_count) {
+  if (places.size() > base_count || folds) {
     std::vector<Link> links;
     links.reserve(places.size() * 2);
     const Slink& bs = base_slink;
@@ -475,7 +673,7 @@ MemoryMerge Merge(const PlaceMemory& ours, const PlaceMemory& peer, PlaceMemory*
       links.push_back({nearest_gamma[i], nearest[i], merged_index[i]});
       crossed = true;
     }
-    if (!crossed && base_count > 0) {
+    if (!crossed && base_count > 0 && places.size() > base_count) {
       // Figure 4.4a/b: the trees join as wholes. The link runs between the base place nearest
       // the incoming centroid and the added place nearest the base centroid; contained
       // (4.4b), it joins at the base root's height so the smaller tree hangs under that root;
@@ -503,6 +701,23 @@ MemoryMerge Merge(const PlaceMemory& ours, const PlaceMemory& peer, PlaceMemory*
             std::max(gamma, static_cast<double>((places[a].mean - places[b].mean).squaredNorm()));
       }
       links.push_back({gamma, static_cast<int>(a), static_cast<int>(b)});
+    }
+    if (folds) {  // a folded base place stands for its holder in every link
+      std::vector<int> index(places.size(), -1);
+      std::vector<LearnedPlace> kept;
+      kept.reserve(places.size());
+      for (size_t i = 0; i < places.size(); ++i) {
+        if (i < base_count && holder[i] != static_cast<int>(i)) continue;
+        index[i] = static_cast<int>(kept.size());
+        kept.push_back(std::move(places[i]));
+      }
+      // Holders precede the places folded into them.
+      for (size_t b = 0; b < base_count; ++b) index[b] = index[static_cast<size_t>(holder[b])];
+      for (Link& l : links) {
+        l.a = index[static_cast<size_t>(l.a)];
+        l.b = index[static_cast<size_t>(l.b)];
+      }
+      places = std::move(kept);
     }
     slink = SingleLinkage(static_cast<int>(places.size()), std::move(links));
   }

@@ -71,11 +71,15 @@ struct Absorption {
 struct MemoryMerge {
   PlaceMemory memory;  ///< the merged memory, owned by `ours`' robot
   MergeCase merge_case = MergeCase::kNothingNew;
-  bool peer_into_ours = true;        ///< the peer was the smaller memory (merged into ours)
-  std::vector<Absorption> absorbed;  ///< in incoming place order
-  std::vector<PlaceId> added;        ///< incoming places added as new places, in order
-  std::vector<PlaceId> known;        ///< incoming places merged before, left as they are
-  int retrained = 0;                 ///< discriminants trained (the others were reused)
+  bool peer_into_ours = true;  ///< the peer was the smaller memory (merged into ours)
+  /// Incoming places recognised (in incoming order), then base places folded into another
+  /// because the peer's records join them (cost 0).
+  std::vector<Absorption> absorbed;
+  std::vector<PlaceId> added;  ///< incoming places added as new places, in order
+  std::vector<PlaceId> known;  ///< incoming places merged before, left as they are
+  int retrained = 0;           ///< discriminants trained (the others were reused)
+  /// The merged memory holds a place or an absorption that ours did not (false: it is ours).
+  bool changed = false;
 };
 
 /// An edge of a spanning graph for single linkage: places a and b at squared distance γ.

@@ -21,11 +21,12 @@ Eigen::VectorXf At(float x0, float x1 = 0, float x2 = 0, float x3 = 0) {
   return c;
 }
 
-// A detected place of `n` members scattered by 0.01 around `centre`; the same seed gives the
-// same descriptors, so two robots can see "the same" place exactly.
-DetectedPlace MakePlace(const Eigen::VectorXf& centre, uint32_t seed, int n = 6) {
+// A detected place of `n` members scattered by `spread` around `centre`; the same seed gives
+// the same descriptors, so two robots can see "the same" place exactly.
+DetectedPlace MakePlace(const Eigen::VectorXf& centre, uint32_t seed, int n = 6,
+                        float spread = 0.01f) {
   std::mt19937 rng(seed);
-  std::normal_distribution<float> noise(0.0f, 0.01f);
+  std::normal_distribution<float> noise(0.0f, spread);
   DetectedPlace d;
   d.index = seed;
   d.descriptors.resize(kDim, n);
@@ -187,6 +188,17 @@ TEST(MergeMemories, DisjointSpheresKeepBothPlaceSets) {
     m.insert(m.end(), n.begin(), n.end());
     return m;
   }());
+}
+
+// A memory of one place has a sphere of radius 0: two such memories would always be
+// disjoint and never compared. Their spheres reach sqrt(τ_r·gamma_unit) further, the distance
+// within which two places may still be recognised as one (here 1.14 in the unit scale).
+TEST(MergeMemories, SinglePlacesWithinTheRecognitionReachAreNotDisjoint) {
+  const PlaceMemory a = MakeMemory(1, {At(0)}, 10);
+  const PlaceMemory near = MakeMemory(2, {At(0.3f)}, 30);
+  const PlaceMemory far = MakeMemory(2, {At(0, 2.0f)}, 30);
+  EXPECT_NE(MergeMemories(a, near).merge_case, MergeCase::kDisjoint);
+  EXPECT_EQ(MergeMemories(a, far).merge_case, MergeCase::kDisjoint);
 }
 
 // Figure 4.4b: the small sphere lies inside the large one, between its hyper-terminals.
@@ -548,6 +560,165 @@ TEST(MergeMemories, OurFresherPlaceWinsOverThePeersStaleCopyOfIt) {
   EXPECT_EQ(got.members, fresh.members);
   EXPECT_TRUE(got.mean.isApprox(fresh.mean));
   EXPECT_EQ(dut.memory.places().size(), 4u);
+}
+
+}  // namespace
+}  // namespace tsc
+
+namespace tsc {
+namespace {
+
+// The vote of (4.1) in a merge is the overlap of the two places' spheres (mean, spread of the
+// samples): two places 0.3 apart are one place when their members spread by 1 around their
+// means, and two places when they spread by 0.01. γ̃ and the ratio are the same in both
+// cases.
+TEST(MergeMemories, TheVoteIsTheOverlapOfTheTwoPlacesSpheres) {
+  auto merge = [](float spread) {
+    PlaceMemory a(1, UnitScale()), b(2, UnitScale());
+    a.Learn(MakePlace(At(0), 1, 8, spread));
+    b.Learn(MakePlace(At(0.3f), 1, 8, spread));  // the same scatter: means 0.3 apart
+    return MergeMemories(a, b);
+  };
+  const MemoryMerge wide = merge(1.0f), narrow = merge(0.01f);
+  EXPECT_EQ(wide.absorbed.size(), 1u);
+  EXPECT_TRUE(narrow.absorbed.empty());
+  EXPECT_EQ(narrow.added.size(), 1u);
+}
+
+// A robot's own places stay apart in a merge: its pipeline already judged them different.
+// Robot 2 holds robot 1's place 1:1 from an earlier merge; robot 1 has since learned 1:2 right
+// next to it. Merging robot 1's memory, robot 2 adds 1:2 instead of absorbing it into 1:1.
+TEST(MergeMemories, NeverJoinsTwoPlacesOfOneRobot) {
+  const PlaceMemory early = MakeMemory(1, {At(0)}, 1);
+  const MemoryMerge two = MergeMemories(MakeMemory(2, {At(0, 2), At(0, 4), At(0, 6)}, 5), early);
+  ASSERT_EQ(two.memory.places().size(), 4u);
+  PlaceMemory one = early;
+  one.Learn(MakePlace(At(0.01f), 2));
+  const MemoryMerge dut = MergeMemories(two.memory, one);
+  EXPECT_EQ(dut.merge_case, MergeCase::kIntersecting);
+  EXPECT_TRUE(dut.absorbed.empty());
+  EXPECT_EQ(dut.added, (std::vector<PlaceId>{{1, 2}}));
+  // Another robot's place at the same spot is recognised.
+  EXPECT_EQ(MergeMemories(two.memory, MakeMemory(3, {At(0.01f)}, 2)).absorbed.size(), 1u);
+}
+
+LearnedPlace WithSources(LearnedPlace p, std::vector<PlaceId> sources) {
+  p.sources = std::move(sources);
+  return p;
+}
+
+// A peer's record that a place absorbed another (its sources) reaches memories that hold the
+// two apart: robot 3 recognised 1:1 as 2:1, robot 1 holds both as separate places. After
+// robot 1 merges robot 3's memory they are one place, as in robot 3's memory.
+TEST(MergeMemories, APeersRecordThatTwoPlacesAreOneJoinsThem) {
+  const PlaceMemory a = MakeMemory(1, {At(0)}, 1);
+  const PlaceMemory b = MakeMemory(2, {At(5)}, 2);
+  const MemoryMerge ab = MergeMemories(a, b);  // far apart: both kept
+  ASSERT_EQ(ab.memory.places().size(), 2u);
+  // Robot 3: 2:1 holding 1:1, and a place of its own.
+  const PlaceMemory three = MakeMemory(3, {At(0, 9)}, 3);
+  std::vector<LearnedPlace> places = {WithSources(b.places()[0], {{1, 1}}), three.places()[0]};
+  const PlaceMemory c = PlaceMemory::Restore(3, UnitScale(), std::move(places),
+                                             SingleLinkage(2, {{81.0, 0, 1}}), 2, {});
+
+  const MemoryMerge dut = MergeMemories(ab.memory, c);
+  EXPECT_TRUE(dut.changed);
+  std::set<std::set<PlaceId>> groups;
+  for (const LearnedPlace& p : dut.memory.places()) {
+    std::set<PlaceId> g(p.sources.begin(), p.sources.end());
+    g.insert(p.id);
+    groups.insert(g);
+  }
+  EXPECT_EQ(groups, (std::set<std::set<PlaceId>>{{{1, 1}, {2, 1}}, {{3, 1}}}));
+  // The joined place holds both places' members (weighted mean of the two).
+  const auto joined = std::find_if(dut.memory.places().begin(), dut.memory.places().end(),
+                                   [](const LearnedPlace& p) { return !p.sources.empty(); });
+  ASSERT_NE(joined, dut.memory.places().end());
+  EXPECT_EQ(joined->member_count, 12);
+  // Idempotent: merging robot 3's memory again changes nothing.
+  const MemoryMerge again = MergeMemories(dut.memory, c);
+  EXPECT_FALSE(again.changed);
+  ExpectSameMemory(dut.memory, again.memory);
+}
+
+// Sets of ids, one per place (the place and the places it absorbed).
+std::set<std::set<PlaceId>> Groups(const PlaceMemory& m) {
+  std::set<std::set<PlaceId>> out;
+  for (const LearnedPlace& p : m.places()) {
+    std::set<PlaceId> g(p.sources.begin(), p.sources.end());
+    g.insert(p.id);
+    out.insert(std::move(g));
+  }
+  return out;
+}
+
+// Chapter 4 in a live team: robots learn places and merge each other's memories over and over,
+// in an order nobody controls. Whatever the order, once every robot has merged every other's
+// last memory the three memories group the same ids into the same places, and every place
+// learned by anyone is known to everyone.
+TEST(MergeMemories, RepeatedExchangesInAnyOrderEndWithTheSamePlaces) {
+  for (uint32_t seed = 1; seed <= 8; ++seed) {
+    SCOPED_TRACE("seed " + std::to_string(seed));
+    std::mt19937 rng(seed);
+    // Six rooms 3 apart; each robot visits four of them (in its own order) and sees each with
+    // its own small offset and wide member spread, so robots recognise each other's rooms.
+    std::vector<Eigen::VectorXf> rooms;
+    for (int k = 0; k < 6; ++k)
+      rooms.push_back(At(3.0f * static_cast<float>(k % 3), 3.0f * static_cast<float>(k / 3)));
+    std::array<std::vector<Eigen::VectorXf>, 3> routes;
+    std::normal_distribution<float> offset(0.0f, 0.05f);
+    for (auto& route : routes) {
+      std::vector<int> order = {0, 1, 2, 3, 4, 5};
+      std::shuffle(order.begin(), order.end(), rng);
+      for (int k = 0; k < 4; ++k) {
+        route.push_back(rooms[static_cast<size_t>(order[static_cast<size_t>(k)])] +
+                        At(offset(rng), offset(rng), offset(rng), offset(rng)));
+      }
+    }
+    std::vector<PlaceMemory> memory;
+    for (uint32_t r = 1; r <= 3; ++r) memory.emplace_back(r, UnitScale());
+    std::set<PlaceId> learned;
+    std::uniform_int_distribution<int> pick(0, 2);
+    auto exchange = [&] {
+      const int r = pick(rng), s = (r + 1 + pick(rng) % 2) % 3;
+      const MemoryMerge m =
+          MergeMemories(memory[static_cast<size_t>(r)], memory[static_cast<size_t>(s)]);
+      if (m.changed) memory[static_cast<size_t>(r)] = m.memory;
+      return m.changed;
+    };
+    for (size_t step = 0; step < 4; ++step) {
+      for (uint32_t r = 0; r < 3; ++r) {
+        const int id = memory[r].Learn(
+            MakePlace(routes[r][step], 100 * (r + 1) + static_cast<uint32_t>(step), 8, 0.3f));
+        learned.insert(memory[r].places()[static_cast<size_t>(id)].id);
+        for (int e = 0; e < 2; ++e) exchange();
+      }
+    }
+    // Settle: every robot merges every other until nothing changes.
+    bool changed = true;
+    for (int round = 0; round < 20 && changed; ++round) {
+      changed = false;
+      for (size_t r = 0; r < 3; ++r) {
+        for (size_t s = 0; s < 3; ++s) {
+          if (r == s) continue;
+          const MemoryMerge m = MergeMemories(memory[r], memory[s]);
+          if (m.changed) {
+            memory[r] = m.memory;
+            changed = true;
+          }
+        }
+      }
+    }
+    ASSERT_FALSE(changed) << "the exchange does not settle";
+    const std::set<std::set<PlaceId>> groups = Groups(memory[0]);
+    EXPECT_EQ(Groups(memory[1]), groups);
+    EXPECT_EQ(Groups(memory[2]), groups);
+    std::set<PlaceId> known;
+    for (const auto& g : groups) known.insert(g.begin(), g.end());
+    EXPECT_EQ(known, learned);
+    // Robots do recognise each other's rooms: fewer places than were learned.
+    EXPECT_LT(groups.size(), learned.size());
+  }
 }
 
 }  // namespace

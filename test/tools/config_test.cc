@@ -175,6 +175,10 @@ TEST_F(ConfigTest, ShippedFileMatchesTheDefaults) {
     const std::string name = k.key.substr(k.key.find('.') + 1);
     EXPECT_NE(text.str().find("\n" + name + " = "), std::string::npos) << k.key;
   }
+  // The key descriptions and ranges too: the file is exactly what `tsc config` writes.
+  EXPECT_EQ(text.str(), DumpConfig(defaults))
+      << "config/tscd.ini is not what `tsc config` writes; regenerate it with "
+      << "`build/bin/tsc config > config/tscd.ini`";
 }
 
 }  // namespace

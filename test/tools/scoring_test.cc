@@ -137,8 +137,8 @@ namespace {
 // never merged (a miss).
 TEST(ScoreMerges, CountsEachPairOnceAndScoresAgainstLabels) {
   const PlaceId a1{1, 1}, b1{1, 2}, a2{2, 1}, c2{2, 2}, b2{2, 3};
-  TeamMemoryForScoring r1{{{a1, "A"}, {b1, "B"}}, {{a1, a2}, {b1, c2}}};
-  TeamMemoryForScoring r2{{{a2, "A"}, {c2, "C"}, {b2, "B"}}, {{a2, a1}, {c2}, {b2}}};
+  TeamMemoryForScoring r1{{{a1, "A"}, {b1, "B"}}, {{a1, a2}, {b1, c2}}, {}};
+  TeamMemoryForScoring r2{{{a2, "A"}, {c2, "C"}, {b2, "B"}}, {{a2, a1}, {c2}, {b2}}, {}};
   const MergeScore dut = ScoreMerges({r1, r2});
   EXPECT_EQ(dut.merges, 2);
   EXPECT_EQ(dut.correct, 1);
@@ -147,10 +147,22 @@ TEST(ScoreMerges, CountsEachPairOnceAndScoresAgainstLabels) {
   EXPECT_DOUBLE_EQ(dut.recall, 0.5);
 }
 
+// Robot 2's pipeline recognised robot 1's place 1:1 (room A) twice, once in room A (correct)
+// and once in room B (wrong), and an unknown place once (wrong: no label to agree with).
+TEST(ScoreMerges, ScoresRecognitionsOfPeerPlacesAgainstTheirOwnersLabels) {
+  const PlaceId a1{1, 1}, b2{2, 1};
+  TeamMemoryForScoring r1{{{a1, "A"}}, {{a1}, {b2}}, {}};
+  TeamMemoryForScoring r2{{{b2, "B"}}, {{a1}, {b2}}, {{a1, "A"}, {a1, "B"}, {{3, 1}, "A"}}};
+  const MergeScore dut = ScoreMerges({r1, r2});
+  EXPECT_EQ(dut.peer_recognitions, 3);
+  EXPECT_EQ(dut.peer_recognitions_correct, 1);
+  EXPECT_EQ(dut.merges, 0);
+}
+
 TEST(ScoreMerges, UnlabelledPlacesNeverCountAsSameAndNothingMergedIsPrecise) {
   const PlaceId a1{1, 1}, a2{2, 1};
-  TeamMemoryForScoring r1{{{a1, ""}}, {{a1}}};
-  TeamMemoryForScoring r2{{{a2, ""}}, {{a2}}};
+  TeamMemoryForScoring r1{{{a1, ""}}, {{a1}}, {}};
+  TeamMemoryForScoring r2{{{a2, ""}}, {{a2}}, {}};
   const MergeScore dut = ScoreMerges({r1, r2});
   EXPECT_EQ(dut.merges, 0);
   EXPECT_EQ(dut.same_label_pairs, 0);
