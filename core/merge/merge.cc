@@ -459,16 +459,20 @@ MemoryMerge Merge(const PlaceMemory& ours, const PlaceMemory& peer, PlaceMemory*
       }
     }
     if (anything_new) result.merge_case = sphere_case;
-    if ((sphere_case == MergeCase::kContainedIntersecting ||
-         sphere_case == MergeCase::kIntersecting) &&
-        !fresh.empty()) {
+    const bool recognise =
+        sphere_case == MergeCase::kContainedIntersecting || sphere_case == MergeCase::kIntersecting;
+    const std::vector<HyperTerminal> hb = recognise ? HyperTerminals(base)
+                                                    : std::vector<HyperTerminal>{},
+                                     hi = recognise ? HyperTerminals(incoming)
+                                                    : std::vector<HyperTerminal>{};
+    // (Only a place the base knows can be matched: none known, nothing to do.)
+    if (recognise && !fresh.empty() && !result.known.empty()) {
       // Repeated exchanges: the base may hold places the incoming memory never saw (a peer's
       // places learned since it last merged ours, or ours the peer has not merged yet). Nobody
       // compares them with the places both memories hold (those are known on both sides), so
       // they are recognised here the other way round, against the incoming memory's places
       // the base knows; a match joins the two base places (docs/decisions.md, "Merging":
       // recognition both ways).
-      const std::vector<HyperTerminal> hb = HyperTerminals(base), hi = HyperTerminals(incoming);
       const std::vector<size_t> match_of = MatchHyperTerminals(incoming, hi, hb);
       std::vector<char> is_fresh(base.places().size(), 0);
       for (int b : fresh) is_fresh[static_cast<size_t>(b)] = 1;
@@ -489,13 +493,11 @@ MemoryMerge Merge(const PlaceMemory& ours, const PlaceMemory& peer, PlaceMemory*
         }
       }
     }
-    if (sphere_case == MergeCase::kContainedIntersecting ||
-        sphere_case == MergeCase::kIntersecting) {
+    if (recognise) {
       // (4.6)-(4.7): match each incoming hyper-terminal N' to the base hyper-terminal N* of
       // largest overlap (ties: nearer centre, then lower node index), then recognise its
       // places against N*'s places with g ≤ τ_r. With no intersecting N*, the largest
       // overlap is the smallest gap: the nearest sphere, so recognition still decides.
-      const std::vector<HyperTerminal> hb = HyperTerminals(base), hi = HyperTerminals(incoming);
       const std::vector<size_t> match_of = MatchHyperTerminals(base, hb, hi);
       for (size_t a = 0; a < hi.size(); ++a) {
         const size_t star = match_of[a];
