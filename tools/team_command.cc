@@ -30,6 +30,7 @@
 #include "tools/scoring.h"
 #include "tsc/announce_t.hpp"
 #include "tsc/place_event_t.hpp"
+#include "tsc/stats_t.hpp"
 
 namespace tsc {
 namespace {
@@ -77,6 +78,9 @@ struct RobotStats {
   bool route_ended = false;
   int64_t memory_version = -1;                         // from its last announce
   std::chrono::steady_clock::time_point version_seen;  // when memory_version last changed
+  // From its TSC_STATS: peer memories received and merged so far.
+  int64_t snapshots_received = 0;
+  int64_t merges_completed = 0;
   // Measured from /proc just before the stop.
   double cpu_percent = 0.0;  // of one core, averaged over the run
   double peak_rss_mb = 0.0;  // VmHWM
@@ -139,7 +143,8 @@ int Team(const std::vector<std::string>& args) {
       "stop after S seconds (0: when every route has ended and the team has settled)")(
       "settle", po::value<double>()->default_value(60.0)->value_name("S"),
       "with --seconds 0: after the routes end, wait up to S seconds until no memory has "
-      "changed for two broadcast periods (every robot has merged every other's last memory)")(
+      "changed and no exchange was in progress for two broadcast periods (every robot has "
+      "merged every other's last memory)")(
       "out", po::value<std::string>()->default_value("team-out")->value_name("DIR"),
       "output folder (robot state, logs, summary.json)")(
       "fps", po::value<double>()->default_value(10.0), "camera frames per second per robot")(
@@ -226,6 +231,21 @@ int Team(const std::vector<std::string>& args) {
       r.version_seen = Clock::now();
     }
   });
+  // An exchange in progress (portions held, a memory waiting for its merge, or one received or
+  // merged since the last stats) counts as a change for settling: under packet loss a fetch
+  // can take longer than the quiet time, and stopping then leaves a peer's last places out.
+  bus.Subscribe("TSC_STATS_.*", [&](const std::string&, const uint8_t* data, size_t size) {
+    const auto s = LcmBus::Decode<stats_t>(data, size);
+    if (!s || !by_id.count(s->robot)) return;
+    RobotStats& r = *by_id[s->robot];
+    if (s->buffered_portions > 0 || s->merge_inbox > 0 ||
+        s->snapshots_received != r.snapshots_received ||
+        s->merges_completed != r.merges_completed) {
+      r.version_seen = Clock::now();
+    }
+    r.snapshots_received = s->snapshots_received;
+    r.merges_completed = s->merges_completed;
+  });
   bus.Subscribe("TSC_EVENT_.*", [&](const std::string&, const uint8_t* data, size_t size) {
     const auto e = LcmBus::Decode<place_event_t>(data, size);
     if (!e || !by_id.count(e->robot)) return;
@@ -272,7 +292,8 @@ int Team(const std::vector<std::string>& args) {
     if (seconds == 0 && all_ended) {
       // Settling: a changed memory is broadcast within one memory period and merged on
       // arrival, which changes the receiver's version in turn; two quiet periods (and the
-      // merge) mean every robot has merged every other's last memory.
+      // merge) with no exchange in progress mean every robot has merged every other's last
+      // memory.
       if (!settling) settling = Clock::now();
       auto last_change = *settling;
       for (const RobotStats& r : robots) last_change = std::max(last_change, r.version_seen);
