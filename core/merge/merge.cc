@@ -416,12 +416,6 @@ MemoryMerge Merge(const PlaceMemory& ours, const PlaceMemory& peer, PlaceMemory*
                                      [&seen](PlaceId id) { return seen.contains(id); });
     }
   }
-  if (!anything_new && fresh.empty() && !join.places.united() && join.learned.empty() &&
-      peer_into_ours) {  // ours unchanged
-    result.memory = ours_owned != nullptr ? std::move(*ours_owned) : ours;
-    return result;
-  }
-
   // Case analysis on the root spheres (figure 4.4).
   std::vector<int> target = join.linked;  // base place absorbing it, −1: none (yet)
   std::vector<double> cost(incoming.places().size(), 0.0);
@@ -528,6 +522,10 @@ MemoryMerge Merge(const PlaceMemory& ours, const PlaceMemory& peer, PlaceMemory*
   for (auto& [b, unused] : join.learned) b = holder[static_cast<size_t>(b)];
   result.changed = anything_new || join.places.united() || !join.learned.empty() ||
                    (!peer_into_ours && base_knows_more);
+  if (!result.changed && peer_into_ours) {  // ours unchanged: no need to rebuild it
+    result.memory = ours_owned != nullptr ? std::move(*ours_owned) : ours;
+    return result;
+  }
 
   // Which merged place stands for each incoming place in the merged place list (the base's
   // places, then the added incoming places in their order): the base place that knew or
