@@ -21,6 +21,8 @@ namespace fs = std::filesystem;
 namespace {
 
 constexpr double kDefaultHfovDeg = 60.0;
+// Largest image side camera.json may state (width, height), in pixels.
+constexpr int kMaxImageSide = 65535;
 
 [[noreturn]] void Fail(const fs::path& where, const std::string& what) {
   throw DatasetError(where.string() + ": " + what);
@@ -175,14 +177,21 @@ CameraFile ReadCamera(const fs::path& file, int image_width, int height) {
   text << in.rdbuf();
   const std::map<std::string, double> v = ReadNumbers(file, text.str());
   const auto has = [&](const char* k) { return v.count(k) > 0; };
+  // A whole-number member in [1, most] (`fallback` when absent), checked before it becomes
+  // an int: a value beyond int's range would be undefined behaviour.
+  const auto whole = [&](const char* k, int most, int fallback) {
+    if (!has(k)) return fallback;
+    const double x = v.at(k);
+    if (x != std::floor(x) || x < 1 || x > most) {
+      Fail(file, "\"" + std::string(k) + "\" must be a whole number in [1, " +
+                     std::to_string(most) + "]");
+    }
+    return static_cast<int>(x);
+  };
   PanSweep sweep;
   try {
     if (has("sweep_views") || has("sweep_deg")) {
-      const double views = has("sweep_views") ? v.at("sweep_views") : 1.0;
-      if (views != std::floor(views) || views < 1 || views > 360) {
-        Fail(file, "\"sweep_views\" must be a whole number in [1, 360]");
-      }
-      sweep = PanSweep(static_cast<int>(views), has("sweep_deg") ? v.at("sweep_deg") : 360.0);
+      sweep = PanSweep(whole("sweep_views", 360, 1), has("sweep_deg") ? v.at("sweep_deg") : 360.0);
     }
   } catch (const std::invalid_argument& e) {
     Fail(file, e.what());
@@ -192,8 +201,8 @@ CameraFile ReadCamera(const fs::path& file, int image_width, int height) {
                    std::to_string(sweep.views()) + " sweep views");
   }
   const int width = image_width / sweep.views();  // one view's
-  const int cam_w = has("width") ? static_cast<int>(v.at("width")) : width;
-  const int cam_h = has("height") ? static_cast<int>(v.at("height")) : height;
+  const int cam_w = whole("width", kMaxImageSide, width);
+  const int cam_h = whole("height", kMaxImageSide, height);
   try {
     std::optional<CameraIntrinsics> camera;
     if (has("fx") && has("fy") && has("cx") && has("cy")) {

@@ -119,6 +119,12 @@ TEST_F(DatasetTest, BadCameraJsonNamesTheFile) {
   ExpectErrorNaming([&] { Dataset::Open(dir_); }, "camera.json");
   WriteText(dir_ / "camera.json", R"({"width": 32, "height": 24})");
   ExpectErrorNaming([&] { Dataset::Open(dir_); }, "camera.json");
+  // A size beyond int's range (found by fuzz_dataset_camera_json) is refused before it is
+  // converted, as is a fractional one.
+  WriteText(dir_ / "camera.json", R"({"width": 3e22, "height": 24, "hfov_deg": 60})");
+  ExpectErrorNaming([&] { Dataset::Open(dir_); }, "camera.json");
+  WriteText(dir_ / "camera.json", R"({"width": 32, "height": 23.5, "hfov_deg": 60})");
+  ExpectErrorNaming([&] { Dataset::Open(dir_); }, "camera.json");
 }
 
 TEST_F(DatasetTest, GroundTruthAndRevisits) {
