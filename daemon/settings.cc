@@ -296,6 +296,12 @@ std::vector<ConfigKey> BuildTable() {
       "try recognition when a place opens (its extent passes tau_p), before it "
       "closes",
       [](auto& o) -> auto& { return o.pipeline.recognize_partial; }));
+  t.push_back(Number(
+      "pipeline.whereabouts_points",
+      "base points of the window on which the robot recognises known places while a maximal "
+      "neighbourhood is still shorter than a place (extent <= tau_p), so the map records a "
+      "pruned passage through a known place; 0 = off",
+      "base points", 0, 100000, [](auto& o) -> auto& { return o.pipeline.whereabouts_points; }));
   const size_t pipeline_keys = t.size();
   // [daemon] — tscd itself (DESIGN §6)
   t.push_back(Text(

@@ -628,8 +628,9 @@ void InsertDetectedPlaces(const Db& db, const FrameResult& result) {
   }
 }
 
-/// The transition region before a closed place runs from β(D_{m−1}) to β(D_m): the mapped
-/// event gives both; without one the place was recognised as its predecessor (no edge).
+/// The transition region before a closed place runs from the robot's whereabouts (β(D_{m−1}),
+/// or a known place recognised on the way) to β(D_m): the mapped event gives both; without
+/// one the place was recognised as its predecessor (no edge).
 void InsertTransitions(const Db& db, const FrameResult& result) {
   Statement s(db,
               "INSERT OR REPLACE INTO transition_regions(first, last, from_robot, from_local, "

@@ -38,6 +38,10 @@ void PipelineOptions::Validate() const {
   reliability.Validate();
   detector.Validate();
   memory.Validate();
+  if (whereabouts_points < 0) {
+    throw std::invalid_argument("pipeline.whereabouts_points must be >= 0, got " +
+                                std::to_string(whereabouts_points));
+  }
   if (!features.Contains(Feature::kIntensity)) {
     throw std::invalid_argument("bubble.features must include intensity (place detection uses it)");
   }
@@ -52,7 +56,8 @@ Pipeline::Pipeline(CameraIntrinsics camera, PipelineOptions options, PlaceMemory
       memory_(std::move(memory)),
       map_(std::move(map)),
       next_base_(state.next_base),
-      previous_place_(state.previous_place) {
+      previous_place_(state.previous_place),
+      whereabouts_(state.previous_place) {
   if (memory_.robot() != options_.robot) {
     throw std::invalid_argument("place memory of robot " + std::to_string(memory_.robot()) +
                                 " given to the pipeline of robot " +
@@ -126,6 +131,7 @@ FrameResult Pipeline::ProcessDescriptor(const Descriptor& descriptor,
   previous_descriptor_ = judged;
   recent_.emplace_back(k, descriptor.values());
   HandleDetection(detector_.Add(k, out.base.status == BaseStatus::kGood), k, out);
+  RecogniseWhereabouts(k, out);
   TrimDescriptors();
   return out;
 }
@@ -136,10 +142,12 @@ void Pipeline::AdoptMerged(PlaceMemory memory, TopologicalMap map) {
                                 " given to the pipeline of robot " +
                                 std::to_string(memory_.robot()));
   }
-  if (previous_place_) {
+  // The previous place and the whereabouts follow the place that absorbed them.
+  for (std::optional<PlaceId>* followed : {&previous_place_, &whereabouts_}) {
+    if (!*followed) continue;
     for (const LearnedPlace& p : memory.places()) {
-      if (std::binary_search(p.sources.begin(), p.sources.end(), *previous_place_)) {
-        previous_place_ = p.id;
+      if (std::binary_search(p.sources.begin(), p.sources.end(), **followed)) {
+        *followed = p.id;
         break;
       }
     }
@@ -251,16 +259,22 @@ void Pipeline::HandleDetection(const std::vector<DetectionEvent>& events, BaseIn
       out.changed_places.push_back(place);
       out.memory_changed = true;
       map_.AddPlace(id);
-      // Mapping (section 3.7): the edge β(D_{m−1})β(D_m).
-      if (previous_place_ &&
-          map_.RecordTransition(*previous_place_, id, closed->transition_before)) {
+      // Mapping (section 3.7): the edge β(D_{m−1})β(D_m), or from the known place the robot
+      // was recognised at since D_{m−1} closed (RecogniseWhereabouts).
+      TransitionRegion region = closed->transition_before;
+      if (whereabouts_ != previous_place_ && whereabouts_seen_) {
+        region = TransitionRegion{*whereabouts_seen_ + 1, closed->members.front() - 1};
+        if (region.empty()) region = TransitionRegion{};
+      }
+      if (whereabouts_ && map_.RecordTransition(*whereabouts_, id, region)) {
         PlaceEvent mapped = MakeEvent(EventKind::kMapped, k, closed->place);
         mapped.place = id;
-        mapped.from = previous_place_;
-        mapped.transition = closed->transition_before;
+        mapped.from = whereabouts_;
+        mapped.transition = region;
         out.events.push_back(mapped);
       }
-      previous_place_ = id;
+      previous_place_ = whereabouts_ = id;
+      whereabouts_seen_ = closed->members.back();
       partial_recognition_.reset();
       out.closed_places.push_back(std::move(d));
     } else if (const auto* pruned = std::get_if<PlacePruned>(&event)) {
@@ -269,6 +283,41 @@ void Pipeline::HandleDetection(const std::vector<DetectionEvent>& events, BaseIn
       out.events.push_back(e);
     }
   }
+}
+
+// Until a maximal neighbourhood has the plenitude of a place (extent ≤ τ_p) it is no detected
+// place yet, and if the robot leaves it that soon it is pruned; the map would then join the
+// places before and after it (β(D_{m−1})β(D_m) across a short corridor passage). Meanwhile
+// the robot recognises its whereabouts (section 3.5) on the last whereabouts_points base
+// points: recognition without learning, the memory is not touched. A known place other than
+// the whereabouts enters the map (A → P → B). Once the place opens, its own recognition
+// (partial, then on closing) decides. docs/decisions.md, "Map".
+void Pipeline::RecogniseWhereabouts(BaseIndex k, FrameResult& out) {
+  const int n = options_.whereabouts_points;
+  const std::vector<BaseIndex>& members = detector_.current_members();
+  const int64_t extent = static_cast<int64_t>(members.size());
+  if (n <= 0 || memory_.empty() || !whereabouts_ || members.empty() || members.back() != k ||
+      extent < n || extent > options_.detector.tau_p) {
+    return;
+  }
+  const std::vector<BaseIndex> window(members.end() - n, members.end());
+  const Recognition r = memory_.Recognize(Gather(0, window), memory_.Find(*whereabouts_));
+  if (!r.place) return;
+  const PlaceId id = memory_.places()[*r.place].id;
+  if (id != *whereabouts_) {
+    TransitionRegion region;  // from the last sight of the whereabouts to the window
+    if (whereabouts_seen_ && *whereabouts_seen_ + 1 <= window.front() - 1) {
+      region = TransitionRegion{*whereabouts_seen_ + 1, window.front() - 1};
+    }
+    map_.RecordTransition(*whereabouts_, id, region);
+    PlaceEvent mapped = MakeEvent(EventKind::kMapped, k, 0);  // no detected place of its own
+    mapped.place = id;
+    mapped.from = whereabouts_;
+    mapped.transition = region;
+    out.events.push_back(mapped);
+    whereabouts_ = id;
+  }
+  whereabouts_seen_ = k;
 }
 
 void Pipeline::TrimDescriptors() {

@@ -84,6 +84,12 @@ struct PipelineOptions {
   DetectorOptions detector;
   PlaceMemoryOptions memory;
   bool recognize_partial = true;  ///< try recognition when a place opens (extent > τ_p)
+  /// Base points of the window on which the robot recognises its whereabouts while a maximal
+  /// neighbourhood is still too short to be a place (extent ≤ τ_p; section 3.5's periodic
+  /// recognition, without learning). A known place recognised there enters the map, so a
+  /// short passage through it is mapped A → P → B instead of A → B. 0: off, the map has only
+  /// the edges β(D_{m−1})β(D_m). docs/decisions.md, "Map".
+  int whereabouts_points = 0;
   void Validate() const;
 };
 
@@ -138,6 +144,7 @@ class Pipeline {
 
  private:
   void HandleDetection(const std::vector<DetectionEvent>& events, BaseIndex k, FrameResult& out);
+  void RecogniseWhereabouts(BaseIndex k, FrameResult& out);
   DetectedPlace Gather(DetectedPlaceIndex m, const std::vector<BaseIndex>& members) const;
   void TrimDescriptors();
   void RequireMemory(const char* what) const;
@@ -150,6 +157,11 @@ class Pipeline {
   TopologicalMap map_;
   BaseIndex next_base_;
   std::optional<PlaceId> previous_place_;
+  // Where the map last put the robot: β(D_{m−1}), or a known place recognised since then on a
+  // window of whereabouts_points base points (RecogniseWhereabouts); and the last base point
+  // that showed it. Not stored: a restarted pipeline continues from β(D_{m−1}).
+  std::optional<PlaceId> whereabouts_;
+  std::optional<BaseIndex> whereabouts_seen_;
   std::optional<Eigen::VectorXf> previous_descriptor_;        // coherence descriptor of x_{k−1}
   std::deque<std::pair<BaseIndex, Eigen::VectorXf>> recent_;  // descriptors not yet closed
   std::optional<int> partial_recognition_;  // place the open place was recognised as

@@ -2,6 +2,7 @@
 
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <map>
 #include <opencv2/imgproc.hpp>
 #include <random>
@@ -36,18 +37,19 @@ class PipelineTest : public ::testing::Test {
     return o;
   }
   // `n` frames of place `c` (small noise), then a transition of 3 incoherent frames.
-  void Visit(int c, int n) {
+  void Visit(int c, int n) { Visit(dut_, c, n); }
+  void Visit(Pipeline& pipeline, int c, int n) {
     std::normal_distribution<float> noise(0.0f, 0.02f);
     for (int j = 0; j < n; ++j) {
       Eigen::VectorXf v = centres_[c];
       for (int i = 0; i < kDim; ++i) v[i] = std::max(0.0f, v[i] * (1.0f + noise(rng_)));
-      Collect(dut_.ProcessDescriptor(Descriptor(Normalised(v)), IntensityStats{0.5, 0.05}));
+      Collect(pipeline.ProcessDescriptor(Descriptor(Normalised(v)), IntensityStats{0.5, 0.05}));
     }
     std::uniform_int_distribution<int> pick(0, kDim - 1);
     for (int j = 0; j < 3; ++j) {
       Eigen::VectorXf v = Eigen::VectorXf::Zero(kDim);
       for (int s = 0; s < 5; ++s) v[pick(rng_)] = 1.0f;  // sparse: far from everything
-      Collect(dut_.ProcessDescriptor(Descriptor(Normalised(v)), IntensityStats{0.5, 0.05}));
+      Collect(pipeline.ProcessDescriptor(Descriptor(Normalised(v)), IntensityStats{0.5, 0.05}));
     }
   }
   void Collect(const FrameResult& r) {
@@ -185,6 +187,59 @@ TEST_F(PipelineTest, LearnsNewPlacesRecognisesRevisitsAndMapsTransitions) {
   EXPECT_EQ(Count(EventKind::kMapped), 3);
 }
 
+// A short passage through a known place P between A and B is pruned (extent ≤ τ_p). Without
+// whereabouts recognition the map joins A and B across it; with it, the robot recognises P
+// on the passage and the map records A → P → B, leaving the memory as it was.
+TEST_F(PipelineTest, APrunedPassageThroughAKnownPlaceIsMappedThroughIt) {
+  const PlaceId a{1, 1}, p{1, 2}, b{1, 3};
+  for (const int points : {0, 2}) {
+    SCOPED_TRACE(points);
+    PipelineOptions options = Options();  // τ_p = 3
+    options.whereabouts_points = points;
+    Pipeline pipeline(CameraIntrinsics::FromHorizontalFov(64, 48, 60), options,
+                      PlaceMemory(1, options.memory), TopologicalMap());
+    events_.clear();
+    rng_.seed(5);
+    Visit(pipeline, 0, 15);  // learns A
+    Visit(pipeline, 1, 15);  // learns P
+    Visit(pipeline, 2, 15);  // learns B
+    Visit(pipeline, 1, 15);  // P again
+    Visit(pipeline, 0, 15);  // A again
+    ASSERT_EQ(pipeline.memory().places().size(), 3u);
+    ASSERT_EQ(pipeline.map().Find(a, b), nullptr);
+    const int64_t p_members = pipeline.memory().places()[1].member_count;
+    const int64_t ap = pipeline.map().Find(a, p)->traversals;
+    const size_t before = events_.size();
+    // The passage: 4 frames of P, of which 3 are good (the first is incoherent with the
+    // transition before it): pruned.
+    Visit(pipeline, 1, 4);
+    Visit(pipeline, 2, 15);  // B
+    Collect(pipeline.Finish());
+    const std::vector<PlaceEvent> passage(events_.begin() + static_cast<long>(before),
+                                          events_.end());
+    EXPECT_EQ(std::count_if(passage.begin(), passage.end(),
+                            [](const PlaceEvent& e) { return e.kind == EventKind::kPruned; }),
+              1);
+    EXPECT_EQ(pipeline.memory().places()[1].member_count, p_members);  // nothing learned
+    if (points == 0) {
+      EXPECT_NE(pipeline.map().Find(a, b), nullptr);  // across the pruned passage
+      continue;
+    }
+    EXPECT_EQ(pipeline.map().Find(a, b), nullptr);
+    EXPECT_EQ(pipeline.map().Find(a, p)->traversals, ap + 1);
+    // A → P as a mapped event of no detected place, then P → B when B closes.
+    std::vector<std::pair<PlaceId, PlaceId>> mapped;
+    for (const PlaceEvent& e : passage) {
+      if (e.kind != EventKind::kMapped) continue;
+      mapped.emplace_back(*e.from, *e.place);
+      if (*e.from == a) {
+        EXPECT_EQ(e.detected_place, 0);
+      }
+    }
+    EXPECT_EQ(mapped, (std::vector<std::pair<PlaceId, PlaceId>>{{a, p}, {p, b}}));
+  }
+}
+
 TEST_F(PipelineTest, StateContinuesIndices) {
   Visit(0, 10);
   Collect(dut_.Finish());
@@ -259,6 +314,12 @@ TEST_F(PipelineTest, AdoptingTheMergedMemoryEndsAHandOver) {
   Visit(1, 15);
   EXPECT_EQ(dut_.memory().places().size(), 4u);
   EXPECT_GE(Count(EventKind::kRecognized), 1);
+}
+
+TEST(PipelineOptions, RefusesANegativeWhereaboutsWindow) {
+  PipelineOptions options;
+  options.whereabouts_points = -1;
+  EXPECT_THROW(options.Validate(), std::invalid_argument);
 }
 
 TEST(PipelineOptions, RequiresIntensity) {

@@ -261,6 +261,38 @@ TEST_F(StoreTest, LoadReturnsWhatWasCommitted) {
   EXPECT_EQ(SqlText(path_, "PRAGMA journal_mode"), "wal");
 }
 
+// Edges to places recognised on a pruned passage (mapped events of no detected place) are
+// committed and load back like every other edge.
+TEST_F(StoreTest, EdgesThroughAPassageRecognisedOnTheWayLoadBack) {
+  Stream stream(29);
+  for (int c = 0; c < 3; ++c) stream.AddCluster();
+  PipelineOptions options = Options();
+  options.whereabouts_points = 2;
+  Committed committed;
+  std::optional<TopologicalMap> map;
+  int passage_edges = 0;
+  {
+    Store dut = Store::Open(path_);
+    StoredState s = dut.Load(kRobot, options.memory);
+    Pipeline pipeline(Camera(), options, std::move(s.memory), std::move(s.map), s.pipeline);
+    for (int c : {0, 1, 2, 1, 0}) Feed(pipeline, dut, stream.Visit(c, 14), committed);
+    for (const Descriptor& d : stream.Visit(1, 4)) {  // 3 good points: pruned
+      const FrameResult r = pipeline.ProcessDescriptor(d, IntensityStats{0.5, 0.05});
+      for (const PlaceEvent& e : r.events) {
+        passage_edges += e.kind == EventKind::kMapped && e.detected_place == 0;
+      }
+      dut.Commit(r, pipeline);
+    }
+    Feed(pipeline, dut, stream.Visit(2, 14), committed);
+    Finish(pipeline, dut, committed);
+    map = pipeline.map();
+  }
+  EXPECT_EQ(passage_edges, 1);
+  EXPECT_EQ(map->Find(PlaceId{kRobot, 1}, PlaceId{kRobot, 3}), nullptr);  // 1 and 3 not joined
+  Store dut = Store::Open(path_);
+  ExpectSameMap(*map, dut.Load(kRobot, options.memory).map);
+}
+
 TEST_F(StoreTest, ReopenedDatabaseContinuesLearning) {
   Stream stream(23);
   for (int c = 0; c < 5; ++c) stream.AddCluster();
