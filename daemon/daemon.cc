@@ -816,6 +816,7 @@ void Daemon::MergePeer(const PeerSnapshot& snapshot) {
   PlaceMemory peer = ToPlaceMemory(snapshot, settings_.pipeline.memory);
   const TopologicalMap peer_map = ToTopologicalMap(snapshot);
   std::vector<std::pair<PlaceId, PlaceId>> absorbed;
+  std::string absorptions;  // for the log: which place went into which, and at what cost
   size_t places_before = 0, places_after = 0;
   MergeCase merge_case = MergeCase::kNothingNew;
   size_t added = 0;
@@ -828,7 +829,12 @@ void Daemon::MergePeer(const PeerSnapshot& snapshot) {
     merge_case = merged.merge_case;
     peer_into_ours = merged.peer_into_ours;
     added = merged.added.size();
-    for (const Absorption& a : merged.absorbed) absorbed.emplace_back(a.source, a.target);
+    for (const Absorption& a : merged.absorbed) {
+      absorbed.emplace_back(a.source, a.target);
+      absorptions += fmt::format("{}{} into {} ({})", absorptions.empty() ? "" : ", ",
+                                 a.source.ToString(), a.target.ToString(),
+                                 a.cost > 0.0 ? fmt::format("g {:.2f}", a.cost) : "joined by ids");
+    }
     TopologicalMap map = MergeMaps(pipeline_->map(), peer_map, merged.memory);
     // Nothing new (no place, absorption or edge we did not hold): keep our memory exactly as
     // it is, so an unchanged memory is not broadcast again and peers do not fetch it back and
@@ -853,6 +859,7 @@ void Daemon::MergePeer(const PeerSnapshot& snapshot) {
               snapshot.robot, snapshot.version,
               peer_into_ours ? "into ours" : "ours into the larger peer memory",
               ToString(merge_case), absorbed.size(), added, places_before, places_after, ms);
+  if (changed && !absorptions.empty()) spdlog::info("  absorbed: {}", absorptions);
   asio::post(*io_, [this, absorbed = std::move(absorbed)]() mutable {
     PublishMerged(std::move(absorbed), NowUtime());
   });

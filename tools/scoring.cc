@@ -202,6 +202,23 @@ MergeScore ScoreMerges(const std::vector<TeamMemoryForScoring>& robots) {
       if (ids[i].robot != ids[j].robot && same_label(ids[i], ids[j])) ++s.same_label_pairs;
     }
   }
+  // Per place, as recognition recall counts it: a place with a namesake of another robot
+  // should end up with one of them in its group.
+  std::map<PlaceId, std::set<PlaceId>> merged_with;
+  for (const auto& [a, b] : merged) {
+    merged_with[a].insert(b);
+    merged_with[b].insert(a);
+  }
+  for (const PlaceId& a : ids) {
+    const bool has_namesake = std::any_of(ids.begin(), ids.end(), [&](const PlaceId& b) {
+      return b.robot != a.robot && same_label(a, b);
+    });
+    if (!has_namesake) continue;
+    ++s.places_with_namesake;
+    const std::set<PlaceId>& with = merged_with[a];
+    if (std::any_of(with.begin(), with.end(), [&](const PlaceId& b) { return same_label(a, b); }))
+      ++s.places_merged_with_namesake;
+  }
   for (const TeamMemoryForScoring& r : robots) {
     for (const auto& [place, l] : r.peer_recognitions) {
       ++s.peer_recognitions;
@@ -211,6 +228,9 @@ MergeScore ScoreMerges(const std::vector<TeamMemoryForScoring>& robots) {
   }
   if (s.merges > 0) s.precision = static_cast<double>(s.correct) / s.merges;
   if (s.same_label_pairs > 0) s.recall = static_cast<double>(s.correct) / s.same_label_pairs;
+  if (s.places_with_namesake > 0) {
+    s.place_recall = static_cast<double>(s.places_merged_with_namesake) / s.places_with_namesake;
+  }
   return s;
 }
 

@@ -128,8 +128,15 @@ struct MergeScore {
   int merges = 0;
   int correct = 0;
   int same_label_pairs = 0;
-  double precision = 1.0;             ///< correct / merges (1 when nothing was merged)
-  double recall = 0.0;                ///< correct / same_label_pairs (0 when there are none)
+  double precision = 1.0;  ///< correct / merges (1 when nothing was merged)
+  double recall = 0.0;     ///< correct / same_label_pairs (0 when there are none)
+  /// Per place, like recognition recall: places that have a place of another robot with
+  /// their label (a namesake), and of those, the ones merged with a namesake. A robot that
+  /// learned one room as two places (two headings) makes four pairs with a peer's two, of
+  /// which merging each place with its own view merges two.
+  int places_with_namesake = 0;
+  int places_merged_with_namesake = 0;
+  double place_recall = 0.0;          ///< places_merged_with_namesake / places_with_namesake
   int peer_recognitions = 0;          ///< detected places recognised as a peer's place
   int peer_recognitions_correct = 0;  ///< of those, with the peer place's label
 };

@@ -417,6 +417,9 @@ int Team(const std::vector<std::string>& args) {
             << " correct, " << merge.same_label_pairs
             << " pairs of places of different robots in the same room; precision "
             << JsonNumber(merge.precision) << ", recall " << JsonNumber(merge.recall) << "\n"
+            << "places merged with a place of another robot in their room: "
+            << merge.places_merged_with_namesake << " of " << merge.places_with_namesake
+            << " (place recall " << JsonNumber(merge.place_recall) << ")\n"
             << "peer places recognised by the robots' pipelines: " << merge.peer_recognitions
             << " detected places, " << merge.peer_recognitions_correct << " correct\n";
   std::cout << "memories " << (consistent ? "consistent" : "NOT consistent")
@@ -430,6 +433,9 @@ int Team(const std::vector<std::string>& args) {
        << ",\"same_label_pairs\":" << merge.same_label_pairs
        << ",\"precision\":" << JsonNumber(merge.precision)
        << ",\"recall\":" << JsonNumber(merge.recall)
+       << ",\"places_with_namesake\":" << merge.places_with_namesake
+       << ",\"places_merged_with_namesake\":" << merge.places_merged_with_namesake
+       << ",\"place_recall\":" << JsonNumber(merge.place_recall)
        << ",\"peer_recognitions\":" << merge.peer_recognitions
        << ",\"peer_recognitions_correct\":" << merge.peer_recognitions_correct << "}";
   json << ",\"consistent\":" << (consistent ? "true" : "false") << ",\"known_places\":[";

@@ -401,6 +401,8 @@ MemoryMerge Merge(const PlaceMemory& ours, const PlaceMemory& peer, PlaceMemory*
   // Base places the incoming memory has never held (a peer's places learned since it last
   // merged ours, when the peer is the base).
   std::vector<int> fresh;
+  // g of a fresh base place recognised as a place the base knows (0: joined by ids alone).
+  std::vector<double> fold_cost(base.places().size(), 0.0);
   bool base_knows_more = false;  // an id, as a place or a source, the incoming never held
   {
     std::unordered_set<PlaceId, PlaceIdHash> seen;
@@ -483,7 +485,10 @@ MemoryMerge Merge(const PlaceMemory& ours, const PlaceMemory& peer, PlaceMemory*
             continue;
           }
           const int holder = known.at(match_id);
-          if (holder != b) join.places.Unite(b, holder);
+          if (holder != b) {
+            join.places.Unite(b, holder);
+            fold_cost[static_cast<size_t>(b)] = g;
+          }
         }
       }
     }
@@ -636,7 +641,7 @@ MemoryMerge Merge(const PlaceMemory& ours, const PlaceMemory& peer, PlaceMemory*
     const auto h = static_cast<size_t>(holder[b]);
     if (h == b) continue;
     folds = true;
-    result.absorbed.push_back({places[b].id, places[h].id, 0.0});
+    result.absorbed.push_back({places[b].id, places[h].id, fold_cost[b]});
     Fold(places[h], places[b], options.max_samples_per_place);
   }
   for (const auto& [b, id] : join.learned) AddSource(places[static_cast<size_t>(b)], id);

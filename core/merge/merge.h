@@ -65,7 +65,7 @@ std::string_view ToString(MergeCase c);
 struct Absorption {
   PlaceId source;
   PlaceId target;
-  double cost = 0.0;  ///< g of (3.8) against the target's hyper-terminal
+  double cost = 0.0;  ///< g of (3.8) against the target's hyper-terminal; 0: joined by ids
 };
 
 struct MemoryMerge {

@@ -652,6 +652,23 @@ std::set<std::set<PlaceId>> Groups(const PlaceMemory& m) {
   return out;
 }
 
+// Recognition the other way round (docs/decisions.md, "Merging"): the peer's memory is the
+// larger, so ours goes into it, and the peer learned 2:2 after it last merged ours, next to
+// our 1:1. Nobody compared the two before: the merge does, joins them, and says at what cost.
+TEST(MergeMemories, AFreshPeerPlaceIsRecognisedAgainstOursAndTheCostIsKept) {
+  const PlaceMemory ours = MakeMemory(1, {At(0)}, 1);
+  PlaceMemory peer = MergeMemories(MakeMemory(2, {At(5)}, 2), ours).memory;
+  ASSERT_EQ(peer.places().size(), 2u);
+  peer.Learn(MakePlace(At(0.01f), 7));
+  const MemoryMerge dut = MergeMemories(ours, peer);
+  EXPECT_FALSE(dut.peer_into_ours);
+  EXPECT_TRUE(dut.changed);
+  EXPECT_EQ(Groups(dut.memory), (std::set<std::set<PlaceId>>{{{1, 1}, {2, 2}}, {{2, 1}}}));
+  ASSERT_EQ(dut.absorbed.size(), 1u);
+  EXPECT_GT(dut.absorbed[0].cost, 0.0);  // recognised, not joined by ids alone
+  EXPECT_LE(dut.absorbed[0].cost, UnitScale().tau_r);
+}
+
 // Chapter 4 in a live team: robots learn places and merge each other's memories over and over,
 // in an order nobody controls. Whatever the order, once every robot has merged every other's
 // last memory the three memories group the same ids into the same places, and every place

@@ -145,6 +145,25 @@ TEST(ScoreMerges, CountsEachPairOnceAndScoresAgainstLabels) {
   EXPECT_EQ(dut.same_label_pairs, 2);  // (1:1, 2:1) and (1:2, 2:3)
   EXPECT_DOUBLE_EQ(dut.precision, 0.5);
   EXPECT_DOUBLE_EQ(dut.recall, 0.5);
+  EXPECT_EQ(dut.places_with_namesake, 4);  // 1:1, 2:1 (A); 1:2, 2:3 (B)
+  EXPECT_EQ(dut.places_merged_with_namesake, 2);
+  EXPECT_DOUBLE_EQ(dut.place_recall, 0.5);
+}
+
+// One room learned twice by each robot (two headings): four pairs of different robots, and
+// merging each view with the peer's same view leaves two of them apart, yet every place is
+// merged with a namesake.
+TEST(ScoreMerges, PlaceRecallCountsAPlaceMergedWithAnyNamesake) {
+  const PlaceId a1{1, 1}, a1b{1, 2}, a2{2, 1}, a2b{2, 2};
+  TeamMemoryForScoring r1{{{a1, "A"}, {a1b, "A"}}, {{a1, a2}, {a1b, a2b}}, {}};
+  TeamMemoryForScoring r2{{{a2, "A"}, {a2b, "A"}}, {{a1, a2}, {a1b, a2b}}, {}};
+  const MergeScore dut = ScoreMerges({r1, r2});
+  EXPECT_EQ(dut.same_label_pairs, 4);
+  EXPECT_EQ(dut.correct, 2);
+  EXPECT_DOUBLE_EQ(dut.recall, 0.5);
+  EXPECT_EQ(dut.places_with_namesake, 4);
+  EXPECT_EQ(dut.places_merged_with_namesake, 4);
+  EXPECT_DOUBLE_EQ(dut.place_recall, 1.0);
 }
 
 // Robot 2's pipeline recognised robot 1's place 1:1 (room A) twice, once in room A (correct)
