@@ -261,18 +261,10 @@ void Pipeline::HandleDetection(const std::vector<DetectionEvent>& events, BaseIn
       map_.AddPlace(id);
       // Mapping (section 3.7): the edge β(D_{m−1})β(D_m), or from the known place the robot
       // was recognised at since D_{m−1} closed (RecogniseWhereabouts).
-      TransitionRegion region = closed->transition_before;
-      if (whereabouts_ != previous_place_ && whereabouts_seen_) {
-        region = TransitionRegion{*whereabouts_seen_ + 1, closed->members.front() - 1};
-        if (region.empty()) region = TransitionRegion{};
-      }
-      if (whereabouts_ && map_.RecordTransition(*whereabouts_, id, region)) {
-        PlaceEvent mapped = MakeEvent(EventKind::kMapped, k, closed->place);
-        mapped.place = id;
-        mapped.from = whereabouts_;
-        mapped.transition = region;
-        out.events.push_back(mapped);
-      }
+      const TransitionRegion region = whereabouts_ != previous_place_ && whereabouts_seen_
+                                          ? SinceWhereabouts(closed->members.front())
+                                          : closed->transition_before;
+      if (whereabouts_) MapFromWhereabouts(id, region, k, closed->place, out);
       previous_place_ = whereabouts_ = id;
       whereabouts_seen_ = closed->members.back();
       partial_recognition_.reset();
@@ -305,19 +297,26 @@ void Pipeline::RecogniseWhereabouts(BaseIndex k, FrameResult& out) {
   if (!r.place) return;
   const PlaceId id = memory_.places()[*r.place].id;
   if (id != *whereabouts_) {
-    TransitionRegion region;  // from the last sight of the whereabouts to the window
-    if (whereabouts_seen_ && *whereabouts_seen_ + 1 <= window.front() - 1) {
-      region = TransitionRegion{*whereabouts_seen_ + 1, window.front() - 1};
-    }
-    map_.RecordTransition(*whereabouts_, id, region);
-    PlaceEvent mapped = MakeEvent(EventKind::kMapped, k, 0);  // no detected place of its own
-    mapped.place = id;
-    mapped.from = whereabouts_;
-    mapped.transition = region;
-    out.events.push_back(mapped);
+    // No detected place of its own: the event names detected place 0.
+    MapFromWhereabouts(id, SinceWhereabouts(window.front()), k, 0, out);
     whereabouts_ = id;
   }
   whereabouts_seen_ = k;
+}
+
+TransitionRegion Pipeline::SinceWhereabouts(BaseIndex before) const {
+  if (!whereabouts_seen_ || *whereabouts_seen_ + 1 > before - 1) return TransitionRegion{};
+  return TransitionRegion{*whereabouts_seen_ + 1, before - 1};
+}
+
+void Pipeline::MapFromWhereabouts(PlaceId to, TransitionRegion region, BaseIndex k,
+                                  DetectedPlaceIndex m, FrameResult& out) {
+  if (!map_.RecordTransition(*whereabouts_, to, region)) return;
+  PlaceEvent mapped = MakeEvent(EventKind::kMapped, k, m);
+  mapped.place = to;
+  mapped.from = whereabouts_;
+  mapped.transition = region;
+  out.events.push_back(mapped);
 }
 
 void Pipeline::TrimDescriptors() {

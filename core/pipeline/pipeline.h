@@ -145,6 +145,13 @@ class Pipeline {
  private:
   void HandleDetection(const std::vector<DetectionEvent>& events, BaseIndex k, FrameResult& out);
   void RecogniseWhereabouts(BaseIndex k, FrameResult& out);
+  // The base points after the last one that showed the whereabouts and before `before`
+  // (empty when there are none, or the whereabouts were never seen).
+  TransitionRegion SinceWhereabouts(BaseIndex before) const;
+  // The map edge from the whereabouts to `to`, and its mapped event at base point k for
+  // detected place m (none when `to` is the whereabouts).
+  void MapFromWhereabouts(PlaceId to, TransitionRegion region, BaseIndex k, DetectedPlaceIndex m,
+                          FrameResult& out);
   DetectedPlace Gather(DetectedPlaceIndex m, const std::vector<BaseIndex>& members) const;
   void TrimDescriptors();
   void RequireMemory(const char* what) const;
