@@ -238,23 +238,6 @@ std::vector<ConfigKey> BuildTable() {
       "tau_kappa, chi^2 to the previous descriptor above which a base point is "
       "incoherent",
       "chi^2", 0, 1, [](auto& o) -> auto& { return o.pipeline.reliability.tau_kappa; }));
-  {
-    ConfigKey k;
-    k.key = "detection.sweep_coherence";
-    k.description =
-        "what tau_kappa judges on a base point observed by a pan sweep: first_view (the sweep's "
-        "first view, as a forward camera) or every_view (each view against the same view of "
-        "the previous sweep, mean chi^2)";
-    k.kind = ConfigKey::Kind::kText;
-    k.text_range = "first_view|every_view";
-    k.get = [](const Settings& o) {
-      return std::string(SweepCoherenceName(o.pipeline.reliability.sweep_coherence));
-    };
-    k.set = [](Settings& o, const std::string& v) {
-      o.pipeline.reliability.sweep_coherence = ParseSweepCoherence(Trim(v));
-    };
-    t.push_back(std::move(k));
-  }
   t.push_back(Number(
       "detection.tau_n",
       "tau_n, a bad base point within this many points extends the temporal "
@@ -319,12 +302,6 @@ std::vector<ConfigKey> BuildTable() {
       "neighbourhood is still shorter than a place (extent <= tau_p), so the map records a "
       "pruned passage through a known place; 0 = off",
       "base points", 0, 100000, [](auto& o) -> auto& { return o.pipeline.whereabouts_points; }));
-  t.push_back(Number(
-      "pipeline.max_transition_points",
-      "longest transition region across which the map still records an edge between the "
-      "places before and after it (the robot did not know where it was in between); 0 = no "
-      "limit",
-      "base points", 0, 100000, [](auto& o) -> auto& { return o.pipeline.max_transition_points; }));
   const size_t pipeline_keys = t.size();
   // [daemon] — tscd itself (DESIGN §6)
   t.push_back(Text(

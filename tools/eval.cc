@@ -51,7 +51,7 @@ EvalRun Replay(const Dataset& dataset, const PipelineOptions& options,
     FrameResult r;
     try {
       r = pipeline.ProcessDescriptor(inputs[i].descriptor, inputs[i].intensity,
-                                     inputs[i].coherence);
+                                     inputs[i].coherence.empty() ? nullptr : &inputs[i].coherence);
     } catch (const std::exception& e) {
       throw std::runtime_error("frame " + std::to_string(i + 1) + " (" +
                                dataset.image_path(static_cast<int>(i)).string() + "): " + e.what());
@@ -122,8 +122,7 @@ EvalResult Evaluate(const Dataset& dataset, const PipelineOptions& options,
   inputs.reserve(static_cast<size_t>(dataset.size()));
   std::vector<double> descriptor_ms;
   for (int i = 0; i < dataset.size(); ++i) {
-    TimedView frame =
-        DescribeFrame(dataset, i, surface, computer, options.reliability.sweep_coherence);
+    TimedView frame = DescribeFrame(dataset, i, surface, computer);
     inputs.push_back(std::move(frame.view));
     descriptor_ms.push_back(frame.descriptor_ms);
   }

@@ -14,13 +14,13 @@ std::vector<Observation> LoadFrame(const Dataset& dataset, int i) {
 }
 
 TimedView DescribeFrame(const Dataset& dataset, int i, BubbleSurface& surface,
-                        const DescriptorComputer& computer, SweepCoherence coherence) {
+                        const DescriptorComputer& computer) {
   const std::vector<Observation> views = LoadFrame(dataset, i);
   using Clock = std::chrono::steady_clock;
   const Clock::time_point t0 = Clock::now();
   try {
     TimedView out;
-    out.view = DescribeBasePoint(views, surface, computer, coherence);
+    out.view = DescribeBasePoint(views, surface, computer);
     out.descriptor_ms = std::chrono::duration<double, std::milli>(Clock::now() - t0).count();
     return out;
   } catch (const std::exception& e) {  // the surface is reset already

@@ -21,11 +21,9 @@ struct TimedView {
   BasePointView view;
   double descriptor_ms = 0.0;
 };
-/// Describes frame `i` of `dataset` through `surface`, which is left reset, with the coherence
-/// descriptors `coherence` asks for. Throws DatasetError naming the frame and its file when
-/// the frame cannot be read or described.
+/// Describes frame `i` of `dataset` through `surface`, which is left reset. Throws
+/// DatasetError naming the frame and its file when the frame cannot be read or described.
 TimedView DescribeFrame(const Dataset& dataset, int i, BubbleSurface& surface,
-                        const DescriptorComputer& computer,
-                        SweepCoherence coherence = SweepCoherence::kFirstView);
+                        const DescriptorComputer& computer);
 
 }  // namespace tsc

@@ -25,16 +25,6 @@ void ReliabilityOptions::Validate() const {
   CheckRange("detection.tau_kappa", tau_kappa, 0.0, 1.0);   // χ² of normalised descriptors
 }
 
-const char* SweepCoherenceName(SweepCoherence s) {
-  return s == SweepCoherence::kEveryView ? "every_view" : "first_view";
-}
-
-SweepCoherence ParseSweepCoherence(const std::string& name) {
-  if (name == "first_view") return SweepCoherence::kFirstView;
-  if (name == "every_view") return SweepCoherence::kEveryView;
-  throw std::invalid_argument("'" + name + "' is not one of first_view | every_view");
-}
-
 const char* BaseStatusName(BaseStatus s) {
   switch (s) {
     case BaseStatus::kGood:
@@ -72,31 +62,19 @@ IntensityStats IntensityStatistics(const BubbleSurface& surface) {
   return stats;
 }
 
-double Incoherency(std::span<const Eigen::VectorXf> now, std::span<const Eigen::VectorXf> before) {
-  if (now.empty() || before.empty()) throw std::invalid_argument("incoherency of no views");
-  const size_t views = now.size() == before.size() ? now.size() : 1;
-  double sum = 0.0;
-  for (size_t j = 0; j < views; ++j) sum += ChiSquared(now[j], before[j]);
-  return sum / static_cast<double>(views);
-}
-
 BaseStatus ClassifyBasePoint(const ReliabilityOptions& options, const IntensityStats& intensity,
-                             std::optional<double> kappa) {
+                             const Eigen::VectorXf& descriptor,
+                             const Eigen::VectorXf* previous_descriptor) {
   // ς (appendix C): too dark or too flat to say anything about the place.
   if (intensity.mean <= options.tau_mu || intensity.variance <= options.tau_sigma) {
     return BaseStatus::kUninformative;
   }
   // κ: the view changed too much since the previous base point.
-  if (kappa && *kappa > options.tau_kappa) return BaseStatus::kIncoherent;
+  if (previous_descriptor != nullptr &&
+      ChiSquared(descriptor, *previous_descriptor) > options.tau_kappa) {
+    return BaseStatus::kIncoherent;
+  }
   return BaseStatus::kGood;
-}
-
-BaseStatus ClassifyBasePoint(const ReliabilityOptions& options, const IntensityStats& intensity,
-                             const Eigen::VectorXf& descriptor,
-                             const Eigen::VectorXf* previous_descriptor) {
-  std::optional<double> kappa;
-  if (previous_descriptor != nullptr) kappa = ChiSquared(descriptor, *previous_descriptor);
-  return ClassifyBasePoint(options, intensity, kappa);
 }
 
 }  // namespace tsc

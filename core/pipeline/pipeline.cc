@@ -42,10 +42,6 @@ void PipelineOptions::Validate() const {
     throw std::invalid_argument("pipeline.whereabouts_points must be >= 0, got " +
                                 std::to_string(whereabouts_points));
   }
-  if (max_transition_points < 0) {
-    throw std::invalid_argument("pipeline.max_transition_points must be >= 0, got " +
-                                std::to_string(max_transition_points));
-  }
   if (!features.Contains(Feature::kIntensity)) {
     throw std::invalid_argument("bubble.features must include intensity (place detection uses it)");
   }
@@ -74,31 +70,20 @@ PipelineState Pipeline::state() const {
 }
 
 BasePointView FinishBasePoint(BubbleSurface& surface, const DescriptorComputer& computer) {
-  BasePointView view{computer.Compute(surface), IntensityStatistics(surface), {}};
+  BasePointView view{computer.Compute(surface), IntensityStatistics(surface), Descriptor()};
   surface.Reset();
   return view;
 }
 
 BasePointView DescribeBasePoint(std::span<const Observation> views, BubbleSurface& surface,
-                                const DescriptorComputer& computer, SweepCoherence how) {
+                                const DescriptorComputer& computer) {
   if (views.empty()) throw std::invalid_argument("a base point of no views");
   try {
-    std::vector<Descriptor> coherence;
-    if (views.size() > 1 && how == SweepCoherence::kEveryView) {
-      // Each view on a surface of its own (a copy of the empty one: same grid and features).
-      BubbleSurface single = surface;
-      for (const Observation& view : views) {
-        single.Observe(view);
-        coherence.push_back(computer.Compute(single));
-        single.Reset();
-      }
-    }
+    Descriptor coherence;
     for (size_t j = 0; j < views.size(); ++j) {
       surface.Observe(views[j]);
       // The surface holds the sweep's first view alone: its descriptor is a forward camera's.
-      if (j == 0 && views.size() > 1 && how == SweepCoherence::kFirstView) {
-        coherence.push_back(computer.Compute(surface));
-      }
+      if (j == 0 && views.size() > 1) coherence = computer.Compute(surface);
     }
     BasePointView out;
     if (surface.features().IndexOf(Feature::kIntensity) >= 0) {
@@ -116,39 +101,34 @@ BasePointView DescribeBasePoint(std::span<const Observation> views, BubbleSurfac
 }
 
 FrameResult Pipeline::Process(std::span<const Observation> views) {
-  const BasePointView view =
-      DescribeBasePoint(views, surface_, computer_, options_.reliability.sweep_coherence);
-  return ProcessDescriptor(view.descriptor, view.intensity, view.coherence);
+  const BasePointView view = DescribeBasePoint(views, surface_, computer_);
+  return ProcessDescriptor(view.descriptor, view.intensity,
+                           view.coherence.empty() ? nullptr : &view.coherence);
 }
 
 FrameResult Pipeline::ProcessDescriptor(const Descriptor& descriptor,
                                         const IntensityStats& intensity,
-                                        std::span<const Descriptor> coherence) {
+                                        const Descriptor* coherence) {
   RequireMemory("process a base point");
   if (!memory_.empty() && descriptor.dim() != memory_.places().front().mean.size()) {
     throw std::invalid_argument("descriptor of dimension " + std::to_string(descriptor.dim()) +
                                 " for a memory of dimension " +
                                 std::to_string(memory_.places().front().mean.size()));
   }
-  for (const Descriptor& view : coherence) {
-    if (view.dim() != descriptor.dim()) {
-      throw std::invalid_argument("coherence descriptor of dimension " +
-                                  std::to_string(view.dim()) + " for a descriptor of " +
-                                  std::to_string(descriptor.dim()));
-    }
+  if (coherence != nullptr && coherence->dim() != descriptor.dim()) {
+    throw std::invalid_argument("coherence descriptor of dimension " +
+                                std::to_string(coherence->dim()) + " for a descriptor of " +
+                                std::to_string(descriptor.dim()));
   }
   FrameResult out;
   const BaseIndex k = next_base_++;
   out.base.index = k;
   out.base.descriptor = descriptor.values();
   out.base.intensity = intensity;
-  std::vector<Eigen::VectorXf> judged;
-  if (coherence.empty()) judged.push_back(descriptor.values());
-  for (const Descriptor& view : coherence) judged.push_back(view.values());
-  std::optional<double> kappa;
-  if (!previous_coherence_.empty()) kappa = Incoherency(judged, previous_coherence_);
-  out.base.status = ClassifyBasePoint(options_.reliability, intensity, kappa);
-  previous_coherence_ = std::move(judged);
+  const Eigen::VectorXf& judged = coherence != nullptr ? coherence->values() : descriptor.values();
+  out.base.status = ClassifyBasePoint(options_.reliability, intensity, judged,
+                                      previous_descriptor_ ? &*previous_descriptor_ : nullptr);
+  previous_descriptor_ = judged;
   recent_.emplace_back(k, descriptor.values());
   HandleDetection(detector_.Add(k, out.base.status == BaseStatus::kGood), k, out);
   RecogniseWhereabouts(k, out);
@@ -331,8 +311,6 @@ TransitionRegion Pipeline::SinceWhereabouts(BaseIndex before) const {
 
 void Pipeline::MapFromWhereabouts(PlaceId to, TransitionRegion region, BaseIndex k,
                                   DetectedPlaceIndex m, FrameResult& out) {
-  const int longest = options_.max_transition_points;
-  if (longest > 0 && region.size() > longest) return;  // where the robot went is unknown
   if (!map_.RecordTransition(*whereabouts_, to, region)) return;
   PlaceEvent mapped = MakeEvent(EventKind::kMapped, k, m);
   mapped.place = to;

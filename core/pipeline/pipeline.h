@@ -54,28 +54,26 @@ struct FrameResult {
 };
 
 /// What the pipeline needs of one base point: its descriptor and its intensity statistics,
-/// and, for a base point observed by a pan sweep, the descriptors coherence is judged on
-/// (SweepCoherence): the sweep's first view alone, or each view alone in the order taken
-/// (empty: the descriptor itself; docs/decisions.md, "Pan sweeps").
+/// and, for a base point observed by a pan sweep, the descriptor of the sweep's first view
+/// alone, on which coherence is judged (empty: the descriptor itself; docs/decisions.md,
+/// "Pan sweeps").
 struct BasePointView {
   Descriptor descriptor;
   IntensityStats intensity;
-  std::vector<Descriptor> coherence;
+  Descriptor coherence;
 };
 /// Computes the view of the base point observed in `surface`, then resets the surface for the
 /// next base point.
 BasePointView FinishBasePoint(BubbleSurface& surface, const DescriptorComputer& computer);
 /// The view of the base point observed by `views`: one view, or all the views of a pan sweep
 /// in the order taken. Every view goes into the descriptor and the intensity statistics; of a
-/// sweep (two views or more) the first view alone, or every view on its own, also gives the
-/// coherence descriptors, as `coherence` says (docs/decisions.md, "Pan sweeps"). The intensity
-/// statistics stay zero when the feature set has no intensity feature (the classifier's
-/// sets). Precondition: `surface` holds no view; it is left reset, also when this throws.
-/// Throws std::invalid_argument on no views, and what BubbleSurface::Observe throws on a bad
-/// view.
+/// sweep (two views or more) the first view alone also gives the coherence descriptor
+/// (docs/decisions.md, "Pan sweeps"). The intensity statistics stay zero when the feature set
+/// has no intensity feature (the classifier's sets). Precondition: `surface` holds no view;
+/// it is left reset, also when this throws. Throws std::invalid_argument on no views, and
+/// what BubbleSurface::Observe throws on a bad view.
 BasePointView DescribeBasePoint(std::span<const Observation> views, BubbleSurface& surface,
-                                const DescriptorComputer& computer,
-                                SweepCoherence coherence = SweepCoherence::kFirstView);
+                                const DescriptorComputer& computer);
 
 struct PipelineOptions {
   uint32_t robot = 1;
@@ -92,11 +90,6 @@ struct PipelineOptions {
   /// short passage through it is mapped A → P → B instead of A → B. 0: off, the map has only
   /// the edges β(D_{m−1})β(D_m). docs/decisions.md, "Map".
   int whereabouts_points = 0;
-  /// Longest transition region, in base points, across which the map still records an edge
-  /// β(D_{m−1})β(D_m): over a longer stretch the robot did not know where it was and may have
-  /// passed other spaces (a corridor judged incoherent end to end). 0: no limit, every
-  /// transition is mapped. docs/decisions.md, "Map".
-  int max_transition_points = 0;
   void Validate() const;
 };
 
@@ -118,10 +111,10 @@ class Pipeline {
   /// views or a view the surface refuses; the pipeline is then as before the call.
   FrameResult Process(std::span<const Observation> views);
   /// Runs the loop on a ready descriptor (benchmarks, tests, replay). `coherence`, when not
-  /// empty, holds the descriptors incoherency κ is judged on (a sweep's first view, or each of
-  /// its views: BasePointView); by default the descriptor itself.
+  /// null, is the descriptor incoherency κ is judged on (a sweep's first view); by default
+  /// the descriptor itself.
   FrameResult ProcessDescriptor(const Descriptor& descriptor, const IntensityStats& intensity,
-                                std::span<const Descriptor> coherence = {});
+                                const Descriptor* coherence = nullptr);
   /// End of the stream: closes the open window and place.
   FrameResult Finish();
 
@@ -176,7 +169,7 @@ class Pipeline {
   // that showed it. Not stored: a restarted pipeline continues from β(D_{m−1}).
   std::optional<PlaceId> whereabouts_;
   std::optional<BaseIndex> whereabouts_seen_;
-  std::vector<Eigen::VectorXf> previous_coherence_;           // coherence descriptors of x_{k−1}
+  std::optional<Eigen::VectorXf> previous_descriptor_;        // coherence descriptor of x_{k−1}
   std::deque<std::pair<BaseIndex, Eigen::VectorXf>> recent_;  // descriptors not yet closed
   std::optional<int> partial_recognition_;  // place the open place was recognised as
   bool handed_over_ = false;                // memory_ is on loan to a merge (HandOverMemory)

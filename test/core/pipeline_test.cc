@@ -73,44 +73,16 @@ TEST_F(PipelineTest, IncoherencyIsJudgedOnTheCoherenceDescriptorWhenGiven) {
   const Descriptor sweep(centres_[0]);
   const Descriptor ahead(centres_[1]), elsewhere(centres_[2]);
   const IntensityStats lit{0.5, 0.05};
-  dut_.ProcessDescriptor(sweep, lit, {&ahead, 1});
+  dut_.ProcessDescriptor(sweep, lit, &ahead);
   // The same sweep, but the view ahead changed completely: incoherent.
-  EXPECT_EQ(dut_.ProcessDescriptor(sweep, lit, {&elsewhere, 1}).base.status,
-            BaseStatus::kIncoherent);
+  EXPECT_EQ(dut_.ProcessDescriptor(sweep, lit, &elsewhere).base.status, BaseStatus::kIncoherent);
   // Another sweep, the same view ahead: coherent. The stored descriptor is the sweep's.
-  const FrameResult r = dut_.ProcessDescriptor(Descriptor(centres_[1]), lit, {&elsewhere, 1});
+  const FrameResult r = dut_.ProcessDescriptor(Descriptor(centres_[1]), lit, &elsewhere);
   EXPECT_EQ(r.base.status, BaseStatus::kGood);
   EXPECT_EQ(r.base.descriptor, centres_[1]);
   // A coherence descriptor of another dimension is refused.
   const Descriptor short_one(Eigen::VectorXf::Constant(10, 0.1f));
-  EXPECT_THROW(dut_.ProcessDescriptor(sweep, lit, {&short_one, 1}), std::invalid_argument);
-}
-
-// Judged on every view (SweepCoherence::kEveryView), κ is the mean of the views' χ²: one view
-// of six changing completely is not enough, four of six are.
-TEST_F(PipelineTest, IncoherencyOverEveryViewIsTheMeanOfTheViews) {
-  const double one_view = ChiSquared(centres_[1], centres_[2]);
-  PipelineOptions options = Options();
-  options.reliability.tau_kappa = one_view / 3.0;  // between 1/6 and 4/6 of a changed view
-  Pipeline pipeline(CameraIntrinsics::FromHorizontalFov(64, 48, 60), options,
-                    PlaceMemory(1, options.memory), TopologicalMap());
-  const Descriptor sweep(centres_[0]);
-  const IntensityStats lit{0.5, 0.05};
-  const std::vector<Descriptor> before(6, Descriptor(centres_[1]));
-  std::vector<Descriptor> one_changed = before, four_changed = before;
-  one_changed[3] = Descriptor(centres_[2]);
-  for (size_t j : {0, 1, 2, 4}) four_changed[j] = Descriptor(centres_[2]);
-  pipeline.ProcessDescriptor(sweep, lit, before);
-  EXPECT_EQ(pipeline.ProcessDescriptor(sweep, lit, one_changed).base.status, BaseStatus::kGood);
-  pipeline.ProcessDescriptor(sweep, lit, before);
-  EXPECT_EQ(pipeline.ProcessDescriptor(sweep, lit, four_changed).base.status,
-            BaseStatus::kIncoherent);
-  // The first view alone would have judged `one_changed` coherent and a change of view 0 not.
-  std::vector<Eigen::VectorXf> same(6, centres_[1]), first_changed = same;
-  first_changed[0] = centres_[2];
-  EXPECT_DOUBLE_EQ(Incoherency(first_changed, same), one_view / 6.0);
-  // Sweeps of different view counts (another camera) are judged on their first views.
-  EXPECT_DOUBLE_EQ(Incoherency(first_changed, std::vector<Eigen::VectorXf>{centres_[1]}), one_view);
+  EXPECT_THROW(dut_.ProcessDescriptor(sweep, lit, &short_one), std::invalid_argument);
 }
 
 // The views of a pan sweep of `views` views over a scene of random colour blocks (seeded).
@@ -160,28 +132,12 @@ TEST_F(PipelineTest, ProcessOfASweepIsTheSweepWrittenOut) {
     if (views.size() == 1) {
       EXPECT_TRUE(described.coherence.empty());  // a forward view is judged on itself
     } else {
-      ASSERT_EQ(described.coherence.size(), 1u);
-      EXPECT_EQ(described.coherence[0].values(), first.values());
-    }
-    // Judged on every view: each view's own descriptor, in the order taken; the sweep's
-    // descriptor is the same.
-    const BasePointView every =
-        DescribeBasePoint(views, surface, computer, SweepCoherence::kEveryView);
-    EXPECT_EQ(every.descriptor.values(), whole.values());
-    if (views.size() == 1) {
-      EXPECT_TRUE(every.coherence.empty());
-    } else {
-      ASSERT_EQ(every.coherence.size(), views.size());
-      EXPECT_EQ(every.coherence[0].values(), first.values());
-      surface.Observe(views.back());
-      EXPECT_EQ(every.coherence.back().values(), computer.Compute(surface).values());
-      surface.Reset();
+      EXPECT_EQ(described.coherence.values(), first.values());
     }
 
     const FrameResult got = dut_.Process(views);
-    std::vector<Descriptor> judged;
-    if (views.size() > 1) judged.push_back(first);
-    const FrameResult want = reference.ProcessDescriptor(whole, intensity, judged);
+    const FrameResult want =
+        reference.ProcessDescriptor(whole, intensity, views.size() > 1 ? &first : nullptr);
     EXPECT_EQ(got.base.index, want.base.index);
     EXPECT_EQ(got.base.status, want.base.status) << "scene " << scene;
     EXPECT_EQ(got.base.descriptor, want.base.descriptor);
@@ -282,45 +238,6 @@ TEST_F(PipelineTest, APrunedPassageThroughAKnownPlaceIsMappedThroughIt) {
     }
     EXPECT_EQ(mapped, (std::vector<std::pair<PlaceId, PlaceId>>{{a, p}, {p, b}}));
   }
-}
-
-// A transition region longer than max_transition_points maps no edge: the robot does not know
-// what it passed (a whole corridor judged incoherent). A short one still does.
-TEST_F(PipelineTest, NoEdgeIsMappedAcrossATransitionLongerThanTheLimit) {
-  const PlaceId a{1, 1}, b{1, 2}, c{1, 3};
-  for (const int longest : {0, 10}) {
-    SCOPED_TRACE(longest);
-    PipelineOptions options = Options();  // τ_n 2, τ_w 2, τ_p 3
-    options.max_transition_points = longest;
-    Pipeline pipeline(CameraIntrinsics::FromHorizontalFov(64, 48, 60), options,
-                      PlaceMemory(1, options.memory), TopologicalMap());
-    events_.clear();
-    rng_.seed(5);
-    Visit(pipeline, 0, 15);                             // A, then 3 incoherent points
-    for (int j = 0; j < 4; ++j) Visit(pipeline, 2, 0);  // 12 more: a 15-point transition
-    Visit(pipeline, 1, 15);                             // B, then a 3-point transition
-    Visit(pipeline, 2, 15);                             // C
-    Collect(pipeline.Finish());
-    ASSERT_EQ(pipeline.memory().places().size(), 3u);
-    EXPECT_NE(pipeline.map().Find(b, c), nullptr);
-    const MapEdge* ab = pipeline.map().Find(a, b);
-    if (longest == 0) {
-      ASSERT_NE(ab, nullptr);
-      ASSERT_EQ(ab->transitions.size(), 1u);
-      EXPECT_GT(ab->transitions[0].size(), 10);  // the long transition itself
-    } else {
-      EXPECT_EQ(ab, nullptr);
-      EXPECT_EQ(std::count_if(events_.begin(), events_.end(),
-                              [](const PlaceEvent& e) { return e.kind == EventKind::kMapped; }),
-                1);
-    }
-  }
-}
-
-TEST(PipelineOptions, RefusesANegativeLongestTransition) {
-  PipelineOptions o;
-  o.max_transition_points = -1;
-  EXPECT_THROW(o.Validate(), std::invalid_argument);
 }
 
 TEST_F(PipelineTest, StateContinuesIndices) {

@@ -82,8 +82,7 @@ TEST_F(ConfigTest, FileSetsValues) {
   const fs::path file = Write(
       "# comment\n[robot]\nid = 7\n[bubble]\nfeatures = L1+I\nd_phi_deg = 5\n"
       "[detection]\ntau_kappa = 0.5\ntau_p = 2\n[memory]\ntau_r = 0.75\n"
-      "[pipeline]\nrecognize_partial = false\nmax_transition_points = 40\n"
-      "[detection]\nsweep_coherence = every_view\n");
+      "[pipeline]\nrecognize_partial = false\n");
   const Settings dut = LoadSettings(file, {});
   EXPECT_EQ(dut.pipeline.robot, 7u);
   EXPECT_EQ(dut.pipeline.features.ToString(), FeatureSet::Parse("L1+I").ToString());
@@ -92,8 +91,6 @@ TEST_F(ConfigTest, FileSetsValues) {
   EXPECT_EQ(dut.pipeline.detector.tau_p, 2);
   EXPECT_DOUBLE_EQ(dut.pipeline.memory.tau_r, 0.75);
   EXPECT_FALSE(dut.pipeline.recognize_partial);
-  EXPECT_EQ(dut.pipeline.max_transition_points, 40);
-  EXPECT_EQ(dut.pipeline.reliability.sweep_coherence, SweepCoherence::kEveryView);
 }
 
 TEST_F(ConfigTest, OverrideWinsOverFile) {
@@ -128,8 +125,7 @@ TEST_F(ConfigTest, OutOfRangeNamesKeyAndRange) {
 TEST_F(ConfigTest, MalformedValuesNameKey) {
   for (const char* text :
        {"[detection]\ntau_n = 2.5\n", "[detection]\ntau_n = three\n", "[memory]\ntau_r = \n",
-        "[pipeline]\nrecognize_partial = maybe\n", "[bubble]\nfeatures = L9\n",
-        "[detection]\nsweep_coherence = sideways\n"}) {
+        "[pipeline]\nrecognize_partial = maybe\n", "[bubble]\nfeatures = L9\n"}) {
     const std::string msg = ErrorOf(text);
     EXPECT_FALSE(msg.empty()) << text;
     const std::string key = std::string(text).substr(1, std::string(text).find(']') - 1);
