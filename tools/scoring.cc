@@ -192,33 +192,28 @@ MergeScore ScoreMerges(const std::vector<TeamMemoryForScoring>& robots) {
       }
     }
   }
+  // Per place, as recognition recall counts it: a place with a namesake of another robot
+  // should end up with one of them in its group, i.e. be one end of a correct merge.
+  std::set<PlaceId> with_namesake, merged_with_namesake;
   MergeScore s;
   s.merges = static_cast<int>(merged.size());
-  for (const auto& [a, b] : merged) s.correct += same_label(a, b) ? 1 : 0;
+  for (const auto& [a, b] : merged) {
+    if (!same_label(a, b)) continue;
+    ++s.correct;
+    merged_with_namesake.insert({a, b});
+  }
   std::vector<PlaceId> ids;
   for (const auto& [id, l] : label) ids.push_back(id);
   for (size_t i = 0; i < ids.size(); ++i) {
     for (size_t j = i + 1; j < ids.size(); ++j) {
-      if (ids[i].robot != ids[j].robot && same_label(ids[i], ids[j])) ++s.same_label_pairs;
+      if (ids[i].robot != ids[j].robot && same_label(ids[i], ids[j])) {
+        ++s.same_label_pairs;
+        with_namesake.insert({ids[i], ids[j]});
+      }
     }
   }
-  // Per place, as recognition recall counts it: a place with a namesake of another robot
-  // should end up with one of them in its group.
-  std::map<PlaceId, std::set<PlaceId>> merged_with;
-  for (const auto& [a, b] : merged) {
-    merged_with[a].insert(b);
-    merged_with[b].insert(a);
-  }
-  for (const PlaceId& a : ids) {
-    const bool has_namesake = std::any_of(ids.begin(), ids.end(), [&](const PlaceId& b) {
-      return b.robot != a.robot && same_label(a, b);
-    });
-    if (!has_namesake) continue;
-    ++s.places_with_namesake;
-    const std::set<PlaceId>& with = merged_with[a];
-    if (std::any_of(with.begin(), with.end(), [&](const PlaceId& b) { return same_label(a, b); }))
-      ++s.places_merged_with_namesake;
-  }
+  s.places_with_namesake = static_cast<int>(with_namesake.size());
+  s.places_merged_with_namesake = static_cast<int>(merged_with_namesake.size());
   for (const TeamMemoryForScoring& r : robots) {
     for (const auto& [place, l] : r.peer_recognitions) {
       ++s.peer_recognitions;
