@@ -941,7 +941,9 @@ bool Daemon::ReopenStore() {
   next_store_retry_ =
       Clock::now() + std::chrono::seconds(committed_next_base_ ? kStoreRetrySeconds : 10);
   try {
-    Store store = Store::Open(db_path_);
+    // Ours, closed after a failure, must still be there: a missing file is a file system not
+    // mounted again yet, and a new database would end up under the mount.
+    Store store = committed_next_base_ ? Store::OpenExisting(db_path_) : Store::Open(db_path_);
     const StoredState saved = store.Load(robot_, settings_.pipeline.memory);
     if (!committed_next_base_) {
       // The store failed at start, so our memory does not hold what a database there holds.

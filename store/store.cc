@@ -1000,10 +1000,21 @@ Store& Store::operator=(Store&& other) noexcept {
 
 Store::~Store() { sqlite3_close_v2(db_); }
 
-Store Store::Open(const std::filesystem::path& path) {
+Store Store::OpenExisting(const std::filesystem::path& path) { return Open(path, false); }
+
+Store Store::Open(const std::filesystem::path& path) { return Open(path, true); }
+
+Store Store::Open(const std::filesystem::path& path, bool create) {
+  std::error_code ec;
+  if (!create && !std::filesystem::exists(path, ec)) {
+    throw StoreError(path.string() +
+                         ": not there (its file system not mounted again?); no new database is "
+                         "made in its place",
+                     true);
+  }
   sqlite3* handle = nullptr;
-  const int rc =
-      sqlite3_open_v2(path.c_str(), &handle, SQLITE_OPEN_READWRITE | SQLITE_OPEN_CREATE, nullptr);
+  const int rc = sqlite3_open_v2(
+      path.c_str(), &handle, SQLITE_OPEN_READWRITE | (create ? SQLITE_OPEN_CREATE : 0), nullptr);
   Store store(path, handle);  // owns the handle from here, even when opening failed
   const Db db{handle, store.path_};
   if (rc != SQLITE_OK) FailSqlite(db, "cannot open the database");

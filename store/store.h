@@ -54,6 +54,11 @@ class Store {
 
   /// Opens or creates the database; creates or migrates the schema. Throws StoreError.
   static Store Open(const std::filesystem::path& path);
+  /// Opens a database that must exist already, as Open() does otherwise. When the file is not
+  /// there it throws a file-system StoreError and creates nothing: a process that holds a
+  /// memory reopening its store after a failure must not start a new database where its file
+  /// system has not been mounted again yet (the new file would be hidden under the mount).
+  static Store OpenExisting(const std::filesystem::path& path);
   Store(Store&&) noexcept;
   Store& operator=(Store&&) noexcept;
   ~Store();
@@ -97,6 +102,7 @@ class Store {
   int schema_version() const;
 
  private:
+  static Store Open(const std::filesystem::path& path, bool create);
   Store(std::filesystem::path path, sqlite3* db);
   std::filesystem::path path_;
   sqlite3* db_ = nullptr;

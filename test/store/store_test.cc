@@ -380,6 +380,22 @@ TEST_F(StoreTest, NewDatabaseHasTheCurrentSchemaVersionAndAnEmptyMemory) {
   EXPECT_EQ(Sql(path_, "SELECT COUNT(*) FROM schema_version"), 1);
 }
 
+// Reopening after a failure: a database that is not there is not made anew (a file system not
+// mounted again yet); one that is there opens as with Open().
+TEST_F(StoreTest, OpenExistingRefusesAMissingDatabaseAndCreatesNothing) {
+  try {
+    Store::OpenExisting(path_);
+    FAIL() << "opened a database that does not exist";
+  } catch (const StoreError& e) {
+    EXPECT_TRUE(e.file_system());
+    EXPECT_NE(std::string(e.what()).find(path_.string()), std::string::npos) << e.what();
+  }
+  EXPECT_FALSE(fs::exists(path_));
+  { Store::Open(path_); }
+  Store dut = Store::OpenExisting(path_);
+  EXPECT_EQ(dut.schema_version(), Store::kSchemaVersion);
+}
+
 TEST_F(StoreTest, OpenRefusesANewerSchemaVersion) {
   { Store::Open(path_); }
   Sql(path_, "UPDATE schema_version SET version = 4");
