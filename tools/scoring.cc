@@ -2,8 +2,13 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cstdlib>
+#include <limits>
 #include <map>
+#include <numbers>
 #include <set>
+#include <stdexcept>
+#include <string>
 #include <tuple>
 
 namespace tsc {
@@ -49,18 +54,51 @@ bool FramesMatch(const GroundTruth& truth, const std::vector<int>& a, const std:
   return false;
 }
 
+bool ViewsOverlap(const GroundTruthPose& a, const GroundTruthPose& b) {
+  constexpr double kNearM = 2.0;                   // DESIGN §7.1b
+  constexpr double kNearRad = std::numbers::pi / 4;  // 45°
+  constexpr double kSlack = 1e-9;                  // the limits themselves count as near
+  const double turn = std::remainder(a.heading - b.heading, 2 * std::numbers::pi);
+  return std::hypot(a.x - b.x, a.y - b.y) <= kNearM + kSlack && std::abs(turn) <= kNearRad + kSlack;
+}
+
+bool FramesShareView(const GroundTruth& truth, const std::vector<int>& a,
+                     const std::vector<int>& b) {
+  const auto pose = [&truth](int f) -> const std::optional<GroundTruthPose>* {
+    if (f < 0 || f >= static_cast<int>(truth.poses.size())) return nullptr;
+    return truth.poses[static_cast<size_t>(f)] ? &truth.poses[static_cast<size_t>(f)] : nullptr;
+  };
+  for (int fa : a) {
+    const auto* pa = pose(fa);
+    if (pa == nullptr) continue;
+    for (int fb : b) {
+      const auto* pb = pose(fb);
+      if (pb != nullptr && ViewsOverlap(**pa, **pb)) return true;
+    }
+  }
+  return false;
+}
+
 RecognitionScore ScoreRecognition(const GroundTruth& truth, const std::vector<Assignment>& seq) {
   RecognitionScore s;
   std::map<PlaceId, std::vector<int>> learned;  // frames assigned to each place so far
   for (const Assignment& a : seq) {
-    const bool should = std::any_of(learned.begin(), learned.end(), [&](const auto& kv) {
-      return FramesMatch(truth, a.frames, kv.second);
-    });
+    bool should = false, view_should = false;
+    for (const auto& [place, frames] : learned) {
+      if (!FramesMatch(truth, a.frames, frames)) continue;
+      should = true;
+      // Only a matching place that shares a view makes it count for the view recall.
+      view_should = truth.has_poses() && FramesShareView(truth, a.frames, frames);
+      if (view_should || !truth.has_poses()) break;
+    }
     s.should_be_recognized += should;
+    s.view_should_be_recognized += view_should;
     if (a.recognized) {
       ++s.recognitions;
       auto it = learned.find(a.place);
-      if (it != learned.end() && FramesMatch(truth, a.frames, it->second)) ++s.correct;
+      const bool correct = it != learned.end() && FramesMatch(truth, a.frames, it->second);
+      s.correct += correct;
+      s.view_correct += correct && view_should;
     }
     auto& frames = learned[a.place];
     frames.insert(frames.end(), a.frames.begin(), a.frames.end());
@@ -68,6 +106,9 @@ RecognitionScore ScoreRecognition(const GroundTruth& truth, const std::vector<As
   if (s.recognitions > 0) s.precision = static_cast<double>(s.correct) / s.recognitions;
   if (s.should_be_recognized > 0) {
     s.recall = static_cast<double>(s.correct) / s.should_be_recognized;
+  }
+  if (s.view_should_be_recognized > 0) {
+    s.view_recall = static_cast<double>(s.view_correct) / s.view_should_be_recognized;
   }
   return s;
 }
@@ -171,6 +212,117 @@ double RecallAtFullPrecision(const std::vector<PrPoint>& curve) {
     if (p.precision >= 1.0) best = std::max(best, p.recall);
   }
   return best;
+}
+
+FrameSpan VisitOf(const std::vector<std::string>& labels, int k) {
+  FrameSpan visit{k, k};
+  const auto& label = labels.at(static_cast<size_t>(k));
+  while (visit.first > 0 && labels[static_cast<size_t>(visit.first - 1)] == label) --visit.first;
+  while (visit.last + 1 < static_cast<int>(labels.size()) &&
+         labels[static_cast<size_t>(visit.last + 1)] == label) {
+    ++visit.last;
+  }
+  return visit;
+}
+
+namespace {
+// The label of frame k when it has one ("" otherwise, also beyond the labels).
+const std::string& LabelOf(const GroundTruth& truth, int k) {
+  static const std::string kNone;
+  if (k < 0 || k >= static_cast<int>(truth.labels.size())) return kNone;
+  return truth.labels[static_cast<size_t>(k)];
+}
+}  // namespace
+
+bool HasEarlierRevisit(const GroundTruth& truth, int k) {
+  if (truth.has_revisits()) {
+    return k >= 0 && k < static_cast<int>(truth.revisits.size()) &&
+           !truth.revisits[static_cast<size_t>(k)].empty();
+  }
+  const std::string& label = LabelOf(truth, k);
+  if (label.empty()) return false;
+  // Every earlier frame outside k's own visit comes before the visit's first frame.
+  const int first = VisitOf(truth.labels, k).first;
+  for (int j = 0; j < first; ++j) {
+    if (truth.labels[static_cast<size_t>(j)] == label) return true;
+  }
+  return false;
+}
+
+bool LoopClosureCorrect(const GroundTruth& truth, int k, int named) {
+  if (named < 0 || named >= k) return false;  // a loop closure names an earlier frame
+  if (truth.has_revisits()) {
+    if (k >= static_cast<int>(truth.revisits.size())) return false;
+    constexpr int kToleranceFrames = 2;  // DESIGN §7.1b
+    const auto& earlier = truth.revisits[static_cast<size_t>(k)];
+    return std::any_of(earlier.begin(), earlier.end(),
+                       [named](int r) { return std::abs(r - named) <= kToleranceFrames; });
+  }
+  const std::string& label = LabelOf(truth, k);
+  return !label.empty() && LabelOf(truth, named) == label &&
+         named < VisitOf(truth.labels, k).first;
+}
+
+LoopClosureScore ScoreLoopClosures(const GroundTruth& truth, const std::vector<LoopClosure>& found,
+                                   int frames) {
+  LoopClosureScore s;
+  for (int k = 0; k < frames; ++k) s.frames_with_revisit += HasEarlierRevisit(truth, k);
+  s.detections = static_cast<int>(found.size());
+  for (const LoopClosure& c : found) s.correct += LoopClosureCorrect(truth, c.frame, c.named);
+  if (s.detections > 0) s.precision = static_cast<double>(s.correct) / s.detections;
+  if (s.frames_with_revisit > 0) {
+    s.recall = static_cast<double>(s.correct) / s.frames_with_revisit;
+  }
+  return s;
+}
+
+namespace {
+void RequireOneDescriptorPerFrame(const std::vector<int>& frames,
+                                  const Eigen::MatrixXf& descriptors) {
+  if (descriptors.cols() != static_cast<Eigen::Index>(frames.size())) {
+    throw std::invalid_argument("loop closures: " + std::to_string(frames.size()) +
+                                " frames but " + std::to_string(descriptors.cols()) +
+                                " descriptors");
+  }
+}
+}  // namespace
+
+void PlaceMembersMirror::Append(Members& m, const std::vector<int>& frames,
+                                const Eigen::MatrixXf& descriptors) {
+  RequireOneDescriptorPerFrame(frames, descriptors);
+  for (size_t j = 0; j < frames.size(); ++j) {
+    m.frames.push_back(frames[j]);
+    m.descriptors.emplace_back(descriptors.col(static_cast<Eigen::Index>(j)));
+  }
+}
+
+void PlaceMembersMirror::Learn(const PlaceId& place, const std::vector<int>& frames,
+                               const Eigen::MatrixXf& descriptors) {
+  Append(places_[place], frames, descriptors);
+}
+
+std::vector<LoopClosure> PlaceMembersMirror::Recognise(const PlaceId& place,
+                                                       const std::vector<int>& frames,
+                                                       const Eigen::MatrixXf& descriptors) {
+  RequireOneDescriptorPerFrame(frames, descriptors);
+  std::vector<LoopClosure> out;
+  const auto it = places_.find(place);
+  for (size_t j = 0; j < frames.size(); ++j) {
+    LoopClosure c{frames[j], -1};
+    float best = std::numeric_limits<float>::infinity();
+    if (it != places_.end()) {
+      const Members& m = it->second;
+      const auto x = descriptors.col(static_cast<Eigen::Index>(j));
+      for (size_t i = 0; i < m.frames.size(); ++i) {
+        const float d = (m.descriptors[i] - x).squaredNorm();
+        if (d < best) best = d, c.named = m.frames[i];  // ties: the first member
+      }
+    }
+    out.push_back(c);
+  }
+  // Joins only after naming: P as it was when recognised.
+  Append(places_[place], frames, descriptors);
+  return out;
 }
 
 MergeScore ScoreMerges(const std::vector<TeamMemoryForScoring>& robots) {

@@ -1,6 +1,7 @@
 #pragma once
 // Scoring rules of DESIGN §7.1b, so every number means the same everywhere.
 
+#include <Eigen/Core>
 #include <map>
 #include <optional>
 #include <string>
@@ -9,6 +10,7 @@
 
 #include "core/map/topological_map.h"
 #include "core/memory/place_id.h"
+#include "drivers/dataset/dataset.h"
 
 namespace tsc {
 
@@ -16,8 +18,11 @@ namespace tsc {
 struct GroundTruth {
   std::vector<std::string> labels;         ///< place label per frame, "" inside transitions
   std::vector<std::vector<int>> revisits;  ///< earlier frames each frame shows again
+  /// Camera pose per frame (metres, heading in radians), nullopt where the dataset has none.
+  std::vector<std::optional<GroundTruthPose>> poses;
   bool has_labels() const { return !labels.empty(); }
   bool has_revisits() const { return !revisits.empty(); }
+  bool has_poses() const { return !poses.empty(); }
 };
 
 /// A detected place and the learned place it was assigned to, in detection order.
@@ -33,17 +38,33 @@ std::string MajorityLabel(const GroundTruth& truth, const std::vector<int>& fram
 /// set's frames revisit frames of the other.
 bool FramesMatch(const GroundTruth& truth, const std::vector<int>& a, const std::vector<int>& b);
 
+/// Two camera poses see the same view (DESIGN §7.1b, view-overlap recall): at most 2 m apart
+/// and at most 45° apart in heading, the heading difference taken around the circle.
+bool ViewsOverlap(const GroundTruthPose& a, const GroundTruthPose& b);
+/// Some frame of `a` and some frame of `b` have poses that overlap (ViewsOverlap). False
+/// when the ground truth has no poses for them.
+bool FramesShareView(const GroundTruth& truth, const std::vector<int>& a,
+                     const std::vector<int>& b);
+
 struct RecognitionScore {
   int recognitions = 0;
   int correct = 0;
   int should_be_recognized = 0;
   double precision = 1.0;  ///< correct / recognitions (1 when nothing was recognised)
   double recall = 0.0;     ///< correct / should-be-recognised (0 when nothing should be)
+  /// View-overlap recall (with poses): the should-be-recognised places that share a view
+  /// with a learned place they match, and the correct recognitions among them.
+  int view_should_be_recognized = 0;
+  int view_correct = 0;
+  double view_recall = 0.0;  ///< view_correct / view_should_be_recognized (0 when none)
 };
 /// A detected place should be recognised when it matches some place learned before it; a
 /// recognition is correct when the learned place it went to (the frames assigned to that
-/// place before it) matches it.
+/// place before it) matches it. With poses, a should-be-recognised place also counts for
+/// the view-overlap recall when some place it matches shares a view with it
+/// (FramesShareView over the frames assigned to that place before it).
 RecognitionScore ScoreRecognition(const GroundTruth& truth, const std::vector<Assignment>& seq);
+
 
 /// An inclusive range of 0-based frames.
 struct FrameSpan {
@@ -108,6 +129,64 @@ struct PrPoint {
 };
 /// The largest recall over the sweep whose precision is 1.0 (0 when none is).
 double RecallAtFullPrecision(const std::vector<PrPoint>& curve);
+
+/// One frame-level loop closure (DESIGN §7.1b): frame `frame` of a recognised detected place
+/// names one earlier frame, `named` (-1 when the recognised place had no member the
+/// evaluation knows of; such a detection is wrong).
+struct LoopClosure {
+  int frame = 0;
+  int named = -1;
+  bool operator==(const LoopClosure&) const = default;
+};
+
+/// The maximal run of consecutive frames with frame k's label that contains k (k's own
+/// visit). Precondition: k is a frame of `labels`.
+FrameSpan VisitOf(const std::vector<std::string>& labels, int k);
+/// Whether frame k has an earlier revisit in the ground truth: with revisits.csv, a non-empty
+/// list of earlier frames; with labels only, an earlier frame of k's (non-empty) label
+/// outside k's own visit (VisitOf).
+bool HasEarlierRevisit(const GroundTruth& truth, int k);
+/// Whether naming frame `named` for frame k is a correct loop closure: with revisits.csv,
+/// `named` is within ±2 frames of one of k's revisited frames; with labels only, `named` is
+/// an earlier frame of k's (non-empty) label outside k's own visit.
+bool LoopClosureCorrect(const GroundTruth& truth, int k, int named);
+
+struct LoopClosureScore {
+  int detections = 0;
+  int correct = 0;
+  int frames_with_revisit = 0;  ///< frames of the dataset with an earlier revisit
+  double precision = 1.0;       ///< correct / detections (1 when nothing was detected)
+  double recall = 0.0;          ///< correct / frames_with_revisit (0 when none has one)
+};
+/// Frame-level loop-closure precision and recall over `frames` frames (DESIGN §7.1b): every
+/// detection is one frame naming one earlier frame (LoopClosureCorrect); recall counts every
+/// frame of the dataset that has an earlier revisit (HasEarlierRevisit), detected or not.
+LoopClosureScore ScoreLoopClosures(const GroundTruth& truth, const std::vector<LoopClosure>& found,
+                                   int frames);
+
+/// The member base points of each learned place as the evaluation sees them grow from the
+/// pipeline's events (a learned detected place founds a place, a recognised one joins it), so
+/// frame-level loop closures are named without reading the place memory's internals, which
+/// keep only samples of the members.
+class PlaceMembersMirror {
+ public:
+  /// Place `place` learned from the frames `frames` (descriptor j is column j).
+  void Learn(const PlaceId& place, const std::vector<int>& frames,
+             const Eigen::MatrixXf& descriptors);
+  /// A detected place recognised as `place`: each of its frames names the member frame of
+  /// `place` nearest to its descriptor (L2), over the members as they were before this
+  /// recognition; then its frames join the place. A place never learned names -1.
+  std::vector<LoopClosure> Recognise(const PlaceId& place, const std::vector<int>& frames,
+                                     const Eigen::MatrixXf& descriptors);
+
+ private:
+  struct Members {
+    std::vector<int> frames;
+    std::vector<Eigen::VectorXf> descriptors;
+  };
+  void Append(Members& m, const std::vector<int>& frames, const Eigen::MatrixXf& descriptors);
+  std::map<PlaceId, Members> places_;
+};
 
 /// Merge scoring for a team (DESIGN §7.1b). Each robot's own places carry the majority label
 /// of their frames; each robot's final memory groups place ids (a place and the peer places it

@@ -2,6 +2,11 @@
 
 #include <gtest/gtest.h>
 
+#include <initializer_list>
+#include <stdexcept>
+#include <utility>
+#include <vector>
+
 namespace tsc {
 namespace {
 
@@ -187,6 +192,152 @@ TEST(ScoreMerges, UnlabelledPlacesNeverCountAsSameAndNothingMergedIsPrecise) {
   EXPECT_EQ(dut.same_label_pairs, 0);
   EXPECT_DOUBLE_EQ(dut.precision, 1.0);
   EXPECT_DOUBLE_EQ(dut.recall, 0.0);
+}
+
+// Frame-level loop closure with revisits.csv (DESIGN §7.1b): a named frame within ±2 frames
+// of a ground-truth earlier frame is correct, 3 frames off is not.
+TEST(LoopClosures, RevisitsCountWithinTwoFrames) {
+  GroundTruth truth;
+  truth.revisits.resize(20);
+  truth.revisits[12] = {2, 3};
+  truth.revisits[13] = {4};
+  truth.revisits[15] = {6};
+  EXPECT_TRUE(LoopClosureCorrect(truth, 12, 5));    // 3 + 2
+  EXPECT_TRUE(LoopClosureCorrect(truth, 12, 0));    // 2 - 2
+  EXPECT_FALSE(LoopClosureCorrect(truth, 13, 7));   // 4 + 3
+  EXPECT_FALSE(LoopClosureCorrect(truth, 14, 4));   // 14 revisits nothing
+  EXPECT_FALSE(LoopClosureCorrect(truth, 12, -1));  // named no frame
+  EXPECT_FALSE(LoopClosureCorrect(truth, 13, 13));  // not an earlier frame
+  EXPECT_TRUE(HasEarlierRevisit(truth, 15));
+  EXPECT_FALSE(HasEarlierRevisit(truth, 14));
+
+  // 3 frames of 20 have a revisit; 4 detections of which 2 are correct (12->5, 15->6).
+  const LoopClosureScore dut =
+      ScoreLoopClosures(truth, {{12, 5}, {13, 7}, {14, 4}, {15, 6}}, 20);
+  EXPECT_EQ(dut.frames_with_revisit, 3);
+  EXPECT_EQ(dut.detections, 4);
+  EXPECT_EQ(dut.correct, 2);
+  EXPECT_DOUBLE_EQ(dut.precision, 0.5);
+  EXPECT_DOUBLE_EQ(dut.recall, 2.0 / 3.0);
+
+  const LoopClosureScore none = ScoreLoopClosures(truth, {}, 20);
+  EXPECT_DOUBLE_EQ(none.precision, 1.0);
+  EXPECT_DOUBLE_EQ(none.recall, 0.0);
+}
+
+// With labels only: a correct named frame has k's label and lies before k's own visit (the
+// run of consecutive frames with k's label around k).
+TEST(LoopClosures, LabelsOnlyNeedAFrameOutsideTheOwnVisit) {
+  GroundTruth truth;
+  //              0    1    2    3    4    5    6    7   8    9
+  truth.labels = {"a", "a", "a", "b", "b", "a", "a", "", "a", "b"};
+  EXPECT_EQ(VisitOf(truth.labels, 6), (FrameSpan{5, 6}));
+  EXPECT_EQ(VisitOf(truth.labels, 0), (FrameSpan{0, 2}));
+  EXPECT_EQ(VisitOf(truth.labels, 8), (FrameSpan{8, 8}));  // "" ends a visit
+  EXPECT_FALSE(HasEarlierRevisit(truth, 2));               // first visit of a
+  EXPECT_TRUE(HasEarlierRevisit(truth, 5));
+  EXPECT_FALSE(HasEarlierRevisit(truth, 7));  // unlabelled
+  EXPECT_TRUE(HasEarlierRevisit(truth, 9));
+
+  EXPECT_TRUE(LoopClosureCorrect(truth, 6, 1));   // a, first visit
+  EXPECT_FALSE(LoopClosureCorrect(truth, 6, 5));  // a, but its own visit
+  EXPECT_FALSE(LoopClosureCorrect(truth, 6, 4));  // b
+  EXPECT_TRUE(LoopClosureCorrect(truth, 8, 6));   // a, the visit before the doorway
+  EXPECT_FALSE(LoopClosureCorrect(truth, 7, 3));  // unlabelled frames revisit nothing
+  EXPECT_TRUE(LoopClosureCorrect(truth, 9, 3));
+
+  // Revisits: 5, 6, 8 (a) and 9 (b) = 4 frames; detections 6->1 ok, 5->6 wrong (not earlier),
+  // 9->0 wrong (a).
+  const LoopClosureScore dut = ScoreLoopClosures(truth, {{6, 1}, {5, 6}, {9, 0}}, 10);
+  EXPECT_EQ(dut.frames_with_revisit, 4);
+  EXPECT_EQ(dut.correct, 1);
+  EXPECT_DOUBLE_EQ(dut.precision, 1.0 / 3.0);
+  EXPECT_DOUBLE_EQ(dut.recall, 0.25);
+}
+
+// revisits.csv wins over labels when a dataset has both.
+TEST(LoopClosures, RevisitsTakePrecedenceOverLabels) {
+  GroundTruth truth;
+  truth.labels = {"a", "b", "a"};
+  truth.revisits = {{}, {}, {}};
+  EXPECT_FALSE(HasEarlierRevisit(truth, 2));
+  EXPECT_FALSE(LoopClosureCorrect(truth, 2, 0));
+}
+
+Eigen::MatrixXf Columns(std::initializer_list<std::pair<float, float>> points) {
+  Eigen::MatrixXf m(2, static_cast<Eigen::Index>(points.size()));
+  Eigen::Index j = 0;
+  for (const auto& [x, y] : points) m.col(j++) << x, y;
+  return m;
+}
+
+// Each frame of a recognised place names the nearest member frame of the place as it was
+// when recognised; the recognised frames join it afterwards.
+TEST(PlaceMembersMirror, NamesTheNearestMemberAsThePlaceWasWhenRecognised) {
+  const PlaceId p{1, 1}, q{1, 2};
+  PlaceMembersMirror dut;
+  dut.Learn(p, {0, 1, 2}, Columns({{0, 0}, {1, 0}, {2, 0}}));
+  dut.Learn(q, {3}, Columns({{10, 10}}));
+  // 10 is nearest 2, 11 nearest 0; 12 is nearest q's frame, but only p's members compete.
+  EXPECT_EQ(dut.Recognise(p, {10, 11, 12}, Columns({{2.2f, 0.1f}, {-0.4f, 0}, {9, 9}})),
+            (std::vector<LoopClosure>{{10, 2}, {11, 0}, {12, 2}}));
+  // Now 10, 11, 12 are members of p; 20 equals 10's view. 21 equals 20's view, but 20 was not
+  // yet a member when p was recognised.
+  EXPECT_EQ(dut.Recognise(p, {20, 21}, Columns({{2.2f, 0.1f}, {2.2f, 0.1f}})),
+            (std::vector<LoopClosure>{{20, 10}, {21, 10}}));
+  // A place the mirror never saw learned names no frame.
+  EXPECT_EQ(dut.Recognise({1, 9}, {30}, Columns({{0, 0}})), (std::vector<LoopClosure>{{30, -1}}));
+  EXPECT_THROW(dut.Recognise(p, {40, 41}, Columns({{0, 0}})), std::invalid_argument);
+}
+
+TEST(ViewOverlap, TwoMetresAndFortyFiveDegreesAroundTheCircle) {
+  constexpr double kPi = 3.14159265358979323846;
+  const GroundTruthPose origin{0, 0, 0};
+  EXPECT_TRUE(ViewsOverlap(origin, {2.0, 0, 0}));
+  EXPECT_TRUE(ViewsOverlap(origin, {1.2, 1.6, 0}));  // 2 m diagonally
+  EXPECT_FALSE(ViewsOverlap(origin, {2.05, 0, 0}));
+  EXPECT_TRUE(ViewsOverlap(origin, {0, 0, kPi / 4}));
+  EXPECT_FALSE(ViewsOverlap(origin, {0, 0, kPi / 4 + 0.02}));
+  EXPECT_FALSE(ViewsOverlap(origin, {0, 0, kPi}));            // entered from the other side
+  EXPECT_TRUE(ViewsOverlap({0, 0, 2 * kPi - 0.3}, {0, 0, 0.3}));  // 34° across 0
+  EXPECT_TRUE(ViewsOverlap({0, 0, -3.0}, {0, 0, 3.0}));         // 16° across ±π
+  EXPECT_TRUE(ViewsOverlap({0, 0, 7 * kPi}, {0, 0, -kPi}));     // same heading, other turns
+  EXPECT_FALSE(ViewsOverlap({0, 0, 3 * kPi / 2}, {0, 0, 0}));   // 90°
+}
+
+// Room a is revisited from the other side (no shared view), room b along the same path.
+TEST(ViewOverlap, RecallCountsOnlyPlacesThatShareAViewWithTheirMatch) {
+  constexpr double kPi = 3.14159265358979323846;
+  GroundTruth truth;
+  truth.labels = {"a", "a", "b", "b", "a", "a", "b", "b"};
+  truth.poses = {GroundTruthPose{0, 0, 0},  GroundTruthPose{1, 0, 0},
+                 GroundTruthPose{5, 0, 0},  GroundTruthPose{6, 0, 0},
+                 GroundTruthPose{1, 0, kPi}, GroundTruthPose{0, 0, kPi},
+                 GroundTruthPose{5.5, 1, 0.5}, std::nullopt};
+  EXPECT_FALSE(FramesShareView(truth, {4, 5}, {0, 1}));
+  EXPECT_TRUE(FramesShareView(truth, {6, 7}, {2, 3}));
+  EXPECT_FALSE(FramesShareView(truth, {7}, {2, 3}));  // no pose
+  const PlaceId p1{1, 1}, p2{1, 2}, p3{1, 3};
+  // a recognised (correct, but no shared view); b missed although it shares a view.
+  const RecognitionScore missed = ScoreRecognition(
+      truth, {{{0, 1}, p1, false}, {{2, 3}, p2, false}, {{4, 5}, p1, true}, {{6, 7}, p3, false}});
+  EXPECT_EQ(missed.should_be_recognized, 2);
+  EXPECT_EQ(missed.correct, 1);
+  EXPECT_DOUBLE_EQ(missed.recall, 0.5);
+  EXPECT_EQ(missed.view_should_be_recognized, 1);
+  EXPECT_EQ(missed.view_correct, 0);
+  EXPECT_DOUBLE_EQ(missed.view_recall, 0.0);
+  // Both recognised: the view recall counts b alone.
+  const RecognitionScore both = ScoreRecognition(
+      truth, {{{0, 1}, p1, false}, {{2, 3}, p2, false}, {{4, 5}, p1, true}, {{6, 7}, p2, true}});
+  EXPECT_EQ(both.view_should_be_recognized, 1);
+  EXPECT_EQ(both.view_correct, 1);
+  EXPECT_DOUBLE_EQ(both.view_recall, 1.0);
+  // Without poses nothing counts for the view recall.
+  truth.poses.clear();
+  EXPECT_EQ(ScoreRecognition(truth, {{{0, 1}, p1, false}, {{4, 5}, p1, true}})
+                .view_should_be_recognized,
+            0);
 }
 
 }  // namespace
