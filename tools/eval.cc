@@ -17,6 +17,56 @@ using Clock = std::chrono::steady_clock;
 
 double Ms(Clock::duration d) { return std::chrono::duration<double, std::milli>(d).count(); }
 
+// What one pass of the pipeline did, read from its FrameResults alone (events and closed
+// places), so scoring does not depend on the place memory's internals.
+class RunRecorder {
+ public:
+  RunRecorder(EvalRun& run, std::vector<BaseStatus>* status) : run_(run), status_(status) {}
+
+  void Consume(const FrameResult& r) {
+    if (r.has_base && status_ != nullptr) status_->push_back(r.base.status);
+    for (const DetectedPlace& d : r.closed_places) closed_.emplace(d.index, d);
+    for (const TransitionRegion& t : r.transitions) run_.transitions.push_back(t);
+    for (const PlaceEvent& e : r.events) {
+      // A partial recognition is superseded by the decision taken when the place closes.
+      const bool recognized = e.kind == EventKind::kRecognized && !e.partial;
+      if (recognized || e.kind == EventKind::kLearned) Decided(e, recognized);
+    }
+  }
+  std::vector<Assignment> assignments;
+  std::vector<LoopClosure> loop_closures;
+
+ private:
+  // The final decision on a detected place: it founds a learned place or joins one; a
+  // recognition makes each of its frames a loop closure naming the nearest member frame.
+  void Decided(const PlaceEvent& e, bool recognized) {
+    const auto it = closed_.find(e.detected_place);
+    if (it == closed_.end()) {
+      throw std::logic_error("eval: decision on detected place " +
+                             std::to_string(e.detected_place) + " before it closed");
+    }
+    const DetectedPlace& d = it->second;
+    std::vector<int> frames;
+    for (BaseIndex k : d.members) frames.push_back(static_cast<int>(k));  // base k = frame k
+    assignments.push_back({frames, *e.place, recognized});
+    run_.detected.push_back({e.detected_place, frames, *e.place, recognized});
+    auto& of = run_.frames_of[*e.place];
+    of.insert(of.end(), frames.begin(), frames.end());
+    if (recognized) {
+      const auto named = mirror_.Recognise(*e.place, frames, d.descriptors);
+      loop_closures.insert(loop_closures.end(), named.begin(), named.end());
+    } else {
+      mirror_.Learn(*e.place, frames, d.descriptors);
+    }
+    closed_.erase(it);  // decided once; the descriptors now live in the mirror
+  }
+
+  EvalRun& run_;
+  std::vector<BaseStatus>* status_;
+  std::map<DetectedPlaceIndex, DetectedPlace> closed_;  // closed, not yet decided
+  PlaceMembersMirror mirror_;
+};
+
 // One pass of a fresh pipeline over the stored descriptors. `step_ms` (optional) receives the
 // time of each ProcessDescriptor call; `status` (optional) the status of each base point.
 EvalRun Replay(const Dataset& dataset, const PipelineOptions& options,
@@ -26,26 +76,7 @@ EvalRun Replay(const Dataset& dataset, const PipelineOptions& options,
                     TopologicalMap{});
   EvalRun run;
   run.tau_r = options.memory.tau_r;
-  std::map<DetectedPlaceIndex, std::vector<int>> frames_of_detected;
-  std::vector<Assignment> assignments;
-  const auto consume = [&](const FrameResult& r) {
-    if (r.has_base && status != nullptr) status->push_back(r.base.status);
-    for (const DetectedPlace& d : r.closed_places) {
-      auto& frames = frames_of_detected[d.index];
-      for (BaseIndex k : d.members) frames.push_back(static_cast<int>(k));
-    }
-    for (const TransitionRegion& t : r.transitions) run.transitions.push_back(t);
-    for (const PlaceEvent& e : r.events) {
-      const bool recognized = e.kind == EventKind::kRecognized && !e.partial;
-      if (recognized || e.kind == EventKind::kLearned) {
-        const std::vector<int>& frames = frames_of_detected.at(e.detected_place);
-        assignments.push_back({frames, *e.place, recognized});
-        run.detected.push_back({e.detected_place, frames, *e.place, recognized});
-        auto& of = run.frames_of[*e.place];
-        of.insert(of.end(), frames.begin(), frames.end());
-      }
-    }
-  };
+  RunRecorder recorder(run, status);
   for (size_t i = 0; i < inputs.size(); ++i) {
     const Clock::time_point t0 = Clock::now();
     FrameResult r;
@@ -57,10 +88,12 @@ EvalRun Replay(const Dataset& dataset, const PipelineOptions& options,
                                dataset.image_path(static_cast<int>(i)).string() + "): " + e.what());
     }
     if (step_ms != nullptr) step_ms->push_back(Ms(Clock::now() - t0));
-    consume(r);
+    recorder.Consume(r);
   }
-  consume(pipeline.Finish());
-  run.recognition = ScoreRecognition(truth, assignments);
+  recorder.Consume(pipeline.Finish());
+  run.recognition = ScoreRecognition(truth, recorder.assignments);
+  run.loop_closures = recorder.loop_closures;
+  run.loop_closure = ScoreLoopClosures(truth, run.loop_closures, static_cast<int>(inputs.size()));
   run.learned_places = static_cast<int>(pipeline.memory().places().size());
   run.map = pipeline.map();
   if (keep_memory) run.memory = pipeline.memory();
@@ -103,6 +136,17 @@ double MedianOf(std::vector<double> v) {
   return v.size() % 2 == 1 ? v[mid] : (v[mid - 1] + v[mid]) / 2;
 }
 
+namespace {
+// One τ_r of the sweep on each PR curve: place level (labels), view overlap, frame level.
+void AddSweepPoint(EvalResult& result, const EvalRun& run) {
+  const RecognitionScore& s = run.recognition;
+  result.pr_curve.push_back({run.tau_r, s.precision, s.recall});
+  result.view_pr_curve.push_back({run.tau_r, s.precision, s.view_recall});
+  result.loop_closure_pr_curve.push_back(
+      {run.tau_r, run.loop_closure.precision, run.loop_closure.recall});
+}
+}  // namespace
+
 EvalResult Evaluate(const Dataset& dataset, const PipelineOptions& options,
                     const EvalOptions& eval) {
   options.Validate();
@@ -114,6 +158,7 @@ EvalResult Evaluate(const Dataset& dataset, const PipelineOptions& options,
   result.eval = eval;
   result.truth.labels = dataset.labels();
   result.truth.revisits = dataset.revisits();
+  result.truth.poses = dataset.poses();
 
   // Descriptors once per frame.
   BubbleSurface surface(options.features, dataset.camera(), options.surface);
@@ -144,14 +189,12 @@ EvalResult Evaluate(const Dataset& dataset, const PipelineOptions& options,
   for (double tau_r : eval.SweepValues()) {
     PipelineOptions o = options;
     o.memory.tau_r = tau_r;
-    const EvalRun run = Replay(dataset, o, inputs, result.truth, false, nullptr, nullptr);
-    result.pr_curve.push_back({tau_r, run.recognition.precision, run.recognition.recall});
+    AddSweepPoint(result, Replay(dataset, o, inputs, result.truth, false, nullptr, nullptr));
   }
-  if (result.pr_curve.empty()) {
-    result.pr_curve.push_back(
-        {options.memory.tau_r, result.main.recognition.precision, result.main.recognition.recall});
-  }
+  if (result.pr_curve.empty()) AddSweepPoint(result, result.main);
   result.recall_at_full_precision = RecallAtFullPrecision(result.pr_curve);
+  result.view_recall_at_full_precision = RecallAtFullPrecision(result.view_pr_curve);
+  result.loop_closure_recall_at_full_precision = RecallAtFullPrecision(result.loop_closure_pr_curve);
 
   if (result.truth.has_labels()) {
     std::vector<std::vector<int>> places;
@@ -211,59 +254,50 @@ class JsonWriter {
   bool after_key_ = false;
 };
 
-}  // namespace
-
-void WriteEvalJson(std::ostream& out, const EvalResult& r) {
-  JsonWriter w(out);
-  w.Begin('{');
-  w.Key("dataset").String(r.dataset);
-  w.Key("frames").Int(r.frames);
-  w.Key("base_points").Begin('{');
-  w.Key("good").Int(r.good).Key("uninformative").Int(r.uninformative);
-  w.Key("incoherent").Int(r.incoherent);
-  w.End('}');
-  w.Key("detected_places").Int(static_cast<long long>(r.main.detected.size()));
-  w.Key("learned_places").Int(r.main.learned_places);
-  w.Key("ground_truth").Begin('{');
-  w.Key("labels").Bool(r.truth.has_labels()).Key("revisits").Bool(r.truth.has_revisits());
-  w.End('}');
-  if (r.boundaries) {
-    const BoundaryScore& b = *r.boundaries;
-    w.Key("detection").Begin('{');
-    w.Key("boundary_f1").Number(b.f1).Key("precision").Number(b.precision);
-    w.Key("recall").Number(b.recall).Key("true_boundaries").Int(b.true_boundaries);
-    w.Key("detected_boundaries").Int(b.detected_boundaries).Key("matched").Int(b.matched);
-    w.Key("tolerance_frames").Int(b.tolerance);
-    w.End('}');
+// [[τ_r, precision, recall], ...]
+void WriteCurve(JsonWriter& w, const std::vector<PrPoint>& curve) {
+  w.Begin('[');
+  for (const PrPoint& p : curve) {
+    w.Begin('[').Number(p.tau_r).Number(p.precision).Number(p.recall).End(']');
   }
+  w.End(']');
+}
+
+// "recognition": place level, and with poses the view-overlap recall (DESIGN §7.1b).
+void WriteRecognition(JsonWriter& w, const EvalResult& r) {
   const RecognitionScore& s = r.main.recognition;
   w.Key("recognition").Begin('{');
   w.Key("tau_r").Number(r.main.tau_r).Key("recognitions").Int(s.recognitions);
   w.Key("correct").Int(s.correct).Key("should_be_recognized").Int(s.should_be_recognized);
   w.Key("precision").Number(s.precision).Key("recall").Number(s.recall);
   w.Key("recall_at_full_precision").Number(r.recall_at_full_precision);
-  w.Key("pr_curve").Begin('[');
-  for (const PrPoint& p : r.pr_curve) {
-    w.Begin('[').Number(p.tau_r).Number(p.precision).Number(p.recall).End(']');
+  WriteCurve(w.Key("pr_curve"), r.pr_curve);
+  if (r.truth.has_poses()) {
+    w.Key("view_should_be_recognized").Int(s.view_should_be_recognized);
+    w.Key("view_correct").Int(s.view_correct).Key("view_recall").Number(s.view_recall);
+    w.Key("view_recall_at_full_precision").Number(r.view_recall_at_full_precision);
+    WriteCurve(w.Key("view_pr_curve"), r.view_pr_curve);
   }
-  w.End(']');
   w.End('}');
-  w.Key("map").Begin('{');
-  w.Key("places").Int(static_cast<long long>(r.main.map.places().size()));
-  w.Key("edges").Int(static_cast<long long>(r.main.map.edges().size()));
-  if (r.edges)
-    w.Key("edge_precision").Number(r.edges->precision).Key("correct_edges").Int(r.edges->correct);
+}
+
+// "loop_closure": frame level (DESIGN §7.1b); only ground truth can tell a revisit.
+void WriteLoopClosure(JsonWriter& w, const EvalResult& r) {
+  if (!r.truth.has_labels() && !r.truth.has_revisits()) return;
+  const LoopClosureScore& c = r.main.loop_closure;
+  w.Key("loop_closure").Begin('{');
+  w.Key("detections").Int(c.detections).Key("correct").Int(c.correct);
+  w.Key("frames_with_revisit").Int(c.frames_with_revisit);
+  w.Key("precision").Number(c.precision).Key("recall").Number(c.recall);
+  w.Key("recall_at_full_precision").Number(r.loop_closure_recall_at_full_precision);
+  WriteCurve(w.Key("pr_curve"), r.loop_closure_pr_curve);
   w.End('}');
-  w.Key("timing").Begin('{');
-  w.Key("descriptor_ms_median").Number(r.descriptor_ms_median);
-  w.Key("frame_ms_median").Number(r.frame_ms_median);
-  w.End('}');
-  w.Key("sweep").Begin('{');
-  w.Key("from").Number(r.eval.sweep_from).Key("to").Number(r.eval.sweep_to);
-  w.Key("step").Number(r.eval.sweep_step);
-  w.End('}');
+}
+
+// "config": every pipeline key with its value, numbers as numbers.
+void WriteConfig(JsonWriter& w, const PipelineOptions& options) {
   w.Key("config").Begin('{');
-  const Settings settings{r.options, DaemonOptions{}};
+  const Settings settings{options, DaemonOptions{}};
   for (const ConfigKey& k : ConfigTable()) {
     if (k.scope != ConfigKey::Scope::kPipeline) continue;
     const std::string v = k.get(settings);
@@ -283,6 +317,51 @@ void WriteEvalJson(std::ostream& out, const EvalResult& r) {
     }
   }
   w.End('}');
+}
+
+}  // namespace
+
+void WriteEvalJson(std::ostream& out, const EvalResult& r) {
+  JsonWriter w(out);
+  w.Begin('{');
+  w.Key("dataset").String(r.dataset);
+  w.Key("frames").Int(r.frames);
+  w.Key("base_points").Begin('{');
+  w.Key("good").Int(r.good).Key("uninformative").Int(r.uninformative);
+  w.Key("incoherent").Int(r.incoherent);
+  w.End('}');
+  w.Key("detected_places").Int(static_cast<long long>(r.main.detected.size()));
+  w.Key("learned_places").Int(r.main.learned_places);
+  w.Key("ground_truth").Begin('{');
+  w.Key("labels").Bool(r.truth.has_labels()).Key("revisits").Bool(r.truth.has_revisits());
+  w.Key("poses").Bool(r.truth.has_poses());
+  w.End('}');
+  if (r.boundaries) {
+    const BoundaryScore& b = *r.boundaries;
+    w.Key("detection").Begin('{');
+    w.Key("boundary_f1").Number(b.f1).Key("precision").Number(b.precision);
+    w.Key("recall").Number(b.recall).Key("true_boundaries").Int(b.true_boundaries);
+    w.Key("detected_boundaries").Int(b.detected_boundaries).Key("matched").Int(b.matched);
+    w.Key("tolerance_frames").Int(b.tolerance);
+    w.End('}');
+  }
+  WriteRecognition(w, r);
+  WriteLoopClosure(w, r);
+  w.Key("map").Begin('{');
+  w.Key("places").Int(static_cast<long long>(r.main.map.places().size()));
+  w.Key("edges").Int(static_cast<long long>(r.main.map.edges().size()));
+  if (r.edges)
+    w.Key("edge_precision").Number(r.edges->precision).Key("correct_edges").Int(r.edges->correct);
+  w.End('}');
+  w.Key("timing").Begin('{');
+  w.Key("descriptor_ms_median").Number(r.descriptor_ms_median);
+  w.Key("frame_ms_median").Number(r.frame_ms_median);
+  w.End('}');
+  w.Key("sweep").Begin('{');
+  w.Key("from").Number(r.eval.sweep_from).Key("to").Number(r.eval.sweep_to);
+  w.Key("step").Number(r.eval.sweep_step);
+  w.End('}');
+  WriteConfig(w, r.options);
   w.End('}');
   out << "\n";
 }

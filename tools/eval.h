@@ -2,7 +2,9 @@
 // `tsc eval`: runs the TSC pipeline over a dataset on a fresh memory and scores it with the
 // rules of DESIGN §7.1b (tools/scoring.h): place detection (boundary F1, with labels),
 // recognition precision / recall at the configured τ_r and over a sweep of τ_r (PR curve,
-// recall at full precision), map edge precision (with labels) and timing.
+// recall at full precision; with poses also the view-overlap recall), frame-level loop
+// closure (the measure of DBoW2, FAB-MAP, RTAB-Map: each frame of a recognised place names
+// its nearest member frame of that place), map edge precision (with labels) and timing.
 //
 // Each frame's descriptor and intensity statistics are computed once (BubbleSurface +
 // DescriptorComputer + IntensityStatistics, timed); then a fresh Pipeline replays them with
@@ -49,6 +51,8 @@ struct EvalRun {
   std::vector<TransitionRegion> transitions;      ///< regions between detected places
   std::map<PlaceId, std::vector<int>> frames_of;  ///< frames assigned to each learned place
   RecognitionScore recognition;
+  std::vector<LoopClosure> loop_closures;  ///< one per frame of each recognised place
+  LoopClosureScore loop_closure;
   int learned_places = 0;
   TopologicalMap map;
   std::optional<PlaceMemory> memory;  ///< kept for the main run only
@@ -64,6 +68,12 @@ struct EvalResult {
   EvalRun main;                   ///< at options.memory.tau_r
   std::vector<PrPoint> pr_curve;  ///< one point per sweep value, in τ_r order
   double recall_at_full_precision = 0.0;
+  /// The same sweep with the view-overlap recall (meaningful when truth.has_poses()).
+  std::vector<PrPoint> view_pr_curve;
+  double view_recall_at_full_precision = 0.0;
+  /// The same sweep at frame level (loop closures).
+  std::vector<PrPoint> loop_closure_pr_curve;
+  double loop_closure_recall_at_full_precision = 0.0;
   std::optional<BoundaryScore> boundaries;  ///< with labels
   std::optional<EdgeScore> edges;           ///< with labels
   GroundTruth truth;
@@ -82,7 +92,13 @@ EvalResult Evaluate(const Dataset& dataset, const PipelineOptions& options,
 ///    "detection": {"boundary_f1","precision","recall","true_boundaries",
 ///                  "detected_boundaries","tolerance_frames"}   (with labels),
 ///    "recognition": {"tau_r","recognitions","correct","should_be_recognized","precision",
-///                    "recall","recall_at_full_precision","pr_curve": [[τ_r,P,R],...]},
+///                    "recall","recall_at_full_precision","pr_curve": [[τ_r,P,R],...],
+///                    with poses also "view_should_be_recognized","view_correct",
+///                    "view_recall","view_recall_at_full_precision",
+///                    "view_pr_curve": [[τ_r,P,view R],...]},
+///    "loop_closure": {"detections","correct","frames_with_revisit","precision","recall",
+///                     "recall_at_full_precision","pr_curve": [[τ_r,P,R],...]}
+///                    (with labels or revisits),
 ///    "map": {"places","edges","edge_precision","correct_edges" (with labels)},
 ///    "timing": {"descriptor_ms_median","frame_ms_median"},
 ///    "config": {every configuration key: value}, "sweep": {"from","to","step"}}

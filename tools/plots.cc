@@ -369,54 +369,89 @@ void DrawPrAxes(cv::Mat& img, const PrAxes& px) {
 
 }  // namespace
 
+namespace {
+
+// One sweep curve: its points joined in τ_r order, the main run's point (configured τ_r,
+// which need not be a sweep value) ringed.
+void DrawSweepCurve(cv::Mat& img, const PrAxes& px, const std::vector<PrPoint>& curve,
+                    const cv::Scalar& colour, const PrPoint& configured) {
+  for (size_t i = 1; i < curve.size(); ++i) {
+    cv::line(img, px(curve[i - 1].recall, curve[i - 1].precision),
+             px(curve[i].recall, curve[i].precision), colour, 2, cv::LINE_AA);
+  }
+  for (const PrPoint& p : curve) {
+    cv::circle(img, px(p.recall, p.precision), 4, colour, cv::FILLED, cv::LINE_AA);
+  }
+  cv::circle(img, px(configured.recall, configured.precision), 9, colour, 2, cv::LINE_AA);
+}
+
+// Each run of sweep points with the same precision and recall, labelled with its τ_r range
+// under its point (the place-level curve only: three sets of labels would be unreadable).
+void LabelSweepPoints(cv::Mat& img, const PrAxes& px, const std::vector<PrPoint>& curve,
+                      const cv::Scalar& colour) {
+  for (size_t i = 0; i < curve.size();) {
+    size_t j = i;
+    while (j + 1 < curve.size() && curve[j + 1].precision == curve[i].precision &&
+           curve[j + 1].recall == curve[i].recall) {
+      ++j;
+    }
+    const PrPoint& p = curve[i];
+    const std::string s =
+        j > i ? Fixed(p.tau_r, 2) + "-" + Fixed(curve[j].tau_r, 2) : Fixed(p.tau_r, 2);
+    const cv::Size t = TextSize(s, 0.38);
+    cv::Point at = px(p.recall, p.precision) + cv::Point(-t.width / 2, 20);
+    at.x = std::clamp(at.x, px.x0 + 2, px.x0 + px.size + 78 - t.width);
+    at.y = std::min(at.y, px.y0 + px.size - 4);
+    Text(img, s, at, 0.38, colour);
+    i = j + 1;
+  }
+}
+
+}  // namespace
+
+// Place level (labels / revisits), view overlap (with poses) and frame level (loop closures)
+// over the same τ_r sweep; each curve's point at the configured τ_r is ringed.
 cv::Mat DrawPrCurve(const EvalResult& r) {
   const PrAxes px;
   const int x0 = px.x0, y0 = px.y0, size = px.size;
-  cv::Mat img(y0 + size + 120, x0 + size + 80, CV_8UC3, kWhite);
-  Text(img, "recognition PR curve over tau_r", {x0, 26}, 0.6);
+  const bool views = r.truth.has_poses() && !r.view_pr_curve.empty();
+  const bool frames = r.truth.has_labels() || r.truth.has_revisits();
+  cv::Mat img(y0 + size + 96 + 24 * (views + frames), x0 + size + 80, CV_8UC3, kWhite);
+  Text(img, "recognition PR curves over tau_r", {x0, 26}, 0.6);
   Text(img,
        "sweep " + Fixed(r.eval.sweep_from, 2) + ".." + Fixed(r.eval.sweep_to, 2) + " step " +
-           Fixed(r.eval.sweep_step, 2) + ", recall at full precision " +
-           Fixed(r.recall_at_full_precision, 3),
+           Fixed(r.eval.sweep_step, 2) + "; ring: configured tau_r = " + Fixed(r.main.tau_r, 2),
        {x0, 46}, 0.42);
   DrawPrAxes(img, px);
 
-  const cv::Scalar curve(180, 119, 31);
-  for (size_t i = 1; i < r.pr_curve.size(); ++i) {
-    cv::line(img, px(r.pr_curve[i - 1].recall, r.pr_curve[i - 1].precision),
-             px(r.pr_curve[i].recall, r.pr_curve[i].precision), curve, 2, cv::LINE_AA);
-  }
-  for (const PrPoint& p : r.pr_curve) {
-    cv::circle(img, px(p.recall, p.precision), 4, curve, cv::FILLED, cv::LINE_AA);
-  }
-  // Each run of sweep points with the same precision and recall, labelled with its τ_r range
-  // under its point.
-  for (size_t i = 0; i < r.pr_curve.size();) {
-    size_t j = i;
-    while (j + 1 < r.pr_curve.size() && r.pr_curve[j + 1].precision == r.pr_curve[i].precision &&
-           r.pr_curve[j + 1].recall == r.pr_curve[i].recall) {
-      ++j;
-    }
-    const PrPoint& p = r.pr_curve[i];
-    const std::string s =
-        j > i ? Fixed(p.tau_r, 2) + "-" + Fixed(r.pr_curve[j].tau_r, 2) : Fixed(p.tau_r, 2);
-    const cv::Size t = TextSize(s, 0.38);
-    cv::Point at = px(p.recall, p.precision) + cv::Point(-t.width / 2, 20);
-    at.x = std::clamp(at.x, x0 + 2, x0 + size + 78 - t.width);
-    at.y = std::min(at.y, y0 + size - 4);
-    Text(img, s, at, 0.38, curve);
-    i = j + 1;
-  }
   const RecognitionScore& s = r.main.recognition;
-  cv::circle(img, px(s.recall, s.precision), 9, kTransition, 2, cv::LINE_AA);
+  const LoopClosureScore& c = r.main.loop_closure;
+  const double tau = r.main.tau_r;
+  const cv::Scalar place(180, 119, 31), view = Palette(0), frame = Palette(1);
+  if (views) DrawSweepCurve(img, px, r.view_pr_curve, view, {tau, s.precision, s.view_recall});
+  if (frames) DrawSweepCurve(img, px, r.loop_closure_pr_curve, frame, {tau, c.precision, c.recall});
+  DrawSweepCurve(img, px, r.pr_curve, place, {tau, s.precision, s.recall});
+  LabelSweepPoints(img, px, r.pr_curve, place);
 
   cv::Point legend(x0, y0 + size + 72);
-  Swatch(img, legend, curve, "sweep points, labelled with tau_r", x0);
-  legend = {x0, legend.y + 24};
-  Swatch(img, legend, kTransition,
-         "configured tau_r = " + Fixed(r.main.tau_r, 2) + ": precision " + Fixed(s.precision, 2) +
-             ", recall " + Fixed(s.recall, 2),
+  Swatch(img, legend, place,
+         "places (labelled tau_r): P " + Fixed(s.precision, 2) + ", R " + Fixed(s.recall, 2) +
+             ", R at P=1 " + Fixed(r.recall_at_full_precision, 2),
          x0);
+  if (views) {
+    legend = {x0, legend.y + 24};
+    Swatch(img, legend, view,
+           "places sharing a view: R " + Fixed(s.view_recall, 2) + ", R at P=1 " +
+               Fixed(r.view_recall_at_full_precision, 2),
+           x0);
+  }
+  if (frames) {
+    legend = {x0, legend.y + 24};
+    Swatch(img, legend, frame,
+           "frames (loop closures): P " + Fixed(c.precision, 2) + ", R " + Fixed(c.recall, 2) +
+               ", R at P=1 " + Fixed(r.loop_closure_recall_at_full_precision, 2),
+           x0);
+  }
   return img;
 }
 

@@ -6,8 +6,9 @@
 //                   the detected places, base point status (good white, uninformative /
 //                   incoherent blue), transition regions (red) and the ground truth (labels,
 //                   or the frames that revisit earlier ones); frame axis and legend.
-//   pr_curve.png    recognition precision over recall for the τ_r sweep, the configured τ_r
-//                   marked.
+//   pr_curve.png    precision over recall for the τ_r sweep, the configured τ_r ringed:
+//                   place-level recognition, with poses the view-overlap recall, and
+//                   frame-level loop closures (DESIGN §7.1b).
 //   memory_map.png  the place memory tree and the topological map (tools/inspect's ToDot,
 //                   rendered by Graphviz's `dot`).
 //   floor_plan.png  only when the dataset has poses: the trajectory, each learned place at

@@ -95,11 +95,16 @@ curve; default 1.0:2.0:0.05, STEP 0 = no sweep).
 
 --json FILE gets one JSON object: frames, base_points, detected_places, learned_places,
 detection.{boundary_f1,precision,recall} (with labels), recognition.{precision,recall,
-recall_at_full_precision,pr_curve:[[tau_r,precision,recall],...]}, map.{edges,
+recall_at_full_precision,pr_curve:[[tau_r,precision,recall],...]} and, with poses,
+recognition.{view_recall,view_recall_at_full_precision,view_pr_curve} (only places that
+share a view, within 2 m and 45 degrees, with the place they match), loop_closure.{precision,
+recall,recall_at_full_precision,pr_curve} (frame level: each frame of a recognised place
+names its nearest member frame of that place; correct within 2 frames of a revisit in
+revisits.csv, or with labels only a frame of its label before its own visit), map.{edges,
 edge_precision (with labels)}, timing.{descriptor_ms_median,frame_ms_median}, config, sweep.
---plots DIR writes timeline.png (detection timeline), pr_curve.png, memory_map.png (place
-memory tree and topological map, needs Graphviz's `dot`) and, when the ground truth has
-poses, floor_plan.png.
+--plots DIR writes timeline.png (detection timeline), pr_curve.png (place, view-overlap and
+frame-level curves), memory_map.png (place memory tree and topological map, needs
+Graphviz's `dot`) and, when the ground truth has poses, floor_plan.png.
 
 Options)";
 

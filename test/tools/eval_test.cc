@@ -13,6 +13,7 @@
 #include <random>
 #include <sstream>
 
+#include "drivers/dataset/json_reader.h"
 #include "drivers/world/dataset_writer.h"
 #include "test/support/keyframes_profile.h"
 #include "test/support/temp_dir.h"
@@ -83,6 +84,37 @@ void ExpectPng(const fs::path& p, int min_width, int min_height) {
   EXPECT_GE(img.rows, min_height) << p;
 }
 
+// The number at `path` (keys separated by '.', e.g. "loop_closure.recall"), asserted in
+// [0, 1]; a missing key or a non-number fails.
+void ExpectFraction(const JsonValue& root, const std::string& path) {
+  const JsonValue* v = &root;
+  std::stringstream keys(path);
+  for (std::string key; std::getline(keys, key, '.');) {
+    v = v->Find(key);
+    ASSERT_NE(v, nullptr) << path;
+  }
+  ASSERT_EQ(v->kind, JsonValue::Kind::kNumber) << path;
+  EXPECT_GE(v->number, 0.0) << path;
+  EXPECT_LE(v->number, 1.0) << path;
+}
+
+// Each [τ_r, precision, recall] of the curve at `path` has precision and recall in [0, 1].
+void ExpectCurve(const JsonValue& root, const std::string& section, const std::string& key,
+                 size_t points) {
+  const JsonValue* s = root.Find(section);
+  ASSERT_NE(s, nullptr) << section;
+  const JsonValue* curve = s->Find(key);
+  ASSERT_NE(curve, nullptr) << section << "." << key;
+  ASSERT_EQ(curve->items.size(), points) << section << "." << key;
+  for (const JsonValue& p : curve->items) {
+    ASSERT_EQ(p.items.size(), 3u);
+    for (size_t i = 1; i < 3; ++i) {
+      EXPECT_GE(p.items[i].number, 0.0);
+      EXPECT_LE(p.items[i].number, 1.0);
+    }
+  }
+}
+
 TEST_F(EvalTest, RtabmapLoopRecognisesWithFullPrecisionAndWritesPlots) {
   const fs::path folder = fs::path(TSCD_DATA_DIR) / "rtabmap-loop";
   if (!fs::exists(folder)) GTEST_SKIP() << folder << " is not present";
@@ -115,6 +147,14 @@ TEST_F(EvalTest, RtabmapLoopRecognisesWithFullPrecisionAndWritesPlots) {
         "\"descriptor_ms_median\":", "\"frame_ms_median\":", "\"memory.tau_r\":1.3"}) {
     EXPECT_NE(text.find(key), std::string::npos) << key << " in " << text;
   }
+  const JsonValue root = ParseJson(text);
+  for (const char* key :
+       {"loop_closure.precision", "loop_closure.recall", "loop_closure.recall_at_full_precision"}) {
+    ExpectFraction(root, key);
+  }
+  ExpectCurve(root, "loop_closure", "pr_curve", 21);
+  EXPECT_EQ(r.main.loop_closure.frames_with_revisit, 44);  // revisits.csv: frames 41-84
+  EXPECT_EQ(text.find("view_recall"), std::string::npos);  // no poses
   EXPECT_EQ(text.find("nan"), std::string::npos);
   EXPECT_EQ(text.find("\"detection\""), std::string::npos);  // no labels, no boundary F1
 
@@ -149,6 +189,20 @@ TEST_F(EvalTest, LabelledDatasetScoresBoundariesEdgesAndDrawsFloorPlan) {
   for (const char* key : {"\"detection\":{\"boundary_f1\":", "\"edge_precision\":"}) {
     EXPECT_NE(json.str().find(key), std::string::npos) << key << " in " << json.str();
   }
+  // Frame level and view overlap (DESIGN §7.1b): labels and poses, so both are there.
+  const JsonValue root = ParseJson(json.str());
+  for (const char* key :
+       {"loop_closure.precision", "loop_closure.recall", "loop_closure.recall_at_full_precision",
+        "recognition.view_recall", "recognition.view_recall_at_full_precision"}) {
+    ExpectFraction(root, key);
+  }
+  ExpectCurve(root, "loop_closure", "pr_curve", 4);
+  ExpectCurve(root, "recognition", "view_pr_curve", 4);
+  // Route a b c b a: every frame of the second b and the second a (10 each) has an earlier
+  // revisit; a detection per frame of a recognised place, at most one per frame.
+  EXPECT_EQ(r.main.loop_closure.frames_with_revisit, 20);
+  EXPECT_LE(r.main.loop_closure.correct, r.main.loop_closure.detections);
+  EXPECT_LE(r.main.loop_closure.detections, 62);
   const auto written = WritePlots(r, dataset, dir_ / "plots");
   EXPECT_EQ(written.size(), 4u);
   ExpectPng(dir_ / "plots" / "floor_plan.png", 500, 200);
