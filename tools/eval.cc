@@ -287,6 +287,7 @@ void WriteLoopClosure(JsonWriter& w, const EvalResult& r) {
   const LoopClosureScore& c = r.main.loop_closure;
   w.Key("loop_closure").Begin('{');
   w.Key("detections").Int(c.detections).Key("correct").Int(c.correct);
+  w.Key("not_judged").Int(c.not_judged);
   w.Key("frames_with_revisit").Int(c.frames_with_revisit);
   w.Key("precision").Number(c.precision).Key("recall").Number(c.recall);
   w.Key("recall_at_full_precision").Number(r.loop_closure_recall_at_full_precision);

@@ -96,8 +96,9 @@ EvalResult Evaluate(const Dataset& dataset, const PipelineOptions& options,
 ///                    with poses also "view_should_be_recognized","view_correct",
 ///                    "view_recall","view_recall_at_full_precision",
 ///                    "view_pr_curve": [[τ_r,P,view R],...]},
-///    "loop_closure": {"detections","correct","frames_with_revisit","precision","recall",
-///                     "recall_at_full_precision","pr_curve": [[τ_r,P,R],...]}
+///    "loop_closure": {"detections","correct","not_judged","frames_with_revisit",
+///                     "precision","recall","recall_at_full_precision",
+///                     "pr_curve": [[τ_r,P,R],...]}
 ///                    (with labels or revisits),
 ///    "map": {"places","edges","edge_precision","correct_edges" (with labels)},
 ///    "timing": {"descriptor_ms_median","frame_ms_median"},

@@ -250,25 +250,42 @@ bool HasEarlierRevisit(const GroundTruth& truth, int k) {
 }
 
 bool LoopClosureCorrect(const GroundTruth& truth, int k, int named) {
+  // Ground truth marks a visit's edges only to a frame or two (a doorway, a hand-made list).
+  constexpr int kToleranceFrames = 2;  // DESIGN §7.1b
   if (named < 0 || named >= k) return false;  // a loop closure names an earlier frame
   if (truth.has_revisits()) {
     if (k >= static_cast<int>(truth.revisits.size())) return false;
-    constexpr int kToleranceFrames = 2;  // DESIGN §7.1b
     const auto& earlier = truth.revisits[static_cast<size_t>(k)];
     return std::any_of(earlier.begin(), earlier.end(),
                        [named](int r) { return std::abs(r - named) <= kToleranceFrames; });
   }
   const std::string& label = LabelOf(truth, k);
-  return !label.empty() && LabelOf(truth, named) == label &&
-         named < VisitOf(truth.labels, k).first;
+  const int visit_first = label.empty() ? 0 : VisitOf(truth.labels, k).first;
+  if (named >= visit_first) return false;  // never within k's own visit
+  for (int j = std::max(0, named - kToleranceFrames);
+       j <= std::min(named + kToleranceFrames, visit_first - 1); ++j) {
+    if (LabelOf(truth, j) == label) return true;
+  }
+  return false;
+}
+
+bool LoopClosureJudged(const GroundTruth& truth, int k) {
+  if (truth.has_revisits()) return k >= 0 && k < static_cast<int>(truth.revisits.size());
+  return !LabelOf(truth, k).empty();
 }
 
 LoopClosureScore ScoreLoopClosures(const GroundTruth& truth, const std::vector<LoopClosure>& found,
                                    int frames) {
   LoopClosureScore s;
   for (int k = 0; k < frames; ++k) s.frames_with_revisit += HasEarlierRevisit(truth, k);
-  s.detections = static_cast<int>(found.size());
-  for (const LoopClosure& c : found) s.correct += LoopClosureCorrect(truth, c.frame, c.named);
+  for (const LoopClosure& c : found) {
+    if (!LoopClosureJudged(truth, c.frame)) {
+      ++s.not_judged;
+      continue;
+    }
+    ++s.detections;
+    s.correct += LoopClosureCorrect(truth, c.frame, c.named);
+  }
   if (s.detections > 0) s.precision = static_cast<double>(s.correct) / s.detections;
   if (s.frames_with_revisit > 0) {
     s.recall = static_cast<double>(s.correct) / s.frames_with_revisit;

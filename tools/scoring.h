@@ -146,13 +146,21 @@ FrameSpan VisitOf(const std::vector<std::string>& labels, int k);
 /// list of earlier frames; with labels only, an earlier frame of k's (non-empty) label
 /// outside k's own visit (VisitOf).
 bool HasEarlierRevisit(const GroundTruth& truth, int k);
-/// Whether naming frame `named` for frame k is a correct loop closure: with revisits.csv,
-/// `named` is within ±2 frames of one of k's revisited frames; with labels only, `named` is
-/// an earlier frame of k's (non-empty) label outside k's own visit.
+/// Whether naming frame `named` for frame k is a correct loop closure: `named` is before k
+/// and, with revisits.csv, within ±2 frames of one of k's revisited frames; with labels only,
+/// before k's own visit and within ±2 frames of a frame of k's (non-empty) label that lies
+/// before k's own visit (the same tolerance: a label's edge is as uncertain as a hand-made
+/// revisit list).
 bool LoopClosureCorrect(const GroundTruth& truth, int k, int named);
 
+/// Whether the ground truth says anything about frame k: with revisits.csv every frame of it
+/// (an empty list says "first visit"); with labels only, a labelled frame (an unlabelled one
+/// lies in a transition region, where no label tells a revisit from a first visit).
+bool LoopClosureJudged(const GroundTruth& truth, int k);
+
 struct LoopClosureScore {
-  int detections = 0;
+  int detections = 0;  ///< on judged frames (LoopClosureJudged)
+  int not_judged = 0;  ///< detections on frames the ground truth says nothing about
   int correct = 0;
   int frames_with_revisit = 0;  ///< frames of the dataset with an earlier revisit
   double precision = 1.0;       ///< correct / detections (1 when nothing was detected)
@@ -161,6 +169,8 @@ struct LoopClosureScore {
 /// Frame-level loop-closure precision and recall over `frames` frames (DESIGN §7.1b): every
 /// detection is one frame naming one earlier frame (LoopClosureCorrect); recall counts every
 /// frame of the dataset that has an earlier revisit (HasEarlierRevisit), detected or not.
+/// Detections on frames that are not judged (LoopClosureJudged) count in neither precision
+/// nor recall, only in `not_judged`.
 LoopClosureScore ScoreLoopClosures(const GroundTruth& truth, const std::vector<LoopClosure>& found,
                                    int frames);
 

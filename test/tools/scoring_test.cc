@@ -216,6 +216,7 @@ TEST(LoopClosures, RevisitsCountWithinTwoFrames) {
       ScoreLoopClosures(truth, {{12, 5}, {13, 7}, {14, 4}, {15, 6}}, 20);
   EXPECT_EQ(dut.frames_with_revisit, 3);
   EXPECT_EQ(dut.detections, 4);
+  EXPECT_EQ(dut.not_judged, 0);  // every frame of revisits.csv is judged
   EXPECT_EQ(dut.correct, 2);
   EXPECT_DOUBLE_EQ(dut.precision, 0.5);
   EXPECT_DOUBLE_EQ(dut.recall, 2.0 / 3.0);
@@ -225,34 +226,44 @@ TEST(LoopClosures, RevisitsCountWithinTwoFrames) {
   EXPECT_DOUBLE_EQ(none.recall, 0.0);
 }
 
-// With labels only: a correct named frame has k's label and lies before k's own visit (the
-// run of consecutive frames with k's label around k).
+// With labels only: a correct named frame lies before k's own visit (the run of consecutive
+// frames with k's label around k), within ±2 frames of a frame of k's label there.
 TEST(LoopClosures, LabelsOnlyNeedAFrameOutsideTheOwnVisit) {
   GroundTruth truth;
-  //              0    1    2    3    4    5    6    7   8    9
-  truth.labels = {"a", "a", "a", "b", "b", "a", "a", "", "a", "b"};
-  EXPECT_EQ(VisitOf(truth.labels, 6), (FrameSpan{5, 6}));
+  //              0    1    2    3    4    5    6    7    8    9   10   11
+  truth.labels = {"a", "a", "a", "b", "b", "b", "b", "a", "a", "", "a", "b"};
+  EXPECT_EQ(VisitOf(truth.labels, 8), (FrameSpan{7, 8}));
   EXPECT_EQ(VisitOf(truth.labels, 0), (FrameSpan{0, 2}));
-  EXPECT_EQ(VisitOf(truth.labels, 8), (FrameSpan{8, 8}));  // "" ends a visit
-  EXPECT_FALSE(HasEarlierRevisit(truth, 2));               // first visit of a
-  EXPECT_TRUE(HasEarlierRevisit(truth, 5));
-  EXPECT_FALSE(HasEarlierRevisit(truth, 7));  // unlabelled
-  EXPECT_TRUE(HasEarlierRevisit(truth, 9));
+  EXPECT_EQ(VisitOf(truth.labels, 10), (FrameSpan{10, 10}));  // "" ends a visit
+  EXPECT_FALSE(HasEarlierRevisit(truth, 2));                   // first visit of a
+  EXPECT_FALSE(HasEarlierRevisit(truth, 3));                   // first visit of b
+  EXPECT_TRUE(HasEarlierRevisit(truth, 7));
+  EXPECT_FALSE(HasEarlierRevisit(truth, 9));  // unlabelled
+  EXPECT_TRUE(HasEarlierRevisit(truth, 11));
 
-  EXPECT_TRUE(LoopClosureCorrect(truth, 6, 1));   // a, first visit
-  EXPECT_FALSE(LoopClosureCorrect(truth, 6, 5));  // a, but its own visit
-  EXPECT_FALSE(LoopClosureCorrect(truth, 6, 4));  // b
-  EXPECT_TRUE(LoopClosureCorrect(truth, 8, 6));   // a, the visit before the doorway
-  EXPECT_FALSE(LoopClosureCorrect(truth, 7, 3));  // unlabelled frames revisit nothing
-  EXPECT_TRUE(LoopClosureCorrect(truth, 9, 3));
+  EXPECT_TRUE(LoopClosureCorrect(truth, 8, 1));    // a, first visit
+  EXPECT_FALSE(LoopClosureCorrect(truth, 8, 7));   // a, but its own visit
+  EXPECT_TRUE(LoopClosureCorrect(truth, 8, 4));    // b, 2 frames from a's first visit
+  EXPECT_FALSE(LoopClosureCorrect(truth, 8, 5));   // b, 3 frames from it
+  EXPECT_TRUE(LoopClosureCorrect(truth, 10, 8));   // a, the visit before the doorway
+  EXPECT_TRUE(LoopClosureCorrect(truth, 10, 9));   // the doorway, next to that visit
+  EXPECT_FALSE(LoopClosureCorrect(truth, 9, 3));   // unlabelled frames revisit nothing
+  EXPECT_TRUE(LoopClosureCorrect(truth, 11, 3));   // b
+  EXPECT_FALSE(LoopClosureCorrect(truth, 11, 0));  // a, 3 frames from b
+  EXPECT_FALSE(LoopClosureCorrect(truth, 7, 8));   // not an earlier frame
 
-  // Revisits: 5, 6, 8 (a) and 9 (b) = 4 frames; detections 6->1 ok, 5->6 wrong (not earlier),
-  // 9->0 wrong (a).
-  const LoopClosureScore dut = ScoreLoopClosures(truth, {{6, 1}, {5, 6}, {9, 0}}, 10);
+  // Revisits: 7, 8, 10 (a) and 11 (b) = 4 frames. Detections 8->1 and 8->4 ok, 7->8 and
+  // 11->0 wrong; 9 is unlabelled: not judged, in neither precision nor recall.
+  EXPECT_FALSE(LoopClosureJudged(truth, 9));
+  EXPECT_TRUE(LoopClosureJudged(truth, 2));
+  const LoopClosureScore dut =
+      ScoreLoopClosures(truth, {{8, 1}, {7, 8}, {9, 3}, {11, 0}, {8, 4}}, 12);
   EXPECT_EQ(dut.frames_with_revisit, 4);
-  EXPECT_EQ(dut.correct, 1);
-  EXPECT_DOUBLE_EQ(dut.precision, 1.0 / 3.0);
-  EXPECT_DOUBLE_EQ(dut.recall, 0.25);
+  EXPECT_EQ(dut.detections, 4);
+  EXPECT_EQ(dut.not_judged, 1);
+  EXPECT_EQ(dut.correct, 2);
+  EXPECT_DOUBLE_EQ(dut.precision, 0.5);
+  EXPECT_DOUBLE_EQ(dut.recall, 0.5);
 }
 
 // revisits.csv wins over labels when a dataset has both.
