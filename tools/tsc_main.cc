@@ -100,7 +100,8 @@ recognition.{view_recall,view_recall_at_full_precision,view_pr_curve} (only plac
 share a view, within 2 m and 45 degrees, with the place they match), loop_closure.{precision,
 recall,recall_at_full_precision,pr_curve} (frame level: each frame of a recognised place
 names its nearest member frame of that place; correct within 2 frames of a revisit in
-revisits.csv, or with labels only a frame of its label before its own visit), map.{edges,
+revisits.csv, or with labels only within 2 frames of a frame of its label before its own
+visit; unlabelled frames are not judged, loop_closure.not_judged), map.{edges,
 edge_precision (with labels)}, timing.{descriptor_ms_median,frame_ms_median}, config, sweep.
 --plots DIR writes timeline.png (detection timeline), pr_curve.png (place, view-overlap and
 frame-level curves), memory_map.png (place memory tree and topological map, needs
@@ -391,6 +392,19 @@ int Eval(const std::vector<std::string>& args) {
       "  PR sweep         %zu points, recall at full precision %.3f\n",
       r.main.tau_r, s.precision, s.recall, s.correct, s.recognitions, s.should_be_recognized,
       r.pr_curve.size(), r.recall_at_full_precision);
+  if (r.truth.has_poses()) {
+    std::printf("  view overlap     recall %.3f (%d of %d sharing a view), at full precision %.3f\n",
+                s.view_recall, s.view_correct, s.view_should_be_recognized,
+                r.view_recall_at_full_precision);
+  }
+  if (r.truth.has_labels() || r.truth.has_revisits()) {
+    const LoopClosureScore& c = r.main.loop_closure;
+    std::printf(
+        "  loop closure     frames: precision %.3f, recall %.3f (%d of %d correct, %d frames "
+        "revisit), at full precision %.3f\n",
+        c.precision, c.recall, c.correct, c.detections, c.frames_with_revisit,
+        r.loop_closure_recall_at_full_precision);
+  }
   std::printf("  map              %zu edges", r.main.map.edges().size());
   if (r.edges) std::printf(", edge precision %.3f", r.edges->precision);
   std::printf(
