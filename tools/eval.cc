@@ -194,7 +194,8 @@ EvalResult Evaluate(const Dataset& dataset, const PipelineOptions& options,
   if (result.pr_curve.empty()) AddSweepPoint(result, result.main);
   result.recall_at_full_precision = RecallAtFullPrecision(result.pr_curve);
   result.view_recall_at_full_precision = RecallAtFullPrecision(result.view_pr_curve);
-  result.loop_closure_recall_at_full_precision = RecallAtFullPrecision(result.loop_closure_pr_curve);
+  result.loop_closure_recall_at_full_precision =
+      RecallAtFullPrecision(result.loop_closure_pr_curve);
 
   if (result.truth.has_labels()) {
     std::vector<std::vector<int>> places;

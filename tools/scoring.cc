@@ -55,9 +55,9 @@ bool FramesMatch(const GroundTruth& truth, const std::vector<int>& a, const std:
 }
 
 bool ViewsOverlap(const GroundTruthPose& a, const GroundTruthPose& b) {
-  constexpr double kNearM = 2.0;                   // DESIGN §7.1b
+  constexpr double kNearM = 2.0;                     // DESIGN §7.1b
   constexpr double kNearRad = std::numbers::pi / 4;  // 45°
-  constexpr double kSlack = 1e-9;                  // the limits themselves count as near
+  constexpr double kSlack = 1e-9;                    // the limits themselves count as near
   const double turn = std::remainder(a.heading - b.heading, 2 * std::numbers::pi);
   return std::hypot(a.x - b.x, a.y - b.y) <= kNearM + kSlack && std::abs(turn) <= kNearRad + kSlack;
 }
@@ -251,7 +251,7 @@ bool HasEarlierRevisit(const GroundTruth& truth, int k) {
 
 bool LoopClosureCorrect(const GroundTruth& truth, int k, int named) {
   // Ground truth marks a visit's edges only to a frame or two (a doorway, a hand-made list).
-  constexpr int kToleranceFrames = 2;  // DESIGN §7.1b
+  constexpr int kToleranceFrames = 2;         // DESIGN §7.1b
   if (named < 0 || named >= k) return false;  // a loop closure names an earlier frame
   if (truth.has_revisits()) {
     if (k >= static_cast<int>(truth.revisits.size())) return false;
@@ -297,9 +297,8 @@ namespace {
 void RequireOneDescriptorPerFrame(const std::vector<int>& frames,
                                   const Eigen::MatrixXf& descriptors) {
   if (descriptors.cols() != static_cast<Eigen::Index>(frames.size())) {
-    throw std::invalid_argument("loop closures: " + std::to_string(frames.size()) +
-                                " frames but " + std::to_string(descriptors.cols()) +
-                                " descriptors");
+    throw std::invalid_argument("loop closures: " + std::to_string(frames.size()) + " frames but " +
+                                std::to_string(descriptors.cols()) + " descriptors");
   }
 }
 }  // namespace

@@ -65,7 +65,6 @@ struct RecognitionScore {
 /// (FramesShareView over the frames assigned to that place before it).
 RecognitionScore ScoreRecognition(const GroundTruth& truth, const std::vector<Assignment>& seq);
 
-
 /// An inclusive range of 0-based frames.
 struct FrameSpan {
   int first = 0;

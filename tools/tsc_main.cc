@@ -393,9 +393,10 @@ int Eval(const std::vector<std::string>& args) {
       r.main.tau_r, s.precision, s.recall, s.correct, s.recognitions, s.should_be_recognized,
       r.pr_curve.size(), r.recall_at_full_precision);
   if (r.truth.has_poses()) {
-    std::printf("  view overlap     recall %.3f (%d of %d sharing a view), at full precision %.3f\n",
-                s.view_recall, s.view_correct, s.view_should_be_recognized,
-                r.view_recall_at_full_precision);
+    std::printf(
+        "  view overlap     recall %.3f (%d of %d sharing a view), at full precision %.3f\n",
+        s.view_recall, s.view_correct, s.view_should_be_recognized,
+        r.view_recall_at_full_precision);
   }
   if (r.truth.has_labels() || r.truth.has_revisits()) {
     const LoopClosureScore& c = r.main.loop_closure;

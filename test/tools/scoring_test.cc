@@ -212,8 +212,7 @@ TEST(LoopClosures, RevisitsCountWithinTwoFrames) {
   EXPECT_FALSE(HasEarlierRevisit(truth, 14));
 
   // 3 frames of 20 have a revisit; 4 detections of which 2 are correct (12->5, 15->6).
-  const LoopClosureScore dut =
-      ScoreLoopClosures(truth, {{12, 5}, {13, 7}, {14, 4}, {15, 6}}, 20);
+  const LoopClosureScore dut = ScoreLoopClosures(truth, {{12, 5}, {13, 7}, {14, 4}, {15, 6}}, 20);
   EXPECT_EQ(dut.frames_with_revisit, 3);
   EXPECT_EQ(dut.detections, 4);
   EXPECT_EQ(dut.not_judged, 0);  // every frame of revisits.csv is judged
@@ -235,8 +234,8 @@ TEST(LoopClosures, LabelsOnlyNeedAFrameOutsideTheOwnVisit) {
   EXPECT_EQ(VisitOf(truth.labels, 8), (FrameSpan{7, 8}));
   EXPECT_EQ(VisitOf(truth.labels, 0), (FrameSpan{0, 2}));
   EXPECT_EQ(VisitOf(truth.labels, 10), (FrameSpan{10, 10}));  // "" ends a visit
-  EXPECT_FALSE(HasEarlierRevisit(truth, 2));                   // first visit of a
-  EXPECT_FALSE(HasEarlierRevisit(truth, 3));                   // first visit of b
+  EXPECT_FALSE(HasEarlierRevisit(truth, 2));                  // first visit of a
+  EXPECT_FALSE(HasEarlierRevisit(truth, 3));                  // first visit of b
   EXPECT_TRUE(HasEarlierRevisit(truth, 7));
   EXPECT_FALSE(HasEarlierRevisit(truth, 9));  // unlabelled
   EXPECT_TRUE(HasEarlierRevisit(truth, 11));
@@ -309,11 +308,11 @@ TEST(ViewOverlap, TwoMetresAndFortyFiveDegreesAroundTheCircle) {
   EXPECT_FALSE(ViewsOverlap(origin, {2.05, 0, 0}));
   EXPECT_TRUE(ViewsOverlap(origin, {0, 0, kPi / 4}));
   EXPECT_FALSE(ViewsOverlap(origin, {0, 0, kPi / 4 + 0.02}));
-  EXPECT_FALSE(ViewsOverlap(origin, {0, 0, kPi}));            // entered from the other side
+  EXPECT_FALSE(ViewsOverlap(origin, {0, 0, kPi}));                // entered from the other side
   EXPECT_TRUE(ViewsOverlap({0, 0, 2 * kPi - 0.3}, {0, 0, 0.3}));  // 34° across 0
-  EXPECT_TRUE(ViewsOverlap({0, 0, -3.0}, {0, 0, 3.0}));         // 16° across ±π
-  EXPECT_TRUE(ViewsOverlap({0, 0, 7 * kPi}, {0, 0, -kPi}));     // same heading, other turns
-  EXPECT_FALSE(ViewsOverlap({0, 0, 3 * kPi / 2}, {0, 0, 0}));   // 90°
+  EXPECT_TRUE(ViewsOverlap({0, 0, -3.0}, {0, 0, 3.0}));           // 16° across ±π
+  EXPECT_TRUE(ViewsOverlap({0, 0, 7 * kPi}, {0, 0, -kPi}));       // same heading, other turns
+  EXPECT_FALSE(ViewsOverlap({0, 0, 3 * kPi / 2}, {0, 0, 0}));     // 90°
 }
 
 // Room a is revisited from the other side (no shared view), room b along the same path.
@@ -321,9 +320,9 @@ TEST(ViewOverlap, RecallCountsOnlyPlacesThatShareAViewWithTheirMatch) {
   constexpr double kPi = 3.14159265358979323846;
   GroundTruth truth;
   truth.labels = {"a", "a", "b", "b", "a", "a", "b", "b"};
-  truth.poses = {GroundTruthPose{0, 0, 0},  GroundTruthPose{1, 0, 0},
-                 GroundTruthPose{5, 0, 0},  GroundTruthPose{6, 0, 0},
-                 GroundTruthPose{1, 0, kPi}, GroundTruthPose{0, 0, kPi},
+  truth.poses = {GroundTruthPose{0, 0, 0},     GroundTruthPose{1, 0, 0},
+                 GroundTruthPose{5, 0, 0},     GroundTruthPose{6, 0, 0},
+                 GroundTruthPose{1, 0, kPi},   GroundTruthPose{0, 0, kPi},
                  GroundTruthPose{5.5, 1, 0.5}, std::nullopt};
   EXPECT_FALSE(FramesShareView(truth, {4, 5}, {0, 1}));
   EXPECT_TRUE(FramesShareView(truth, {6, 7}, {2, 3}));
@@ -346,9 +345,9 @@ TEST(ViewOverlap, RecallCountsOnlyPlacesThatShareAViewWithTheirMatch) {
   EXPECT_DOUBLE_EQ(both.view_recall, 1.0);
   // Without poses nothing counts for the view recall.
   truth.poses.clear();
-  EXPECT_EQ(ScoreRecognition(truth, {{{0, 1}, p1, false}, {{4, 5}, p1, true}})
-                .view_should_be_recognized,
-            0);
+  EXPECT_EQ(
+      ScoreRecognition(truth, {{{0, 1}, p1, false}, {{4, 5}, p1, true}}).view_should_be_recognized,
+      0);
 }
 
 }  // namespace
