@@ -269,6 +269,25 @@ bool LoopClosureCorrect(const GroundTruth& truth, int k, int named) {
   return false;
 }
 
+namespace {
+// The count of HasEarlierRevisit over frames 0..frames-1 in one pass (a long labelled
+// sequence would make the per-frame rule quadratic, once per τ_r of the sweep).
+int FramesWithEarlierRevisit(const GroundTruth& truth, int frames) {
+  int n = 0;
+  if (truth.has_revisits()) {
+    for (int k = 0; k < frames; ++k) n += HasEarlierRevisit(truth, k);
+    return n;
+  }
+  std::set<std::string> visited;  // labels of the visits that ended before frame k
+  for (int k = 0; k < frames; ++k) {
+    const std::string& label = LabelOf(truth, k);
+    if (k > 0 && LabelOf(truth, k - 1) != label) visited.insert(LabelOf(truth, k - 1));
+    n += !label.empty() && visited.count(label) > 0;
+  }
+  return n;
+}
+}  // namespace
+
 bool LoopClosureJudged(const GroundTruth& truth, int k) {
   if (truth.has_revisits()) return k >= 0 && k < static_cast<int>(truth.revisits.size());
   return !LabelOf(truth, k).empty();
@@ -277,7 +296,7 @@ bool LoopClosureJudged(const GroundTruth& truth, int k) {
 LoopClosureScore ScoreLoopClosures(const GroundTruth& truth, const std::vector<LoopClosure>& found,
                                    int frames) {
   LoopClosureScore s;
-  for (int k = 0; k < frames; ++k) s.frames_with_revisit += HasEarlierRevisit(truth, k);
+  s.frames_with_revisit = FramesWithEarlierRevisit(truth, frames);
   for (const LoopClosure& c : found) {
     if (!LoopClosureJudged(truth, c.frame)) {
       ++s.not_judged;

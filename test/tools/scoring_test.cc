@@ -265,6 +265,16 @@ TEST(LoopClosures, LabelsOnlyNeedAFrameOutsideTheOwnVisit) {
   EXPECT_DOUBLE_EQ(dut.recall, 0.5);
 }
 
+// The recall denominator counts in one pass what HasEarlierRevisit says frame by frame.
+TEST(LoopClosures, DenominatorAgreesWithTheRuleFrameByFrame) {
+  GroundTruth truth;
+  truth.labels = {"a", "", "a", "a", "b", "", "", "b", "c", "a", "", "c", "b", "b"};
+  int expected = 0;
+  for (int k = 0; k < 14; ++k) expected += HasEarlierRevisit(truth, k);
+  EXPECT_EQ(expected, 7);  // 2, 3 (a after a doorway), 7, 9, 11, 12, 13
+  EXPECT_EQ(ScoreLoopClosures(truth, {}, 14).frames_with_revisit, expected);
+}
+
 // revisits.csv wins over labels when a dataset has both.
 TEST(LoopClosures, RevisitsTakePrecedenceOverLabels) {
   GroundTruth truth;
