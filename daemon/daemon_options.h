@@ -91,6 +91,9 @@ struct DaemonOptions {
   /// Results kept in memory while the store cannot be written (full disk, read-only); beyond
   /// it the oldest results' base point records are dropped (learned places and edges never).
   int max_pending_results = 10000;
+  /// At stop, how long tscd keeps trying a failing store before it spills what it holds
+  /// (seconds; below the unit's TimeoutStopSec).
+  double stop_store_wait_s = 10.0;
   std::string log_level = "info";  ///< trace | debug | info | warn | error
   CameraOptions camera;
   SimOptions sim;

@@ -320,6 +320,12 @@ std::vector<ConfigKey> BuildTable() {
       "results kept in memory while the store cannot be written; beyond it the oldest base "
       "point records are dropped (learned places and map edges are always kept)",
       "results", 1, 10000000, [](auto& o) -> auto& { return o.daemon.max_pending_results; }));
+  t.push_back(Number(
+      "daemon.stop_store_wait_s",
+      "at stop, how long a failing store is tried before what is not in it is spilled to a "
+      "file the next start takes in (memory.db.spill.*, beside memory.db or in "
+      "$RUNTIME_DIRECTORY); keep it below the unit's TimeoutStopSec",
+      "s", 0, 3600, [](auto& o) -> auto& { return o.daemon.stop_store_wait_s; }));
   t.push_back(Text(
       "daemon.log_level", "least severe log level written", "trace|debug|info|warn|error",
       [](auto& o) -> auto& { return o.daemon.log_level; },

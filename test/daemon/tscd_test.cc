@@ -14,6 +14,7 @@
 #include <filesystem>
 #include <fstream>
 #include <functional>
+#include <set>
 #include <thread>
 
 #include "core/pipeline/pipeline.h"
@@ -152,6 +153,92 @@ TEST_F(TscdTest, UnwritableStateDirectoryIsReportedAndTheDaemonKeepsRunning) {
   EXPECT_NE(dut.Log().find("a-file"), std::string::npos) << dut.Log();
   dut.Signal(SIGTERM);
   EXPECT_EQ(dut.Wait(seconds(20)), 0) << dut.Log();
+}
+
+// SIGTERM while the store cannot be written: tscd waits a bounded time for it, then spills
+// what it holds (here into $RUNTIME_DIRECTORY: the state directory cannot be made), says so
+// loudly and exits 1; the next start, with a working store, takes the spill in, so every place
+// and edge the first run announced is in the database.
+TEST_F(TscdTest, StopDuringAStoreOutageExitsNonZeroAndTheNextStartTakesInWhatWasKept) {
+  TSCD_REQUIRE_PRIVATE_NETNS();
+  const fs::path run = dir_ / "run";
+  fs::create_directories(run);
+  ASSERT_EQ(::setenv("RUNTIME_DIRECTORY", run.c_str(), 1), 0);
+  const fs::path blocker = dir_ / "a-file";
+  std::ofstream(blocker) << "not a folder\n";
+  const fs::path state = blocker / "state";
+  const std::vector<std::string> extra = {"--set", "daemon.stop_store_wait_s=1"};
+  std::set<std::pair<int, int>> learned;
+  std::set<std::pair<std::pair<int, int>, std::pair<int, int>>> mapped;
+  int64_t frames = 0;
+  {
+    BusListener bus;
+    ChildProcess dut(FastSimRobot(state, extra), dir_ / "first.log");
+    ASSERT_TRUE(bus.WaitFor(
+        [](const BusListener& b) {
+          return b.announces.count("TSC_ANNOUNCE") &&
+                 b.announces.at("TSC_ANNOUNCE").back().places >= 2 &&
+                 b.announces.at("TSC_ANNOUNCE").back().edges >= 1;
+        },
+        seconds(60)))
+        << dut.Log();
+    dut.Signal(SIGTERM);
+    const std::optional<int> code = dut.Wait(seconds(20));
+    EXPECT_EQ(code, 1) << dut.Log();
+    const std::string log = dut.Log();
+    EXPECT_NE(log.find("NOT SAVED"), std::string::npos) << log;
+    EXPECT_NE(log.find(run.string()), std::string::npos) << log;
+    EXPECT_NE(log.find("a-file"), std::string::npos) << log;
+    std::this_thread::sleep_for(milliseconds(300));  // the last events reach the listener
+    bus.Inspect([&](const BusListener& b) {
+      frames = b.announces.at("TSC_ANNOUNCE").back().frames;
+      for (const place_event_t& e : b.events.at("TSC_EVENT_1")) {
+        if (e.event == "learned") learned.insert({e.place.robot, e.place.local});
+        if (e.event == "mapped" && e.has_from) {
+          mapped.insert({{e.from.robot, e.from.local}, {e.place.robot, e.place.local}});
+        }
+      }
+    });
+  }
+  size_t spills = 0;
+  for (const auto& e : fs::directory_iterator(run)) {
+    spills += e.path().filename().string().starts_with("memory.db.spill.");
+  }
+  EXPECT_EQ(spills, 1u);
+  ASSERT_FALSE(learned.empty());
+
+  // The store works again: the next start takes the spill in and removes it.
+  fs::remove(blocker);
+  {
+    ChildProcess dut(FastSimRobot(state, extra), dir_ / "second.log");
+    const auto deadline = std::chrono::steady_clock::now() + seconds(30);
+    while (dut.Log().find("ready:") == std::string::npos &&
+           std::chrono::steady_clock::now() < deadline) {
+      std::this_thread::sleep_for(milliseconds(50));
+    }
+    EXPECT_NE(dut.Log().find("took in"), std::string::npos) << dut.Log();
+    dut.Signal(SIGTERM);
+    EXPECT_EQ(dut.Wait(seconds(20)), 0) << dut.Log();
+  }
+  ::unsetenv("RUNTIME_DIRECTORY");
+  EXPECT_TRUE(fs::is_empty(run));
+  Store store = Store::Open(state / "memory.db");
+  const StoredState saved = store.Load(1, PlaceMemoryOptions{});
+  std::set<std::pair<int, int>> stored;
+  for (const LearnedPlace& p : saved.memory.places()) {
+    stored.insert({static_cast<int>(p.id.robot), static_cast<int>(p.id.local)});
+  }
+  for (const auto& p : learned) {
+    EXPECT_TRUE(stored.count(p)) << "learned place " << p.first << ":" << p.second << " lost";
+  }
+  for (const auto& [a, b] : mapped) {
+    EXPECT_NE(
+        saved.map.Find(PlaceId{static_cast<uint32_t>(a.first), static_cast<uint32_t>(a.second)},
+                       PlaceId{static_cast<uint32_t>(b.first), static_cast<uint32_t>(b.second)}),
+        nullptr)
+        << "edge lost";
+  }
+  EXPECT_GE(saved.pipeline.next_base, frames);
 }
 
 // A folder camera with a truncated JPEG, then the folder disappears mid-run.
