@@ -270,14 +270,15 @@ struct Db {
   throw StoreError(db.path.string() + ": " + what);
 }
 
-/// Why this process cannot write `path` (an errno: EACCES, EROFS, ENOTDIR, ENOENT for a
-/// missing folder), or 0 when it could: the file when it exists, else the folder it would be
-/// made in.
+/// Why this process cannot write the database `path` (an errno: EACCES, EROFS, ENOTDIR,
+/// ENOENT for a missing folder), or 0 when it could: the file when it exists, then the folder,
+/// where SQLite makes the file, its -wal and its -shm.
 int CannotWriteReason(const std::filesystem::path& path) {
   if (::faccessat(AT_FDCWD, path.c_str(), F_OK, AT_EACCESS) == 0) {
-    return ::faccessat(AT_FDCWD, path.c_str(), R_OK | W_OK, AT_EACCESS) == 0 ? 0 : errno;
+    if (::faccessat(AT_FDCWD, path.c_str(), R_OK | W_OK, AT_EACCESS) != 0) return errno;
+  } else if (errno != ENOENT) {
+    return errno;
   }
-  if (errno != ENOENT) return errno;
   const std::filesystem::path dir = path.has_parent_path() ? path.parent_path() : ".";
   return ::faccessat(AT_FDCWD, dir.c_str(), W_OK | X_OK, AT_EACCESS) == 0 ? 0 : errno;
 }
@@ -296,10 +297,10 @@ std::string OsError(const Db& db) {
   const bool io = primary == SQLITE_IOERR || primary == SQLITE_FULL || primary == SQLITE_CANTOPEN ||
                   primary == SQLITE_READONLY;
   int os_errno = sqlite3_system_errno(db.handle);
-  if (primary == SQLITE_CANTOPEN) {
+  if (primary == SQLITE_CANTOPEN || primary == SQLITE_READONLY) {
     // SQLite falls back to opening read-only after a refused read-write open, so the errno it
-    // keeps is that of the fallback (ENOENT for a file not made yet), not why it could not
-    // write: ask the system about the file, or the folder it would be made in.
+    // keeps is that of the fallback (ENOENT for a file not made yet), or none, not why it
+    // could not write: ask the system about the file and the folder it makes its files in.
     if (const int why = CannotWriteReason(db.path); why != 0) os_errno = why;
   }
   if (!io || os_errno == 0) return "";

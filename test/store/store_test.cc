@@ -2,6 +2,7 @@
 
 #include <gtest/gtest.h>
 #include <sqlite3.h>
+#include <sys/wait.h>
 #include <unistd.h>
 
 #include <algorithm>
@@ -654,31 +655,63 @@ TEST_F(StoreTest, KeptResultsCommittedTogetherEqualResultsCommittedOneByOne) {
   }
 }
 
-// A folder this process may not write: the error says so ("Permission denied"), not "No such
-// file or directory" (SQLite's errno is that of its read-only fallback open).
-TEST_F(StoreTest, OpenInAFolderThatCannotBeWrittenSaysPermissionDenied) {
-  const fs::path locked = dir_ / "locked";
-  fs::create_directories(locked);
-  fs::permissions(dir_, fs::perms::owner_all | fs::perms::others_read | fs::perms::others_exec);
-  fs::permissions(locked, fs::perms::owner_read | fs::perms::owner_exec | fs::perms::others_read |
-                              fs::perms::others_exec);
-  // Root writes anywhere: try as nobody.
-  const bool root = ::geteuid() == 0;
-  if (root) {
-    ASSERT_EQ(::seteuid(65534), 0);
+// What Store::Open(path) throws when run as user nobody (in a child process, all its user ids
+// changed: SQLite's errno depends on them), or "" when it opens.
+std::string OpenErrorAsNobody(const fs::path& path) {
+  int out[2];
+  if (::pipe(out) != 0) return "pipe failed";
+  const pid_t child = ::fork();
+  if (child == 0) {
+    ::close(out[0]);
+    std::string what;
+    if (::setresgid(65534, 65534, 65534) != 0 || ::setresuid(65534, 65534, 65534) != 0) {
+      what = "cannot become nobody";
+    } else {
+      try {
+        Store::Open(path);
+      } catch (const StoreError& e) {
+        what = e.what();
+      }
+    }
+    const ssize_t n = ::write(out[1], what.data(), what.size());
+    ::_exit(n == static_cast<ssize_t>(what.size()) ? 0 : 1);
   }
+  ::close(out[1]);
   std::string what;
-  try {
-    Store::Open(locked / "memory.db");
-  } catch (const StoreError& e) {
-    what = e.what();
+  char buf[512];
+  for (ssize_t n; (n = ::read(out[0], buf, sizeof buf)) > 0;)
+    what.append(buf, static_cast<size_t>(n));
+  ::close(out[0]);
+  int status = 0;
+  ::waitpid(child, &status, 0);
+  return what;
+}
+
+// A state folder tscd may not write: the error says so ("Permission denied"), not "No such
+// file or directory" (SQLite keeps the errno of its read-only fallback open), for a new
+// database and for one made before the folder was locked ("attempt to write a readonly
+// database" without a reason before).
+TEST_F(StoreTest, OpenInAFolderThatCannotBeWrittenSaysPermissionDenied) {
+  if (::geteuid() != 0) GTEST_SKIP() << "needs root to run the open as another user";
+  const fs::path locked = dir_ / "locked";
+  const fs::path existing = dir_ / "existing";
+  fs::create_directories(locked);
+  fs::create_directories(existing);
+  Store::Open(existing / "memory.db");  // closed again: no -wal, no -shm
+  ASSERT_FALSE(fs::exists(existing / "memory.db-wal"));
+  const auto read_only = fs::perms::owner_all | fs::perms::group_read | fs::perms::group_exec |
+                         fs::perms::others_read | fs::perms::others_exec;
+  fs::permissions(dir_, read_only);
+  fs::permissions(locked, read_only);
+  fs::permissions(existing, read_only);
+  fs::permissions(existing / "memory.db", fs::perms::all);  // the file itself may be written
+  for (const fs::path& folder : {locked, existing}) {
+    SCOPED_TRACE(folder.string());
+    const std::string what = OpenErrorAsNobody(folder / "memory.db");
+    EXPECT_NE(what.find("Permission denied"), std::string::npos) << what;
+    EXPECT_EQ(what.find("No such file"), std::string::npos) << what;
+    EXPECT_NE(what.find((folder / "memory.db").string()), std::string::npos) << what;
   }
-  if (root) {
-    ASSERT_EQ(::seteuid(0), 0);
-  }
-  EXPECT_NE(what.find("Permission denied"), std::string::npos) << what;
-  EXPECT_EQ(what.find("No such file"), std::string::npos) << what;
-  EXPECT_NE(what.find((locked / "memory.db").string()), std::string::npos) << what;
 }
 
 // A tscd stopping while its store fails spills what it holds (Store::WriteSpill); the next
