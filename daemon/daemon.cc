@@ -597,8 +597,11 @@ void Daemon::Shutdown() {
   // are ignored from now on.
   if (base_) base_->Stop();
   notifier_.Stopping();
-  // Camera first (no new frames), then the worker drains the queue, finishes the stream and
-  // commits; the loop stays alive meanwhile so it could still publish.
+  // Camera first (no new frames; its waits for the next frame, a reconnect or a stream read
+  // are cut short, so stopping never waits for the camera's rate), then the worker drains the
+  // queue, finishes the stream and commits; the loop stays alive meanwhile so it could still
+  // publish.
+  camera_->Interrupt();
   if (camera_thread_.joinable()) camera_thread_.join();
   queue_.PushEnd();  // end of stream: close the open place and commit
   queue_.Close();
@@ -748,6 +751,7 @@ void Daemon::CameraLoop() {
   while (!stopping_) {
     try {
       std::optional<CameraFrame> frame = camera_->Next();
+      if (stopping_) return;  // interrupted, or a frame after the stop: not taken
       if (!frame) {
         spdlog::info("camera {} ended; tscd keeps serving its memory", camera_->name());
         camera_ended_ = true;
@@ -757,11 +761,13 @@ void Daemon::CameraLoop() {
       const bool ends = frame->ends_base_point;
       queue_.Push(std::move(*frame), ends);
     } catch (const CameraError& e) {
+      if (stopping_) return;  // a read cut short by the stop
       const int64_t n = ++counters_.camera_errors;
       if (ShouldLog(n)) spdlog::warn("camera: {} ({} camera errors so far)", e.what(), n);
       if (e.recoverable()) {
         // A source that fails at once again and again must not spin a core.
         std::this_thread::sleep_for(std::chrono::milliseconds(100));
+        continue;
       } else {
         spdlog::error("camera {} failed for good: {}; tscd keeps serving its memory",
                       camera_->name(), e.what());

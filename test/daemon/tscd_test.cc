@@ -296,6 +296,46 @@ TEST_F(TscdTest, TruncatedFrameAndVanishingCameraAreLoggedAndSurvived) {
   EXPECT_EQ(dut.Wait(seconds(20)), 0) << dut.Log();
 }
 
+// Stopping does not wait for the camera: at 0.01 frames per second the next frame is 100 s
+// away, and SIGTERM ends tscd within 2 s (it waited for the frame, past the unit's stop
+// timeout).
+TEST_F(TscdTest, SigtermWithASlowCameraExitsWithinTwoSeconds) {
+  TSCD_REQUIRE_PRIVATE_NETNS();
+  const fs::path frames = dir_ / "frames";
+  fs::create_directories(frames);
+  int copied = 0;
+  for (const auto& e : fs::directory_iterator(fs::path(TSCD_DATA_DIR) / "rtabmap-loop")) {
+    if (e.path().extension() == ".jpg" && copied < 3) {
+      fs::copy_file(e.path(), frames / e.path().filename());
+      ++copied;
+    }
+  }
+  ASSERT_EQ(copied, 3);
+  BusListener bus;
+  ChildProcess dut({kTscd, "--robot", "1", "--state-dir", (dir_ / "state").string(), "--set",
+                    "camera.source=folder", "--set", "camera.path=" + frames.string(), "--set",
+                    "camera.fps=0.01", "--set", "lcm.announce_period_s=0.2"},
+                   dir_ / "tscd.log");
+  // The first frame comes at once; the camera then waits 100 s for the second.
+  ASSERT_TRUE(bus.WaitFor(
+      [](const BusListener& b) {
+        return b.announces.count("TSC_ANNOUNCE") &&
+               b.announces.at("TSC_ANNOUNCE").back().frames >= 1;
+      },
+      seconds(30)))
+      << dut.Log();
+  std::this_thread::sleep_for(milliseconds(500));
+  const auto start = std::chrono::steady_clock::now();
+  dut.Signal(SIGTERM);
+  const std::optional<int> code = dut.Wait(seconds(20));
+  const double stop_s =
+      std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+  EXPECT_EQ(code, 0) << dut.Log();
+  EXPECT_LT(stop_s, 2.0) << dut.Log();
+  EXPECT_NE(dut.Log().find("stopped:"), std::string::npos) << dut.Log();
+  std::printf("[ figures  ] SIGTERM to exit with a 0.01 fps folder camera: %.3f s\n", stop_s);
+}
+
 // The descriptors of the base points tscd stored (table base_points), in base point order.
 std::vector<Eigen::VectorXf> StoredDescriptors(const fs::path& db_path) {
   std::vector<Eigen::VectorXf> out;

@@ -10,6 +10,7 @@
 #include <opencv2/core.hpp>
 #include <opencv2/imgcodecs.hpp>
 #include <string>
+#include <thread>
 #include <vector>
 
 #include "drivers/clock.h"
@@ -164,6 +165,26 @@ TEST_F(FolderCameraTest, CorruptPngIsRecoverableError) {
     EXPECT_TRUE(e.recoverable());
     EXPECT_NE(std::string(e.what()).find("2.png"), std::string::npos) << e.what();
   }
+  EXPECT_FALSE(dut.Next().has_value());
+}
+
+// Stopping does not wait for the next frame: at 0.01 frames per second the second frame is
+// 100 s away, and Interrupt() from another thread ends the wait (Next() returns nullopt, as
+// every later call does).
+TEST_F(FolderCameraTest, InterruptEndsTheWaitForTheNextFrame) {
+  for (int i = 1; i <= 3; ++i) Write(temp_.path() / (std::to_string(i) + ".png"), i);
+  FolderCamera dut(Options(0.01));  // the real clock
+  ASSERT_TRUE(dut.Next().has_value());
+  std::optional<CameraFrame> second{CameraFrame{}};
+  const auto start = std::chrono::steady_clock::now();
+  std::thread reader([&] { second = dut.Next(); });
+  std::this_thread::sleep_for(std::chrono::milliseconds(100));
+  dut.Interrupt();
+  reader.join();
+  const double waited_s =
+      std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+  EXPECT_FALSE(second.has_value());
+  EXPECT_LT(waited_s, 2.0);
   EXPECT_FALSE(dut.Next().has_value());
 }
 
