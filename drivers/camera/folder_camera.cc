@@ -13,7 +13,9 @@ namespace {
 
 Dataset OpenDataset(const fs::path& folder) {
   try {
-    return Dataset::Open(folder);
+    // A frame file of zero bytes (a writer that has not written it yet, a full disk) is a bad
+    // frame like a truncated one: logged by the daemon, and reading goes on.
+    return Dataset::Open(folder, Dataset::EmptyImages::kLoadFails);
   } catch (const DatasetError& e) {
     throw CameraError(std::string("folder camera: ") + e.what(), false);
   }

@@ -259,6 +259,10 @@ TEST_F(TscdTest, TruncatedFrameAndVanishingCameraAreLoggedAndSurvived) {
   }
   const fs::path cut = frames / images[5].filename();
   fs::resize_file(cut, fs::file_size(cut) / 2);
+  // A file of zero bytes, first in name order: a bad frame like the truncated one (it stopped
+  // tscd from starting, exit 78).
+  const fs::path empty = frames / "0.jpg";
+  std::ofstream{empty};
 
   BusListener bus;
   ChildProcess dut(
@@ -274,6 +278,7 @@ TEST_F(TscdTest, TruncatedFrameAndVanishingCameraAreLoggedAndSurvived) {
       seconds(60)))
       << dut.Log();
   EXPECT_NE(dut.Log().find(cut.filename().string()), std::string::npos) << dut.Log();
+  EXPECT_NE(dut.Log().find(empty.string()), std::string::npos) << dut.Log();
 
   fs::remove_all(frames);  // the camera goes away
   std::this_thread::sleep_for(seconds(2));
