@@ -607,17 +607,17 @@ void ApplyConfigFile(const fs::path& file, Settings& options) {
   }
 }
 
-void ApplyOverride(const std::string& assignment, Settings& options) {
+void ApplyOverride(const std::string& assignment, Settings& options, const std::string& origin) {
   const size_t eq = assignment.find('=');
   if (eq == std::string::npos) {
-    throw ConfigError("--set " + assignment + ": expected section.key=value");
+    throw ConfigError(origin + " " + assignment + ": expected section.key=value");
   }
   const std::string key = Trim(assignment.substr(0, eq));
   const ConfigKey* k = FindConfigKey(key);
   if (k == nullptr) {
-    throw ConfigError("--set: unknown key '" + key + "' (`tsc config` lists every key)");
+    throw ConfigError(origin + ": unknown key '" + key + "' (`tsc config` lists every key)");
   }
-  Apply(*k, assignment.substr(eq + 1), options, "--set");
+  Apply(*k, assignment.substr(eq + 1), options, origin);
 }
 
 Settings LoadSettings(const std::optional<fs::path>& file,

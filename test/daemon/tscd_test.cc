@@ -60,6 +60,41 @@ TEST_F(TscdTest, BadConfigurationExits78NamingTheKey) {
   EXPECT_NE(dut.Log().find("no_such_key"), std::string::npos) << dut.Log();
 }
 
+// `tscd my.ini` (a configuration file without --config) ran on the built-in defaults: an
+// argument that is no option is a usage error naming it; a bad --robot is named as --robot
+// (it was named --set); --version and --help answer.
+TEST_F(TscdTest, CommandLineMistakesAreNamedAndVersionAnswers) {
+  const fs::path ini = dir_ / "my.ini";
+  std::ofstream(ini) << "[robot]\nid = 4\n";
+  {
+    ChildProcess dut({kTscd, ini.string()}, dir_ / "positional.log");
+    EXPECT_EQ(dut.Wait(seconds(10)), 2) << dut.Log();
+    EXPECT_NE(dut.Log().find("unexpected argument '" + ini.string() + "'"), std::string::npos)
+        << dut.Log();
+    EXPECT_NE(dut.Log().find("--config FILE"), std::string::npos) << dut.Log();
+    EXPECT_NE(dut.Log().find("Usage: tscd"), std::string::npos) << dut.Log();
+  }
+  {
+    ChildProcess dut({kTscd, "--robot", "abc"}, dir_ / "robot.log");
+    EXPECT_EQ(dut.Wait(seconds(10)), 78) << dut.Log();
+    EXPECT_NE(dut.Log().find("--robot: robot.id = abc"), std::string::npos) << dut.Log();
+    EXPECT_EQ(dut.Log().find("--set"), std::string::npos) << dut.Log();
+  }
+  {
+    ChildProcess dut({kTscd, "--version"}, dir_ / "version.log");
+    EXPECT_EQ(dut.Wait(seconds(10)), 0) << dut.Log();
+    EXPECT_EQ(dut.Log(), "tscd " TSCD_VERSION "\n");
+  }
+  {
+    ChildProcess dut({kTscd, "--help"}, dir_ / "help.log");
+    EXPECT_EQ(dut.Wait(seconds(10)), 0) << dut.Log();
+    for (const char* channel : {"TSC_ANNOUNCE", "TSC_EVENT_", "TSC_MEMORY_", "TSC_REQUEST_",
+                                "TSC_STATS_", "JAGUAR_CMD_", "JAGUAR_STATE_"}) {
+      EXPECT_NE(dut.Log().find(channel), std::string::npos) << channel << "\n" << dut.Log();
+    }
+  }
+}
+
 TEST_F(TscdTest, ServesEveryChannelRejectsGarbageReloadsAndStopsCleanly) {
   TSCD_REQUIRE_PRIVATE_NETNS();
   BusListener bus;
