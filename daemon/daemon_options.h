@@ -11,7 +11,7 @@ namespace tsc {
 struct CameraOptions {
   /// "sim" (the simulated world, rendered live), "folder" (a dataset folder), "video" (a file
   /// OpenCV reads), "device" (V4L2 / USB camera through OpenCV), "axis" (Axis VAPIX camera
-  /// over HTTP with PTZ).
+  /// over HTTP with PTZ), "none" (not chosen: Validate refuses it; the installed tscd.ini).
   std::string source = "sim";
   std::string path;        ///< folder or video file; "/dev/videoN" or "N" for a device
   double fps = 10.0;       ///< frames per second delivered; 0 = as fast as the source gives them
