@@ -1212,13 +1212,18 @@ void Store::WriteSpill(const std::filesystem::path& spill, std::span<const Frame
   partial += ".partial";
   std::error_code ec;
   std::filesystem::remove(partial, ec);
-  {
+  try {
     Store store = Open(partial, true);
     const Db db{store.db_, store.path_};
     // The whole memory and map with the records of `results`, and what it continues from.
     store.CommitPending(results, pipeline, true, peer);
     SetMeta(db, kMetaSpillContinues, continues);
     Exec(db, "PRAGMA wal_checkpoint(TRUNCATE)");
+  } catch (...) {  // closed; nothing half written stays behind (on a full disk least of all)
+    for (const char* suffix : {"", "-wal", "-shm", "-journal"}) {
+      std::filesystem::remove(partial.string() + suffix, ec);
+    }
+    throw;
   }  // closed: the WAL is folded into the file and removed
   if (std::filesystem::rename(partial, spill, ec); ec) {
     throw StoreError(spill.string() + ": cannot put the spill in place: " + ec.message(), true);
