@@ -376,6 +376,46 @@ TEST_F(TscdTest, SigtermWithASlowCameraExitsWithinTwoSeconds) {
   std::printf("[ figures  ] SIGTERM to exit with a 0.01 fps folder camera: %.3f s\n", stop_s);
 }
 
+// libjpeg's warnings about a frame go through tscd's log (time, level, robot) instead of
+// straight to stderr: a JPEG cut in its scan but ending with its end marker decodes with
+// "Corrupt JPEG data: premature end of data segment".
+TEST_F(TscdTest, LibjpegWarningsGoThroughTheLog) {
+  TSCD_REQUIRE_PRIVATE_NETNS();
+  const fs::path frames = dir_ / "frames";
+  fs::create_directories(frames);
+  std::vector<fs::path> images;
+  for (const auto& e : fs::directory_iterator(fs::path(TSCD_DATA_DIR) / "rtabmap-loop")) {
+    if (e.path().extension() == ".jpg") images.push_back(e.path());
+  }
+  std::sort(images.begin(), images.end());
+  ASSERT_GE(images.size(), 3u);
+  for (size_t i = 0; i < 3; ++i) fs::copy_file(images[i], frames / images[i].filename());
+  {
+    std::ifstream in(images[0], std::ios::binary);
+    std::string jpeg((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
+    // Half the scan, then the end marker: complete to the folder camera's check, and libjpeg
+    // decodes it with a warning.
+    jpeg = jpeg.substr(0, jpeg.size() / 2) + "\xFF\xD9";
+    std::ofstream(frames / "9999.jpg", std::ios::binary) << jpeg;
+  }
+  ChildProcess dut(
+      {kTscd, "--robot", "1", "--state-dir", (dir_ / "state").string(), "--set",
+       "camera.source=folder", "--set", "camera.path=" + frames.string(), "--set", "camera.fps=0"},
+      dir_ / "tscd.log");
+  const auto deadline = std::chrono::steady_clock::now() + seconds(30);
+  while (dut.Log().find("ended;") == std::string::npos &&
+         std::chrono::steady_clock::now() < deadline) {
+    std::this_thread::sleep_for(milliseconds(50));
+  }
+  dut.Signal(SIGTERM);
+  EXPECT_EQ(dut.Wait(seconds(20)), 0) << dut.Log();
+  const std::string log = dut.Log();
+  EXPECT_NE(log.find("tscd[1] warning: libjpeg: Corrupt JPEG data: premature end"),
+            std::string::npos)
+      << log;
+  EXPECT_EQ(log.find("\nCorrupt JPEG data"), std::string::npos) << "printed past the log\n" << log;
+}
+
 // The descriptors of the base points tscd stored (table base_points), in base point order.
 std::vector<Eigen::VectorXf> StoredDescriptors(const fs::path& db_path) {
   std::vector<Eigen::VectorXf> out;
