@@ -307,6 +307,9 @@ TEST_F(StorageFaultTest, StopOnAFullDiskSpillsAndTheNextStartTakesItIn) {
                  << "); run as root or with CAP_SYS_ADMIN";
   }
   ASSERT_EQ(::setenv("RUNTIME_DIRECTORY", run.c_str(), 1), 0);
+  struct Unset {
+    ~Unset() { ::unsetenv("RUNTIME_DIRECTORY"); }
+  } unset;
   const std::vector<std::string> extra = {"--set", "daemon.stop_store_wait_s=1"};
   BusListener bus("TSC_ANNOUNCE|TSC_EVENT_.*");
   int64_t frames = 0;
@@ -353,7 +356,6 @@ TEST_F(StorageFaultTest, StopOnAFullDiskSpillsAndTheNextStartTakesItIn) {
     dut.Signal(SIGKILL);  // what is stored now was stored at start
     ASSERT_EQ(dut.Wait(seconds(10)), 128 + SIGKILL);
   }
-  ::unsetenv("RUNTIME_DIRECTORY");
   EXPECT_TRUE(fs::is_empty(run));
   ExpectAnnouncedAreStored(bus, state / "memory.db", frames);
   ::umount2(state.c_str(), MNT_DETACH);

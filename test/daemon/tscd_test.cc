@@ -172,7 +172,8 @@ TEST_F(TscdTest, UnwritableStateDirectoryIsReportedAndTheDaemonKeepsRunning) {
   TSCD_REQUIRE_PRIVATE_NETNS();
   BusListener bus;
   std::ofstream(dir_ / "a-file") << "not a folder\n";
-  ChildProcess dut(FastSimRobot(dir_ / "a-file" / "state"), dir_ / "tscd.log");
+  ChildProcess dut(FastSimRobot(dir_ / "a-file" / "state", {"--set", "daemon.stop_store_wait_s=0"}),
+                   dir_ / "tscd.log");
   ASSERT_TRUE(bus.WaitFor(
       [](const BusListener& b) {
         return b.announces.count("TSC_ANNOUNCE") &&
@@ -186,8 +187,10 @@ TEST_F(TscdTest, UnwritableStateDirectoryIsReportedAndTheDaemonKeepsRunning) {
   });
   EXPECT_NE(dut.Log().find("memory is not persisted"), std::string::npos) << dut.Log();
   EXPECT_NE(dut.Log().find("a-file"), std::string::npos) << dut.Log();
+  // Stopped with its results nowhere (no $RUNTIME_DIRECTORY to spill to): said, and exit 1.
   dut.Signal(SIGTERM);
-  EXPECT_EQ(dut.Wait(seconds(20)), 0) << dut.Log();
+  EXPECT_EQ(dut.Wait(seconds(20)), 1) << dut.Log();
+  EXPECT_NE(dut.Log().find("LOST"), std::string::npos) << dut.Log();
 }
 
 // SIGTERM while the store cannot be written: tscd waits a bounded time for it, then spills
@@ -199,6 +202,9 @@ TEST_F(TscdTest, StopDuringAStoreOutageExitsNonZeroAndTheNextStartTakesInWhatWas
   const fs::path run = dir_ / "run";
   fs::create_directories(run);
   ASSERT_EQ(::setenv("RUNTIME_DIRECTORY", run.c_str(), 1), 0);
+  struct Unset {
+    ~Unset() { ::unsetenv("RUNTIME_DIRECTORY"); }
+  } unset;
   const fs::path blocker = dir_ / "a-file";
   std::ofstream(blocker) << "not a folder\n";
   const fs::path state = blocker / "state";
@@ -255,7 +261,6 @@ TEST_F(TscdTest, StopDuringAStoreOutageExitsNonZeroAndTheNextStartTakesInWhatWas
     dut.Signal(SIGTERM);
     EXPECT_EQ(dut.Wait(seconds(20)), 0) << dut.Log();
   }
-  ::unsetenv("RUNTIME_DIRECTORY");
   EXPECT_TRUE(fs::is_empty(run));
   Store store = Store::Open(state / "memory.db");
   const StoredState saved = store.Load(1, PlaceMemoryOptions{});
