@@ -263,6 +263,7 @@ Daemon::Daemon(Settings settings, SettingsSource source, std::unique_ptr<CameraS
 
 Daemon::~Daemon() {
   stopping_ = true;  // normally Run() has stopped everything; this covers a failed start
+  camera_->Interrupt();
   queue_.Close();
   if (camera_thread_.joinable()) camera_thread_.join();
   if (worker_thread_.joinable()) worker_thread_.join();
@@ -1048,7 +1049,10 @@ int Daemon::SaveBeforeExit() {
                pending_.size(), db_path_.string(), store_problem_, wait_s);
   const auto deadline = Clock::now() + std::chrono::duration_cast<Clock::duration>(
                                            std::chrono::duration<double>(wait_s));
+  notifier_.Status(fmt::format("stopping: {} results not in the store; trying it for {} s",
+                               pending_.size(), wait_s));
   for (;;) {
+    notifier_.Watchdog();  // alive meanwhile, should systemd still watch
     next_store_retry_ = {};
     RetryStore(true);
     if (!unsaved()) {
@@ -1067,8 +1071,9 @@ int Daemon::SaveBeforeExit() {
     last = r.base.index;
   }
   const std::string what =
-      fmt::format("{} results (base points {}..{}) and the memory of {} places and {} map edges{}",
-                  pending_.size(), first, last, counters_.places.load(), counters_.edges.load(),
+      fmt::format("{} results{} and the memory of {} places and {} map edges{}", pending_.size(),
+                  first >= 0 ? fmt::format(" (base points {}..{})", first, last) : std::string(),
+                  counters_.places.load(), counters_.edges.load(),
                   unsaved_merge_ ? " with a merged peer memory" : "");
   const std::string name = kSpillPrefix + std::to_string(NowUtime());
   for (const fs::path& folder : SpillFolders(db_path_)) {
