@@ -336,8 +336,7 @@ std::vector<ConfigKey> BuildTable() {
       "where frames come from: the simulated world rendered live (tests and demos), a dataset "
       "folder, a video file, a V4L2/USB device, or an Axis network camera (VAPIX MJPEG and "
       "PTZ); none: not chosen yet, tscd refuses to start (the installed tscd.ini says none)",
-      "sim|folder|video|device|axis|none",
-      [](auto& o) -> auto& { return o.daemon.camera.source; },
+      "sim|folder|video|device|axis|none", [](auto& o) -> auto& { return o.daemon.camera.source; },
       OneOf({"sim", "folder", "video", "device", "axis", "none"})));
   t.push_back(Text(
       "camera.path", "folder or video file; for a device /dev/videoN or its number N", "a path",
