@@ -281,6 +281,66 @@ TEST_F(TscdTest, StopDuringAStoreOutageExitsNonZeroAndTheNextStartTakesInWhatWas
   EXPECT_GE(saved.pipeline.next_base, frames);
 }
 
+// A restart does not know where the robot is (in simulation the route starts over): every map
+// edge made after it starts at a place closed after it, never at the last place before it.
+TEST_F(TscdTest, ARestartMapsNoEdgeFromThePlaceBeforeIt) {
+  TSCD_REQUIRE_PRIVATE_NETNS();
+  BusListener bus("TSC_ANNOUNCE|TSC_EVENT_.*");
+  const fs::path state = dir_ / "state";
+  size_t first_run_events = 0;
+  {
+    ChildProcess dut(FastSimRobot(state), dir_ / "first.log");
+    ASSERT_TRUE(bus.WaitFor(
+        [](const BusListener& b) {
+          return b.announces.count("TSC_ANNOUNCE") &&
+                 b.announces.at("TSC_ANNOUNCE").back().places >= 3;
+        },
+        seconds(60)))
+        << dut.Log();
+    dut.Signal(SIGTERM);
+    ASSERT_EQ(dut.Wait(seconds(20)), 0) << dut.Log();
+    std::this_thread::sleep_for(milliseconds(300));
+    bus.Inspect(
+        [&](const BusListener& b) { first_run_events = b.events.at("TSC_EVENT_1").size(); });
+  }
+  std::optional<PlaceId> before;
+  {
+    Store store = Store::Open(state / "memory.db");
+    before = store.Load(1, PlaceMemoryOptions{}).pipeline.previous_place;
+  }
+  ASSERT_TRUE(before.has_value());
+  {
+    ChildProcess dut(FastSimRobot(state), dir_ / "second.log");
+    ASSERT_TRUE(bus.WaitFor(
+        [&](const BusListener& b) {
+          const auto& ev = b.events.at("TSC_EVENT_1");
+          int mapped = 0;
+          for (size_t i = first_run_events; i < ev.size(); ++i) mapped += ev[i].event == "mapped";
+          return mapped >= 3;
+        },
+        seconds(60)))
+        << dut.Log();
+    dut.Signal(SIGTERM);
+    ASSERT_EQ(dut.Wait(seconds(20)), 0) << dut.Log();
+  }
+  bus.Inspect([&](const BusListener& b) {
+    const auto& ev = b.events.at("TSC_EVENT_1");
+    std::set<std::pair<int, int>> closed;  // places closed since the restart
+    for (size_t i = first_run_events; i < ev.size(); ++i) {
+      const place_event_t& e = ev[i];
+      if ((e.event == "learned" || e.event == "recognized") && !e.partial) {
+        closed.insert({e.place.robot, e.place.local});
+      }
+      if (e.event == "mapped") {
+        EXPECT_TRUE(closed.count({e.from.robot, e.from.local}))
+            << "edge " << e.from.robot << ":" << e.from.local << "-" << e.place.robot << ":"
+            << e.place.local << " from a place not seen since the restart (the last before it: "
+            << before->ToString() << ")";
+      }
+    }
+  });
+}
+
 // A folder camera with a truncated JPEG, then the folder disappears mid-run.
 TEST_F(TscdTest, TruncatedFrameAndVanishingCameraAreLoggedAndSurvived) {
   TSCD_REQUIRE_PRIVATE_NETNS();
