@@ -251,6 +251,12 @@ Daemon::Daemon(Settings settings, SettingsSource source, std::unique_ptr<CameraS
         "memory is not persisted: {}; tscd keeps running, keeps its results and "
         "retries every {} s",
         store_problem_, kStoreRetrySeconds);
+    for (const fs::path& spill : FindSpills(SpillFolders(db_path_))) {
+      spdlog::error(
+          "{} waits to be taken in, which needs the store: this run starts without it, and what "
+          "it learns cannot be joined with it later; stop tscd and repair the store first",
+          spill.string());
+    }
   }
   counters_.places = static_cast<int32_t>(memory.places().size());
   counters_.edges = static_cast<int32_t>(map.edges().size());
