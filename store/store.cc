@@ -1211,7 +1211,12 @@ void Store::WriteSpill(const std::filesystem::path& spill, std::span<const Frame
   std::filesystem::path partial = spill;
   partial += ".partial";
   std::error_code ec;
-  std::filesystem::remove(partial, ec);
+  const auto remove_partial = [&] {  // with the companions a crash may have left
+    for (const char* suffix : {"", "-wal", "-shm", "-journal"}) {
+      std::filesystem::remove(partial.string() + suffix, ec);
+    }
+  };
+  remove_partial();
   try {
     Store store = Open(partial, true);
     const Db db{store.db_, store.path_};
@@ -1220,9 +1225,7 @@ void Store::WriteSpill(const std::filesystem::path& spill, std::span<const Frame
     SetMeta(db, kMetaSpillContinues, continues);
     Exec(db, "PRAGMA wal_checkpoint(TRUNCATE)");
   } catch (...) {  // closed; nothing half written stays behind (on a full disk least of all)
-    for (const char* suffix : {"", "-wal", "-shm", "-journal"}) {
-      std::filesystem::remove(partial.string() + suffix, ec);
-    }
+    remove_partial();
     throw;
   }  // closed: the WAL is folded into the file and removed
   if (std::filesystem::rename(partial, spill, ec); ec) {
