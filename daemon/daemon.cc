@@ -85,11 +85,14 @@ std::vector<fs::path> FindSpills(const std::vector<fs::path>& folders) {
     std::error_code ec;
     for (fs::directory_iterator it(folder, ec), end; !ec && it != end; it.increment(ec)) {
       const std::string name = it->path().filename().string();
-      if (name.starts_with(kSpillPrefix) && !name.ends_with(".partial")) {
-        const std::string stamp = name.substr(std::string_view(kSpillPrefix).size());
-        found.emplace_back(std::string(20 - std::min<size_t>(20, stamp.size()), '0') + stamp,
-                           it->path());
+      if (!name.starts_with(kSpillPrefix)) continue;
+      // memory.db.spill.<digits>: not a half-written one (.partial), nor SQLite's -wal, -shm.
+      const std::string stamp = name.substr(std::string_view(kSpillPrefix).size());
+      if (stamp.empty() || stamp.size() > 20 ||
+          !std::all_of(stamp.begin(), stamp.end(), [](char c) { return c >= '0' && c <= '9'; })) {
+        continue;
       }
+      found.emplace_back(std::string(20 - stamp.size(), '0') + stamp, it->path());
     }
   }
   std::sort(found.begin(), found.end());
