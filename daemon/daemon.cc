@@ -5,6 +5,7 @@
 #include <sys/statvfs.h>
 #include <unistd.h>
 
+#include <algorithm>
 #include <boost/asio/io_context.hpp>
 #include <boost/asio/posix/stream_descriptor.hpp>
 #include <boost/asio/post.hpp>
@@ -12,9 +13,11 @@
 #include <boost/asio/steady_timer.hpp>
 #include <cerrno>
 #include <csignal>
+#include <cstdlib>
 #include <limits>
 #include <random>
 #include <set>
+#include <string_view>
 #include <system_error>
 
 #include "core/merge/merge.h"
@@ -54,9 +57,49 @@ int64_t RandomBootId() {
 // frames or messages cannot drown the journal but is never silent.
 bool ShouldLog(int64_t occurrence) { return occurrence <= 10 || occurrence % 100 == 0; }
 
-// A failing store (full disk, read-only or broken file system) is tried again this often, not
-// on every frame: each attempt writes every kept result.
+// A failing store (full disk, read-only or broken file system, one that would not open) is
+// tried again this often, not on every frame: each attempt writes every kept result.
 constexpr int kStoreRetrySeconds = 1;
+
+// Exit code of a stop that left results out of the store (spilled or lost): runtime failure.
+constexpr int kExitUnsaved = 1;
+
+// Where a stopping tscd whose store fails writes what it holds (Store::WriteSpill), in order:
+// beside the database, then the runtime folder systemd gives the unit (RuntimeDirectory=,
+// kept across restarts), which survives a state directory that cannot be written.
+std::vector<fs::path> SpillFolders(const fs::path& db_path) {
+  std::vector<fs::path> out = {db_path.parent_path()};
+  if (const char* runtime = std::getenv("RUNTIME_DIRECTORY"); runtime != nullptr && *runtime) {
+    const std::string first = std::string(runtime).substr(0, std::string(runtime).find(':'));
+    if (fs::path(first) != out.front()) out.emplace_back(first);
+  }
+  return out;
+}
+
+constexpr const char* kSpillPrefix = "memory.db.spill.";
+
+// The spills waiting in `folders`, oldest first (their names end in the writer's wall time).
+std::vector<fs::path> FindSpills(const std::vector<fs::path>& folders) {
+  std::vector<std::pair<std::string, fs::path>> found;
+  for (const fs::path& folder : folders) {
+    std::error_code ec;
+    for (fs::directory_iterator it(folder, ec), end; !ec && it != end; it.increment(ec)) {
+      const std::string name = it->path().filename().string();
+      if (!name.starts_with(kSpillPrefix)) continue;
+      // memory.db.spill.<digits>: not a half-written one (.partial), nor SQLite's -wal, -shm.
+      const std::string stamp = name.substr(std::string_view(kSpillPrefix).size());
+      if (stamp.empty() || stamp.size() > 20 ||
+          !std::all_of(stamp.begin(), stamp.end(), [](char c) { return c >= '0' && c <= '9'; })) {
+        continue;
+      }
+      found.emplace_back(std::string(20 - stamp.size(), '0') + stamp, it->path());
+    }
+  }
+  std::sort(found.begin(), found.end());
+  std::vector<fs::path> out;
+  for (auto& [key, path] : found) out.push_back(std::move(path));
+  return out;
+}
 
 place_ref_t Ref(const PlaceId& id) {
   place_ref_t r;
@@ -189,6 +232,7 @@ Daemon::Daemon(Settings settings, SettingsSource source, std::unique_ptr<CameraS
                        ec.message());
     }
     Store store = Store::Open(db_path_);
+    ReplaySpills(store);
     StoredState saved = store.Load(robot_, settings_.pipeline.memory);
     memory = std::move(saved.memory);
     map = std::move(saved.map);
@@ -205,11 +249,17 @@ Daemon::Daemon(Settings settings, SettingsSource source, std::unique_ptr<CameraS
     // day the store opens; never touch a database we could not read.
     store_problem_ = e.what();
     degraded_store_ = true;
-    next_store_retry_ = Clock::now() + std::chrono::seconds(10);
+    next_store_retry_ = Clock::now() + std::chrono::seconds(kStoreRetrySeconds);
     spdlog::error(
         "memory is not persisted: {}; tscd keeps running, keeps its results and "
-        "retries every 10 s",
-        store_problem_);
+        "retries every {} s",
+        store_problem_, kStoreRetrySeconds);
+    for (const fs::path& spill : FindSpills(SpillFolders(db_path_))) {
+      spdlog::error(
+          "{} waits to be taken in, which needs the store: this run starts without it, and what "
+          "it learns cannot be joined with it later; stop tscd and repair the store first",
+          spill.string());
+    }
   }
   counters_.places = static_cast<int32_t>(memory.places().size());
   counters_.edges = static_cast<int32_t>(map.edges().size());
@@ -222,6 +272,7 @@ Daemon::Daemon(Settings settings, SettingsSource source, std::unique_ptr<CameraS
 
 Daemon::~Daemon() {
   stopping_ = true;  // normally Run() has stopped everything; this covers a failed start
+  camera_->Interrupt();
   queue_.Close();
   if (camera_thread_.joinable()) camera_thread_.join();
   if (worker_thread_.joinable()) worker_thread_.join();
@@ -258,7 +309,7 @@ int Daemon::Run() {
   notifier_.Ready(StatusLine());
   spdlog::info("ready: {}", StatusLine());
   io_->run();
-  return 0;
+  return exit_code_;
 }
 
 // ---------------------------------------------------------------------------------------------
@@ -556,12 +607,16 @@ void Daemon::Shutdown() {
   // are ignored from now on.
   if (base_) base_->Stop();
   notifier_.Stopping();
-  // Camera first (no new frames), then the worker drains the queue, finishes the stream and
-  // commits; the loop stays alive meanwhile so it could still publish.
+  // Camera first (no new frames; its waits for the next frame, a reconnect or a stream read
+  // are cut short, so stopping never waits for the camera's rate), then the worker drains the
+  // queue, finishes the stream and commits; the loop stays alive meanwhile so it could still
+  // publish.
+  camera_->Interrupt();
   if (camera_thread_.joinable()) camera_thread_.join();
   queue_.PushEnd();  // end of stream: close the open place and commit
   queue_.Close();
   if (worker_thread_.joinable()) worker_thread_.join();
+  exit_code_ = SaveBeforeExit();
   // The loop runs what is still queued (the worker's last events), then this, then returns.
   asio::post(*io_, [this] {
     PublishMemoryIfChanged();
@@ -706,6 +761,7 @@ void Daemon::CameraLoop() {
   while (!stopping_) {
     try {
       std::optional<CameraFrame> frame = camera_->Next();
+      if (stopping_) return;  // interrupted, or a frame after the stop: not taken
       if (!frame) {
         spdlog::info("camera {} ended; tscd keeps serving its memory", camera_->name());
         camera_ended_ = true;
@@ -715,11 +771,13 @@ void Daemon::CameraLoop() {
       const bool ends = frame->ends_base_point;
       queue_.Push(std::move(*frame), ends);
     } catch (const CameraError& e) {
+      if (stopping_) return;  // a read cut short by the stop
       const int64_t n = ++counters_.camera_errors;
       if (ShouldLog(n)) spdlog::warn("camera: {} ({} camera errors so far)", e.what(), n);
       if (e.recoverable()) {
         // A source that fails at once again and again must not spin a core.
         std::this_thread::sleep_for(std::chrono::milliseconds(100));
+        continue;
       } else {
         spdlog::error("camera {} failed for good: {}; tscd keeps serving its memory",
                       camera_->name(), e.what());
@@ -937,9 +995,7 @@ void Daemon::RetryStore(bool now) {
 
 bool Daemon::ReopenStore() {
   if (Clock::now() < next_store_retry_) return false;
-  // Never opened: every 10 s; closed after a file system failure: as often as commits retry.
-  next_store_retry_ =
-      Clock::now() + std::chrono::seconds(committed_next_base_ ? kStoreRetrySeconds : 10);
+  next_store_retry_ = Clock::now() + std::chrono::seconds(kStoreRetrySeconds);
   try {
     // Ours, closed after a failure, must still be there: a missing file is a file system not
     // mounted again yet, and a new database would end up under the mount.
@@ -988,6 +1044,88 @@ bool Daemon::ReopenStore() {
     if (e.what() != store_problem_) spdlog::error("store still unavailable: {}", e.what());
     store_problem_ = e.what();
     return false;
+  }
+}
+
+// Stopping with results the store has not taken (it fails, or never opened): wait a bounded
+// time for it, then spill what tscd holds to a file the next start takes in, and say loudly
+// what is not in the store. Worker stopped: called on the loop thread with everything ours.
+int Daemon::SaveBeforeExit() {
+  const auto unsaved = [&] { return !pending_.empty() || unsaved_merge_ || replace_knowledge_; };
+  if (!unsaved()) return 0;
+  const double wait_s = settings_.daemon.stop_store_wait_s;
+  spdlog::warn("stopping with {} results not in the store {} ({}); trying it for up to {} s",
+               pending_.size(), db_path_.string(), store_problem_, wait_s);
+  const auto deadline = Clock::now() + std::chrono::duration_cast<Clock::duration>(
+                                           std::chrono::duration<double>(wait_s));
+  notifier_.Status(fmt::format("stopping: {} results not in the store; trying it for {} s",
+                               pending_.size(), wait_s));
+  for (;;) {
+    notifier_.Watchdog();  // alive meanwhile, should systemd still watch
+    next_store_retry_ = {};
+    RetryStore(true);
+    if (!unsaved()) {
+      spdlog::info("store {} took every kept result before stopping", db_path_.string());
+      return 0;
+    }
+    const auto now = Clock::now();
+    if (now >= deadline) break;
+    std::this_thread::sleep_for(
+        std::min<Clock::duration>(deadline - now, std::chrono::milliseconds(250)));
+  }
+  int64_t first = -1, last = -1;
+  for (const FrameResult& r : pending_) {
+    if (!r.has_base) continue;
+    if (first < 0) first = r.base.index;
+    last = r.base.index;
+  }
+  const std::string what =
+      fmt::format("{} results{} and the memory of {} places and {} map edges{}", pending_.size(),
+                  first >= 0 ? fmt::format(" (base points {}..{})", first, last) : std::string(),
+                  counters_.places.load(), counters_.edges.load(),
+                  unsaved_merge_ ? " with a merged peer memory" : "");
+  const std::string name = kSpillPrefix + std::to_string(NowUtime());
+  for (const fs::path& folder : SpillFolders(db_path_)) {
+    const fs::path spill = folder / name;
+    try {
+      std::lock_guard lock(pipeline_mutex_);
+      Store::WriteSpill(spill, pending_, *pipeline_, unsaved_merge_, committed_next_base_);
+      spdlog::error(
+          "NOT SAVED in {} ({}): {} written to {} instead; the next start takes it in once the "
+          "store opens. Exiting with code {}.",
+          db_path_.string(), store_problem_, what, spill.string(), kExitUnsaved);
+      return kExitUnsaved;
+    } catch (const std::exception& e) {
+      spdlog::error("cannot spill to {}: {} [{}]", spill.string(), e.what(),
+                    FileSystemState(folder));
+    }
+  }
+  spdlog::critical(
+      "LOST: {} could not be written to {} ({}) nor spilled; they are gone. Exiting with code "
+      "{}.",
+      what, db_path_.string(), store_problem_, kExitUnsaved);
+  return kExitUnsaved;
+}
+
+// Takes in what earlier runs spilled at stop (SaveBeforeExit), oldest first, before the memory
+// is loaded; a spill that does not continue this database is left where it is and logged.
+void Daemon::ReplaySpills(Store& store) {
+  for (const fs::path& spill : FindSpills(SpillFolders(db_path_))) {
+    try {
+      const SpillReplay r = store.ReplaySpill(spill, robot_, settings_.pipeline.memory);
+      std::error_code ec;
+      fs::remove(spill, ec);
+      if (ec) {
+        spdlog::error("spill {} taken in but not removed: {}; remove it by hand", spill.string(),
+                      ec.message());
+      }
+      spdlog::warn(
+          "took in {} spilled at the last stop: {} base point records; {} places, {} map edges, "
+          "continuing at base point {}",
+          spill.string(), r.base_points, r.places, r.edges, r.next_base);
+    } catch (const std::exception& e) {
+      spdlog::error("spill {} not taken in: {}", spill.string(), e.what());
+    }
   }
 }
 

@@ -91,7 +91,8 @@ class Daemon {
   Daemon& operator=(const Daemon&) = delete;
 
   /// Runs until SIGTERM / SIGINT (or Stop()), then finishes the stream, commits and returns
-  /// the exit code (0).
+  /// the exit code: 0, or 1 when results could not be stored before exit (spilled beside the
+  /// database or in $RUNTIME_DIRECTORY for the next start, or lost; logged either way).
   int Run();
   /// Thread-safe request to stop, as SIGTERM.
   void Stop();
@@ -152,6 +153,11 @@ class Daemon {
   /// Opens the store again (after it failed to open, or was closed after a file system
   /// failure); true when it is open.
   bool ReopenStore();
+  /// At stop, after the worker: waits up to daemon.stop_store_wait_s for the store, then
+  /// spills; the exit code.
+  int SaveBeforeExit();
+  /// At start: takes earlier spills into the freshly opened `store`.
+  void ReplaySpills(Store& store);
 
   Settings settings_;
   SettingsSource source_;
@@ -184,6 +190,7 @@ class Daemon {
 
   FrameQueue<CameraFrame> queue_;
   std::atomic<bool> stopping_{false};
+  int exit_code_ = 0;
   std::atomic<bool> camera_ended_{false};
   std::atomic<int64_t> worker_heartbeat_ms_{0};
   std::atomic<bool> degraded_store_{false};

@@ -12,6 +12,13 @@ void DaemonOptions::Validate() const {
   if (max_pending_results < 1) {
     throw std::invalid_argument("daemon.max_pending_results: must be at least 1");
   }
+  if (camera.source == "none") {
+    throw std::invalid_argument(
+        "camera.source = none: no camera chosen yet. Set camera.source to device (a V4L2/USB "
+        "camera, camera.path = /dev/video0), folder or video (camera.path = the folder or "
+        "file) or axis (camera.axis_host = its address); sim is the simulated world, for tests "
+        "and demos only (README, \"Running on a robot\")");
+  }
   if (camera.source == "axis") {
     if (camera.axis_host.empty()) {
       throw std::invalid_argument("camera.axis_host: required for camera.source = axis");

@@ -11,7 +11,7 @@ namespace tsc {
 struct CameraOptions {
   /// "sim" (the simulated world, rendered live), "folder" (a dataset folder), "video" (a file
   /// OpenCV reads), "device" (V4L2 / USB camera through OpenCV), "axis" (Axis VAPIX camera
-  /// over HTTP with PTZ).
+  /// over HTTP with PTZ), "none" (not chosen: Validate refuses it; the installed tscd.ini).
   std::string source = "sim";
   std::string path;        ///< folder or video file; "/dev/videoN" or "N" for a device
   double fps = 10.0;       ///< frames per second delivered; 0 = as fast as the source gives them
@@ -91,6 +91,9 @@ struct DaemonOptions {
   /// Results kept in memory while the store cannot be written (full disk, read-only); beyond
   /// it the oldest results' base point records are dropped (learned places and edges never).
   int max_pending_results = 10000;
+  /// At stop, how long tscd keeps trying a failing store before it spills what it holds
+  /// (seconds; below the unit's TimeoutStopSec).
+  double stop_store_wait_s = 10.0;
   std::string log_level = "info";  ///< trace | debug | info | warn | error
   CameraOptions camera;
   SimOptions sim;

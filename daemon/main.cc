@@ -7,6 +7,9 @@
 #include <boost/program_options.hpp>
 #include <cstdlib>
 #include <iostream>
+#include <string>
+#include <utility>
+#include <vector>
 
 #include "daemon/daemon.h"
 #include "drivers/camera/make_camera.h"
@@ -21,14 +24,23 @@ constexpr int kExitFailure = 1;
 constexpr int kExitUsage = 2;
 constexpr int kExitConfig = 78;
 
+constexpr const char* kUsageLine =
+    "Usage: tscd [--config FILE] [--robot ID] [--state-dir DIR] [--set section.key=value]...\n";
+
 constexpr const char* kUsage =
     "tscd: topological spatial cognition daemon for one robot.\n"
     "Reads its camera, detects, recognises and learns places, maps how they connect, keeps\n"
-    "its memory in STATE_DIR/memory.db and publishes it over LCM (TSC_ANNOUNCE,\n"
-    "TSC_EVENT_<robot>, TSC_MEMORY_<robot>).\n\n"
-    "Usage: tscd [--config FILE] [--robot ID] [--state-dir DIR] [--set section.key=value]...\n\n"
+    "its memory in STATE_DIR/memory.db and exchanges it with its team over LCM.\n"
+    "Channels: publishes TSC_ANNOUNCE (every lcm.announce_period_s), TSC_EVENT_<robot>\n"
+    "(place events), TSC_MEMORY_<robot> (its memory in portions), TSC_STATS_<robot>\n"
+    "(counters), JAGUAR_STATE_<robot> (odometry, 10 Hz) and TSC_REQUEST_<peer> (to fetch a\n"
+    "peer's memory); reads TSC_ANNOUNCE and TSC_MEMORY_* of its peers, TSC_REQUEST_<robot>\n"
+    "(a peer asking for its memory) and JAGUAR_CMD_<robot> (motor commands).\n\n"
+    "Usage: tscd [--config FILE] [--robot ID] [--state-dir DIR] [--set section.key=value]...\n"
+    "       tscd --print-config | --version | --help\n\n"
     "Signals: SIGTERM/SIGINT stop cleanly (final commit), SIGHUP reloads the configuration.\n"
-    "Every key: `tsc config`. Exit codes: 0 ok, 1 failure, 2 usage, 78 configuration error.\n\n"
+    "Every key: `tsc config`. Exit codes: 0 ok, 1 failure (also: stopped with results the\n"
+    "store did not take; see the log), 2 usage, 78 configuration error.\n\n"
     "Options";
 
 void SetUpLogging(uint32_t robot, const std::string& level) {
@@ -48,7 +60,7 @@ void SetUpLogging(uint32_t robot, const std::string& level) {
 
 int main(int argc, char** argv) {
   po::options_description desc(kUsage);
-  desc.add_options()("help,h", "show this help")(
+  desc.add_options()("help,h", "show this help")("version", "print the version and exit")(
       "config,c", po::value<std::string>()->value_name("FILE"), "configuration file (INI)")(
       "robot,r", po::value<std::string>()->value_name("ID"), "robot id (robot.id)")(
       "state-dir,s", po::value<std::string>()->value_name("DIR"),
@@ -58,7 +70,18 @@ int main(int argc, char** argv) {
                                                      "print the effective configuration and exit");
   po::variables_map vm;
   try {
-    po::store(po::command_line_parser(argc, argv).options(desc).run(), vm);
+    const po::parsed_options parsed = po::command_line_parser(argc, argv).options(desc).run();
+    // An argument that is no option (`tscd my.ini`) would otherwise be ignored and tscd would
+    // run on its built-in defaults.
+    const std::vector<std::string> extra =
+        po::collect_unrecognized(parsed.options, po::include_positional);
+    if (!extra.empty()) {
+      std::cerr << "tscd: unexpected argument '" << extra.front()
+                << "' (a configuration file is given with --config FILE)\n"
+                << kUsageLine << "See tscd --help.\n";
+      return kExitUsage;
+    }
+    po::store(parsed, vm);
     po::notify(vm);
   } catch (const po::error& e) {
     std::cerr << "tscd: " << e.what() << " (tscd --help)\n";
@@ -68,14 +91,30 @@ int main(int argc, char** argv) {
     std::cout << desc << "\n";
     return kExitOk;
   }
+  if (vm.count("version")) {
+    std::cout << "tscd " << TSCD_VERSION << "\n";
+    return kExitOk;
+  }
 
   tsc::SettingsSource source;
   if (vm.count("config")) source.file = vm["config"].as<std::string>();
   if (vm.count("set")) source.overrides = vm["set"].as<std::vector<std::string>>();
   // The dedicated flags are keys too, given last so they win; checked like every other key.
-  if (vm.count("robot")) source.overrides.push_back("robot.id=" + vm["robot"].as<std::string>());
+  // Each is checked on its own first, so an error names the flag (--robot), not --set.
+  std::vector<std::pair<std::string, std::string>> flags;  // (flag, key=value)
+  if (vm.count("robot")) flags.emplace_back("--robot", "robot.id=" + vm["robot"].as<std::string>());
   if (vm.count("state-dir")) {
-    source.overrides.push_back("daemon.state_dir=" + vm["state-dir"].as<std::string>());
+    flags.emplace_back("--state-dir", "daemon.state_dir=" + vm["state-dir"].as<std::string>());
+  }
+  for (const auto& [flag, assignment] : flags) {
+    try {
+      tsc::Settings scratch;
+      tsc::ApplyOverride(assignment, scratch, flag);
+    } catch (const tsc::ConfigError& e) {
+      std::cerr << "tscd: configuration error: " << e.what() << "\n";
+      return kExitConfig;
+    }
+    source.overrides.push_back(assignment);
   }
   tsc::Settings settings;
   try {

@@ -320,6 +320,12 @@ std::vector<ConfigKey> BuildTable() {
       "results kept in memory while the store cannot be written; beyond it the oldest base "
       "point records are dropped (learned places and map edges are always kept)",
       "results", 1, 10000000, [](auto& o) -> auto& { return o.daemon.max_pending_results; }));
+  t.push_back(Number(
+      "daemon.stop_store_wait_s",
+      "at stop, how long a failing store is tried before what is not in it is spilled to a "
+      "file the next start takes in (memory.db.spill.*, beside memory.db or in "
+      "$RUNTIME_DIRECTORY); keep it below the unit's TimeoutStopSec",
+      "s", 0, 3600, [](auto& o) -> auto& { return o.daemon.stop_store_wait_s; }));
   t.push_back(Text(
       "daemon.log_level", "least severe log level written", "trace|debug|info|warn|error",
       [](auto& o) -> auto& { return o.daemon.log_level; },
@@ -327,10 +333,11 @@ std::vector<ConfigKey> BuildTable() {
   // [camera] — drivers/camera
   t.push_back(Text(
       "camera.source",
-      "where frames come from: the simulated world rendered live, a dataset folder, "
-      "a video file, a V4L2/USB device, or an Axis network camera (VAPIX MJPEG and PTZ)",
-      "sim|folder|video|device|axis", [](auto& o) -> auto& { return o.daemon.camera.source; },
-      OneOf({"sim", "folder", "video", "device", "axis"})));
+      "where frames come from: the simulated world rendered live (tests and demos), a dataset "
+      "folder, a video file, a V4L2/USB device, or an Axis network camera (VAPIX MJPEG and "
+      "PTZ); none: not chosen yet, tscd refuses to start (the installed tscd.ini says none)",
+      "sim|folder|video|device|axis|none", [](auto& o) -> auto& { return o.daemon.camera.source; },
+      OneOf({"sim", "folder", "video", "device", "axis", "none"})));
   t.push_back(Text(
       "camera.path", "folder or video file; for a device /dev/videoN or its number N", "a path",
       [](auto& o) -> auto& { return o.daemon.camera.path; }));
@@ -601,17 +608,17 @@ void ApplyConfigFile(const fs::path& file, Settings& options) {
   }
 }
 
-void ApplyOverride(const std::string& assignment, Settings& options) {
+void ApplyOverride(const std::string& assignment, Settings& options, const std::string& origin) {
   const size_t eq = assignment.find('=');
   if (eq == std::string::npos) {
-    throw ConfigError("--set " + assignment + ": expected section.key=value");
+    throw ConfigError(origin + " " + assignment + ": expected section.key=value");
   }
   const std::string key = Trim(assignment.substr(0, eq));
   const ConfigKey* k = FindConfigKey(key);
   if (k == nullptr) {
-    throw ConfigError("--set: unknown key '" + key + "' (`tsc config` lists every key)");
+    throw ConfigError(origin + ": unknown key '" + key + "' (`tsc config` lists every key)");
   }
-  Apply(*k, assignment.substr(eq + 1), options, "--set");
+  Apply(*k, assignment.substr(eq + 1), options, origin);
 }
 
 Settings LoadSettings(const std::optional<fs::path>& file,

@@ -62,8 +62,10 @@ const ConfigKey* FindConfigKey(const std::string& key);
 /// Applies an INI file on top of `options`. Throws ConfigError naming the file and key on an
 /// unreadable file, a syntax error, an unknown or repeated key, or a bad value.
 void ApplyConfigFile(const std::filesystem::path& file, Settings& settings);
-/// Applies one `section.key=value` override. Throws ConfigError naming "--set" and the key.
-void ApplyOverride(const std::string& assignment, Settings& options);
+/// Applies one `section.key=value` override. Throws ConfigError naming `origin` (the option
+/// it came from: "--set", or "--robot" for the dedicated flag) and the key.
+void ApplyOverride(const std::string& assignment, Settings& options,
+                   const std::string& origin = "--set");
 
 /// Defaults, then `file` when given, then the overrides in order; validates the result
 /// (PipelineOptions::Validate, DaemonOptions::Validate) and throws ConfigError naming the

@@ -19,9 +19,14 @@ class SystemClock : public Clock {
                std::chrono::system_clock::now().time_since_epoch())
         .count();
   }
-  void SleepUntil(int64_t steady_us) override {
-    const auto when = std::chrono::steady_clock::time_point(std::chrono::microseconds(steady_us));
-    std::this_thread::sleep_until(when);
+  void SleepUntil(int64_t steady_us) override { std::this_thread::sleep_until(When(steady_us)); }
+  bool WaitUntil(int64_t steady_us, StopSignal& stop) override {
+    return stop.WaitUntil(When(steady_us));
+  }
+
+ private:
+  static std::chrono::steady_clock::time_point When(int64_t steady_us) {
+    return std::chrono::steady_clock::time_point(std::chrono::microseconds(steady_us));
   }
 };
 
@@ -41,7 +46,7 @@ void ManualClock::SleepUntil(int64_t steady_us) {
 Pacer::Pacer(double fps, Clock& clock)
     : period_us_(fps > 0.0 ? static_cast<int64_t>(std::llround(1e6 / fps)) : 0), clock_(clock) {}
 
-int64_t Pacer::Wait() {
+int64_t Pacer::Wait(StopSignal* stop) {
   const int64_t now = clock_.SteadyMicros();
   if (period_us_ <= 0) return now;
   if (!started_ || now > due_us_ + period_us_) {
@@ -50,7 +55,11 @@ int64_t Pacer::Wait() {
     return now;
   }
   due_us_ += period_us_;
-  clock_.SleepUntil(due_us_);
+  if (stop != nullptr) {
+    clock_.WaitUntil(due_us_, *stop);
+  } else {
+    clock_.SleepUntil(due_us_);
+  }
   return clock_.SteadyMicros();
 }
 

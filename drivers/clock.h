@@ -6,6 +6,8 @@
 #include <atomic>
 #include <cstdint>
 
+#include "drivers/stop_signal.h"
+
 namespace tsc {
 
 class Clock {
@@ -17,6 +19,13 @@ class Clock {
   virtual int64_t WallMicros() const = 0;
   /// Blocks until SteadyMicros() ≥ steady_us (returns at once when already past).
   virtual void SleepUntil(int64_t steady_us) = 0;
+  /// As SleepUntil, but returns early when `stop` is raised; false when it was (at once when
+  /// it already is).
+  virtual bool WaitUntil(int64_t steady_us, StopSignal& stop) {
+    if (stop.raised()) return false;
+    SleepUntil(steady_us);
+    return !stop.raised();
+  }
 
   /// The process-wide real clock (std::chrono::steady_clock / system_clock).
   static Clock& System();
@@ -45,8 +54,9 @@ class ManualClock : public Clock {
 class Pacer {
  public:
   Pacer(double fps, Clock& clock);
-  /// Blocks until the next due time; returns the steady time it returned at.
-  int64_t Wait();
+  /// Blocks until the next due time; returns the steady time it returned at. With `stop`,
+  /// returns early when it is raised (check stop->raised()).
+  int64_t Wait(StopSignal* stop = nullptr);
   /// Forgets the grid: the next Wait() returns at once.
   void Reset() { started_ = false; }
 

@@ -1,8 +1,12 @@
 #include "store/store.h"
 
+#include <fcntl.h>
+#include <unistd.h>
+
 #include <algorithm>
 #include <array>
 #include <bit>
+#include <cerrno>
 #include <cstring>
 #include <limits>
 #include <span>
@@ -108,6 +112,9 @@ constexpr const char* kMetaPreviousRobot = "previous_place_robot";
 constexpr const char* kMetaPreviousLocal = "previous_place_local";
 constexpr const char* kMetaNextLocal = "next_local_id";
 constexpr const char* kMetaSlink = "slink";  // int32 π[n] then float64 λ[n]
+// In a spill only (Store::WriteSpill): the next_base of the database it continues; NULL when
+// the process that wrote it never loaded that database.
+constexpr const char* kMetaSpillContinues = "spill_continues_base";
 
 // ---------------------------------------------------------------------------------------
 // Blobs: little-endian raw arrays of arithmetic values with explicit length checks.
@@ -263,6 +270,19 @@ struct Db {
   throw StoreError(db.path.string() + ": " + what);
 }
 
+/// Why this process cannot write the database `path` (an errno: EACCES, EROFS, ENOTDIR,
+/// ENOENT for a missing folder), or 0 when it could: the file when it exists, then the folder,
+/// where SQLite makes the file, its -wal and its -shm.
+int CannotWriteReason(const std::filesystem::path& path) {
+  if (::faccessat(AT_FDCWD, path.c_str(), F_OK, AT_EACCESS) == 0) {
+    if (::faccessat(AT_FDCWD, path.c_str(), R_OK | W_OK, AT_EACCESS) != 0) return errno;
+  } else if (errno != ENOENT) {
+    return errno;
+  }
+  const std::filesystem::path dir = path.has_parent_path() ? path.parent_path() : ".";
+  return ::faccessat(AT_FDCWD, dir.c_str(), W_OK | X_OK, AT_EACCESS) == 0 ? 0 : errno;
+}
+
 /// The last failure came from the file system under SQLite (not a full disk: that passes).
 bool FileSystemFailure(const Db& db) {
   if (db.handle == nullptr) return false;
@@ -276,7 +296,13 @@ std::string OsError(const Db& db) {
   const int primary = sqlite3_errcode(db.handle) & 0xff;
   const bool io = primary == SQLITE_IOERR || primary == SQLITE_FULL || primary == SQLITE_CANTOPEN ||
                   primary == SQLITE_READONLY;
-  const int os_errno = sqlite3_system_errno(db.handle);
+  int os_errno = sqlite3_system_errno(db.handle);
+  if (primary == SQLITE_CANTOPEN || primary == SQLITE_READONLY) {
+    // SQLite falls back to opening read-only after a refused read-write open, so the errno it
+    // keeps is that of the fallback (ENOENT for a file not made yet), or none, not why it
+    // could not write: ask the system about the file and the folder it makes its files in.
+    if (const int why = CannotWriteReason(db.path); why != 0) os_errno = why;
+  }
   if (!io || os_errno == 0) return "";
   return " (" + std::system_category().message(os_errno) + ")";
 }
@@ -1177,6 +1203,107 @@ void Store::CommitPending(std::span<const FrameResult> results, const Pipeline& 
   } catch (const std::exception& e) {
     Fail(db, std::string("cannot commit: ") + e.what());
   }
+}
+
+void Store::WriteSpill(const std::filesystem::path& spill, std::span<const FrameResult> results,
+                       const Pipeline& pipeline, const std::optional<PeerMerge>& peer,
+                       std::optional<BaseIndex> continues) {
+  std::filesystem::path partial = spill;
+  partial += ".partial";
+  std::error_code ec;
+  const auto remove_partial = [&] {  // with the companions a crash may have left
+    for (const char* suffix : {"", "-wal", "-shm", "-journal"}) {
+      std::filesystem::remove(partial.string() + suffix, ec);
+    }
+  };
+  remove_partial();
+  try {
+    Store store = Open(partial, true);
+    const Db db{store.db_, store.path_};
+    // The whole memory and map with the records of `results`, and what it continues from.
+    store.CommitPending(results, pipeline, true, peer);
+    SetMeta(db, kMetaSpillContinues, continues);
+    Exec(db, "PRAGMA wal_checkpoint(TRUNCATE)");
+  } catch (...) {  // closed; nothing half written stays behind (on a full disk least of all)
+    remove_partial();
+    throw;
+  }  // closed: the WAL is folded into the file and removed
+  if (std::filesystem::rename(partial, spill, ec); ec) {
+    throw StoreError(spill.string() + ": cannot put the spill in place: " + ec.message(), true);
+  }
+  // The rename is durable only once its folder is synced.
+  const std::filesystem::path dir = spill.has_parent_path() ? spill.parent_path() : ".";
+  if (const int fd = ::open(dir.c_str(), O_RDONLY | O_DIRECTORY | O_CLOEXEC); fd >= 0) {
+    ::fsync(fd);
+    ::close(fd);
+  }
+}
+
+SpillReplay Store::ReplaySpill(const std::filesystem::path& spill, uint32_t robot,
+                               const PlaceMemoryOptions& options) {
+  const Db db{db_, path_};
+  Store from = OpenExisting(spill);
+  std::optional<int64_t> continues;
+  {
+    const Db sdb{from.db_, from.path_};
+    continues = MetaInt(sdb, kMetaSpillContinues, 0, std::numeric_limits<int64_t>::max());
+  }
+  const StoredState saved = from.Load(robot, options);  // throws for another robot's
+  const StoredState ours = Load(robot, options);
+  // A continuation of exactly this database, or of none when its writer never loaded one.
+  if (!continues) {
+    if (!ours.memory.empty() || ours.pipeline.next_base > 0) {
+      Fail(db, spill.string() +
+                   " was written by a tscd that never loaded this database, which holds a "
+                   "memory: the two cannot be joined; the spill is left untouched");
+    }
+  } else {
+    if (ours.pipeline.next_base > *continues) {
+      Fail(db, spill.string() + " continues base point " + std::to_string(*continues) +
+                   " but the database is at " + std::to_string(ours.pipeline.next_base) +
+                   " already; the spill is left untouched");
+    }
+    std::unordered_set<uint64_t> held;
+    const auto key = [](const PlaceId& id) { return (uint64_t{id.robot} << 32) | id.local; };
+    for (const LearnedPlace& p : saved.memory.places()) {
+      held.insert(key(p.id));
+      for (const PlaceId& s : p.sources) held.insert(key(s));
+    }
+    for (const LearnedPlace& p : ours.memory.places()) {
+      if (!held.contains(key(p.id))) {
+        Fail(db, spill.string() + " lacks place " + p.id.ToString() +
+                     " of the database; the spill is left untouched");
+      }
+    }
+  }
+  SpillReplay out;
+  out.next_base = saved.pipeline.next_base;
+  out.places = saved.memory.places().size();
+  out.edges = saved.map.edges().size();
+  Statement(db, "ATTACH DATABASE ?1 AS spill").Text(1, spill.c_str()).Run();
+  try {
+    Transaction tx(db);
+    Exec(db,
+         "INSERT OR IGNORE INTO main.base_points SELECT * FROM spill.base_points;"
+         "INSERT OR IGNORE INTO main.detected_places SELECT * FROM spill.detected_places;"
+         "INSERT OR IGNORE INTO main.transition_regions(first, last, from_robot, from_local, "
+         "to_robot, to_local) SELECT first, last, from_robot, from_local, to_robot, to_local "
+         "FROM spill.transition_regions ORDER BY id;"
+         "INSERT OR REPLACE INTO main.peers(robot, last_merged_version, merged_at_utime, digest) "
+         "SELECT robot, last_merged_version, merged_at_utime, digest FROM spill.peers;");
+    {
+      Statement count(db, "SELECT COUNT(*) FROM spill.base_points");
+      if (count.Step()) out.base_points = sqlite3_column_int64(count.get(), 0);
+    }
+    WriteKnowledge(db, saved.memory, saved.map, std::nullopt);
+    WritePipelineState(db, saved.pipeline);
+    tx.Commit();
+  } catch (...) {
+    sqlite3_exec(db_, "DETACH DATABASE spill", nullptr, nullptr, nullptr);
+    throw;
+  }
+  Exec(db, "DETACH DATABASE spill");
+  return out;
 }
 
 }  // namespace tsc

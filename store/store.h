@@ -46,6 +46,14 @@ class StoreError : public std::runtime_error {
   bool file_system_ = false;
 };
 
+/// What Store::ReplaySpill took in.
+struct SpillReplay {
+  int64_t base_points = 0;  ///< base point records the spill held
+  BaseIndex next_base = 0;  ///< where the pipeline continues now
+  size_t places = 0;        ///< learned places of the memory now
+  size_t edges = 0;         ///< map edges now
+};
+
 class Store {
  public:
   /// Schema version this code writes; Open() migrates older databases up to it and refuses
@@ -79,6 +87,24 @@ class Store {
   /// back).
   void CommitPending(std::span<const FrameResult> results, const Pipeline& pipeline,
                      bool replace_knowledge, const std::optional<PeerMerge>& peer);
+
+  /// Writes what a stopping tscd holds and could not commit to `spill`, a new database of its
+  /// own: the whole memory and map of `pipeline`, the records of `results`, the pipeline
+  /// position, the `peer` merge not stored yet, and `continues`, the next base point of the
+  /// database it continues (nullopt: the writer never loaded one). Written under a temporary
+  /// name and renamed, so `spill` is whole or absent. Throws StoreError.
+  static void WriteSpill(const std::filesystem::path& spill, std::span<const FrameResult> results,
+                         const Pipeline& pipeline, const std::optional<PeerMerge>& peer,
+                         std::optional<BaseIndex> continues);
+  /// Takes the spill `spill` (WriteSpill) into this database in one transaction: its base
+  /// point, detected place and transition records and its peers are added, its memory, map
+  /// and position replace ours. Only a spill that continues this database is taken: one whose
+  /// writer reached our position or beyond and holds every place we hold, or, written by a
+  /// tscd that never loaded a database, into an empty one; otherwise throws StoreError and
+  /// changes nothing. The caller removes the spill after success.
+  /// `robot` must own both.
+  SpillReplay ReplaySpill(const std::filesystem::path& spill, uint32_t robot,
+                          const PlaceMemoryOptions& options);
 
   /// The robot id recorded in the database, if any. Throws StoreError.
   std::optional<uint32_t> robot() const;

@@ -62,7 +62,7 @@ int AxisSimMain(const std::vector<std::string>& args) {
                                       "fixed robot pose, metres and radians")(
       "pose-file", po::value<std::string>()->value_name("PATH"),
       "file holding the robot pose 'x y heading_rad', re-read for every frame")(
-      "hfov-deg", po::value<double>()->default_value(60.0)->value_name("D"),
+      "hfov-deg", po::value<double>()->default_value(60.0, "60")->value_name("D"),
       "horizontal field of view, degrees")(
       "auth", po::value<std::string>()->default_value("none")->value_name("MODE"),
       "none, basic or digest")("user", po::value<std::string>()->default_value("root"),

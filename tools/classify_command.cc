@@ -194,7 +194,7 @@ SvmParameters ChooseParameters(const LabelledDescriptors& data, const po::variab
 
 void AddCommonOptions(po::options_description& desc) {
   desc.add_options()("help,h", "show this help")(
-      "tau", po::value<double>()->default_value(0.5)->value_name("T"),
+      "tau", po::value<double>()->default_value(0.5, "0.5")->value_name("T"),
       "confidence threshold in [0, 1] (test, cv)")(
       "json", po::value<std::string>()->value_name("FILE"), "write the figures as JSON to FILE")(
       "plots", po::value<std::string>()->value_name("DIR"), "write PNG plots into DIR (test, cv)")(

@@ -116,23 +116,24 @@ int RunJaguarSimCommand(const std::vector<std::string>& args) {
       "route", po::value<int>()->default_value(0)->value_name("R"), "sim.route")(
       "start", po::value<std::string>()->value_name("X,Y,H"),
       "start pose: metres, metres, radians")(
-      "drop", po::value<double>(&o.drop_fraction)->default_value(0.0)->value_name("F"),
+      "drop", po::value<double>(&o.drop_fraction)->default_value(0.0, "0")->value_name("F"),
       "fraction of sent frames/lines dropped")(
-      "bad-crc", po::value<double>(&o.bad_crc_fraction)->default_value(0.0)->value_name("F"),
+      "bad-crc", po::value<double>(&o.bad_crc_fraction)->default_value(0.0, "0")->value_name("F"),
       "fraction of sent frames with a wrong CRC (ASCII: garbled lines)")(
       "silence", po::value<std::string>()->value_name("AT:FOR"),
       "deaf and mute from AT s after start for FOR s")(
-      "silence-stop-s", po::value<double>(&o.silence_stop_s)->default_value(1.0)->value_name("S"),
+      "silence-stop-s",
+      po::value<double>(&o.silence_stop_s)->default_value(1.0, "1")->value_name("S"),
       "stop the motors when the PC was silent this long (0: never)")(
       "seed", po::value<uint32_t>(&o.seed)->default_value(1)->value_name("N"),
-      "seed of the fault injection")("full-power-mps",
-                                     po::value<double>(&o.full_power_mps)->default_value(1.5),
-                                     "side speed at full power, m/s")(
-      "track-width-m", po::value<double>(&o.track_width_m)->default_value(0.52),
+      "seed of the fault injection")(
+      "full-power-mps", po::value<double>(&o.full_power_mps)->default_value(1.5, "1.5"),
+      "side speed at full power, m/s")(
+      "track-width-m", po::value<double>(&o.track_width_m)->default_value(0.52, "0.52"),
       "distance between the tracks, m")(
-      "counts-per-metre", po::value<double>(&o.counts_per_metre)->default_value(640.0),
+      "counts-per-metre", po::value<double>(&o.counts_per_metre)->default_value(640.0, "640"),
       "encoder counts per metre")("seconds",
-                                  po::value<double>()->default_value(0.0)->value_name("S"),
+                                  po::value<double>()->default_value(0.0, "0")->value_name("S"),
                                   "stop after S seconds (0: run until SIGTERM/SIGINT)");
   const po::variables_map vm = ParseCommandLine(args, desc);
   if (vm.count("help")) {
@@ -226,12 +227,12 @@ int RunTeleopCommand(const std::vector<std::string>& args) {
   desc.add_options()("help,h", "show this help")(
       "robot", po::value<uint32_t>()->required()->value_name("ID"), "robot id")(
       "lcm-url", po::value<std::string>()->default_value(BusOptions{}.url)->value_name("URL"),
-      "LCM provider")("linear-mps", po::value<double>(&linear)->default_value(0.5),
+      "LCM provider")("linear-mps", po::value<double>(&linear)->default_value(0.5, "0.5"),
                       "forward speed of w/s, m/s")(
-      "angular-radps", po::value<double>(&angular)->default_value(1.0), "turn rate of a/d, rad/s")(
-      "hold-s", po::value<double>(&hold_s)->default_value(0.6),
-      "dead man: a motion lasts this long after its last key")(
-      "rate-hz", po::value<double>(&rate_hz)->default_value(10.0),
+      "angular-radps", po::value<double>(&angular)->default_value(1.0, "1"),
+      "turn rate of a/d, rad/s")("hold-s", po::value<double>(&hold_s)->default_value(0.6, "0.6"),
+                                 "dead man: a motion lasts this long after its last key")(
+      "rate-hz", po::value<double>(&rate_hz)->default_value(10.0, "10"),
       "commands per second while moving");
   const po::variables_map vm = ParseCommandLine(args, desc);
   if (vm.count("help")) {

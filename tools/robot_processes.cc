@@ -22,12 +22,33 @@ extern char** environ;
 namespace tsc {
 namespace fs = std::filesystem;
 
-int RunProgram(const std::vector<std::string>& argv) {
+int RunProgram(const std::vector<std::string>& argv, std::string* output) {
   std::vector<char*> args;
   for (const std::string& a : argv) args.push_back(const_cast<char*>(a.c_str()));
   args.push_back(nullptr);
+  int pipe_fds[2] = {-1, -1};
+  if (output != nullptr && ::pipe2(pipe_fds, O_CLOEXEC) != 0) return -1;
+  posix_spawn_file_actions_t actions;
+  posix_spawn_file_actions_init(&actions);
+  if (output != nullptr) {
+    posix_spawn_file_actions_adddup2(&actions, pipe_fds[1], STDOUT_FILENO);
+    posix_spawn_file_actions_adddup2(&actions, pipe_fds[1], STDERR_FILENO);
+  }
   pid_t pid = -1;
-  if (posix_spawnp(&pid, args[0], nullptr, nullptr, args.data(), environ) != 0) return -1;
+  const int spawned = posix_spawnp(&pid, args[0], &actions, nullptr, args.data(), environ);
+  posix_spawn_file_actions_destroy(&actions);
+  if (output != nullptr) {
+    ::close(pipe_fds[1]);
+    output->clear();
+    char buf[4096];
+    for (ssize_t n; spawned == 0 && (n = ::read(pipe_fds[0], buf, sizeof buf)) != 0;) {
+      if (n < 0 && errno == EINTR) continue;
+      if (n < 0) break;
+      output->append(buf, static_cast<size_t>(n));
+    }
+    ::close(pipe_fds[0]);
+  }
+  if (spawned != 0) return -1;
   int status = 0;
   if (waitpid(pid, &status, 0) < 0) return -1;
   return WIFEXITED(status) ? WEXITSTATUS(status) : 128 + WTERMSIG(status);
@@ -68,8 +89,13 @@ void SetUpLoopbackMulticast() {
       RunProgram({"ip", "link", "set", "lo", "multicast", "on"}) != 0) {
     throw std::runtime_error("cannot bring up lo with multicast in the private namespace (ip)");
   }
-  // "File exists" when a caller already added it: fine.
-  RunProgram({"ip", "route", "add", "224.0.0.0/4", "dev", "lo"});
+  // "File exists" when a caller already added it: fine, and not printed (ip's own
+  // "RTNETLINK answers: File exists" on the terminal looked like a failure).
+  std::string said;
+  if (RunProgram({"ip", "route", "add", "224.0.0.0/4", "dev", "lo"}, &said) != 0 &&
+      said.find("File exists") == std::string::npos) {
+    throw std::runtime_error("cannot route multicast on lo in the private namespace: ip: " + said);
+  }
 }
 
 std::optional<int> EnterPrivateNetwork(const std::string& subcommand,

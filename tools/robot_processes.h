@@ -13,8 +13,9 @@
 namespace tsc {
 
 /// Runs a program (no shell) and waits for it. Returns its exit status (128 + signal when
-/// killed), or -1 if it could not start.
-int RunProgram(const std::vector<std::string>& argv);
+/// killed), or -1 if it could not start. With `output`, what it writes to stdout and stderr
+/// is put there instead of this process's terminal.
+int RunProgram(const std::vector<std::string>& argv, std::string* output = nullptr);
 
 /// True when this network namespace has an interface other than lo, i.e. multicast could
 /// leave the host (read from /proc/self/net/dev).

@@ -63,7 +63,7 @@ int Sim(const std::vector<std::string>& args) {
       "world", po::value<std::string>()->default_value("office")->value_name("KIND"),
       "office (rooms off a corridor), corridors, or outdoor (street, square, two rooms)")(
       "robots", po::value<int>()->default_value(1)->value_name("K"), "number of robots, 1..64")(
-      "revisit-fraction", po::value<double>()->default_value(0.5)->value_name("F"),
+      "revisit-fraction", po::value<double>()->default_value(0.5, "0.5")->value_name("F"),
       "fraction of the rooms revisited after the first tour, in [0, 1]")(
       "lighting", po::value<std::string>()->default_value("day")->value_name("L"),
       "day, dim (night), flicker (per-frame brightness), mixed (revisits dim)")(
@@ -72,14 +72,14 @@ int Sim(const std::vector<std::string>& args) {
       "image size in pixels")("frames-per-room",
                               po::value<int>()->default_value(72)->value_name("N"),
                               "frames looking around at each visited room's centre")(
-      "turn-step-deg", po::value<double>()->default_value(30.0)->value_name("D"),
+      "turn-step-deg", po::value<double>()->default_value(30.0, "30")->value_name("D"),
       "turning towards the next waypoint between frames, degrees (frames come every 0.15 m "
       "of travel, ~3 per second)")(
-      "scan-step-deg", po::value<double>()->default_value(5.0)->value_name("D"),
+      "scan-step-deg", po::value<double>()->default_value(5.0, "5")->value_name("D"),
       "turning between frames while looking around at a room's centre, degrees")(
       "sweep-views", po::value<int>()->default_value(1)->value_name("K"),
       "views of a pan sweep per frame, written side by side (1 = forward camera only)")(
-      "sweep-deg", po::value<double>()->default_value(360.0)->value_name("D"),
+      "sweep-deg", po::value<double>()->default_value(360.0, "360")->value_name("D"),
       "pan covered by a sweep, degrees in (0, 360]")(
       "sweep-world-aligned",
       "take the sweep's views at fixed world headings, not relative to "

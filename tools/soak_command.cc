@@ -3,6 +3,7 @@
 #include <unistd.h>
 
 #include <boost/program_options.hpp>
+#include <charconv>
 #include <chrono>
 #include <csignal>
 #include <cstdlib>
@@ -182,22 +183,30 @@ void AddLossRule(int percent) {
   }
 }
 
+// `v` as its shortest decimal form (0.15, not Boost's 0.14999999999999999).
+std::string Shortest(double v) {
+  char buf[32];
+  const auto r = std::to_chars(buf, buf + sizeof buf, v);
+  return std::string(buf, r.ptr);
+}
+
 int Soak(const std::vector<std::string>& args) {
   po::options_description desc(kSoakHelp);
   desc.add_options()("help,h", "show this help")(
       "robots", po::value<int>()->default_value(5)->value_name("N"), "robots, 2..16")(
       "world", po::value<long long>()->default_value(7)->value_name("SEED"), "seed of the world")(
       "kind", po::value<std::string>()->default_value("office"), "office|corridors|outdoor")(
-      "minutes", po::value<double>()->default_value(10.0)->value_name("M"), "length of the soak")(
-      "seconds", po::value<double>()->value_name("S"), "length in seconds (instead of --minutes)")(
+      "minutes", po::value<double>()->default_value(10.0, "10")->value_name("M"),
+      "length of the soak")("seconds", po::value<double>()->value_name("S"),
+                            "length in seconds (instead of --minutes)")(
       "loss", po::value<int>()->default_value(10)->value_name("PERCENT"),
-      "UDP datagrams dropped, 0..90")("restart-every",
-                                      po::value<double>()->default_value(60.0)->value_name("R"),
-                                      "seconds between restarts of a random robot (0: none)")(
-      "kill-fraction", po::value<double>()->default_value(0.3)->value_name("F"),
+      "UDP datagrams dropped, 0..90")(
+      "restart-every", po::value<double>()->default_value(60.0, "60")->value_name("R"),
+      "seconds between restarts of a random robot (0: none)")(
+      "kill-fraction", po::value<double>()->default_value(0.3, "0.3")->value_name("F"),
       "share of restarts by SIGKILL instead of SIGTERM")(
       "seed", po::value<unsigned>()->default_value(1), "seed of the restart schedule")(
-      "fps", po::value<double>()->default_value(10.0), "camera frames per second per robot")(
+      "fps", po::value<double>()->default_value(10.0, "10"), "camera frames per second per robot")(
       "loop", "drive the routes again and again (load) instead of once per process life")(
       "out", po::value<std::string>()->default_value("soak-out")->value_name("DIR"),
       "output folder (soak.csv, restarts.csv, soak.json, soak.png, robot-<id>/)")(
@@ -205,9 +214,12 @@ int Soak(const std::vector<std::string>& args) {
       "override a tscd key for every robot (repeatable)")(
       "netns", po::value<std::string>()->default_value("new"), "new|current")(
       "max-rss-slope",
-      po::value<double>()->default_value(SoakCheckOptions{}.max_rss_slope_mb_per_min),
+      po::value<double>()->default_value(SoakCheckOptions{}.max_rss_slope_mb_per_min,
+                                         Shortest(SoakCheckOptions{}.max_rss_slope_mb_per_min)),
       "bound on the RSS slope within a process life after the warm-up, MB/min")(
-      "max-late-growth", po::value<double>()->default_value(SoakCheckOptions{}.max_late_growth),
+      "max-late-growth",
+      po::value<double>()->default_value(SoakCheckOptions{}.max_late_growth,
+                                         Shortest(SoakCheckOptions{}.max_late_growth)),
       "bound on (RSS median of the last sixth) / (median of the middle third) - 1")(
       "replot", po::value<std::string>()->value_name("DIR"),
       "judge and draw DIR/soak.csv again; runs nothing");

@@ -5,6 +5,7 @@
 #include <boost/program_options.hpp>
 #include <chrono>
 #include <csignal>
+#include <cstdio>
 #include <cstdlib>
 #include <cstring>
 #include <filesystem>
@@ -34,6 +35,21 @@
 
 namespace tsc {
 namespace {
+
+// A figure for people: three significant digits (recall 0.0833, not 0.08333333333333333);
+// summary.json keeps every digit.
+std::string Figure(double v) {
+  char buf[32];
+  std::snprintf(buf, sizeof buf, "%.3g", v);
+  return buf;
+}
+
+// A duration for people, in whole seconds.
+std::string Seconds(double seconds) {
+  char buf[32];
+  std::snprintf(buf, sizeof buf, "%.0f s", seconds);
+  return buf;
+}
 
 namespace fs = std::filesystem;
 namespace po = boost::program_options;
@@ -128,7 +144,11 @@ std::string ProgressLine(const std::vector<RobotStats>& robots, double elapsed) 
   for (const RobotStats& r : robots) {
     s << " | robot " << r.id << ": " << r.frames << " frames, " << r.places << " places, "
       << r.recognitions << " recognised, " << r.edges << " edges";
-    if (r.exited) s << " (exited " << r.exit_status << ")";
+    if (r.exited) {
+      s << " (exited " << r.exit_status << ")";
+    } else if (r.route_ended) {
+      s << " (route ended)";
+    }
   }
   return s.str();
 }
@@ -139,15 +159,15 @@ int Team(const std::vector<std::string>& args) {
       "robots", po::value<int>()->required()->value_name("N"), "robots in the team, 1..16")(
       "world", po::value<long long>()->required()->value_name("SEED"), "seed of the world")(
       "kind", po::value<std::string>()->default_value("office"), "office|corridors|outdoor")(
-      "seconds", po::value<double>()->default_value(0.0)->value_name("S"),
+      "seconds", po::value<double>()->default_value(0.0, "0")->value_name("S"),
       "stop after S seconds (0: when every route has ended and the team has settled)")(
-      "settle", po::value<double>()->default_value(60.0)->value_name("S"),
+      "settle", po::value<double>()->default_value(60.0, "60")->value_name("S"),
       "with --seconds 0: after the routes end, wait up to S seconds until no memory has "
       "changed and no exchange was in progress for two broadcast periods (every robot has "
       "merged every other's last memory)")(
       "out", po::value<std::string>()->default_value("team-out")->value_name("DIR"),
       "output folder (robot state, logs, summary.json)")(
-      "fps", po::value<double>()->default_value(10.0), "camera frames per second per robot")(
+      "fps", po::value<double>()->default_value(10.0, "10"), "camera frames per second per robot")(
       "config", po::value<std::string>()->value_name("FILE"), "tscd configuration for all")(
       "set", po::value<std::vector<std::string>>()->composing()->value_name("KEY=VALUE"),
       "override a key for every robot (repeatable)")(
@@ -294,10 +314,21 @@ int Team(const std::vector<std::string>& args) {
       // arrival, which changes the receiver's version in turn; two quiet periods (and the
       // merge) with no exchange in progress mean every robot has merged every other's last
       // memory.
-      if (!settling) settling = Clock::now();
+      if (!settling) {
+        settling = Clock::now();
+        std::cout << (tty ? "\r\033[K" : "") << "tsc team: every route ended after "
+                  << Seconds(elapsed) << "; waiting for the memory exchange to settle (no "
+                  << "change for " << Seconds(std::chrono::duration<double>(quiet).count())
+                  << ", at most " << Seconds(settle_limit) << ")\n";
+      }
       auto last_change = *settling;
       for (const RobotStats& r : robots) last_change = std::max(last_change, r.version_seen);
-      if (Clock::now() - last_change >= quiet) break;
+      if (Clock::now() - last_change >= quiet) {
+        std::cout << (tty ? "\r\033[K" : "") << "tsc team: memories settled "
+                  << Seconds(std::chrono::duration<double>(Clock::now() - *settling).count())
+                  << " after the routes ended; stopping the robots\n";
+        break;
+      }
       if (Clock::now() - *settling >= settle_for) {
         std::cout << (tty ? "\n" : "") << "tsc team: memories still changing " << settle_limit
                   << " s after the routes ended; stopping anyway\n";
@@ -416,10 +447,10 @@ int Team(const std::vector<std::string>& args) {
   std::cout << "merges (DESIGN 7.1b): " << merge.merges << " pairs merged, " << merge.correct
             << " correct, " << merge.same_label_pairs
             << " pairs of places of different robots in the same room; precision "
-            << JsonNumber(merge.precision) << ", recall " << JsonNumber(merge.recall) << "\n"
+            << Figure(merge.precision) << ", recall " << Figure(merge.recall) << "\n"
             << "places merged with a place of another robot in their room: "
             << merge.places_merged_with_namesake << " of " << merge.places_with_namesake
-            << " (place recall " << JsonNumber(merge.place_recall) << ")\n"
+            << " (place recall " << Figure(merge.place_recall) << ")\n"
             << "peer places recognised by the robots' pipelines: " << merge.peer_recognitions
             << " detected places, " << merge.peer_recognitions_correct << " correct\n";
   std::cout << "memories " << (consistent ? "consistent" : "NOT consistent")

@@ -58,7 +58,7 @@ Topological spatial cognition, offline. Commands:
   jaguar-sim  a simulated Jaguar motor board on 127.0.0.1 (V2 binary/UDP and ASCII/TCP)
   teleop   drive a robot from the keyboard (JAGUAR_CMD_<robot>, dead-man rule)
 
-'tsc <command> --help' describes each command.
+'tsc <command> --help' describes each command; 'tsc --version' prints the version.
 
 Exit codes: 0 ok, 1 runtime failure (dataset, store, I/O), 2 usage error,
 78 configuration error. Every error names the file, key or frame at fault.
@@ -470,6 +470,10 @@ int Main(int argc, char** argv) {
   const std::string command = argv[1];
   if (command == "--help" || command == "-h" || command == "help") {
     std::cout << kMainHelp;
+    return kExitOk;
+  }
+  if (command == "--version" || command == "version") {
+    std::cout << "tsc " << TSCD_VERSION << "\n";
     return kExitOk;
   }
   using Command = int (*)(const std::vector<std::string>&);

@@ -56,8 +56,7 @@ Pipeline::Pipeline(CameraIntrinsics camera, PipelineOptions options, PlaceMemory
       memory_(std::move(memory)),
       map_(std::move(map)),
       next_base_(state.next_base),
-      previous_place_(state.previous_place),
-      whereabouts_(state.previous_place) {
+      previous_place_(state.previous_place) {
   if (memory_.robot() != options_.robot) {
     throw std::invalid_argument("place memory of robot " + std::to_string(memory_.robot()) +
                                 " given to the pipeline of robot " +

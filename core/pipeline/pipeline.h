@@ -97,7 +97,9 @@ struct PipelineOptions {
 struct PipelineState {
   BaseIndex next_base = 0;
   DetectedPlaceIndex next_detected = 1;
-  std::optional<PlaceId> previous_place;  ///< β of the last detected place, for hybrid search
+  /// β of the last detected place: a hint for hybrid search only. A pipeline continuing from a
+  /// state maps no edge from it (the robot may have moved meanwhile; docs/decisions.md, "Map").
+  std::optional<PlaceId> previous_place;
 };
 
 class Pipeline {
@@ -166,7 +168,9 @@ class Pipeline {
   std::optional<PlaceId> previous_place_;
   // Where the map last put the robot: β(D_{m−1}), or a known place recognised since then on a
   // window of whereabouts_points base points (RecogniseWhereabouts); and the last base point
-  // that showed it. Not stored: a restarted pipeline continues from β(D_{m−1}).
+  // that showed it. Not stored: after a restart the whereabouts are unknown until a place
+  // closes, so the first place after it is not linked to the last one before it (which the
+  // robot may have left long ago); previous_place_ still hints hybrid search.
   std::optional<PlaceId> whereabouts_;
   std::optional<BaseIndex> whereabouts_seen_;
   std::optional<Eigen::VectorXf> previous_descriptor_;        // coherence descriptor of x_{k−1}

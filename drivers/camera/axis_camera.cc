@@ -33,8 +33,12 @@ int64_t Micros(double seconds) { return static_cast<int64_t>(std::llround(second
 
 // Runs one asynchronous operation on `io` to completion. Beast's stream timeouts
 // (expires_after) apply to asynchronous operations only, so every step goes through here.
+// Returns operation_aborted within a tenth of a second once `stop` is raised (the camera is
+// stopping); the caller then drops `io` and its stream without running it again, so the
+// abandoned handler never runs.
 template <typename Start>
-beast::error_code Await(asio::io_context& io, Start start, size_t* bytes = nullptr) {
+beast::error_code Await(asio::io_context& io, StopSignal& stop, Start start,
+                        size_t* bytes = nullptr) {
   beast::error_code result = asio::error::would_block;
   start([&result, bytes](beast::error_code ec, auto n) {
     result = ec;
@@ -43,7 +47,11 @@ beast::error_code Await(asio::io_context& io, Start start, size_t* bytes = nullp
     }
   });
   io.restart();
-  io.run();
+  while (result == asio::error::would_block) {
+    if (stop.raised()) return asio::error::operation_aborted;
+    io.run_for(std::chrono::milliseconds(100));
+    if (io.stopped() && result == asio::error::would_block) io.restart();
+  }
   return result;
 }
 
@@ -180,7 +188,7 @@ AxisCamera::Reply AxisCamera::Get(const std::string& target) {
     if (ec)
       throw CameraError(what + ": cannot resolve " + options_.host + ": " + ec.message(), true);
     tcp.expires_after(std::chrono::microseconds(Micros(options_.timeout_s)));
-    if ((ec = Await(io, [&](auto h) { tcp.async_connect(endpoints, h); }))) {
+    if ((ec = Await(io, interrupted_, [&](auto h) { tcp.async_connect(endpoints, h); }))) {
       throw CameraError(what + ": cannot connect: " + ec.message(), true);
     }
     http::request<http::empty_body> req{http::verb::get, target, 11};
@@ -192,8 +200,8 @@ AxisCamera::Reply AxisCamera::Get(const std::string& target) {
     beast::flat_buffer buffer;
     http::response_parser<http::string_body> parser;
     parser.body_limit(1 << 20);
-    if ((ec = Await(io, [&](auto h) { http::async_write(tcp, req, h); })) ||
-        (ec = Await(io, [&](auto h) { http::async_read(tcp, buffer, parser, h); }))) {
+    if ((ec = Await(io, interrupted_, [&](auto h) { http::async_write(tcp, req, h); })) ||
+        (ec = Await(io, interrupted_, [&](auto h) { http::async_read(tcp, buffer, parser, h); }))) {
       throw CameraError(what + ": " + ec.message(), true);
     }
     const auto& res = parser.get();
@@ -292,7 +300,8 @@ void AxisCamera::Connect() {
     if (ec)
       throw CameraError(what + ": cannot resolve " + options_.host + ": " + ec.message(), true);
     stream->tcp.expires_after(std::chrono::microseconds(Micros(options_.timeout_s)));
-    if ((ec = Await(stream->io, [&](auto h) { stream->tcp.async_connect(endpoints, h); }))) {
+    if ((ec = Await(stream->io, interrupted_,
+                    [&](auto h) { stream->tcp.async_connect(endpoints, h); }))) {
       throw CameraError(what + ": cannot connect: " + ec.message(), true);
     }
     http::request<http::empty_body> req{http::verb::get, target, 11};
@@ -302,8 +311,9 @@ void AxisCamera::Connect() {
     if (!authorization.empty()) req.set(http::field::authorization, authorization);
     beast::flat_buffer buffer;
     http::response_parser<http::empty_body> parser;
-    if ((ec = Await(stream->io, [&](auto h) { http::async_write(stream->tcp, req, h); })) ||
-        (ec = Await(stream->io,
+    if ((ec = Await(stream->io, interrupted_,
+                    [&](auto h) { http::async_write(stream->tcp, req, h); })) ||
+        (ec = Await(stream->io, interrupted_,
                     [&](auto h) { http::async_read_header(stream->tcp, buffer, parser, h); }))) {
       throw CameraError(what + ": " + ec.message(), true);
     }
@@ -386,7 +396,8 @@ std::string AxisCamera::NextPart(int64_t not_before_us, int skip_more) {
     size_t n = 0;
     stream_->tcp.expires_after(std::chrono::microseconds(Micros(options_.timeout_s)));
     const beast::error_code ec = Await(
-        stream_->io, [&](auto h) { stream_->tcp.async_read_some(asio::buffer(chunk), h); }, &n);
+        stream_->io, interrupted_,
+        [&](auto h) { stream_->tcp.async_read_some(asio::buffer(chunk), h); }, &n);
     if (ec == asio::error::eof) Lost(name() + ": the camera closed the stream");
     if (ec) Lost(name() + ": stream: " + ec.message());
     std::vector<MultipartPart> parts;
@@ -400,8 +411,9 @@ std::string AxisCamera::NextPart(int64_t not_before_us, int skip_more) {
 }
 
 std::optional<CameraFrame> AxisCamera::Next() {
+  if (interrupted_.raised()) return std::nullopt;
   if (!stream_) {
-    clock_.SleepUntil(retry_at_us_);
+    if (!clock_.WaitUntil(retry_at_us_, interrupted_)) return std::nullopt;
     try {
       Connect();
     } catch (const CameraError& e) {

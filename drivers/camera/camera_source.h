@@ -11,6 +11,7 @@
 
 #include "core/bubble/camera.h"
 #include "core/bubble/surface.h"
+#include "drivers/stop_signal.h"
 
 namespace tsc {
 
@@ -43,10 +44,18 @@ class CameraSource {
   /// Blocks until the next frame. nullopt at the end of a finite source (folder, video).
   /// Paces delivery to the configured rate. Throws CameraError.
   virtual std::optional<CameraFrame> Next() = 0;
+  /// Thread-safe: asks a Next() blocked in another thread (pacing to the frame rate, a
+  /// reconnect backoff, a stream read) to return soon, and every later Next() to return at
+  /// once: nullopt, or a recoverable CameraError when cut short mid-read. For stopping.
+  virtual void Interrupt() { interrupted_.Raise(); }
   /// Intrinsics of the frames Next() returns.
   virtual const CameraIntrinsics& intrinsics() const = 0;
   /// "folder:/data/x", "video:/a.mp4", "device:/dev/video0", "sim:office/7/route 2" — for logs.
   virtual std::string name() const = 0;
+
+ protected:
+  /// Raised by Interrupt(); sources wait on it (Clock::WaitUntil(us, interrupted_)).
+  StopSignal interrupted_;
 };
 
 }  // namespace tsc

@@ -133,8 +133,9 @@ void DeviceCamera::Lost(const std::string& why) {
 }
 
 std::optional<CameraFrame> DeviceCamera::Next() {
+  if (interrupted_.raised()) return std::nullopt;
   if (!device_->IsOpen()) {
-    clock_.SleepUntil(retry_at_us_);
+    if (!clock_.WaitUntil(retry_at_us_, interrupted_)) return std::nullopt;
     if (!device_->Open()) {
       backoff_us_ = std::min(2 * backoff_us_, Micros(options_.reopen_max_s));
       Lost("device not available");
@@ -144,6 +145,8 @@ std::optional<CameraFrame> DeviceCamera::Next() {
   }
   // Grab (cheap, no decode) until a frame is due; deliver the newest one.
   for (;;) {
+    // Each grab waits one frame of the device at most; a slow rate is many grabs.
+    if (interrupted_.raised()) return std::nullopt;
     if (!device_->Grab()) Lost("no frame (device disconnected?)");
     const int64_t now = clock_.SteadyMicros();
     if (period_us_ == 0 || now >= due_us_) {

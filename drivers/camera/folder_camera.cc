@@ -13,7 +13,9 @@ namespace {
 
 Dataset OpenDataset(const fs::path& folder) {
   try {
-    return Dataset::Open(folder);
+    // A frame file of zero bytes (a writer that has not written it yet, a full disk) is a bad
+    // frame like a truncated one: logged by the daemon, and reading goes on.
+    return Dataset::Open(folder, Dataset::EmptyImages::kLoadFails);
   } catch (const DatasetError& e) {
     throw CameraError(std::string("folder camera: ") + e.what(), false);
   }
@@ -83,13 +85,15 @@ FolderCamera::FolderCamera(const FolderCameraOptions& options, Clock& clock)
       pacer_(options.fps, clock) {}
 
 std::optional<CameraFrame> FolderCamera::Next() {
+  if (interrupted_.raised()) return std::nullopt;
   if (pending_.empty()) {
     if (next_index_ >= dataset_.size()) {
       if (!options_.loop) return std::nullopt;
       next_index_ = 0;
     }
     const int i = next_index_++;  // advance first: a bad frame is skipped, not retried
-    pacer_.Wait();
+    pacer_.Wait(&interrupted_);
+    if (interrupted_.raised()) return std::nullopt;
     const fs::path& file = dataset_.image_path(i);
     if (!ImageFileLooksComplete(file)) {
       throw CameraError(name() + ": frame " + std::to_string(i) + " " + file.string() +

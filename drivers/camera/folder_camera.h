@@ -33,7 +33,7 @@ class FolderCamera : public CameraSource {
 
   /// The next frame in name order, at most fps per second; a frame of a pan-sweep dataset
   /// comes as its views, the last one ending the base point. A frame that cannot be decoded
-  /// (missing, truncated or corrupt file, other size) throws CameraError(recoverable = true)
+  /// (missing, empty, truncated or corrupt file, other size) throws CameraError(recoverable = true)
   /// naming the file; the following call continues with the frame after it. nullopt after
   /// the last frame unless looping.
   std::optional<CameraFrame> Next() override;

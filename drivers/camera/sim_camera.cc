@@ -63,6 +63,7 @@ sim::RouteFrame SimCamera::FrameAtBase() {
 }
 
 std::optional<CameraFrame> SimCamera::Next() {
+  if (interrupted_.raised()) return std::nullopt;
   if (pending_.empty()) {
     sim::RouteFrame frame;
     if (base_ == nullptr) {
@@ -76,7 +77,8 @@ std::optional<CameraFrame> SimCamera::Next() {
       }
       frame = (*route_)[next_index_++];
     }
-    pacer_.Wait();
+    pacer_.Wait(&interrupted_);
+    if (interrupted_.raised()) return std::nullopt;
     if (base_ != nullptr) frame = FrameAtBase();  // the pose at capture time
 
     Observation strip;

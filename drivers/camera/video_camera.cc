@@ -74,13 +74,15 @@ bool VideoCamera::Read(cv::Mat* bgr) {
 }
 
 std::optional<CameraFrame> VideoCamera::Next() {
+  if (interrupted_.raised()) return std::nullopt;
   CameraFrame frame;
   if (!Read(&frame.observation.bgr)) {
     if (!options_.loop || read_since_open_ == 0) return std::nullopt;
     Open();
     if (!Read(&frame.observation.bgr)) return std::nullopt;
   }
-  pacer_.Wait();
+  pacer_.Wait(&interrupted_);
+  if (interrupted_.raised()) return std::nullopt;
   frame.utime = clock_.WallMicros();
   frame.sequence = delivered_++;
   return frame;

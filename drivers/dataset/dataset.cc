@@ -265,7 +265,7 @@ Dataset::Dataset(fs::path folder, std::vector<fs::path> images, std::vector<fs::
       camera_(camera),
       sweep_(sweep) {}
 
-Dataset Dataset::Open(const fs::path& folder) {
+Dataset Dataset::Open(const fs::path& folder, EmptyImages empty_images) {
   std::error_code ec;
   if (!fs::exists(folder, ec)) Fail(folder, "no such dataset folder");
   if (!fs::is_directory(folder, ec)) Fail(folder, "not a folder (a dataset is a folder of images)");
@@ -274,14 +274,20 @@ Dataset Dataset::Open(const fs::path& folder) {
   const fs::path frame_dir = fs::is_directory(rgb, ec) ? rgb : folder;
   std::vector<fs::path> images = ListImages(frame_dir);
   if (images.empty()) Fail(frame_dir, "no images (*.jpg, *.jpeg, *.png) in the folder");
+  // The frame that gives the size: the first, or with kLoadFails the first that is not empty.
+  const fs::path* sized = nullptr;
   for (const fs::path& p : images) {
     const auto bytes = fs::file_size(p, ec);
     if (ec) Fail(p, "cannot read: " + ec.message());
-    if (bytes == 0) Fail(p, "empty image file (0 bytes)");
+    if (bytes == 0 && empty_images == EmptyImages::kRefuse) {
+      Fail(p, "empty image file (0 bytes)");
+    }
+    if (bytes > 0 && sized == nullptr) sized = &p;
   }
+  if (sized == nullptr) Fail(frame_dir, "every image file is empty (0 bytes)");
 
-  const cv::Mat first = ReadJpegOrPng(images.front(), cv::IMREAD_COLOR);
-  if (first.empty()) Fail(images.front(), "unreadable image (not a JPEG/PNG OpenCV can decode)");
+  const cv::Mat first = ReadJpegOrPng(*sized, cv::IMREAD_COLOR);
+  if (first.empty()) Fail(*sized, "unreadable image (not a JPEG/PNG OpenCV can decode)");
 
   std::vector<fs::path> depths;
   const fs::path depth_dir = folder / "depth";

@@ -49,11 +49,18 @@ std::vector<Observation> SplitSweep(Observation strip, const PanSweep& sweep);
 
 class Dataset {
  public:
+  /// What Open does with an image file of zero bytes: refuse the dataset (the offline tools),
+  /// or list it like any frame so that Load() fails on it as on a truncated file (a camera,
+  /// which logs a bad frame and reads on).
+  enum class EmptyImages { kRefuse, kLoadFails };
+
   /// Lists the frames and reads the side files. Checks at once what is cheap to check: the
-  /// folder, the presence of images, zero-size image files, the first image (for the size),
-  /// one depth file per frame, camera.json, groundtruth.csv and revisits.csv.
+  /// folder, the presence of images, zero-size image files (`empty_images`), the first image
+  /// (for the size; with kLoadFails the first that is not empty), one depth file per frame,
+  /// camera.json, groundtruth.csv and revisits.csv.
   /// Throws DatasetError naming the file or folder at fault.
-  static Dataset Open(const std::filesystem::path& folder);
+  static Dataset Open(const std::filesystem::path& folder,
+                      EmptyImages empty_images = EmptyImages::kRefuse);
 
   const std::filesystem::path& folder() const { return folder_; }
   /// Number of frames.

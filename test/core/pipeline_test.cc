@@ -250,6 +250,39 @@ TEST_F(PipelineTest, StateContinuesIndices) {
   EXPECT_EQ(*s.previous_place, (PlaceId{1, 1}));
 }
 
+// A restart (a new pipeline on the stored memory, map and state) does not know where the robot
+// is until it closes a place: the first place after it is not linked to the last before it.
+// Places seen in sequence after the restart are linked as usual.
+TEST_F(PipelineTest, ARestartDoesNotLinkThePlaceBeforeItToThePlaceAfterIt) {
+  Visit(0, 15);
+  Visit(1, 15);
+  Collect(dut_.Finish());
+  const PlaceId a{1, 1}, b{1, 2}, c{1, 3};
+  ASSERT_EQ(dut_.map().edges().size(), 1u);
+  ASSERT_EQ(dut_.state().previous_place, b);
+
+  Pipeline restarted(CameraIntrinsics::FromHorizontalFov(64, 48, 60), Options(), dut_.memory(),
+                     dut_.map(), dut_.state());
+  events_.clear();
+  Visit(restarted, 2, 15);  // a new place right after the restart
+  Visit(restarted, 0, 15);  // then a known one, seen in sequence
+  Collect(restarted.Finish());
+  EXPECT_EQ(restarted.memory().places().size(), 3u);
+  EXPECT_EQ(restarted.map().Find(b, c), nullptr) << "edge invented across the restart";
+  EXPECT_NE(restarted.map().Find(c, a), nullptr) << "places seen in sequence not linked";
+  EXPECT_EQ(restarted.map().edges().size(), 2u);
+  for (const PlaceEvent& e : events_) {
+    if (e.kind == EventKind::kMapped) {
+      EXPECT_NE(*e.from, b) << "mapped from before the restart";
+    }
+  }
+  // The hint of hybrid search survives the restart: the stored previous place is kept until a
+  // place closes.
+  Pipeline again(CameraIntrinsics::FromHorizontalFov(64, 48, 60), Options(), dut_.memory(),
+                 dut_.map(), dut_.state());
+  EXPECT_EQ(again.state().previous_place, b);
+}
+
 // The parts of a memory a hand-over could lose or scramble.
 void ExpectSameMemory(const PlaceMemory& a, const PlaceMemory& b) {
   ASSERT_EQ(a.places().size(), b.places().size());

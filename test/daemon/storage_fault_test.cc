@@ -293,6 +293,74 @@ TEST_F(StorageFaultTest, FullDiskIsReportedLearningGoesOnAndNothingIsLostOnceSpa
   ::umount2(state.c_str(), MNT_DETACH);
 }
 
+// SIGTERM while the disk is full: tscd tries the store for daemon.stop_store_wait_s, spills
+// what the database lacks into $RUNTIME_DIRECTORY (the full disk takes no spill), says NOT
+// SAVED and exits 1. Once space returns the next start takes the spill in: every place and
+// edge announced before the stop is in the database, with the record of every base point.
+TEST_F(StorageFaultTest, StopOnAFullDiskSpillsAndTheNextStartTakesItIn) {
+  TSCD_REQUIRE_PRIVATE_NETNS();
+  const fs::path state = dir_ / "state";
+  const fs::path run = dir_ / "run";
+  fs::create_directories(run);
+  if (const std::string why = MountPrivateTmpfs(state, 96u << 20); !why.empty()) {
+    GTEST_SKIP() << "cannot mount a private tmpfs for the state directory (" << why
+                 << "); run as root or with CAP_SYS_ADMIN";
+  }
+  ASSERT_EQ(::setenv("RUNTIME_DIRECTORY", run.c_str(), 1), 0);
+  struct Unset {
+    ~Unset() { ::unsetenv("RUNTIME_DIRECTORY"); }
+  } unset;
+  const std::vector<std::string> extra = {"--set", "daemon.stop_store_wait_s=1"};
+  BusListener bus("TSC_ANNOUNCE|TSC_EVENT_.*");
+  int64_t frames = 0;
+  {
+    ChildProcess dut(LoopingRobot(state, extra), dir_ / "first.log");
+    ASSERT_TRUE(bus.WaitFor(
+        [](const BusListener& b) {
+          if (!b.announces.count("TSC_ANNOUNCE")) return false;
+          const announce_t& a = b.announces.at("TSC_ANNOUNCE").back();
+          return a.robot == 1 && a.places >= 2;
+        },
+        seconds(120)))
+        << dut.Log();
+    ASSERT_GT(FillUp(state / "filler"), 0u);
+    ASSERT_TRUE(WaitStatus(bus, true, seconds(60))) << dut.Log();
+    const size_t events_at_fault = EventCount(bus);
+    ASSERT_TRUE(RecognisesWhileDegraded(bus, events_at_fault)) << dut.Log();
+    dut.Signal(SIGTERM);
+    EXPECT_EQ(dut.Wait(seconds(30)), 1) << dut.Log();
+    const std::string log = dut.Log();
+    EXPECT_NE(log.find("NOT SAVED"), std::string::npos) << log;
+    EXPECT_NE(log.find(run.string()), std::string::npos) << log;
+    std::this_thread::sleep_for(milliseconds(300));
+    frames = LastAnnounce(bus)->frames;
+  }
+  size_t spills = 0, beside = 0;
+  for (const auto& e : fs::directory_iterator(run)) {
+    spills += e.path().filename().string().starts_with("memory.db.spill.");
+  }
+  for (const auto& e : fs::directory_iterator(state)) {
+    beside += e.path().filename().string().starts_with("memory.db.spill.");
+  }
+  EXPECT_EQ(spills, 1u);
+  EXPECT_EQ(beside, 0u) << "a partial spill left on the full disk";
+
+  fs::remove(state / "filler");  // space returns; the next start takes the spill in
+  {
+    ChildProcess dut(LoopingRobot(state, extra), dir_ / "second.log");
+    const auto deadline = Clock::now() + seconds(60);
+    while (dut.Log().find("ready:") == std::string::npos && Clock::now() < deadline) {
+      std::this_thread::sleep_for(milliseconds(50));
+    }
+    EXPECT_NE(dut.Log().find("took in"), std::string::npos) << dut.Log();
+    dut.Signal(SIGKILL);  // what is stored now was stored at start
+    ASSERT_EQ(dut.Wait(seconds(10)), 128 + SIGKILL);
+  }
+  EXPECT_TRUE(fs::is_empty(run));
+  ExpectAnnouncedAreStored(bus, state / "memory.db", frames);
+  ::umount2(state.c_str(), MNT_DETACH);
+}
+
 // The file system under the state directory fails mid-run and the kernel remounts it read-only
 // (ext4, errors=remount-ro, on a loop device; the failure injected through ext4's own
 // trigger_fs_error). tscd must say so, keep recognising, close the database so the file system

@@ -14,6 +14,7 @@
 #include <filesystem>
 #include <fstream>
 #include <functional>
+#include <set>
 #include <thread>
 
 #include "core/pipeline/pipeline.h"
@@ -57,6 +58,41 @@ TEST_F(TscdTest, BadConfigurationExits78NamingTheKey) {
   EXPECT_EQ(dut.Wait(seconds(10)), 78);
   EXPECT_NE(dut.Log().find("broken.ini"), std::string::npos) << dut.Log();
   EXPECT_NE(dut.Log().find("no_such_key"), std::string::npos) << dut.Log();
+}
+
+// `tscd my.ini` (a configuration file without --config) ran on the built-in defaults: an
+// argument that is no option is a usage error naming it; a bad --robot is named as --robot
+// (it was named --set); --version and --help answer.
+TEST_F(TscdTest, CommandLineMistakesAreNamedAndVersionAnswers) {
+  const fs::path ini = dir_ / "my.ini";
+  std::ofstream(ini) << "[robot]\nid = 4\n";
+  {
+    ChildProcess dut({kTscd, ini.string()}, dir_ / "positional.log");
+    EXPECT_EQ(dut.Wait(seconds(10)), 2) << dut.Log();
+    EXPECT_NE(dut.Log().find("unexpected argument '" + ini.string() + "'"), std::string::npos)
+        << dut.Log();
+    EXPECT_NE(dut.Log().find("--config FILE"), std::string::npos) << dut.Log();
+    EXPECT_NE(dut.Log().find("Usage: tscd"), std::string::npos) << dut.Log();
+  }
+  {
+    ChildProcess dut({kTscd, "--robot", "abc"}, dir_ / "robot.log");
+    EXPECT_EQ(dut.Wait(seconds(10)), 78) << dut.Log();
+    EXPECT_NE(dut.Log().find("--robot: robot.id = abc"), std::string::npos) << dut.Log();
+    EXPECT_EQ(dut.Log().find("--set"), std::string::npos) << dut.Log();
+  }
+  {
+    ChildProcess dut({kTscd, "--version"}, dir_ / "version.log");
+    EXPECT_EQ(dut.Wait(seconds(10)), 0) << dut.Log();
+    EXPECT_EQ(dut.Log(), "tscd " TSCD_VERSION "\n");
+  }
+  {
+    ChildProcess dut({kTscd, "--help"}, dir_ / "help.log");
+    EXPECT_EQ(dut.Wait(seconds(10)), 0) << dut.Log();
+    for (const char* channel : {"TSC_ANNOUNCE", "TSC_EVENT_", "TSC_MEMORY_", "TSC_REQUEST_",
+                                "TSC_STATS_", "JAGUAR_CMD_", "JAGUAR_STATE_"}) {
+      EXPECT_NE(dut.Log().find(channel), std::string::npos) << channel << "\n" << dut.Log();
+    }
+  }
 }
 
 TEST_F(TscdTest, ServesEveryChannelRejectsGarbageReloadsAndStopsCleanly) {
@@ -136,7 +172,8 @@ TEST_F(TscdTest, UnwritableStateDirectoryIsReportedAndTheDaemonKeepsRunning) {
   TSCD_REQUIRE_PRIVATE_NETNS();
   BusListener bus;
   std::ofstream(dir_ / "a-file") << "not a folder\n";
-  ChildProcess dut(FastSimRobot(dir_ / "a-file" / "state"), dir_ / "tscd.log");
+  ChildProcess dut(FastSimRobot(dir_ / "a-file" / "state", {"--set", "daemon.stop_store_wait_s=0"}),
+                   dir_ / "tscd.log");
   ASSERT_TRUE(bus.WaitFor(
       [](const BusListener& b) {
         return b.announces.count("TSC_ANNOUNCE") &&
@@ -150,8 +187,158 @@ TEST_F(TscdTest, UnwritableStateDirectoryIsReportedAndTheDaemonKeepsRunning) {
   });
   EXPECT_NE(dut.Log().find("memory is not persisted"), std::string::npos) << dut.Log();
   EXPECT_NE(dut.Log().find("a-file"), std::string::npos) << dut.Log();
+  // Stopped with its results nowhere (no $RUNTIME_DIRECTORY to spill to): said, and exit 1.
   dut.Signal(SIGTERM);
-  EXPECT_EQ(dut.Wait(seconds(20)), 0) << dut.Log();
+  EXPECT_EQ(dut.Wait(seconds(20)), 1) << dut.Log();
+  EXPECT_NE(dut.Log().find("LOST"), std::string::npos) << dut.Log();
+}
+
+// SIGTERM while the store cannot be written: tscd waits a bounded time for it, then spills
+// what it holds (here into $RUNTIME_DIRECTORY: the state directory cannot be made), says so
+// loudly and exits 1; the next start, with a working store, takes the spill in, so every place
+// and edge the first run announced is in the database.
+TEST_F(TscdTest, StopDuringAStoreOutageExitsNonZeroAndTheNextStartTakesInWhatWasKept) {
+  TSCD_REQUIRE_PRIVATE_NETNS();
+  const fs::path run = dir_ / "run";
+  fs::create_directories(run);
+  ASSERT_EQ(::setenv("RUNTIME_DIRECTORY", run.c_str(), 1), 0);
+  struct Unset {
+    ~Unset() { ::unsetenv("RUNTIME_DIRECTORY"); }
+  } unset;
+  const fs::path blocker = dir_ / "a-file";
+  std::ofstream(blocker) << "not a folder\n";
+  const fs::path state = blocker / "state";
+  const std::vector<std::string> extra = {"--set", "daemon.stop_store_wait_s=1"};
+  std::set<std::pair<int, int>> learned;
+  std::set<std::pair<std::pair<int, int>, std::pair<int, int>>> mapped;
+  int64_t frames = 0;
+  {
+    BusListener bus;
+    ChildProcess dut(FastSimRobot(state, extra), dir_ / "first.log");
+    ASSERT_TRUE(bus.WaitFor(
+        [](const BusListener& b) {
+          return b.announces.count("TSC_ANNOUNCE") &&
+                 b.announces.at("TSC_ANNOUNCE").back().places >= 2 &&
+                 b.announces.at("TSC_ANNOUNCE").back().edges >= 1;
+        },
+        seconds(60)))
+        << dut.Log();
+    dut.Signal(SIGTERM);
+    const std::optional<int> code = dut.Wait(seconds(20));
+    EXPECT_EQ(code, 1) << dut.Log();
+    const std::string log = dut.Log();
+    EXPECT_NE(log.find("NOT SAVED"), std::string::npos) << log;
+    EXPECT_NE(log.find(run.string()), std::string::npos) << log;
+    EXPECT_NE(log.find("a-file"), std::string::npos) << log;
+    std::this_thread::sleep_for(milliseconds(300));  // the last events reach the listener
+    bus.Inspect([&](const BusListener& b) {
+      frames = b.announces.at("TSC_ANNOUNCE").back().frames;
+      for (const place_event_t& e : b.events.at("TSC_EVENT_1")) {
+        if (e.event == "learned") learned.insert({e.place.robot, e.place.local});
+        if (e.event == "mapped" && e.has_from) {
+          mapped.insert({{e.from.robot, e.from.local}, {e.place.robot, e.place.local}});
+        }
+      }
+    });
+  }
+  size_t spills = 0;
+  for (const auto& e : fs::directory_iterator(run)) {
+    spills += e.path().filename().string().starts_with("memory.db.spill.");
+  }
+  EXPECT_EQ(spills, 1u);
+  ASSERT_FALSE(learned.empty());
+
+  // The store works again: the next start takes the spill in and removes it.
+  fs::remove(blocker);
+  {
+    ChildProcess dut(FastSimRobot(state, extra), dir_ / "second.log");
+    const auto deadline = std::chrono::steady_clock::now() + seconds(30);
+    while (dut.Log().find("ready:") == std::string::npos &&
+           std::chrono::steady_clock::now() < deadline) {
+      std::this_thread::sleep_for(milliseconds(50));
+    }
+    EXPECT_NE(dut.Log().find("took in"), std::string::npos) << dut.Log();
+    dut.Signal(SIGTERM);
+    EXPECT_EQ(dut.Wait(seconds(20)), 0) << dut.Log();
+  }
+  EXPECT_TRUE(fs::is_empty(run));
+  Store store = Store::Open(state / "memory.db");
+  const StoredState saved = store.Load(1, PlaceMemoryOptions{});
+  std::set<std::pair<int, int>> stored;
+  for (const LearnedPlace& p : saved.memory.places()) {
+    stored.insert({static_cast<int>(p.id.robot), static_cast<int>(p.id.local)});
+  }
+  for (const auto& p : learned) {
+    EXPECT_TRUE(stored.count(p)) << "learned place " << p.first << ":" << p.second << " lost";
+  }
+  for (const auto& [a, b] : mapped) {
+    EXPECT_NE(
+        saved.map.Find(PlaceId{static_cast<uint32_t>(a.first), static_cast<uint32_t>(a.second)},
+                       PlaceId{static_cast<uint32_t>(b.first), static_cast<uint32_t>(b.second)}),
+        nullptr)
+        << "edge lost";
+  }
+  EXPECT_GE(saved.pipeline.next_base, frames);
+}
+
+// A restart does not know where the robot is (in simulation the route starts over): every map
+// edge made after it starts at a place closed after it, never at the last place before it.
+TEST_F(TscdTest, ARestartMapsNoEdgeFromThePlaceBeforeIt) {
+  TSCD_REQUIRE_PRIVATE_NETNS();
+  BusListener bus("TSC_ANNOUNCE|TSC_EVENT_.*");
+  const fs::path state = dir_ / "state";
+  size_t first_run_events = 0;
+  {
+    ChildProcess dut(FastSimRobot(state), dir_ / "first.log");
+    ASSERT_TRUE(bus.WaitFor(
+        [](const BusListener& b) {
+          return b.announces.count("TSC_ANNOUNCE") &&
+                 b.announces.at("TSC_ANNOUNCE").back().places >= 3;
+        },
+        seconds(60)))
+        << dut.Log();
+    dut.Signal(SIGTERM);
+    ASSERT_EQ(dut.Wait(seconds(20)), 0) << dut.Log();
+    std::this_thread::sleep_for(milliseconds(300));
+    bus.Inspect(
+        [&](const BusListener& b) { first_run_events = b.events.at("TSC_EVENT_1").size(); });
+  }
+  std::optional<PlaceId> before;
+  {
+    Store store = Store::Open(state / "memory.db");
+    before = store.Load(1, PlaceMemoryOptions{}).pipeline.previous_place;
+  }
+  ASSERT_TRUE(before.has_value());
+  {
+    ChildProcess dut(FastSimRobot(state), dir_ / "second.log");
+    ASSERT_TRUE(bus.WaitFor(
+        [&](const BusListener& b) {
+          const auto& ev = b.events.at("TSC_EVENT_1");
+          int mapped = 0;
+          for (size_t i = first_run_events; i < ev.size(); ++i) mapped += ev[i].event == "mapped";
+          return mapped >= 3;
+        },
+        seconds(60)))
+        << dut.Log();
+    dut.Signal(SIGTERM);
+    ASSERT_EQ(dut.Wait(seconds(20)), 0) << dut.Log();
+  }
+  bus.Inspect([&](const BusListener& b) {
+    const auto& ev = b.events.at("TSC_EVENT_1");
+    std::set<std::pair<int, int>> closed;  // places closed since the restart
+    for (size_t i = first_run_events; i < ev.size(); ++i) {
+      const place_event_t& e = ev[i];
+      if ((e.event == "learned" || e.event == "recognized") && !e.partial) {
+        closed.insert({e.place.robot, e.place.local});
+      }
+      if (e.event == "mapped") {
+        EXPECT_TRUE(closed.count({e.from.robot, e.from.local}))
+            << "edge " << e.from.robot << ":" << e.from.local << "-" << e.place.robot << ":"
+            << e.place.local << " from a place not seen since the restart (the last before it: "
+            << before->ToString() << ")";
+      }
+    }
+  });
 }
 
 // A folder camera with a truncated JPEG, then the folder disappears mid-run.
@@ -172,6 +359,10 @@ TEST_F(TscdTest, TruncatedFrameAndVanishingCameraAreLoggedAndSurvived) {
   }
   const fs::path cut = frames / images[5].filename();
   fs::resize_file(cut, fs::file_size(cut) / 2);
+  // A file of zero bytes, first in name order: a bad frame like the truncated one (it stopped
+  // tscd from starting, exit 78).
+  const fs::path empty = frames / "0.jpg";
+  std::ofstream{empty};
 
   BusListener bus;
   ChildProcess dut(
@@ -187,6 +378,7 @@ TEST_F(TscdTest, TruncatedFrameAndVanishingCameraAreLoggedAndSurvived) {
       seconds(60)))
       << dut.Log();
   EXPECT_NE(dut.Log().find(cut.filename().string()), std::string::npos) << dut.Log();
+  EXPECT_NE(dut.Log().find(empty.string()), std::string::npos) << dut.Log();
 
   fs::remove_all(frames);  // the camera goes away
   std::this_thread::sleep_for(seconds(2));
@@ -207,6 +399,86 @@ TEST_F(TscdTest, TruncatedFrameAndVanishingCameraAreLoggedAndSurvived) {
   EXPECT_NE(dut.Log().find("camera:"), std::string::npos) << dut.Log();
   dut.Signal(SIGTERM);
   EXPECT_EQ(dut.Wait(seconds(20)), 0) << dut.Log();
+}
+
+// Stopping does not wait for the camera: at 0.01 frames per second the next frame is 100 s
+// away, and SIGTERM ends tscd within 2 s (it waited for the frame, past the unit's stop
+// timeout).
+TEST_F(TscdTest, SigtermWithASlowCameraExitsWithinTwoSeconds) {
+  TSCD_REQUIRE_PRIVATE_NETNS();
+  const fs::path frames = dir_ / "frames";
+  fs::create_directories(frames);
+  int copied = 0;
+  for (const auto& e : fs::directory_iterator(fs::path(TSCD_DATA_DIR) / "rtabmap-loop")) {
+    if (e.path().extension() == ".jpg" && copied < 3) {
+      fs::copy_file(e.path(), frames / e.path().filename());
+      ++copied;
+    }
+  }
+  ASSERT_EQ(copied, 3);
+  BusListener bus;
+  ChildProcess dut({kTscd, "--robot", "1", "--state-dir", (dir_ / "state").string(), "--set",
+                    "camera.source=folder", "--set", "camera.path=" + frames.string(), "--set",
+                    "camera.fps=0.01", "--set", "lcm.announce_period_s=0.2"},
+                   dir_ / "tscd.log");
+  // The first frame comes at once; the camera then waits 100 s for the second.
+  ASSERT_TRUE(bus.WaitFor(
+      [](const BusListener& b) {
+        return b.announces.count("TSC_ANNOUNCE") &&
+               b.announces.at("TSC_ANNOUNCE").back().frames >= 1;
+      },
+      seconds(30)))
+      << dut.Log();
+  std::this_thread::sleep_for(milliseconds(500));
+  const auto start = std::chrono::steady_clock::now();
+  dut.Signal(SIGTERM);
+  const std::optional<int> code = dut.Wait(seconds(20));
+  const double stop_s =
+      std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+  EXPECT_EQ(code, 0) << dut.Log();
+  EXPECT_LT(stop_s, 2.0) << dut.Log();
+  EXPECT_NE(dut.Log().find("stopped:"), std::string::npos) << dut.Log();
+  std::printf("[ figures  ] SIGTERM to exit with a 0.01 fps folder camera: %.3f s\n", stop_s);
+}
+
+// libjpeg's warnings about a frame go through tscd's log (time, level, robot) instead of
+// straight to stderr: a JPEG cut in its scan but ending with its end marker decodes with
+// "Corrupt JPEG data: premature end of data segment".
+TEST_F(TscdTest, LibjpegWarningsGoThroughTheLog) {
+  TSCD_REQUIRE_PRIVATE_NETNS();
+  const fs::path frames = dir_ / "frames";
+  fs::create_directories(frames);
+  std::vector<fs::path> images;
+  for (const auto& e : fs::directory_iterator(fs::path(TSCD_DATA_DIR) / "rtabmap-loop")) {
+    if (e.path().extension() == ".jpg") images.push_back(e.path());
+  }
+  std::sort(images.begin(), images.end());
+  ASSERT_GE(images.size(), 3u);
+  for (size_t i = 0; i < 3; ++i) fs::copy_file(images[i], frames / images[i].filename());
+  {
+    std::ifstream in(images[0], std::ios::binary);
+    std::string jpeg((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
+    // Half the scan, then the end marker: complete to the folder camera's check, and libjpeg
+    // decodes it with a warning.
+    jpeg = jpeg.substr(0, jpeg.size() / 2) + "\xFF\xD9";
+    std::ofstream(frames / "9999.jpg", std::ios::binary) << jpeg;
+  }
+  ChildProcess dut(
+      {kTscd, "--robot", "1", "--state-dir", (dir_ / "state").string(), "--set",
+       "camera.source=folder", "--set", "camera.path=" + frames.string(), "--set", "camera.fps=0"},
+      dir_ / "tscd.log");
+  const auto deadline = std::chrono::steady_clock::now() + seconds(30);
+  while (dut.Log().find("ended;") == std::string::npos &&
+         std::chrono::steady_clock::now() < deadline) {
+    std::this_thread::sleep_for(milliseconds(50));
+  }
+  dut.Signal(SIGTERM);
+  EXPECT_EQ(dut.Wait(seconds(20)), 0) << dut.Log();
+  const std::string log = dut.Log();
+  EXPECT_NE(log.find("tscd[1] warning: libjpeg: Corrupt JPEG data: premature end"),
+            std::string::npos)
+      << log;
+  EXPECT_EQ(log.find("\nCorrupt JPEG data"), std::string::npos) << "printed past the log\n" << log;
 }
 
 // The descriptors of the base points tscd stored (table base_points), in base point order.

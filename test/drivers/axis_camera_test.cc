@@ -6,13 +6,19 @@
 
 #include "drivers/camera/axis_camera.h"
 
+#include <arpa/inet.h>
 #include <gtest/gtest.h>
+#include <netinet/in.h>
+#include <sys/socket.h>
 #include <sys/stat.h>
+#include <unistd.h>
 
+#include <chrono>
 #include <cmath>
 #include <fstream>
 #include <numbers>
 #include <opencv2/imgproc.hpp>
+#include <thread>
 
 #include "core/bubble/descriptor.h"
 #include "core/pipeline/pipeline.h"
@@ -238,6 +244,45 @@ TEST(AxisCamera, BacksOffWhileTheCameraIsGoneAndComesBack) {
   ASSERT_TRUE(frame);
   EXPECT_EQ(dut.backoff_us(), 50'000);
   EXPECT_EQ(dut.connections(), 2);
+}
+
+// Stopping does not wait for a silent camera: a server on 127.0.0.1 that takes the connection
+// and never answers holds Next() in its stream read for timeout_s (60 s here); Interrupt()
+// from another thread ends it at once (a recoverable error), and later calls return nullopt.
+TEST(AxisCamera, InterruptEndsAReadFromASilentCamera) {
+  const int listener = ::socket(AF_INET, SOCK_STREAM | SOCK_CLOEXEC, 0);
+  ASSERT_GE(listener, 0);
+  sockaddr_in address{};
+  address.sin_family = AF_INET;
+  address.sin_addr.s_addr = htonl(INADDR_LOOPBACK);
+  socklen_t length = sizeof address;
+  ASSERT_EQ(::bind(listener, reinterpret_cast<sockaddr*>(&address), length), 0);
+  ASSERT_EQ(::listen(listener, 4), 0);  // the kernel completes connections; nobody answers
+  ASSERT_EQ(::getsockname(listener, reinterpret_cast<sockaddr*>(&address), &length), 0);
+  AxisCameraOptions options;
+  options.host = "127.0.0.1";
+  options.port = ntohs(address.sin_port);
+  options.timeout_s = 60;
+  AxisCamera dut(options);
+  bool threw = false, returned = false;
+  const auto start = std::chrono::steady_clock::now();
+  std::thread reader([&] {
+    try {
+      returned = dut.Next().has_value();
+    } catch (const CameraError& e) {
+      threw = e.recoverable();
+    }
+  });
+  std::this_thread::sleep_for(std::chrono::milliseconds(300));
+  dut.Interrupt();
+  reader.join();
+  const double waited_s =
+      std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+  EXPECT_TRUE(threw);
+  EXPECT_FALSE(returned);
+  EXPECT_LT(waited_s, 2.0);
+  EXPECT_FALSE(dut.Next().has_value());
+  ::close(listener);
 }
 
 // The bubble descriptor of the views of one base point.

@@ -4,9 +4,12 @@
 
 #include <gtest/gtest.h>
 
+#include <chrono>
 #include <memory>
+#include <optional>
 #include <stdexcept>
 #include <string>
+#include <thread>
 #include <vector>
 
 #include "drivers/clock.h"
@@ -107,6 +110,27 @@ TEST_F(DeviceCameraTest, UnpluggedDeviceIsRecoverableAndReopensWithBoundedBackof
   ASSERT_TRUE(frame.has_value());
   EXPECT_EQ(frame->sequence, 1);
   EXPECT_EQ(dut.backoff_us(), 500'000);
+}
+
+// Stopping does not wait out a reconnect backoff (up to camera.reconnect_max_s): Interrupt()
+// from another thread ends it, and Next() returns nullopt.
+TEST_F(DeviceCameraTest, InterruptEndsTheReconnectWait) {
+  DeviceCameraOptions options = Options(0.0);
+  options.reopen_min_s = 100.0;
+  options.reopen_max_s = 100.0;
+  DeviceCamera dut(options, std::make_unique<FakeDevice>(&state_));  // the real clock
+  ASSERT_TRUE(dut.Next().has_value());
+  state_.plugged = false;
+  EXPECT_THROW(dut.Next(), CameraError);  // lost: the next call waits 100 s before reopening
+  std::optional<CameraFrame> next{CameraFrame{}};
+  const auto start = std::chrono::steady_clock::now();
+  std::thread reader([&] { next = dut.Next(); });
+  std::this_thread::sleep_for(std::chrono::milliseconds(100));
+  dut.Interrupt();
+  reader.join();
+  EXPECT_FALSE(next.has_value());
+  EXPECT_LT(std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count(), 2.0);
+  EXPECT_EQ(state_.open_calls, 1);  // no reopen attempted
 }
 
 TEST_F(DeviceCameraTest, MissingDeviceIsFatalErrorNamingIt) {

@@ -10,6 +10,7 @@
 #include <opencv2/core.hpp>
 #include <opencv2/imgcodecs.hpp>
 #include <string>
+#include <thread>
 #include <vector>
 
 #include "drivers/clock.h"
@@ -164,6 +165,66 @@ TEST_F(FolderCameraTest, CorruptPngIsRecoverableError) {
     EXPECT_TRUE(e.recoverable());
     EXPECT_NE(std::string(e.what()).find("2.png"), std::string::npos) << e.what();
   }
+  EXPECT_FALSE(dut.Next().has_value());
+}
+
+// A file of zero bytes (a writer that has not written it yet, a full disk) is a bad frame like
+// a truncated one: a recoverable error naming it, and the next frame arrives. As the first
+// frame too: the size comes from the first frame that is not empty.
+TEST_F(FolderCameraTest, ZeroByteFrameIsARecoverableErrorLikeATruncatedOne) {
+  std::ofstream(temp_.path() / "1.png");  // zero bytes
+  Write(temp_.path() / "2.png", 20);
+  std::ofstream(temp_.path() / "3.png");
+  Write(temp_.path() / "4.png", 40);
+  FolderCamera dut(Options(), clock_);
+  EXPECT_EQ(dut.size(), 4);
+  EXPECT_EQ(dut.intrinsics().width(), kWidth);
+  std::vector<int> blues;
+  std::vector<std::string> errors;
+  for (int i = 0; i < 5; ++i) {
+    try {
+      const auto frame = dut.Next();
+      if (!frame) break;
+      blues.push_back(BlueOf(*frame));
+    } catch (const CameraError& e) {
+      EXPECT_TRUE(e.recoverable()) << e.what();
+      errors.push_back(e.what());
+    }
+  }
+  EXPECT_EQ(blues, (std::vector<int>{20, 40}));
+  ASSERT_EQ(errors.size(), 2u);
+  EXPECT_NE(errors[0].find("1.png"), std::string::npos) << errors[0];
+  EXPECT_NE(errors[1].find("3.png"), std::string::npos) << errors[1];
+}
+
+TEST_F(FolderCameraTest, AFolderOfOnlyEmptyFilesIsFatalNamingIt) {
+  std::ofstream(temp_.path() / "1.png");
+  try {
+    FolderCamera dut(Options(), clock_);
+    FAIL() << "expected CameraError";
+  } catch (const CameraError& e) {
+    EXPECT_FALSE(e.recoverable());
+    EXPECT_NE(std::string(e.what()).find("empty"), std::string::npos) << e.what();
+  }
+}
+
+// Stopping does not wait for the next frame: at 0.01 frames per second the second frame is
+// 100 s away, and Interrupt() from another thread ends the wait (Next() returns nullopt, as
+// every later call does).
+TEST_F(FolderCameraTest, InterruptEndsTheWaitForTheNextFrame) {
+  for (int i = 1; i <= 3; ++i) Write(temp_.path() / (std::to_string(i) + ".png"), i);
+  FolderCamera dut(Options(0.01));  // the real clock
+  ASSERT_TRUE(dut.Next().has_value());
+  std::optional<CameraFrame> second{CameraFrame{}};
+  const auto start = std::chrono::steady_clock::now();
+  std::thread reader([&] { second = dut.Next(); });
+  std::this_thread::sleep_for(std::chrono::milliseconds(100));
+  dut.Interrupt();
+  reader.join();
+  const double waited_s =
+      std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+  EXPECT_FALSE(second.has_value());
+  EXPECT_LT(waited_s, 2.0);
   EXPECT_FALSE(dut.Next().has_value());
 }
 

@@ -2,9 +2,11 @@
 
 #include <gtest/gtest.h>
 
+#include <chrono>
 #include <filesystem>
 #include <opencv2/videoio.hpp>
 #include <string>
+#include <thread>
 
 #include "drivers/clock.h"
 #include "test/support/temp_dir.h"
@@ -101,6 +103,24 @@ TEST_F(VideoCameraTest, UndecodableFileIsFatalError) {
   VideoCameraOptions options = Options();
   options.file = junk;
   EXPECT_THROW(VideoCamera(options, clock_), CameraError);
+}
+
+// Stopping does not wait for the next frame: at 0.01 frames per second Interrupt() ends the
+// 100 s wait at once.
+TEST_F(VideoCameraTest, InterruptEndsTheWaitForTheNextFrame) {
+  VideoCameraOptions options = Options();
+  options.fps = 0.01;
+  VideoCamera dut(options);  // the real clock
+  ASSERT_TRUE(dut.Next().has_value());
+  std::optional<CameraFrame> second{CameraFrame{}};
+  const auto start = std::chrono::steady_clock::now();
+  std::thread reader([&] { second = dut.Next(); });
+  std::this_thread::sleep_for(std::chrono::milliseconds(100));
+  dut.Interrupt();
+  reader.join();
+  EXPECT_FALSE(second.has_value());
+  EXPECT_LT(std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count(), 2.0);
+  EXPECT_FALSE(dut.Next().has_value());
 }
 
 }  // namespace

@@ -2,6 +2,7 @@
 
 #include <gtest/gtest.h>
 #include <sqlite3.h>
+#include <sys/wait.h>
 #include <unistd.h>
 
 #include <algorithm>
@@ -652,6 +653,147 @@ TEST_F(StoreTest, KeptResultsCommittedTogetherEqualResultsCommittedOneByOne) {
     EXPECT_EQ(Sql(together, count), Sql(one_by_one, count)) << table;
     EXPECT_EQ(Sql(rewritten, count), Sql(one_by_one, count)) << table;
   }
+}
+
+// What Store::Open(path) throws when run as user nobody (in a child process, all its user ids
+// changed: SQLite's errno depends on them), or "" when it opens.
+std::string OpenErrorAsNobody(const fs::path& path) {
+  int out[2];
+  if (::pipe(out) != 0) return "pipe failed";
+  const pid_t child = ::fork();
+  if (child == 0) {
+    ::close(out[0]);
+    std::string what;
+    if (::setresgid(65534, 65534, 65534) != 0 || ::setresuid(65534, 65534, 65534) != 0) {
+      what = "cannot become nobody";
+    } else {
+      try {
+        Store::Open(path);
+      } catch (const StoreError& e) {
+        what = e.what();
+      }
+    }
+    const ssize_t n = ::write(out[1], what.data(), what.size());
+    ::_exit(n == static_cast<ssize_t>(what.size()) ? 0 : 1);
+  }
+  ::close(out[1]);
+  std::string what;
+  char buf[512];
+  for (ssize_t n; (n = ::read(out[0], buf, sizeof buf)) > 0;)
+    what.append(buf, static_cast<size_t>(n));
+  ::close(out[0]);
+  int status = 0;
+  ::waitpid(child, &status, 0);
+  return what;
+}
+
+// A state folder tscd may not write: the error says so ("Permission denied"), not "No such
+// file or directory" (SQLite keeps the errno of its read-only fallback open), for a new
+// database and for one made before the folder was locked ("attempt to write a readonly
+// database" without a reason before).
+TEST_F(StoreTest, OpenInAFolderThatCannotBeWrittenSaysPermissionDenied) {
+  if (::geteuid() != 0) GTEST_SKIP() << "needs root to run the open as another user";
+  const fs::path locked = dir_ / "locked";
+  const fs::path existing = dir_ / "existing";
+  fs::create_directories(locked);
+  fs::create_directories(existing);
+  Store::Open(existing / "memory.db");  // closed again: no -wal, no -shm
+  ASSERT_FALSE(fs::exists(existing / "memory.db-wal"));
+  const auto read_only = fs::perms::owner_all | fs::perms::group_read | fs::perms::group_exec |
+                         fs::perms::others_read | fs::perms::others_exec;
+  fs::permissions(dir_, read_only);
+  fs::permissions(locked, read_only);
+  fs::permissions(existing, read_only);
+  fs::permissions(existing / "memory.db", fs::perms::all);  // the file itself may be written
+  for (const fs::path& folder : {locked, existing}) {
+    SCOPED_TRACE(folder.string());
+    const std::string what = OpenErrorAsNobody(folder / "memory.db");
+    EXPECT_NE(what.find("Permission denied"), std::string::npos) << what;
+    EXPECT_EQ(what.find("No such file"), std::string::npos) << what;
+    EXPECT_NE(what.find((folder / "memory.db").string()), std::string::npos) << what;
+  }
+}
+
+// A tscd stopping while its store fails spills what it holds (Store::WriteSpill); the next
+// start takes the spill in (ReplaySpill): the database is then exactly what committing every
+// result at its time would have made.
+TEST_F(StoreTest, ASpillTakenInEqualsResultsCommittedOneByOne) {
+  Stream stream(47);
+  for (int c = 0; c < 4; ++c) stream.AddCluster();
+  std::vector<Descriptor> frames;
+  for (int c : {0, 1, 2, 0, 3, 1}) {
+    for (Descriptor& d : stream.Visit(c, 14)) frames.push_back(std::move(d));
+  }
+  const fs::path one_by_one = dir_ / "one_by_one.db";
+  const fs::path spill = dir_ / "memory.db.spill.1";
+  const fs::path never_loaded = dir_ / "never_loaded.db";
+  const fs::path never_loaded_spill = dir_ / "memory.db.spill.2";
+  BaseIndex continues = 0;
+  {
+    Store a = Store::Open(one_by_one);
+    Store b = Store::Open(path_);
+    Pipeline pipeline = Continue(a);
+    std::vector<FrameResult> kept, all;
+    for (size_t i = 0; i < frames.size(); ++i) {
+      FrameResult r = pipeline.ProcessDescriptor(frames[i], IntensityStats{0.5, 0.05});
+      a.Commit(r, pipeline);
+      all.push_back(r);
+      if (i < frames.size() / 3) {  // the store works for a third of the run, then fails
+        b.Commit(r, pipeline);
+        continues = pipeline.state().next_base;
+      } else {
+        kept.push_back(std::move(r));
+      }
+    }
+    FrameResult last = pipeline.Finish();
+    a.Commit(last, pipeline);
+    all.push_back(last);
+    kept.push_back(std::move(last));
+    Store::WriteSpill(spill, kept, pipeline, std::nullopt, continues);
+    Store::WriteSpill(never_loaded_spill, all, pipeline, std::nullopt, std::nullopt);
+    ASSERT_GE(pipeline.memory().places().size(), 3u);
+  }
+  EXPECT_FALSE(fs::exists(spill.string() + ".partial"));
+  const auto expected = testing_support::LoadKnowledge(one_by_one, kRobot);
+
+  // A spill of a writer that never loaded a database goes only into an empty one.
+  {
+    Store dut = Store::Open(path_);
+    EXPECT_THROW(dut.ReplaySpill(never_loaded_spill, kRobot, Options().memory), StoreError);
+    // Nor into another robot's.
+    Store other = Store::Open(dir_ / "other.db");
+    other.Load(kRobot + 1, Options().memory);
+    EXPECT_THROW(other.ReplaySpill(spill, kRobot + 1, Options().memory), StoreError);
+  }
+  {
+    Store dut = Store::Open(path_);
+    const SpillReplay r = dut.ReplaySpill(spill, kRobot, Options().memory);
+    EXPECT_EQ(r.next_base, static_cast<BaseIndex>(frames.size()));
+    EXPECT_EQ(r.places, expected.state.memory.places().size());
+    EXPECT_EQ(r.base_points, static_cast<int64_t>(frames.size()) - continues);
+  }
+  EXPECT_EQ(
+      testing_support::DescribeDifferences(expected, testing_support::LoadKnowledge(path_, kRobot)),
+      "");
+  for (const char* table : {"base_points", "detected_places", "transition_regions"}) {
+    const std::string count = std::string("SELECT COUNT(*) FROM ") + table;
+    EXPECT_EQ(Sql(path_, count), Sql(one_by_one, count)) << table;
+  }
+  // Taken in, the same spill is refused again (the database is past it) and changes nothing.
+  {
+    Store dut = Store::Open(path_);
+    dut.Load(kRobot, Options().memory);
+    EXPECT_THROW(dut.ReplaySpill(never_loaded_spill, kRobot, Options().memory), StoreError);
+  }
+  {
+    Store dut = Store::Open(never_loaded);
+    dut.ReplaySpill(never_loaded_spill, kRobot, Options().memory);
+  }
+  EXPECT_EQ(testing_support::DescribeDifferences(
+                expected, testing_support::LoadKnowledge(never_loaded, kRobot)),
+            "");
+  EXPECT_EQ(Sql(never_loaded, "SELECT COUNT(*) FROM base_points"),
+            Sql(one_by_one, "SELECT COUNT(*) FROM base_points"));
 }
 
 // The crash tests' comparison sees one bit of one mean, one traversal and one merged version.

@@ -64,6 +64,12 @@ TEST_F(TscCliTest, HelpExitsZero) {
   }
 }
 
+TEST_F(TscCliTest, VersionPrintsTheProjectVersion) {
+  const Outcome o = Tsc("--version");
+  EXPECT_EQ(o.code, 0) << o.err;
+  EXPECT_EQ(o.out, "tsc " TSCD_VERSION "\n");
+}
+
 TEST_F(TscCliTest, NoCommandIsAUsageError) {
   EXPECT_EQ(Tsc("").code, 2);
   EXPECT_EQ(Tsc("frobnicate").code, 2);
