@@ -21,7 +21,7 @@ constexpr const char* kAxisSimHelp =
     R"(usage: tsc axis-sim [--port N] [--world SEED] [--world-kind office|corridors|outdoor]
                     [--pose X,Y,HEADING | --pose-file PATH] [--hfov-deg D]
                     [--auth none|basic|digest --user NAME --password-file FILE]
-                    [--drop-after N] [--no-content-length]
+                    [--drop-after N] [--no-content-length] [--bomb-frame N]
 
 A simulated Axis PTZ network camera (VAPIX) on 127.0.0.1 only. Serves
   /axis-cgi/mjpg/video.cgi?resolution=WxH&fps=N&compression=C   multipart MJPEG
@@ -33,7 +33,9 @@ current pan (Axis convention: degrees, clockwise). The pose is read for every fr
 by --pose (default: the centre of the world's first room, heading 0). Tilt is reported but the
 rendering stays level. The password is read from a file that only its owner may read (0600).
 --drop-after N closes every MJPEG stream after N frames (reconnection tests);
---no-content-length sends MJPEG parts without Content-Length.
+--no-content-length sends MJPEG parts without Content-Length;
+--bomb-frame N makes frame N (0-based) of every MJPEG stream a JPEG whose header claims
+20512x35225 pixels (a decompression bomb, for the bounded-decoding tests).
 
 Prints "tsc axis-sim: serving http://127.0.0.1:PORT" once listening (--port 0 picks a free
 port) and runs until SIGINT or SIGTERM.
@@ -71,7 +73,9 @@ int AxisSimMain(const std::vector<std::string>& args) {
       "file holding the password (mode 0600 or 0400)")(
       "drop-after", po::value<int>()->default_value(0)->value_name("N"),
       "close every MJPEG stream after N frames; 0 = never")(
-      "no-content-length", "MJPEG parts without Content-Length headers");
+      "no-content-length", "MJPEG parts without Content-Length headers")(
+      "bomb-frame", po::value<int>()->default_value(-1)->value_name("N"),
+      "frame N of every MJPEG stream claims 20512x35225 pixels; -1 = never");
   const po::variables_map vm = ParseCommandLine(args, desc);
   if (vm.count("help")) {
     std::cout << desc << "\n";
@@ -94,6 +98,7 @@ int AxisSimMain(const std::vector<std::string>& args) {
   options.user = vm["user"].as<std::string>();
   options.drop_after_frames = vm["drop-after"].as<int>();
   options.omit_content_length = vm.count("no-content-length") > 0;
+  options.bomb_frame = vm["bomb-frame"].as<int>();
   if (options.auth != "none") {
     if (!vm.count("password-file"))
       throw UsageError("--auth " + options.auth + " needs --password-file");
