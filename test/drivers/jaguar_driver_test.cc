@@ -44,12 +44,20 @@ class JaguarDriverTest : public ::testing::TestWithParam<std::string> {
     ASSERT_TRUE(WaitFor([&] { return dut_->state().link_ok; }, milliseconds(3000)))
         << "no link to the simulator";
   }
-  std::unique_ptr<MotorBase> MakeDriver() {
+  std::unique_ptr<MotorBase> MakeDriver(Clock& clock = Clock::System()) {
     JaguarOptions o;
     o.host = "127.0.0.1";
     o.port = ascii() ? sim_->tcp_port() : sim_->udp_port();
-    if (ascii()) return std::make_unique<JaguarAsciiBase>(o);
-    return std::make_unique<JaguarV2Base>(o);
+    if (ascii()) return std::make_unique<JaguarAsciiBase>(o, clock);
+    return std::make_unique<JaguarV2Base>(o, clock);
+  }
+  /// A new simulator with `options` and a new driver on `clock`, linked.
+  void Restart(const JaguarSimOptions& options, Clock& clock) {
+    dut_.reset();
+    sim_ = std::make_unique<JaguarSim>(options);
+    dut_ = MakeDriver(clock);
+    ASSERT_TRUE(WaitFor([&] { return dut_->state().link_ok; }, milliseconds(3000)))
+        << "no link to the simulator";
   }
   bool ascii() const { return GetParam() == "ascii"; }
   JaguarLinkCounters link_counters() const {
@@ -112,20 +120,53 @@ TEST_P(JaguarDriverTest, BackwardAndClockwiseHaveTheirSigns) {
   EXPECT_NEAR(dut_->state().heading, truth.heading, 0.03);
 }
 
+// The 0.5 s command watchdog on an injected clock: the driver's time moves only when the test
+// says, so the verdict does not depend on how busy the machine is. The simulator's own
+// silence rule is off, so only the driver can stop the motors. Real time only bounds the waits
+// for the link and the simulator to see what the driver sent (generous timeouts).
 TEST_P(JaguarDriverTest, WatchdogStopsTheMotorsHalfASecondAfterTheLastCommand) {
+  JaguarSimOptions options;
+  options.silence_stop_s = 0.0;
+  ManualClock clock;
+  Restart(options, clock);
   dut_->Command({0.5, 0.0});
-  const int64_t last_command_us = Now();
-  ASSERT_TRUE(WaitFor([&] { return sim_->state().moving; }, milliseconds(300)));
-  ASSERT_TRUE(SimStopsWithin(milliseconds(1500)));
+  ASSERT_TRUE(WaitFor([&] { return sim_->state().moving; }, milliseconds(3000)));
+  // 1 ms before the deadline: still driving, however long the machine takes.
+  clock.Advance(499'000);
+  EXPECT_EQ(dut_->state().fault, "");
+  EXPECT_FALSE(dut_->state().stopped);
+  std::this_thread::sleep_for(milliseconds(200));  // the link thread runs meanwhile
+  EXPECT_TRUE(sim_->state().moving) << "stopped before the watchdog deadline";
+  EXPECT_EQ(dut_->state().fault, "");
+  // At the deadline: the driver stops the motors and says why.
+  clock.Advance(1'000);
+  EXPECT_EQ(dut_->state().fault, "watchdog");
+  ASSERT_TRUE(SimStopsWithin(milliseconds(3000)));
+  EXPECT_EQ(sim_->state().stopped_by, "command");  // the driver stopped it
+  EXPECT_TRUE(dut_->state().stopped);
+  // A new command feeds the watchdog again.
+  dut_->Command({0.5, 0.0});
+  ASSERT_TRUE(WaitFor([&] { return sim_->state().moving; }, milliseconds(3000)));
+  EXPECT_EQ(dut_->state().fault, "");
+}
+
+// The same on the real clock, as a figure: the delay is recorded and printed, not asserted
+// (scheduling on a loaded machine adds to it); only "never before 0.5 s" must hold.
+TEST_P(JaguarDriverTest, WatchdogOnTheRealClockNeverStopsEarly) {
+  JaguarSimOptions options;
+  options.silence_stop_s = 0.0;
+  Restart(options, Clock::System());
+  const int64_t last_command_us = Now();  // before Command() stamps it: a lower bound
+  dut_->Command({0.5, 0.0});
+  ASSERT_TRUE(WaitFor([&] { return sim_->state().moving; }, milliseconds(3000)));
+  ASSERT_TRUE(SimStopsWithin(milliseconds(10000)));
   const JaguarSimState s = sim_->state();
-  EXPECT_EQ(s.stopped_by, "command");  // the driver stopped it, not the board's own rule
+  EXPECT_EQ(s.stopped_by, "command");
   const double after_s = static_cast<double>(s.stopped_at_us - last_command_us) * 1e-6;
   RecordProperty("stop_after_ms", static_cast<int>(after_s * 1000));
-  // 0.5 s watchdog; the upper margin is scheduling on a loaded machine, not protocol slack.
-  EXPECT_GE(after_s, 0.45);
-  EXPECT_LE(after_s, 0.6);
+  std::printf("watchdog stop %.3f s after the last command (0.5 s + scheduling)\n", after_s);
+  EXPECT_GE(after_s, 0.5);
   EXPECT_EQ(dut_->state().fault, "watchdog");
-  EXPECT_TRUE(dut_->state().stopped);
 }
 
 TEST_P(JaguarDriverTest, SpeedLimitsClampCommands) {
