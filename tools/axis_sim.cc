@@ -138,6 +138,7 @@ void AxisSimOptions::Validate() const {
   }
   if (drop_after_frames < 0) throw std::invalid_argument("axis-sim: drop_after_frames < 0");
   if (bomb_frame < -1) throw std::invalid_argument("axis-sim: bomb_frame < -1");
+  if (bomb_every < 0) throw std::invalid_argument("axis-sim: bomb_every < 0");
 }
 
 struct AxisSim::Net {
@@ -329,7 +330,8 @@ void AxisSim::Serve(std::shared_ptr<Connection> connection) {
           cv::Mat bgr;
           renderer.Render(CurrentPose(), &bgr, nullptr);
           std::string jpeg = EncodeJpeg(bgr, compression);
-          const bool bomb = n == options_.bomb_frame;
+          const bool bomb = n == options_.bomb_frame ||
+                            (options_.bomb_every > 0 && (n + 1) % options_.bomb_every == 0);
           if (bomb) {
             const std::vector<uint8_t> forged = WithClaimedSize(
                 std::span(reinterpret_cast<const uint8_t*>(jpeg.data()), jpeg.size()), 20512,

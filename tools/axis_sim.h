@@ -39,6 +39,10 @@ struct AxisSimOptions {
   /// JPEG with its frame header (SOF) rewritten to claim 20512x35225 pixels (2.2 GB decoded,
   /// < 1 KB sent); -1 = never. For the bounded-decoding tests (issue 18).
   int bomb_frame = -1;
+  /// Every `bomb_every`-th frame of every MJPEG stream (frames k·N − 1) is such a bomb too;
+  /// 0 = never. A camera that decodes only the newest of the parts it reads at once may pass
+  /// over one bomb; over many, some reach its decoder.
+  int bomb_every = 0;
   /// Throws std::invalid_argument naming the bad field.
   void Validate() const;
 };
