@@ -137,6 +137,10 @@ TEST_P(JaguarDriverTest, WatchdogStopsTheMotorsHalfASecondAfterTheLastCommand) {
   Restart(options, clock);
   dut_->Command({0.5, 0.0});
   ASSERT_TRUE(WaitFor([&] { return sim_->state().moving; }, milliseconds(3000)));
+  // An ASCII board reports the e-stop the driver set at connection until its next report
+  // after the release (10 Hz): wait for it to clear.
+  ASSERT_TRUE(WaitFor([&] { return dut_->state().fault.empty(); }, milliseconds(3000)))
+      << dut_->state().fault;
   // 1 ms before the deadline: still driving, however long the machine takes.
   clock.Advance(499'000);
   EXPECT_EQ(dut_->state().fault, "");
