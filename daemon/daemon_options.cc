@@ -29,10 +29,10 @@ void DaemonOptions::Validate() const {
   if (camera.fps < 0) throw std::invalid_argument("camera.fps: must not be negative");
   if ((camera.source == "axis" || camera.source == "device") &&
       int64_t{camera.width} * camera.height > camera.max_image_pixels) {
-    throw std::invalid_argument("camera.width x camera.height: " + std::to_string(camera.width) +
-                                "x" + std::to_string(camera.height) + " is more than " +
-                                "camera.max_image_pixels = " +
-                                std::to_string(camera.max_image_pixels));
+    throw std::invalid_argument(
+        "camera.width x camera.height: " + std::to_string(camera.width) + "x" +
+        std::to_string(camera.height) + " is more than " +
+        "camera.max_image_pixels = " + std::to_string(camera.max_image_pixels));
   }
   if (camera.reconnect_max_s < camera.reconnect_min_s) {
     throw std::invalid_argument("camera.reconnect_max_s: below camera.reconnect_min_s");

@@ -174,9 +174,8 @@ void AddLossRule(int percent, unsigned seed) {
   const std::vector<std::vector<std::string>> steps = {
       {"nft", "add", "table", "inet", table},
       {"nft", "add", "chain", "inet", table, "out", "{ type filter hook output priority 0; }"},
-      {"nft", "add", "rule", "inet", table, "out", "meta", "l4proto", "udp", "jhash",
-       "@th,64,128", "mod", "100", "seed", std::to_string(seed), "<", std::to_string(percent),
-       "drop"}};
+      {"nft", "add", "rule", "inet", table, "out", "meta", "l4proto", "udp", "jhash", "@th,64,128",
+       "mod", "100", "seed", std::to_string(seed), "<", std::to_string(percent), "drop"}};
   for (const auto& step : steps) {
     if (RunProgram(step) != 0) {
       throw std::runtime_error(
@@ -317,9 +316,8 @@ int Soak(const std::vector<std::string>& args) {
 
   for (Robot& r : robots) spawn(r);
   std::cout << "tsc soak: " << n << " robots, " << duration << " s, " << loss
-            << " % UDP loss, a restart every " << every << " s (seed "
-            << vm["seed"].as<unsigned>() << ": loss and restarts); output in " << out.string()
-            << std::endl;
+            << " % UDP loss, a restart every " << every << " s (seed " << vm["seed"].as<unsigned>()
+            << ": loss and restarts); output in " << out.string() << std::endl;
   const auto start = Clock::now();
   auto next_sample = start + std::chrono::seconds(1);
   double next_restart = every > 0 ? every : duration + 1;

@@ -446,9 +446,9 @@ std::optional<CameraFrame> AxisCamera::Next() {
   ImageLimits limits;
   limits.max_pixels = options_.max_image_pixels;
   limits.exact_size = cv::Size(options_.width, options_.height);
-  DecodedImage decoded = DecodeBounded(
-      std::span(reinterpret_cast<const uint8_t*>(jpeg.data()), jpeg.size()), cv::IMREAD_COLOR,
-      limits);
+  DecodedImage decoded =
+      DecodeBounded(std::span(reinterpret_cast<const uint8_t*>(jpeg.data()), jpeg.size()),
+                    cv::IMREAD_COLOR, limits);
   if (decoded.ok() && decoded.header->format != ImageFormat::kJpeg) {
     decoded.error = "a PNG, not a JPEG";
     decoded.image.release();
@@ -457,8 +457,8 @@ std::optional<CameraFrame> AxisCamera::Next() {
     ++discarded_;
     ++refused_;
     throw CameraError(name() + ": frame " + std::to_string(number) + " of stream " +
-                          std::to_string(connections_) + " (" +
-                          std::to_string(jpeg.size()) + " bytes) refused: " + decoded.error,
+                          std::to_string(connections_) + " (" + std::to_string(jpeg.size()) +
+                          " bytes) refused: " + decoded.error,
                       true);
   }
   CameraFrame frame;

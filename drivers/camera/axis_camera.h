@@ -76,10 +76,10 @@ class AxisCamera : public CameraSource {
 
   /// The next frame, tagged with its pan/tilt. Never nullopt. Throws CameraError: recoverable
   /// for a frame that is not a JPEG of the requested size (refused by its header before it is
-  /// decoded; the error names the frame's number in its stream and its claimed size, and the next call takes
-  /// the next frame of the same stream), when the camera cannot be reached or the stream dropped (the next call waits out the
-  /// backoff and reconnects), not recoverable when the camera refuses the credentials, offers
-  /// no supported authentication, or does not serve VAPIX MJPEG.
+  /// decoded; the error names the frame's number in its stream and its claimed size, and the next
+  /// call takes the next frame of the same stream), when the camera cannot be reached or the stream
+  /// dropped (the next call waits out the backoff and reconnects), not recoverable when the camera
+  /// refuses the credentials, offers no supported authentication, or does not serve VAPIX MJPEG.
   std::optional<CameraFrame> Next() override;
   const CameraIntrinsics& intrinsics() const override { return intrinsics_; }
   /// "axis:host:port".

@@ -28,8 +28,8 @@ CameraIntrinsics IntrinsicsOf(const fs::path& file, double hfov_deg, int64_t max
   int width = static_cast<int>(capture.get(cv::CAP_PROP_FRAME_WIDTH));
   int height = static_cast<int>(capture.get(cv::CAP_PROP_FRAME_HEIGHT));
   if (int64_t{width} * height > max_pixels) {
-    throw CameraError("video:" + file.string() + ": its frames are " + std::to_string(width) +
-                          "x" + std::to_string(height) + " pixels, more than the limit of " +
+    throw CameraError("video:" + file.string() + ": its frames are " + std::to_string(width) + "x" +
+                          std::to_string(height) + " pixels, more than the limit of " +
                           std::to_string(max_pixels) + " (camera.max_image_pixels)",
                       false);
   }

@@ -40,8 +40,8 @@ std::optional<ImageHeader> ParsePng(std::span<const uint8_t> b, std::string* why
   const uint32_t height = BigEndian32(b, kIhdr + 12);
   // The PNG specification bounds both by 2^31 - 1.
   if (width == 0 || height == 0 || width > 0x7fffffffu || height > 0x7fffffffu) {
-    return Refuse(why, "PNG IHDR claims " + std::to_string(width) + "x" + std::to_string(height) +
-                           " pixels");
+    return Refuse(
+        why, "PNG IHDR claims " + std::to_string(width) + "x" + std::to_string(height) + " pixels");
   }
   return ImageHeader{ImageFormat::kPng, static_cast<int>(width), static_cast<int>(height),
                      kIhdr + 8};
@@ -60,8 +60,8 @@ std::optional<ImageHeader> ParseJpeg(std::span<const uint8_t> b, std::string* wh
   for (;;) {
     if (at >= b.size()) return Refuse(why, "JPEG cut short before its frame header (SOF)");
     if (b[at] != 0xff) {
-      return Refuse(why, "JPEG: no marker at byte " + std::to_string(at) + " before the frame "
-                         "header (SOF)");
+      return Refuse(why,
+                    "JPEG: no marker at byte " + std::to_string(at) + " before its frame header");
     }
     while (at < b.size() && b[at] == 0xff) ++at;  // fill bytes
     if (at >= b.size()) return Refuse(why, "JPEG cut short before its frame header (SOF)");

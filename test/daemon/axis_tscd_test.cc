@@ -82,8 +82,8 @@ RobotRun RunRobot(const std::vector<std::string>& extra, milliseconds tick,
   WritePose(pose_file, route.front().pose);
 
   std::vector<std::string> sim_argv = {
-      kBin + "/tsc", "axis-sim",   "--port", "0",    "--world",         "1",
-      "--pose-file", pose_file.string(), "--auth", "digest", "--user", "root",
+      kBin + "/tsc",     "axis-sim",         "--port", "0",      "--world", "1",
+      "--pose-file",     pose_file.string(), "--auth", "digest", "--user",  "root",
       "--password-file", password.string()};
   sim_argv.insert(sim_argv.end(), sim_extra.begin(), sim_extra.end());
   ChildProcess sim(sim_argv, dir / "axis-sim.log");
@@ -201,16 +201,15 @@ TEST(AxisTscd, LearnsPlacesFromTheSimulatedAxisCamera) {
 // once, so it may pass over a bomb unread; over the whole run it reads some.)
 TEST(AxisTscd, BombFramesInTheStreamAreRefusedAndLearningGoesOn) {
   TSCD_REQUIRE_PRIVATE_NETNS();
-  const RobotRun run = RunRobot({"camera.fps=20"}, milliseconds(50), {"--bomb-every", "10"},
-                                true);
+  const RobotRun run = RunRobot({"camera.fps=20"}, milliseconds(50), {"--bomb-every", "10"}, true);
   EXPECT_GT(run.announce.frames, 20);
   EXPECT_NE(run.sim_log.find(" bombs"), std::string::npos) << run.sim_log;
   EXPECT_NE(run.tscd_log.find("refused: its header claims 20512x35225 pixels"), std::string::npos)
       << run.tscd_log;
   EXPECT_NE(run.tscd_log.find("camera errors so far"), std::string::npos) << run.tscd_log;
   size_t refused = 0;
-  for (size_t at = 0; (at = run.tscd_log.find("refused: its header claims", at)) != std::string::npos;
-       ++at) {
+  for (size_t at = 0;
+       (at = run.tscd_log.find("refused: its header claims", at)) != std::string::npos; ++at) {
     ++refused;
   }
   std::printf("%zu bombs refused by tscd (%s)\n", refused,

@@ -193,8 +193,8 @@ TEST_F(TeamTest, AfterTheRoutesEveryRobotKnowsEveryPlaceExactlyOnce) {
   for (int r = 1; r <= 3; ++r) {
     EXPECT_EQ(KnownPlaces(dir_ / "team", r), own) << "robot " << r;
     for (const auto& [id, places] : PlacesHoldingEachId(dir_ / "team", r)) {
-      EXPECT_EQ(places, 1) << "robot " << r << " holds place " << id.ToString() << " in "
-                           << places << " places";
+      EXPECT_EQ(places, 1) << "robot " << r << " holds place " << id.ToString() << " in " << places
+                           << " places";
     }
   }
   // Figures of this run, for the log (not asserted: see above).

@@ -258,11 +258,10 @@ TEST_F(TscdTest, BombFramesInAFolderCameraAreRefusedCountedAndReadingGoesOn) {
   testing_support::WriteBytes(png_bomb, testing_support::ZeroPngBomb(20000, 20000));
 
   BusListener bus;
-  ChildProcess dut(
-      {kTscd, "--robot", "1", "--state-dir", (dir_ / "state").string(), "--set",
-       "camera.source=folder", "--set", "camera.path=" + frames.string(), "--set", "camera.fps=20",
-       "--set", "lcm.announce_period_s=0.2"},
-      dir_ / "tscd.log");
+  ChildProcess dut({kTscd, "--robot", "1", "--state-dir", (dir_ / "state").string(), "--set",
+                    "camera.source=folder", "--set", "camera.path=" + frames.string(), "--set",
+                    "camera.fps=20", "--set", "lcm.announce_period_s=0.2"},
+                   dir_ / "tscd.log");
   // The folder ends after 12 frames: 10 processed or dropped, the two bombs refused.
   ASSERT_TRUE(bus.WaitFor(
       [](const BusListener& b) {

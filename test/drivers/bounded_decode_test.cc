@@ -30,9 +30,8 @@ TEST(DecodeBounded, DecodesAnImageWithinTheLimits) {
 TEST(DecodeBounded, RefusesBombsByTheirHeaderWithoutAllocating) {
   const bool can_measure = ts::ResetPeakRss();
   const long before_kb = ts::RssKb();
-  for (const auto& [bytes, claim] :
-       {std::pair{ts::ForgedJpegBomb(), std::string("20512x35225")},
-        std::pair{ts::ForgedPngBomb(), std::string("20000x20000")}}) {
+  for (const auto& [bytes, claim] : {std::pair{ts::ForgedJpegBomb(), std::string("20512x35225")},
+                                     std::pair{ts::ForgedPngBomb(), std::string("20000x20000")}}) {
     const DecodedImage d = DecodeBounded(bytes, cv::IMREAD_COLOR, ImageLimits{});
     EXPECT_FALSE(d.ok());
     EXPECT_NE(d.error.find(claim), std::string::npos) << d.error;
@@ -48,7 +47,8 @@ TEST(DecodeBounded, RefusesBombsByTheirHeaderWithoutAllocating) {
 TEST(DecodeBounded, RefusesAnotherSizeThanTheExpectedOneButAcceptsItTurned) {
   ImageLimits limits;
   limits.exact_size = cv::Size(32, 24);
-  const DecodedImage other = DecodeBounded(ts::EncodeImage(".jpg", 48, 24), cv::IMREAD_COLOR, limits);
+  const DecodedImage other =
+      DecodeBounded(ts::EncodeImage(".jpg", 48, 24), cv::IMREAD_COLOR, limits);
   EXPECT_FALSE(other.ok());
   EXPECT_NE(other.error.find("48x24"), std::string::npos) << other.error;
   EXPECT_NE(other.error.find("32x24"), std::string::npos) << other.error;

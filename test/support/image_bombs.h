@@ -38,7 +38,8 @@ inline std::vector<uint8_t> ForgedPngBomb(int width = 20000, int height = 20000)
 }
 
 namespace detail {
-inline void PutChunk(std::vector<uint8_t>& out, const char* type, const std::vector<uint8_t>& data) {
+inline void PutChunk(std::vector<uint8_t>& out, const char* type,
+                     const std::vector<uint8_t>& data) {
   const auto be32 = [&out](uint32_t v) {
     for (int s = 24; s >= 0; s -= 8) out.push_back(static_cast<uint8_t>(v >> s));
   };
@@ -46,8 +47,7 @@ inline void PutChunk(std::vector<uint8_t>& out, const char* type, const std::vec
   const size_t start = out.size();
   out.insert(out.end(), type, type + 4);
   out.insert(out.end(), data.begin(), data.end());
-  be32(static_cast<uint32_t>(
-      crc32(0, out.data() + start, static_cast<uInt>(out.size() - start))));
+  be32(static_cast<uint32_t>(crc32(0, out.data() + start, static_cast<uInt>(out.size() - start))));
 }
 }  // namespace detail
 
@@ -100,7 +100,8 @@ inline std::vector<uint8_t> ZeroPngBomb(uint32_t width = 20000, uint32_t height 
 
 inline void WriteBytes(const std::filesystem::path& p, const std::vector<uint8_t>& bytes) {
   std::ofstream out(p, std::ios::binary | std::ios::trunc);
-  out.write(reinterpret_cast<const char*>(bytes.data()), static_cast<std::streamsize>(bytes.size()));
+  out.write(reinterpret_cast<const char*>(bytes.data()),
+            static_cast<std::streamsize>(bytes.size()));
 }
 
 /// Peak resident set of this process since the last ResetPeakRss(), kB (VmHWM).

@@ -289,9 +289,9 @@ TEST_F(DatasetTest, TheImageLimitIsConfigurable) {
   options.max_image_pixels = 0;
   EXPECT_THROW(Dataset::Open(dir_, options), std::invalid_argument);
   // A depth bomb is refused by its header too (it must have its frame's size).
-  testing_support::WriteBytes(dir_ / "depth" / "1.png",
-                              (fs::create_directories(dir_ / "depth"),
-                               testing_support::ForgedPngBomb(20000, 20000)));
+  testing_support::WriteBytes(
+      dir_ / "depth" / "1.png",
+      (fs::create_directories(dir_ / "depth"), testing_support::ForgedPngBomb(20000, 20000)));
   const Dataset ds = Dataset::Open(dir_);
   ExpectErrorNaming([&] { ds.Load(0); }, "20000x20000");
 }

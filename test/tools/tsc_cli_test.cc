@@ -144,8 +144,7 @@ TEST_F(TscCliTest, RunOnADecompressionBombExits1NamingFileAndClaimedSize) {
     EXPECT_EQ(code, 1) << err;
     EXPECT_NE(err.find((ds / name).string()), std::string::npos) << err;
     EXPECT_NE(err.find("claims " + claim + " pixels"), std::string::npos) << err;
-    std::printf("tsc run on the %s bomb: exit %d, peak RSS %ld kB\n", claim.c_str(), code,
-                peak_kb);
+    std::printf("tsc run on the %s bomb: exit %d, peak RSS %ld kB\n", claim.c_str(), code, peak_kb);
     EXPECT_GT(peak_kb, 0);
     EXPECT_LT(peak_kb, 150 * 1024);
   }
