@@ -1,5 +1,6 @@
 #include "daemon/daemon_options.h"
 
+#include <cstdint>
 #include <stdexcept>
 #include <string>
 #include <utility>
@@ -33,6 +34,13 @@ void DaemonOptions::Validate() const {
     throw std::invalid_argument("camera.path: required for camera.source = " + camera.source);
   }
   if (camera.fps < 0) throw std::invalid_argument("camera.fps: must not be negative");
+  if ((camera.source == "axis" || camera.source == "device") &&
+      int64_t{camera.width} * camera.height > camera.max_image_pixels) {
+    throw std::invalid_argument(
+        "camera.width x camera.height: " + std::to_string(camera.width) + "x" +
+        std::to_string(camera.height) + " is more than " +
+        "camera.max_image_pixels = " + std::to_string(camera.max_image_pixels));
+  }
   if (camera.reconnect_max_s < camera.reconnect_min_s) {
     throw std::invalid_argument("camera.reconnect_max_s: below camera.reconnect_min_s");
   }

@@ -19,6 +19,8 @@ struct CameraOptions {
   double hfov_deg = 60.0;  ///< horizontal field of view of folder, video, device, axis frames
   int width = 640;         ///< axis: requested resolution; device: requested capture size
   int height = 480;
+  /// Largest image decoded (width x height by its header); larger ones are refused unread.
+  int64_t max_image_pixels = int64_t{4096} * 4096;
   // Axis camera (drivers/camera/axis_camera.h).
   std::string axis_host;           ///< camera address
   int axis_port = 80;              ///< HTTP port

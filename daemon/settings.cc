@@ -358,6 +358,12 @@ std::vector<ConfigKey> BuildTable() {
       "camera.height", "axis: requested resolution; device: requested capture size", "pixels", 16,
       8192, [](auto& o) -> auto& { return o.daemon.camera.height; }));
   t.push_back(Number(
+      "camera.max_image_pixels",
+      "largest image decoded, width x height as its header claims (folder and dataset frames, "
+      "axis MJPEG frames, video size); a larger one is refused before it is decoded, named in "
+      "the log and counted, and reading goes on (default 4096x4096)",
+      "pixels", 1, 268435456, [](auto& o) -> auto& { return o.daemon.camera.max_image_pixels; }));
+  t.push_back(Number(
       "camera.reconnect_min_s", "device, axis: first wait before reconnecting a lost camera", "s",
       0, 3600, [](auto& o) -> auto& { return o.daemon.camera.reconnect_min_s; }, true));
   t.push_back(Number(

@@ -20,7 +20,8 @@ namespace {
 // A folder with three small frames, removed at exit; the fuzzed file is written into it for
 // each input.
 struct Scratch {
-  fs::path folder = fs::temp_directory_path() / ("tscd-dataset-fuzz-" + std::to_string(getpid()));
+  // The pid at a fixed width: paths of one length take the same code paths in every run.
+  fs::path folder = fs::temp_directory_path() / ("tscd-dataset-fuzz-" + tsc::fuzz::FixedWidthPid());
   Scratch() {
     fs::create_directories(folder);
     const cv::Mat frame(24, 32, CV_8UC3, cv::Scalar(40, 90, 160));

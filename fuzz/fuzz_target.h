@@ -3,10 +3,13 @@
 // libFuzzer drives it; otherwise replay_main.cc runs it over the seed corpus and the
 // regression inputs, so the normal test suite replays them too.
 
+#include <unistd.h>
+
 #include <cstddef>
 #include <cstdint>
 #include <cstdio>
 #include <cstdlib>
+#include <string>
 
 extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size);
 
@@ -18,6 +21,14 @@ inline void Require(bool holds, const char* property) {
   if (holds) return;
   std::fprintf(stderr, "fuzz property violated: %s\n", property);
   std::abort();
+}
+
+/// This process's id as 10 digits: scratch file names of one length in every run, so that a
+/// fuzz run with a fixed seed takes the same paths through the code (fuzz/short_run.sh).
+inline std::string FixedWidthPid() {
+  char buf[16];
+  std::snprintf(buf, sizeof buf, "%010ld", static_cast<long>(getpid()));
+  return buf;
 }
 
 }  // namespace tsc::fuzz

@@ -14,7 +14,7 @@ extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
   // The parser reads files: one per process, rewritten for every input, removed at exit.
   struct Scratch {
     std::filesystem::path file = std::filesystem::temp_directory_path() /
-                                 ("tscd-settings-fuzz-" + std::to_string(getpid()) + ".ini");
+                                 ("tscd-settings-fuzz-" + tsc::fuzz::FixedWidthPid() + ".ini");
     ~Scratch() {
       std::error_code ec;
       std::filesystem::remove(file, ec);

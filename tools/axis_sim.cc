@@ -15,10 +15,12 @@
 #include <numbers>
 #include <opencv2/imgcodecs.hpp>
 #include <random>
+#include <span>
 #include <sstream>
 #include <stdexcept>
 
 #include "drivers/camera/http_auth.h"
+#include "drivers/image/image_header.h"
 
 namespace tsc {
 namespace {
@@ -135,6 +137,8 @@ void AxisSimOptions::Validate() const {
     throw std::invalid_argument("axis-sim: auth " + auth + " needs a user and a password");
   }
   if (drop_after_frames < 0) throw std::invalid_argument("axis-sim: drop_after_frames < 0");
+  if (bomb_frame < -1) throw std::invalid_argument("axis-sim: bomb_frame < -1");
+  if (bomb_every < 0) throw std::invalid_argument("axis-sim: bomb_every < 0");
 }
 
 struct AxisSim::Net {
@@ -325,14 +329,22 @@ void AxisSim::Serve(std::shared_ptr<Connection> connection) {
           if (options_.drop_after_frames > 0 && n >= options_.drop_after_frames) break;
           cv::Mat bgr;
           renderer.Render(CurrentPose(), &bgr, nullptr);
-          const std::string jpeg = EncodeJpeg(bgr, compression);
+          std::string jpeg = EncodeJpeg(bgr, compression);
+          const bool bomb = n == options_.bomb_frame ||
+                            (options_.bomb_every > 0 && (n + 1) % options_.bomb_every == 0);
+          if (bomb) {
+            const std::vector<uint8_t> forged = WithClaimedSize(
+                std::span(reinterpret_cast<const uint8_t*>(jpeg.data()), jpeg.size()), 20512,
+                35225);
+            jpeg.assign(forged.begin(), forged.end());
+          }
           std::string part = "--" + boundary_ + "\r\nContent-Type: image/jpeg\r\n";
           if (!options_.omit_content_length) {
             part += "Content-Length: " + std::to_string(jpeg.size()) + "\r\n";
           }
           part += "\r\n" + jpeg + "\r\n";
           asio::write(socket, asio::buffer(part), ec);
-          if (!ec) ++frames_served_;
+          if (!ec) ++(bomb ? bombs_served_ : frames_served_);
           due += period;
           std::this_thread::sleep_until(due);
         }

@@ -35,6 +35,14 @@ struct AxisSimOptions {
   std::string password;              ///< required unless auth is none
   int drop_after_frames = 0;         ///< close every MJPEG stream after this many frames; 0 = never
   bool omit_content_length = false;  ///< MJPEG parts without Content-Length headers
+  /// Frame `bomb_frame` (0-based) of every MJPEG stream is a decompression bomb: the rendered
+  /// JPEG with its frame header (SOF) rewritten to claim 20512x35225 pixels (2.2 GB decoded,
+  /// < 1 KB sent); -1 = never. For the bounded-decoding tests (issue 18).
+  int bomb_frame = -1;
+  /// Every `bomb_every`-th frame of every MJPEG stream (frames k·N − 1) is such a bomb too;
+  /// 0 = never. A camera that decodes only the newest of the parts it reads at once may pass
+  /// over one bomb; over many, some reach its decoder.
+  int bomb_every = 0;
   /// Throws std::invalid_argument naming the bad field.
   void Validate() const;
 };
@@ -59,6 +67,7 @@ class AxisSim {
   double tilt_deg() const;
   /// Counters for tests and logs.
   int64_t frames_served() const { return frames_served_; }
+  int64_t bombs_served() const { return bombs_served_; }
   int64_t streams_opened() const { return streams_opened_; }
   int64_t unauthorized() const { return unauthorized_; }
 
@@ -86,6 +95,7 @@ class AxisSim {
   std::vector<std::shared_ptr<Connection>> connections_;
   std::vector<std::unique_ptr<sim::Renderer>> renderers_;
   std::atomic<int64_t> frames_served_{0};
+  std::atomic<int64_t> bombs_served_{0};
   std::atomic<int64_t> streams_opened_{0};
   std::atomic<int64_t> unauthorized_{0};
 };

@@ -21,7 +21,7 @@ constexpr const char* kAxisSimHelp =
     R"(usage: tsc axis-sim [--port N] [--world SEED] [--world-kind office|corridors|outdoor]
                     [--pose X,Y,HEADING | --pose-file PATH] [--hfov-deg D]
                     [--auth none|basic|digest --user NAME --password-file FILE]
-                    [--drop-after N] [--no-content-length]
+                    [--drop-after N] [--no-content-length] [--bomb-frame N] [--bomb-every N]
 
 A simulated Axis PTZ network camera (VAPIX) on 127.0.0.1 only. Serves
   /axis-cgi/mjpg/video.cgi?resolution=WxH&fps=N&compression=C   multipart MJPEG
@@ -33,7 +33,10 @@ current pan (Axis convention: degrees, clockwise). The pose is read for every fr
 by --pose (default: the centre of the world's first room, heading 0). Tilt is reported but the
 rendering stays level. The password is read from a file that only its owner may read (0600).
 --drop-after N closes every MJPEG stream after N frames (reconnection tests);
---no-content-length sends MJPEG parts without Content-Length.
+--no-content-length sends MJPEG parts without Content-Length;
+--bomb-frame N makes frame N (0-based) of every MJPEG stream a JPEG whose header claims
+20512x35225 pixels (a decompression bomb, for the bounded-decoding tests); --bomb-every N
+makes every Nth frame one.
 
 Prints "tsc axis-sim: serving http://127.0.0.1:PORT" once listening (--port 0 picks a free
 port) and runs until SIGINT or SIGTERM.
@@ -71,7 +74,11 @@ int AxisSimMain(const std::vector<std::string>& args) {
       "file holding the password (mode 0600 or 0400)")(
       "drop-after", po::value<int>()->default_value(0)->value_name("N"),
       "close every MJPEG stream after N frames; 0 = never")(
-      "no-content-length", "MJPEG parts without Content-Length headers");
+      "no-content-length", "MJPEG parts without Content-Length headers")(
+      "bomb-frame", po::value<int>()->default_value(-1)->value_name("N"),
+      "frame N of every MJPEG stream claims 20512x35225 pixels; -1 = never")(
+      "bomb-every", po::value<int>()->default_value(0)->value_name("N"),
+      "every Nth frame of every MJPEG stream claims 20512x35225 pixels; 0 = never");
   const po::variables_map vm = ParseCommandLine(args, desc);
   if (vm.count("help")) {
     std::cout << desc << "\n";
@@ -94,6 +101,8 @@ int AxisSimMain(const std::vector<std::string>& args) {
   options.user = vm["user"].as<std::string>();
   options.drop_after_frames = vm["drop-after"].as<int>();
   options.omit_content_length = vm.count("no-content-length") > 0;
+  options.bomb_frame = vm["bomb-frame"].as<int>();
+  options.bomb_every = vm["bomb-every"].as<int>();
   if (options.auth != "none") {
     if (!vm.count("password-file"))
       throw UsageError("--auth " + options.auth + " needs --password-file");
@@ -123,7 +132,9 @@ int AxisSimMain(const std::vector<std::string>& args) {
   sigwait(&signals, &received);
   server.Stop();
   std::cout << "tsc axis-sim: stopped after " << server.frames_served() << " frames, "
-            << server.streams_opened() << " streams" << std::endl;
+            << server.streams_opened() << " streams";
+  if (server.bombs_served() > 0) std::cout << ", " << server.bombs_served() << " bombs";
+  std::cout << std::endl;
   return 0;
 }
 

@@ -166,14 +166,17 @@ int Replot(const po::variables_map& vm) {
 }
 
 // Drops `percent` % of every UDP datagram sent in this namespace (nftables output hook), as
-// team_test does: one send is lost for every receiver at once.
-void AddLossRule(int percent) {
+// team_test does: one send is lost for every receiver at once. Which ones is a seeded hash of
+// the datagram's first 16 payload bytes (LCM's magic and per-sender sequence number, then the
+// channel or fragment header), not nftables' `numgen random`: the same traffic loses the same
+// datagrams for the same seed, so a run can be replayed.
+void AddLossRule(int percent, unsigned seed) {
   const std::string table = kLossTable;
   const std::vector<std::vector<std::string>> steps = {
       {"nft", "add", "table", "inet", table},
       {"nft", "add", "chain", "inet", table, "out", "{ type filter hook output priority 0; }"},
-      {"nft", "add", "rule", "inet", table, "out", "meta", "l4proto", "udp", "numgen", "random",
-       "mod", "100", "<", std::to_string(percent), "drop"}};
+      {"nft", "add", "rule", "inet", table, "out", "meta", "l4proto", "udp", "jhash", "@th,64,128",
+       "mod", "100", "seed", std::to_string(seed), "<", std::to_string(percent), "drop"}};
   for (const auto& step : steps) {
     if (RunProgram(step) != 0) {
       throw std::runtime_error(
@@ -205,7 +208,8 @@ int Soak(const std::vector<std::string>& args) {
       "seconds between restarts of a random robot (0: none)")(
       "kill-fraction", po::value<double>()->default_value(0.3, "0.3")->value_name("F"),
       "share of restarts by SIGKILL instead of SIGTERM")(
-      "seed", po::value<unsigned>()->default_value(1), "seed of the restart schedule")(
+      "seed", po::value<unsigned>()->default_value(1),
+      "seed of the restart schedule and of the packet loss")(
       "fps", po::value<double>()->default_value(10.0, "10"), "camera frames per second per robot")(
       "loop", "drive the routes again and again (load) instead of once per process life")(
       "out", po::value<std::string>()->default_value("soak-out")->value_name("DIR"),
@@ -271,7 +275,7 @@ int Soak(const std::vector<std::string>& args) {
     o.push_back("sim.route=" + std::to_string(i));
     (void)LoadSettings(std::nullopt, o);
   }
-  if (loss > 0) AddLossRule(loss);
+  if (loss > 0) AddLossRule(loss, vm["seed"].as<unsigned>());
   struct RemoveLoss {
     bool added;
     ~RemoveLoss() {
@@ -324,8 +328,8 @@ int Soak(const std::vector<std::string>& args) {
 
   for (Robot& r : robots) spawn(r);
   std::cout << "tsc soak: " << n << " robots, " << duration << " s, " << loss
-            << " % UDP loss, a restart every " << every << " s; output in " << out.string()
-            << std::endl;
+            << " % UDP loss, a restart every " << every << " s (seed " << vm["seed"].as<unsigned>()
+            << ": loss and restarts); output in " << out.string() << std::endl;
   const auto start = Clock::now();
   auto next_sample = start + std::chrono::seconds(1);
   double next_restart = every > 0 ? every : duration + 1;

@@ -145,6 +145,14 @@ Settings ConfigFrom(const po::variables_map& vm) {
   return SettingsFromCommandLine(vm);
 }
 
+// How the offline tools read a dataset: images bounded by camera.max_image_pixels, as tscd's
+// cameras are.
+DatasetOptions DatasetOptionsOf(const Settings& settings) {
+  DatasetOptions out;
+  out.max_image_pixels = settings.daemon.camera.max_image_pixels;
+  return out;
+}
+
 double Median(std::vector<double> v) {
   if (v.empty()) return 0.0;
   const size_t mid = v.size() / 2;
@@ -217,10 +225,11 @@ int Run(const std::vector<std::string>& args) {
     return kExitOk;
   }
 
-  const PipelineOptions options = ConfigFrom(vm).pipeline;
+  const Settings settings = ConfigFrom(vm);
+  const PipelineOptions& options = settings.pipeline;
   const fs::path dataset_dir = vm["dataset"].as<std::string>();
   const fs::path db_path = vm["db"].as<std::string>();
-  const Dataset dataset = Dataset::Open(dataset_dir);
+  const Dataset dataset = Dataset::Open(dataset_dir, DatasetOptionsOf(settings));
   if (options.features.NeedsDepth() && !dataset.has_depth()) {
     throw DatasetError(dataset_dir.string() + ": bubble.features = " + options.features.ToString() +
                        " needs depth, but the dataset has no depth/ folder");
@@ -353,10 +362,11 @@ int Eval(const std::vector<std::string>& args) {
   }
   const EvalOptions eval =
       vm.count("sweep") ? ParseSweep(vm["sweep"].as<std::string>()) : EvalOptions{};
-  const PipelineOptions options = ConfigFrom(vm).pipeline;
+  const Settings settings = ConfigFrom(vm);
+  const PipelineOptions& options = settings.pipeline;
   const fs::path dataset_dir = vm["dataset"].as<std::string>();
   const fs::path json_path = vm["json"].as<std::string>();
-  const Dataset dataset = Dataset::Open(dataset_dir);
+  const Dataset dataset = Dataset::Open(dataset_dir, DatasetOptionsOf(settings));
   if (options.features.NeedsDepth() && !dataset.has_depth()) {
     throw DatasetError(dataset_dir.string() + ": bubble.features = " + options.features.ToString() +
                        " needs depth, but the dataset has no depth/ folder");

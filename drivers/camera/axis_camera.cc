@@ -14,12 +14,14 @@
 #include <deque>
 #include <fstream>
 #include <opencv2/imgcodecs.hpp>
+#include <span>
 #include <sstream>
 #include <stdexcept>
 
 #include "drivers/camera/frame_convert.h"
 #include "drivers/camera/http_auth.h"
 #include "drivers/camera/multipart_parser.h"
+#include "drivers/image/bounded_decode.h"
 
 namespace tsc {
 namespace {
@@ -112,6 +114,10 @@ void AxisCameraOptions::Validate() const {
          std::to_string(reconnect_max_s) + "] s must satisfy 0 < min <= max <= 3600");
   }
   if (max_frame_bytes < 1024) fail("max_frame_bytes must be at least 1024");
+  if (int64_t{width} * height > max_image_pixels) {
+    fail("resolution " + std::to_string(width) + "x" + std::to_string(height) +
+         " is more than max_image_pixels " + std::to_string(max_image_pixels));
+  }
 }
 
 std::string ReadPasswordFile(const std::string& file) {
@@ -151,6 +157,7 @@ struct AxisCamera::Stream {
   beast::tcp_stream tcp{io};
   std::optional<MultipartParser> parser;
   std::deque<std::pair<int64_t, std::string>> parts;  // completion time (steady µs), JPEG
+  int64_t parts_taken = 0;  // parts taken off `parts` so far: the next one's number, 0-based
 };
 
 AxisCamera::AxisCamera(const AxisCameraOptions& options, Clock& clock)
@@ -383,6 +390,7 @@ std::string AxisCamera::NextPart(int64_t not_before_us, int skip_more) {
     while (!stream_->parts.empty()) {
       auto [completed_us, body] = std::move(stream_->parts.front());
       stream_->parts.pop_front();
+      ++stream_->parts_taken;
       if (completed_us < not_before_us) {
         ++discarded_;
       } else if (skip_more > 0) {
@@ -435,6 +443,7 @@ std::optional<CameraFrame> AxisCamera::Next() {
       // the newest is fresh.
       while (stream_->parts.size() > 1) {
         stream_->parts.pop_front();
+        ++stream_->parts_taken;
         ++discarded_;
       }
       jpeg = NextPart(0, 0);
@@ -443,16 +452,29 @@ std::optional<CameraFrame> AxisCamera::Next() {
     if (!e.recoverable() || !stream_) throw;  // Lost() already dropped the stream
     Lost(e.what());  // a PTZ request failed: the camera is probably gone too
   }
-  const cv::Mat raw =
-      cv::imdecode(cv::Mat(1, static_cast<int>(jpeg.size()), CV_8U, jpeg.data()), cv::IMREAD_COLOR);
-  if (raw.empty()) {
+  // Bounded: a part whose JPEG header claims another size than requested (20512x35225 in a
+  // 578-byte part, say) is refused before the decoder allocates for it.
+  const int64_t number = stream_->parts_taken - 1;  // of this stream
+  ImageLimits limits;
+  limits.max_pixels = options_.max_image_pixels;
+  limits.exact_size = cv::Size(options_.width, options_.height);
+  DecodedImage decoded =
+      DecodeBounded(std::span(reinterpret_cast<const uint8_t*>(jpeg.data()), jpeg.size()),
+                    cv::IMREAD_COLOR, limits);
+  if (decoded.ok() && decoded.header->format != ImageFormat::kJpeg) {
+    decoded.error = "a PNG, not a JPEG";
+    decoded.image.release();
+  }
+  if (!decoded.ok()) {
     ++discarded_;
-    throw CameraError(
-        name() + ": a frame of " + std::to_string(jpeg.size()) + " bytes is not a decodable JPEG",
-        true);
+    ++refused_;
+    throw CameraError(name() + ": frame " + std::to_string(number) + " of stream " +
+                          std::to_string(connections_) + " (" + std::to_string(jpeg.size()) +
+                          " bytes) refused: " + decoded.error,
+                      true);
   }
   CameraFrame frame;
-  frame.observation.bgr = ToBgrOfSize(raw, intrinsics_);
+  frame.observation.bgr = ToBgrOfSize(decoded.image, intrinsics_);
   frame.observation.pan_tilt = ToPanTilt(position_);
   frame.utime = clock_.WallMicros();
   frame.sequence = delivered_++;

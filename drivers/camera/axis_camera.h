@@ -22,8 +22,13 @@ struct AxisCameraOptions {
   int port = 80;         ///< HTTP port
   std::string user;      ///< "" = no credentials (anonymous access)
   std::string password;  ///< read from a file by the caller (ReadPasswordFile)
-  int width = 640;       ///< requested resolution, pixels (frames of another size are resized)
+  /// Requested resolution, pixels. A frame of another size (by its JPEG header) is refused
+  /// before it is decoded: a camera serves what it was asked for.
+  int width = 640;
   int height = 480;
+  /// Largest frame decoded, width x height by its JPEG header (camera.max_image_pixels); must
+  /// be at least width x height.
+  int64_t max_image_pixels = int64_t{4096} * 4096;
   double fps = 10.0;       ///< requested frame rate; 0 = the camera's own rate
   int compression = 30;    ///< JPEG compression the camera applies, 0..100
   double hfov_deg = 60.0;  ///< horizontal field of view, degrees in (0, 180)
@@ -70,9 +75,11 @@ class AxisCamera : public CameraSource {
   AxisCamera& operator=(const AxisCamera&) = delete;
 
   /// The next frame, tagged with its pan/tilt. Never nullopt. Throws CameraError: recoverable
-  /// when the camera cannot be reached or the stream dropped (the next call waits out the
-  /// backoff and reconnects), not recoverable when the camera refuses the credentials, offers
-  /// no supported authentication, or does not serve VAPIX MJPEG.
+  /// for a frame that is not a JPEG of the requested size (refused by its header before it is
+  /// decoded; the error names the frame's number in its stream and its claimed size, and the next
+  /// call takes the next frame of the same stream), when the camera cannot be reached or the stream
+  /// dropped (the next call waits out the backoff and reconnects), not recoverable when the camera
+  /// refuses the credentials, offers no supported authentication, or does not serve VAPIX MJPEG.
   std::optional<CameraFrame> Next() override;
   const CameraIntrinsics& intrinsics() const override { return intrinsics_; }
   /// "axis:host:port".
@@ -93,8 +100,10 @@ class AxisCamera : public CameraSource {
   int64_t connections() const { return connections_; }
   /// Current wait before the next reconnect attempt, microseconds.
   int64_t backoff_us() const { return backoff_us_; }
-  /// Frames received and not delivered (settling after a move, undecodable).
+  /// Frames received and not delivered (settling after a move, undecodable, refused).
   int64_t discarded() const { return discarded_; }
+  /// Frames refused or undecodable (counted in discarded() too).
+  int64_t refused() const { return refused_; }
 
  private:
   struct Stream;
@@ -125,6 +134,7 @@ class AxisCamera : public CameraSource {
   int64_t retry_at_us_ = 0;
   int64_t delivered_ = 0;
   int64_t discarded_ = 0;
+  int64_t refused_ = 0;
 };
 
 }  // namespace tsc

@@ -11,11 +11,14 @@ namespace tsc {
 namespace fs = std::filesystem;
 namespace {
 
-Dataset OpenDataset(const fs::path& folder) {
+Dataset OpenDataset(const FolderCameraOptions& options) {
+  DatasetOptions dataset;
+  dataset.max_image_pixels = options.max_image_pixels;
   try {
     // A frame file of zero bytes (a writer that has not written it yet, a full disk) is a bad
     // frame like a truncated one: logged by the daemon, and reading goes on.
-    return Dataset::Open(folder, Dataset::EmptyImages::kLoadFails);
+    dataset.empty_images = EmptyImages::kLoadFails;
+    return Dataset::Open(options.folder, dataset);
   } catch (const DatasetError& e) {
     throw CameraError(std::string("folder camera: ") + e.what(), false);
   }
@@ -52,6 +55,10 @@ void FolderCameraOptions::Validate() const {
     throw std::invalid_argument("folder camera: hfov_deg " + std::to_string(hfov_deg) +
                                 " must be in (0, 180)");
   }
+  if (max_image_pixels < 1) {
+    throw std::invalid_argument("folder camera: max_image_pixels " +
+                                std::to_string(max_image_pixels) + " must be at least 1");
+  }
 }
 
 bool ImageFileLooksComplete(const fs::path& file) {
@@ -80,7 +87,7 @@ bool ImageFileLooksComplete(const fs::path& file) {
 FolderCamera::FolderCamera(const FolderCameraOptions& options, Clock& clock)
     : options_((options.Validate(), options)),
       clock_(clock),
-      dataset_(OpenDataset(options.folder)),
+      dataset_(OpenDataset(options)),
       intrinsics_(IntrinsicsOf(dataset_, options.hfov_deg)),
       pacer_(options.fps, clock) {}
 

@@ -2,6 +2,7 @@
 // Frames of a dataset folder (DESIGN §7.1) as a camera: natural name order, with depth when
 // the folder has it, paced to a frame rate, optionally looping.
 
+#include <cstdint>
 #include <deque>
 #include <filesystem>
 #include <optional>
@@ -20,6 +21,8 @@ struct FolderCameraOptions {
   /// Horizontal field of view, degrees in (0, 180), used when the folder has no camera.json
   /// (camera.json, when present, wins).
   double hfov_deg = 60.0;
+  /// Largest frame decoded, width x height by the file's header (DatasetOptions).
+  int64_t max_image_pixels = kDefaultMaxImagePixels;
   /// Throws std::invalid_argument naming the bad field.
   void Validate() const;
 };

@@ -85,6 +85,7 @@ AxisCameraOptions ToAxisCameraOptions(const CameraOptions& camera) {
   out.timeout_s = camera.axis_timeout_s;
   out.reconnect_min_s = camera.reconnect_min_s;
   out.reconnect_max_s = camera.reconnect_max_s;
+  out.max_image_pixels = camera.max_image_pixels;
   out.Validate();
   return out;
 }
@@ -114,6 +115,7 @@ std::unique_ptr<CameraSource> MakeCamera(const CameraOptions& camera, const SimO
       options.fps = camera.fps;
       options.loop = camera.loop;
       options.hfov_deg = camera.hfov_deg;
+      options.max_image_pixels = camera.max_image_pixels;
       return std::make_unique<FolderCamera>(options, clock);
     }
     if (camera.source == "video") {
@@ -122,6 +124,7 @@ std::unique_ptr<CameraSource> MakeCamera(const CameraOptions& camera, const SimO
       options.fps = camera.fps;
       options.loop = camera.loop;
       options.hfov_deg = camera.hfov_deg;
+      options.max_image_pixels = camera.max_image_pixels;
       return std::make_unique<VideoCamera>(options, clock);
     }
     if (camera.source == "device") {

@@ -23,10 +23,16 @@ cv::VideoCapture OpenCapture(const fs::path& file) {
 }
 
 /// Frame size from the container, or from the first frame when the container does not say.
-CameraIntrinsics IntrinsicsOf(const fs::path& file, double hfov_deg) {
+CameraIntrinsics IntrinsicsOf(const fs::path& file, double hfov_deg, int64_t max_pixels) {
   cv::VideoCapture capture = OpenCapture(file);
   int width = static_cast<int>(capture.get(cv::CAP_PROP_FRAME_WIDTH));
   int height = static_cast<int>(capture.get(cv::CAP_PROP_FRAME_HEIGHT));
+  if (int64_t{width} * height > max_pixels) {
+    throw CameraError("video:" + file.string() + ": its frames are " + std::to_string(width) + "x" +
+                          std::to_string(height) + " pixels, more than the limit of " +
+                          std::to_string(max_pixels) + " (camera.max_image_pixels)",
+                      false);
+  }
   if (width <= 0 || height <= 0) {
     cv::Mat first;
     if (!capture.read(first) || first.empty()) {
@@ -50,12 +56,16 @@ void VideoCameraOptions::Validate() const {
     throw std::invalid_argument("video camera: hfov_deg " + std::to_string(hfov_deg) +
                                 " must be in (0, 180)");
   }
+  if (max_image_pixels < 1) {
+    throw std::invalid_argument("video camera: max_image_pixels " +
+                                std::to_string(max_image_pixels) + " must be at least 1");
+  }
 }
 
 VideoCamera::VideoCamera(const VideoCameraOptions& options, Clock& clock)
     : options_((options.Validate(), options)),
       clock_(clock),
-      intrinsics_(IntrinsicsOf(options.file, options.hfov_deg)),
+      intrinsics_(IntrinsicsOf(options.file, options.hfov_deg, options.max_image_pixels)),
       pacer_(options.fps, clock) {
   Open();
 }

@@ -2,6 +2,7 @@
 // A video file as a camera (any container and codec OpenCV's videoio reads), paced to a frame
 // rate, optionally looping.
 
+#include <cstdint>
 #include <filesystem>
 #include <opencv2/videoio.hpp>
 #include <optional>
@@ -17,6 +18,10 @@ struct VideoCameraOptions {
   double fps = 10.0;       ///< frames per second delivered; 0 = as fast as they decode
   bool loop = false;       ///< start again at the first frame after the last
   double hfov_deg = 60.0;  ///< horizontal field of view, degrees in (0, 180)
+  /// Largest frame size accepted, width x height as the container declares it (checked when
+  /// the file is opened, before a frame is read for the pipeline; FFmpeg's decoders refuse
+  /// frames beyond (w+128)(h+128) ≥ 2^28 themselves).
+  int64_t max_image_pixels = int64_t{4096} * 4096;
   /// Throws std::invalid_argument naming the bad field.
   void Validate() const;
 };
@@ -24,7 +29,8 @@ struct VideoCameraOptions {
 class VideoCamera : public CameraSource {
  public:
   /// Opens the file and reads its frame size. Throws CameraError(recoverable = false) naming
-  /// the file when it is missing or OpenCV cannot decode it, std::invalid_argument for bad
+  /// the file when it is missing, OpenCV cannot decode it or its frames are larger than
+  /// max_image_pixels (naming the declared size), std::invalid_argument for bad
   /// options. `clock` must outlive the camera.
   explicit VideoCamera(const VideoCameraOptions& options, Clock& clock = Clock::System());
 

@@ -14,6 +14,8 @@
 #include <utility>
 
 #include "drivers/dataset/json_reader.h"
+#include "drivers/image/bounded_decode.h"
+#include "drivers/image/image_header.h"
 
 namespace tsc {
 namespace fs = std::filesystem;
@@ -28,20 +30,29 @@ constexpr int kMaxImageSide = 65535;
   throw DatasetError(where.string() + ": " + what);
 }
 
-// Decodes `file` only when it is a JPEG or PNG by its first bytes; an empty Mat otherwise.
-// cv::imread picks a decoder by content, not by name, and some of Debian's (GDCM for DICOM)
-// abort the process on a malformed file: a 150-byte "*.png" with "DICM" in it killed tsc
-// (found by fuzz/dataset_fuzz, regression in fuzz/regressions/fuzz_dataset_image).
-cv::Mat ReadJpegOrPng(const fs::path& file, int flags) {
+// The bytes of `file` (empty when it cannot be read).
+std::vector<uint8_t> ReadBytes(const fs::path& file) {
   std::ifstream in(file, std::ios::binary);
-  std::vector<uchar> bytes((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
-  static constexpr uchar kPng[] = {0x89, 'P', 'N', 'G', '\r', '\n', 0x1a, '\n'};
-  static constexpr uchar kJpeg[] = {0xff, 0xd8, 0xff};
-  const auto starts_with = [&bytes](const uchar* sig, size_t n) {
-    return bytes.size() >= n && std::equal(sig, sig + n, bytes.begin());
-  };
-  if (!starts_with(kPng, sizeof kPng) && !starts_with(kJpeg, sizeof kJpeg)) return cv::Mat();
-  return cv::imdecode(bytes, flags);
+  return std::vector<uint8_t>((std::istreambuf_iterator<char>(in)),
+                              std::istreambuf_iterator<char>());
+}
+
+// Decodes `file` as a JPEG or PNG (DecodeBounded: by its first bytes, never another decoder —
+// cv::imread picks one by content, and GDCM aborts the process on a malformed "*.png" holding
+// "DICM", found by fuzz/dataset_fuzz, regression in fuzz/regressions/fuzz_dataset_image) and
+// only once its header passes `limits`: a 1 MB PNG claiming 20000x20000 is refused before
+// anything is allocated for it. Throws DatasetError naming the file, its claimed size and
+// `what` it is ("image", "depth image").
+cv::Mat ReadJpegOrPng(const fs::path& file, int flags, const ImageLimits& limits,
+                      const char* what) {
+  const std::vector<uint8_t> bytes = ReadBytes(file);
+  if (bytes.empty()) Fail(file, std::string("unreadable ") + what + " (missing or empty)");
+  if (!LooksLikePngOrJpeg(bytes)) {
+    Fail(file, std::string("unreadable ") + what + " (not a JPEG/PNG by its first bytes)");
+  }
+  DecodedImage decoded = DecodeBounded(bytes, flags, limits);
+  if (!decoded.ok()) Fail(file, std::string("unreadable ") + what + ": " + decoded.error);
+  return std::move(decoded.image);
 }
 
 std::string Lower(std::string s) {
@@ -258,14 +269,25 @@ bool NaturalLess(const std::string& a, const std::string& b) {
 }
 
 Dataset::Dataset(fs::path folder, std::vector<fs::path> images, std::vector<fs::path> depths,
-                 CameraIntrinsics camera, PanSweep sweep)
+                 CameraIntrinsics camera, PanSweep sweep, cv::Size frame_size,
+                 DatasetOptions options)
     : folder_(std::move(folder)),
       images_(std::move(images)),
       depths_(std::move(depths)),
       camera_(camera),
-      sweep_(sweep) {}
+      sweep_(sweep),
+      frame_size_(frame_size),
+      options_(options) {}
 
-Dataset Dataset::Open(const fs::path& folder, EmptyImages empty_images) {
+void DatasetOptions::Validate() const {
+  if (max_image_pixels < 1) {
+    throw std::invalid_argument("dataset: max_image_pixels " + std::to_string(max_image_pixels) +
+                                " must be at least 1");
+  }
+}
+
+Dataset Dataset::Open(const fs::path& folder, const DatasetOptions& options) {
+  options.Validate();
   std::error_code ec;
   if (!fs::exists(folder, ec)) Fail(folder, "no such dataset folder");
   if (!fs::is_directory(folder, ec)) Fail(folder, "not a folder (a dataset is a folder of images)");
@@ -279,15 +301,18 @@ Dataset Dataset::Open(const fs::path& folder, EmptyImages empty_images) {
   for (const fs::path& p : images) {
     const auto bytes = fs::file_size(p, ec);
     if (ec) Fail(p, "cannot read: " + ec.message());
-    if (bytes == 0 && empty_images == EmptyImages::kRefuse) {
+    if (bytes == 0 && options.empty_images == EmptyImages::kRefuse) {
       Fail(p, "empty image file (0 bytes)");
     }
     if (bytes > 0 && sized == nullptr) sized = &p;
   }
   if (sized == nullptr) Fail(frame_dir, "every image file is empty (0 bytes)");
 
-  const cv::Mat first = ReadJpegOrPng(*sized, cv::IMREAD_COLOR);
-  if (first.empty()) Fail(*sized, "unreadable image (not a JPEG/PNG OpenCV can decode)");
+  // The first frame that is not empty sets the dataset's frame size; it is decoded (bounded)
+  // to be sure it can be.
+  ImageLimits first_limits;
+  first_limits.max_pixels = options.max_image_pixels;
+  const cv::Mat first = ReadJpegOrPng(*sized, cv::IMREAD_COLOR, first_limits, "image");
 
   std::vector<fs::path> depths;
   const fs::path depth_dir = folder / "depth";
@@ -309,7 +334,8 @@ Dataset Dataset::Open(const fs::path& folder, EmptyImages empty_images) {
           : CameraFile{CameraIntrinsics::FromHorizontalFov(first.cols, first.rows, kDefaultHfovDeg),
                        PanSweep()};
 
-  Dataset ds(folder, std::move(images), std::move(depths), camera.camera, camera.sweep);
+  Dataset ds(folder, std::move(images), std::move(depths), camera.camera, camera.sweep,
+             cv::Size(first.cols, first.rows), options);
   const int n = ds.size();
 
   const fs::path truth_file = folder / "groundtruth.csv";
@@ -359,19 +385,20 @@ std::vector<Observation> Dataset::Load(int i) const {
     throw DatasetError(folder_.string() + ": frame index " + std::to_string(i) + " out of range");
   }
   const fs::path& file = images_[i];
+  // Every frame must have the first frame's size: by its header, before it is decoded.
+  ImageLimits limits;
+  limits.max_pixels = options_.max_image_pixels;
+  limits.exact_size = frame_size_;
   Observation obs;
-  obs.bgr = ReadJpegOrPng(file, cv::IMREAD_COLOR);
-  if (obs.bgr.empty()) Fail(file, "unreadable image (missing, empty or not a JPEG/PNG)");
-  const int views = sweep_.views();
-  if (obs.bgr.cols != camera_.width() * views || obs.bgr.rows != camera_.height()) {
+  obs.bgr = ReadJpegOrPng(file, cv::IMREAD_COLOR, limits, "image");
+  if (obs.bgr.size() != frame_size_) {  // a JPEG turned by its EXIF orientation
     Fail(file, "image is " + std::to_string(obs.bgr.cols) + "x" + std::to_string(obs.bgr.rows) +
-                   " but the dataset's frames are " + std::to_string(camera_.width() * views) +
-                   "x" + std::to_string(camera_.height()));
+                   " but the dataset's frames are " + std::to_string(frame_size_.width) + "x" +
+                   std::to_string(frame_size_.height));
   }
   if (has_depth()) {
     const fs::path& dfile = depths_[i];
-    const cv::Mat raw = ReadJpegOrPng(dfile, cv::IMREAD_UNCHANGED);
-    if (raw.empty()) Fail(dfile, "unreadable depth image");
+    const cv::Mat raw = ReadJpegOrPng(dfile, cv::IMREAD_UNCHANGED, limits, "depth image");
     if (raw.type() != CV_16UC1) Fail(dfile, "depth must be a single-channel 16-bit PNG (mm)");
     if (raw.size() != obs.bgr.size()) {
       Fail(dfile, "depth is " + std::to_string(raw.cols) + "x" + std::to_string(raw.rows) +

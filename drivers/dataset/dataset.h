@@ -14,6 +14,7 @@
 //
 // Frames are read one at a time by Load(): a dataset of 10⁴ frames costs a list of paths.
 
+#include <cstdint>
 #include <filesystem>
 #include <optional>
 #include <stdexcept>
@@ -22,6 +23,7 @@
 
 #include "core/bubble/camera.h"
 #include "core/bubble/surface.h"
+#include "drivers/image/bounded_decode.h"
 
 namespace tsc {
 
@@ -47,20 +49,30 @@ bool NaturalLess(const std::string& a, const std::string& b);
 /// multiple of sweep.views().
 std::vector<Observation> SplitSweep(Observation strip, const PanSweep& sweep);
 
+/// What Open does with an image file of zero bytes: refuse the dataset (the offline tools),
+/// or list it like any frame so that Load() fails on it as on a truncated file (a camera,
+/// which logs a bad frame and reads on).
+enum class EmptyImages { kRefuse, kLoadFails };
+
+/// How a dataset is read.
+struct DatasetOptions {
+  EmptyImages empty_images = EmptyImages::kRefuse;
+  /// Largest frame (or depth image) accepted, width x height pixels by the file's header; a
+  /// larger one is refused before it is decoded (camera.max_image_pixels, default 4096x4096).
+  int64_t max_image_pixels = kDefaultMaxImagePixels;
+  /// Throws std::invalid_argument naming the bad field.
+  void Validate() const;
+};
+
 class Dataset {
  public:
-  /// What Open does with an image file of zero bytes: refuse the dataset (the offline tools),
-  /// or list it like any frame so that Load() fails on it as on a truncated file (a camera,
-  /// which logs a bad frame and reads on).
-  enum class EmptyImages { kRefuse, kLoadFails };
-
   /// Lists the frames and reads the side files. Checks at once what is cheap to check: the
-  /// folder, the presence of images, zero-size image files (`empty_images`), the first image
-  /// (for the size; with kLoadFails the first that is not empty), one depth file per frame,
-  /// camera.json, groundtruth.csv and revisits.csv.
-  /// Throws DatasetError naming the file or folder at fault.
-  static Dataset Open(const std::filesystem::path& folder,
-                      EmptyImages empty_images = EmptyImages::kRefuse);
+  /// folder, the presence of images, zero-size image files (options.empty_images), the first
+  /// image that is not empty (for the size; decoded only when its header claims at most
+  /// options.max_image_pixels), one depth file per frame, camera.json, groundtruth.csv and
+  /// revisits.csv. Throws DatasetError naming the file or folder at fault (and an image's
+  /// claimed size), std::invalid_argument for bad options.
+  static Dataset Open(const std::filesystem::path& folder, const DatasetOptions& options = {});
 
   const std::filesystem::path& folder() const { return folder_; }
   /// Number of frames.
@@ -76,7 +88,8 @@ class Dataset {
   const PanSweep& sweep() const { return sweep_; }
   /// Reads frame i as its views (one without a sweep): CV_8UC3 colour and, with depth,
   /// CV_32F metres, each with its pan (zero without a sweep). Throws DatasetError naming the
-  /// file when it cannot be read or has another size than the first frame.
+  /// file when it cannot be read or has another size than the first frame; the size is checked
+  /// on the file's header, before anything is decoded, and the error says what it claims.
   std::vector<Observation> Load(int i) const;
 
   /// Per-frame place label (0-based frames, "" where unlabelled); empty without
@@ -89,13 +102,16 @@ class Dataset {
 
  private:
   Dataset(std::filesystem::path folder, std::vector<std::filesystem::path> images,
-          std::vector<std::filesystem::path> depths, CameraIntrinsics camera, PanSweep sweep);
+          std::vector<std::filesystem::path> depths, CameraIntrinsics camera, PanSweep sweep,
+          cv::Size frame_size, DatasetOptions options);
 
   std::filesystem::path folder_;
   std::vector<std::filesystem::path> images_;
   std::vector<std::filesystem::path> depths_;
   CameraIntrinsics camera_;
   PanSweep sweep_;
+  cv::Size frame_size_;  ///< of every frame (all its views side by side): the first frame's
+  DatasetOptions options_;
   std::vector<std::string> labels_;
   std::vector<std::optional<GroundTruthPose>> poses_;
   std::vector<std::vector<int>> revisits_;

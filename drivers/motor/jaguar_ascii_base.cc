@@ -25,9 +25,9 @@ int Power(double fraction, int sign) {
 
 }  // namespace
 
-JaguarAsciiBase::JaguarAsciiBase(const JaguarOptions& options)
+JaguarAsciiBase::JaguarAsciiBase(const JaguarOptions& options, Clock& clock)
     : options_((options.Validate(), options)),
-      clock_(Clock::System()),
+      clock_(clock),
       gate_(options_),
       odometry_(options_),
       battery_volts_(std::numeric_limits<double>::quiet_NaN()) {

@@ -27,7 +27,9 @@ class JaguarAsciiBase : public MotorBase {
  public:
   /// Starts the link thread, which connects to options.host:port (and keeps reconnecting).
   /// Throws std::invalid_argument for bad options.
-  explicit JaguarAsciiBase(const JaguarOptions& options);
+  /// `clock` (the system's by default; a test injects a ManualClock) times the command
+  /// watchdog, the resends and the link timeout; it must outlive the driver.
+  explicit JaguarAsciiBase(const JaguarOptions& options, Clock& clock = Clock::System());
   /// Stops the motors and closes the connection.
   ~JaguarAsciiBase() override;
   JaguarAsciiBase(const JaguarAsciiBase&) = delete;

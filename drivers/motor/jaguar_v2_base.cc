@@ -28,9 +28,9 @@ constexpr int64_t kAckRetryUs = 500'000;  // while the link is down, ACK again t
 
 }  // namespace
 
-JaguarV2Base::JaguarV2Base(const JaguarOptions& options)
+JaguarV2Base::JaguarV2Base(const JaguarOptions& options, Clock& clock)
     : options_((options.Validate(), options)),
-      clock_(Clock::System()),
+      clock_(clock),
       gate_(options_),
       odometry_(options_),
       battery_volts_(std::numeric_limits<double>::quiet_NaN()) {

@@ -34,7 +34,9 @@ class JaguarV2Base : public MotorBase {
   /// Opens a UDP socket to options.host:port and starts the link thread, which sends the ACK
   /// that makes the board stream its sensor frames. Throws std::invalid_argument for bad
   /// options, MotorError when no socket can be opened.
-  explicit JaguarV2Base(const JaguarOptions& options);
+  /// `clock` (the system's by default; a test injects a ManualClock) times the command
+  /// watchdog, the resends and the link timeout; it must outlive the driver.
+  explicit JaguarV2Base(const JaguarOptions& options, Clock& clock = Clock::System());
   /// Stops the motors (three all-stop frames) and closes the link.
   ~JaguarV2Base() override;
   JaguarV2Base(const JaguarV2Base&) = delete;

@@ -11,12 +11,14 @@
 #include <gtest/gtest.h>
 
 #include <algorithm>
+#include <cstdio>
 #include <cstdlib>
 #include <filesystem>
 #include <fstream>
 #include <map>
 #include <random>
 #include <set>
+#include <string>
 #include <thread>
 
 #include "daemon/memory_snapshot.h"
@@ -220,7 +222,9 @@ TEST_F(CrashTest, KillNineWhileLearningLosesNothingAndRestartsFromTheLastCommit)
   TSCD_REQUIRE_PRIVATE_NETNS();
   BusListener bus("TSC_ANNOUNCE|TSC_EVENT_.*");
   const int instants = TotalInstants() * 3 / 5;
-  std::mt19937 rng(20261123);
+  constexpr unsigned kSeed = 20261123;  // of the kill instants, printed to replay a failure
+  std::printf("kill instants: %d, seed %u\n", instants, kSeed);
+  std::mt19937 rng(kSeed);
   std::uniform_int_distribution<int> delay_ms(100 * Slowdown(), 900 * Slowdown());
   const fs::path state = dir_ / "state";
   const fs::path crash = dir_ / "crash.db";
@@ -390,7 +394,9 @@ TEST_F(CrashTest, KillNineDuringAMergeLeavesThePreOrPostMergeMemoryAndTheMergeCo
   // uniform over the first half of the reference's reception-to-merged time: timed from the
   // announce they all fell after the merge once, on a loaded machine whose reference run had
   // been slower than the runs after it.
-  std::mt19937 rng(20261124);
+  constexpr unsigned kSeed = 20261124;  // of the kill instants, printed to replay a failure
+  std::printf("merge kill instants: seed %u\n", kSeed);
+  std::mt19937 rng(kSeed);
   std::uniform_int_distribution<int> anywhere_ms(0, static_cast<int>(1200.0 * merged_s));
   std::uniform_int_distribution<int> merging_ms(0,
                                                 static_cast<int>(500.0 * (merged_s - received_s)));

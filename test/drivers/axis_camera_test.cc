@@ -212,6 +212,49 @@ TEST(AxisCamera, ReconnectsAfterTheServerDropsTheStream) {
   EXPECT_EQ(sim.streams_opened(), dut.connections());
 }
 
+// Issue 18: one frame of the MJPEG stream is a JPEG whose header claims 20512x35225 pixels
+// (2.2 GB decoded). The driver refuses it from its header (recoverable, naming the camera, the
+// frame's number and the claim), stays on the same stream, and delivers the frames after it.
+// A non-sweeping camera decodes only the newest of the parts read together, so on a loaded
+// machine the bomb can be passed over unread; then a fresh stream serves it again (at most 3).
+TEST(AxisCamera, BombFrameIsRefusedByItsHeaderAndTheStreamGoesOn) {
+  AxisSimOptions sim_options = SimConfig();
+  sim_options.bomb_frame = 1;
+  AxisSim sim(sim_options);
+  AxisCameraOptions options = CameraFor(sim);
+  options.fps = 4;  // parts 250 ms apart: the test takes each as it comes
+  int attempts = 0;
+  for (; attempts < 3; ++attempts) {
+    AxisCamera dut(options);
+    int frames = 0;
+    std::vector<std::string> errors;
+    while (frames < 4 && errors.size() < 3) {
+      try {
+        const std::optional<CameraFrame> frame = dut.Next();
+        ASSERT_TRUE(frame);
+        EXPECT_EQ(frame->sequence, frames);
+        EXPECT_EQ(frame->observation.bgr.size(), cv::Size(160, 120));
+        ++frames;
+      } catch (const CameraError& e) {
+        errors.push_back(e.what());
+        ASSERT_TRUE(e.recoverable()) << e.what();
+      }
+    }
+    EXPECT_EQ(dut.connections(), 1) << "the bomb must not cost the stream";
+    if (dut.refused() == 0) continue;  // passed over as stale: not decoded, try again
+    ASSERT_EQ(errors.size(), 1u);
+    EXPECT_NE(errors[0].find("axis:127.0.0.1:"), std::string::npos) << errors[0];
+    EXPECT_NE(errors[0].find("frame 1 of stream 1 "), std::string::npos) << errors[0];
+    EXPECT_NE(errors[0].find("claims 20512x35225 pixels"), std::string::npos) << errors[0];
+    EXPECT_EQ(frames, 4);
+    EXPECT_EQ(dut.refused(), 1);
+    break;
+  }
+  EXPECT_LT(attempts, 3) << "the bomb never reached the decoder";
+  EXPECT_GE(sim.bombs_served(), 1);
+  std::printf("bomb refused on stream %d\n", attempts + 1);
+}
+
 TEST(AxisCamera, BacksOffWhileTheCameraIsGoneAndComesBack) {
   auto sim = std::make_unique<AxisSim>(SimConfig());
   const int port = sim->port();

@@ -14,6 +14,7 @@
 #include <vector>
 
 #include "drivers/clock.h"
+#include "test/support/image_bombs.h"
 #include "test/support/temp_dir.h"
 
 namespace tsc {
@@ -152,6 +153,56 @@ TEST_F(FolderCameraTest, TruncatedJpegIsRecoverableErrorNamingFileAndNextFrameAr
   EXPECT_FALSE(dut.Next().has_value());
 }
 
+// Issue 18: the real 1.1 MB PNG claiming 20000x20000 between two good frames. It is refused
+// from its header (recoverable, naming the frame number, the file and the claimed size) with
+// the process's peak resident set growing by about the file, and the frame after it is
+// delivered as itself: the failure is not blamed on it.
+TEST_F(FolderCameraTest, BombFrameIsRefusedByItsHeaderAndTheNextFrameArrives) {
+  Write(temp_.path() / "1.png", 10);
+  testing_support::WriteBytes(temp_.path() / "2.png", testing_support::ZeroPngBomb(20000, 20000));
+  Write(temp_.path() / "3.png", 30);
+  FolderCamera dut(Options(), clock_);
+  ASSERT_EQ(BlueOf(dut.Next().value()), 10);
+  const bool can_measure = testing_support::ResetPeakRss();
+  const long before_kb = testing_support::RssKb();
+  try {
+    dut.Next();
+    FAIL() << "a bomb frame must throw";
+  } catch (const CameraError& e) {
+    EXPECT_TRUE(e.recoverable());
+    const std::string what = e.what();
+    EXPECT_NE(what.find("frame 1 "), std::string::npos) << what;
+    EXPECT_NE(what.find((temp_.path() / "2.png").string()), std::string::npos) << what;
+    EXPECT_NE(what.find("claims 20000x20000 pixels"), std::string::npos) << what;
+  }
+  if (can_measure) {
+    const long grew_kb = testing_support::PeakRssKb() - before_kb;
+    std::printf("peak RSS grew by %ld kB while refusing the bomb frame\n", grew_kb);
+    EXPECT_LT(grew_kb, 32 * 1024);
+  }
+  const std::optional<CameraFrame> third = dut.Next();
+  ASSERT_TRUE(third.has_value());
+  EXPECT_EQ(BlueOf(*third), 30);
+  EXPECT_EQ(third->sequence, 1);
+  EXPECT_FALSE(dut.Next().has_value());
+}
+
+// The forged JPEG (578-ish bytes claiming 20512x35225) as the first frame, which would set the
+// camera's frame size: the camera does not open, naming the file and the claim.
+TEST_F(FolderCameraTest, BombAsFirstFrameIsFatalNamingFileAndClaimedSize) {
+  testing_support::WriteBytes(temp_.path() / "1.jpg", testing_support::ForgedJpegBomb());
+  Write(temp_.path() / "2.jpg", 20);
+  try {
+    FolderCamera dut(Options(), clock_);
+    FAIL() << "a camera whose first frame is a bomb must not open";
+  } catch (const CameraError& e) {
+    EXPECT_FALSE(e.recoverable());
+    const std::string what = e.what();
+    EXPECT_NE(what.find("1.jpg"), std::string::npos) << what;
+    EXPECT_NE(what.find("claims 20512x35225 pixels"), std::string::npos) << what;
+  }
+}
+
 TEST_F(FolderCameraTest, CorruptPngIsRecoverableError) {
   Write(temp_.path() / "1.png", 10);
   Write(temp_.path() / "2.png", 20);
@@ -258,9 +309,12 @@ TEST_F(FolderCameraTest, PacesOnRealClockApproximately) {
   const double elapsed_s =
       std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
   ASSERT_EQ(stamps.size(), 5u);
+  // A sleep never ends early, so these lower bounds hold on any machine; how much longer it
+  // took depends on the machine's load and is printed, not asserted (the pacing itself is
+  // checked exactly on the injected clock above).
   EXPECT_GE(elapsed_s, 0.060);  // 4 periods of 20 ms, minus slack
-  EXPECT_LT(elapsed_s, 2.0);
   EXPECT_GE(stamps.back() - stamps.front(), 60'000);
+  std::printf("5 frames at 50 fps took %.3f s of wall time (0.080 s ideal)\n", elapsed_s);
 }
 
 TEST_F(FolderCameraTest, FpsZeroNeverSleeps) {

@@ -44,12 +44,20 @@ class JaguarDriverTest : public ::testing::TestWithParam<std::string> {
     ASSERT_TRUE(WaitFor([&] { return dut_->state().link_ok; }, milliseconds(3000)))
         << "no link to the simulator";
   }
-  std::unique_ptr<MotorBase> MakeDriver() {
+  std::unique_ptr<MotorBase> MakeDriver(Clock& clock = Clock::System()) {
     JaguarOptions o;
     o.host = "127.0.0.1";
     o.port = ascii() ? sim_->tcp_port() : sim_->udp_port();
-    if (ascii()) return std::make_unique<JaguarAsciiBase>(o);
-    return std::make_unique<JaguarV2Base>(o);
+    if (ascii()) return std::make_unique<JaguarAsciiBase>(o, clock);
+    return std::make_unique<JaguarV2Base>(o, clock);
+  }
+  /// A new simulator with `options` and a new driver on `clock`, linked.
+  void Restart(const JaguarSimOptions& options, Clock& clock) {
+    dut_.reset();
+    sim_ = std::make_unique<JaguarSim>(options);
+    dut_ = MakeDriver(clock);
+    ASSERT_TRUE(WaitFor([&] { return dut_->state().link_ok; }, milliseconds(3000)))
+        << "no link to the simulator";
   }
   bool ascii() const { return GetParam() == "ascii"; }
   JaguarLinkCounters link_counters() const {
@@ -68,7 +76,13 @@ class JaguarDriverTest : public ::testing::TestWithParam<std::string> {
     return WaitFor([&] { return !sim_->state().moving; }, timeout);
   }
 
-  JaguarSimOptions sim_options_;
+  /// The simulator's own silence rule is off: only the driver stops the motors, so the generous
+  /// timeouts above cannot let the board's rule pass for the driver's stop on a slow machine.
+  JaguarSimOptions sim_options_ = [] {
+    JaguarSimOptions o;
+    o.silence_stop_s = 0.0;
+    return o;
+  }();
   std::unique_ptr<JaguarSim> sim_;
   std::unique_ptr<MotorBase> dut_;
 };
@@ -77,7 +91,7 @@ TEST_P(JaguarDriverTest, VelocityCommandsMoveThePoseAndOdometryFollows) {
   Drive(0.5, 0.4, 1.5);
   EXPECT_TRUE(sim_->state().moving);
   dut_->Stop();
-  ASSERT_TRUE(SimStopsWithin(milliseconds(300)));
+  ASSERT_TRUE(SimStopsWithin(milliseconds(3000)));
   std::this_thread::sleep_for(milliseconds(300));  // the last encoder reports arrive
   const JaguarSimState truth = sim_->state();
   const Odometry odo = dut_->state();
@@ -103,7 +117,7 @@ TEST_P(JaguarDriverTest, VelocityCommandsMoveThePoseAndOdometryFollows) {
 TEST_P(JaguarDriverTest, BackwardAndClockwiseHaveTheirSigns) {
   Drive(-0.4, -0.5, 1.0);
   dut_->Stop();
-  ASSERT_TRUE(SimStopsWithin(milliseconds(300)));
+  ASSERT_TRUE(SimStopsWithin(milliseconds(3000)));
   std::this_thread::sleep_for(milliseconds(300));
   const JaguarSimState truth = sim_->state();
   EXPECT_LT(truth.heading, -0.2);
@@ -112,20 +126,57 @@ TEST_P(JaguarDriverTest, BackwardAndClockwiseHaveTheirSigns) {
   EXPECT_NEAR(dut_->state().heading, truth.heading, 0.03);
 }
 
+// The 0.5 s command watchdog on an injected clock: the driver's time moves only when the test
+// says, so the verdict does not depend on how busy the machine is. The simulator's own
+// silence rule is off, so only the driver can stop the motors. Real time only bounds the waits
+// for the link and the simulator to see what the driver sent (generous timeouts).
 TEST_P(JaguarDriverTest, WatchdogStopsTheMotorsHalfASecondAfterTheLastCommand) {
+  JaguarSimOptions options;
+  options.silence_stop_s = 0.0;
+  ManualClock clock;
+  Restart(options, clock);
   dut_->Command({0.5, 0.0});
-  const int64_t last_command_us = Now();
-  ASSERT_TRUE(WaitFor([&] { return sim_->state().moving; }, milliseconds(300)));
-  ASSERT_TRUE(SimStopsWithin(milliseconds(1500)));
+  ASSERT_TRUE(WaitFor([&] { return sim_->state().moving; }, milliseconds(3000)));
+  // An ASCII board reports the e-stop the driver set at connection until its next report
+  // after the release (10 Hz): wait for it to clear.
+  ASSERT_TRUE(WaitFor([&] { return dut_->state().fault.empty(); }, milliseconds(3000)))
+      << dut_->state().fault;
+  // 1 ms before the deadline: still driving, however long the machine takes.
+  clock.Advance(499'000);
+  EXPECT_EQ(dut_->state().fault, "");
+  EXPECT_FALSE(dut_->state().stopped);
+  std::this_thread::sleep_for(milliseconds(200));  // the link thread runs meanwhile
+  EXPECT_TRUE(sim_->state().moving) << "stopped before the watchdog deadline";
+  EXPECT_EQ(dut_->state().fault, "");
+  // At the deadline: the driver stops the motors and says why.
+  clock.Advance(1'000);
+  EXPECT_EQ(dut_->state().fault, "watchdog");
+  ASSERT_TRUE(SimStopsWithin(milliseconds(3000)));
+  EXPECT_EQ(sim_->state().stopped_by, "command");  // the driver stopped it
+  EXPECT_TRUE(dut_->state().stopped);
+  // A new command feeds the watchdog again.
+  dut_->Command({0.5, 0.0});
+  ASSERT_TRUE(WaitFor([&] { return sim_->state().moving; }, milliseconds(3000)));
+  EXPECT_EQ(dut_->state().fault, "");
+}
+
+// The same on the real clock, as a figure: the delay is recorded and printed, not asserted
+// (scheduling on a loaded machine adds to it); only "never before 0.5 s" must hold.
+TEST_P(JaguarDriverTest, WatchdogOnTheRealClockNeverStopsEarly) {
+  JaguarSimOptions options;
+  options.silence_stop_s = 0.0;
+  Restart(options, Clock::System());
+  const int64_t last_command_us = Now();  // before Command() stamps it: a lower bound
+  dut_->Command({0.5, 0.0});
+  ASSERT_TRUE(WaitFor([&] { return sim_->state().moving; }, milliseconds(3000)));
+  ASSERT_TRUE(SimStopsWithin(milliseconds(10000)));
   const JaguarSimState s = sim_->state();
-  EXPECT_EQ(s.stopped_by, "command");  // the driver stopped it, not the board's own rule
+  EXPECT_EQ(s.stopped_by, "command");
   const double after_s = static_cast<double>(s.stopped_at_us - last_command_us) * 1e-6;
   RecordProperty("stop_after_ms", static_cast<int>(after_s * 1000));
-  // 0.5 s watchdog; the upper margin is scheduling on a loaded machine, not protocol slack.
-  EXPECT_GE(after_s, 0.45);
-  EXPECT_LE(after_s, 0.6);
+  std::printf("watchdog stop %.3f s after the last command (0.5 s + scheduling)\n", after_s);
+  EXPECT_GE(after_s, 0.5);
   EXPECT_EQ(dut_->state().fault, "watchdog");
-  EXPECT_TRUE(dut_->state().stopped);
 }
 
 TEST_P(JaguarDriverTest, SpeedLimitsClampCommands) {
@@ -136,7 +187,7 @@ TEST_P(JaguarDriverTest, SpeedLimitsClampCommands) {
   Drive(0.0, 50.0, 0.3);  // 1.5 rad/s · 0.26 m = 0.39 m/s per side
   EXPECT_NEAR(sim_->state().right, 1.5 * 0.26 / 1.5, 0.01);
   dut_->Command({std::nan(""), 0.0});  // non-finite counts as zero
-  EXPECT_TRUE(SimStopsWithin(milliseconds(300)));
+  EXPECT_TRUE(SimStopsWithin(milliseconds(3000)));
 }
 
 TEST_P(JaguarDriverTest, EstopStopsAndLatchesUntilAClearCommand) {
@@ -144,7 +195,7 @@ TEST_P(JaguarDriverTest, EstopStopsAndLatchesUntilAClearCommand) {
   MotorCommand estop;
   estop.estop = true;
   dut_->Command(estop);
-  ASSERT_TRUE(SimStopsWithin(milliseconds(300)));
+  ASSERT_TRUE(SimStopsWithin(milliseconds(3000)));
   EXPECT_EQ(dut_->state().fault, "estop");
   if (ascii()) {
     EXPECT_EQ(sim_->state().stopped_by, "estop");  // `!EX` reached the board
@@ -182,7 +233,7 @@ TEST_P(JaguarDriverTest, SilentBoardIsALostLinkAndReconnectionNeedsANewCommand) 
   Drive(0.3, 0.0, 0.5);
   EXPECT_TRUE(sim_->state().moving);
   dut_->Stop();
-  ASSERT_TRUE(SimStopsWithin(milliseconds(300)));
+  ASSERT_TRUE(SimStopsWithin(milliseconds(3000)));
   std::this_thread::sleep_for(milliseconds(300));
   EXPECT_GT(sim_->state().x - true_x0, 0.1);
   EXPECT_NEAR(dut_->state().x - odo_x0, sim_->state().x - true_x0, 0.02);
@@ -193,7 +244,7 @@ TEST_P(JaguarDriverTest, CorruptedAndDroppedFramesAreCountedAndSurvived) {
   sim_->SetDropFraction(0.2);
   Drive(0.4, 0.0, 1.5);
   dut_->Stop();
-  ASSERT_TRUE(SimStopsWithin(milliseconds(300)));
+  ASSERT_TRUE(SimStopsWithin(milliseconds(3000)));
   EXPECT_TRUE(dut_->state().link_ok);
   EXPECT_GT(link_counters().frames_rejected, 0);
   EXPECT_GT(sim_->state().corrupted, 0);
@@ -213,10 +264,12 @@ TEST_P(JaguarDriverTest, DestroyingTheDriverStopsTheMotors) {
   ASSERT_TRUE(sim_->state().moving);
   const int64_t before = Now();
   dut_.reset();
-  ASSERT_TRUE(SimStopsWithin(milliseconds(300)));
+  ASSERT_TRUE(SimStopsWithin(milliseconds(3000)));
   const JaguarSimState s = sim_->state();
-  EXPECT_EQ(s.stopped_by, "command");  // the driver's stop, not the board's silence rule
-  EXPECT_LT(s.stopped_at_us - before, 200'000);
+  EXPECT_EQ(s.stopped_by, "command");  // the driver's stop (the board's own rule is off)
+  // How fast is a figure of the machine's load, printed, not asserted.
+  std::printf("stopped %.3f s after the driver was destroyed\n",
+              static_cast<double>(s.stopped_at_us - before) * 1e-6);
 }
 
 INSTANTIATE_TEST_SUITE_P(Protocols, JaguarDriverTest, ::testing::Values("v2", "ascii"),
@@ -234,12 +287,13 @@ TEST(JaguarV2Base, FlippersOnChannelsZeroAndOne) {
   c.flipper_front = 0.5;
   c.flipper_rear = -2.0;  // clamped to −1
   dut.Command(c);
-  ASSERT_TRUE(WaitFor([&] { return sim.state().flipper_front > 0.4; }, milliseconds(300)));
+  ASSERT_TRUE(WaitFor([&] { return sim.state().flipper_front > 0.4; }, milliseconds(3000)));
   EXPECT_NEAR(sim.state().flipper_front, 0.5, 0.001);
   EXPECT_NEAR(sim.state().flipper_rear, -1.0, 0.001);
   EXPECT_FALSE(sim.state().moving);  // the tracks were not told to move
-  // The watchdog stops the flippers too.
-  EXPECT_TRUE(WaitFor([&] { return sim.state().flipper_front == 0.0; }, milliseconds(800)));
+  // The watchdog stops the flippers too (its timing is WatchdogStopsTheMotors...'s; here a
+  // generous wait, as only the driver stops flippers).
+  EXPECT_TRUE(WaitFor([&] { return sim.state().flipper_front == 0.0; }, milliseconds(3000)));
   EXPECT_EQ(sim.state().flipper_rear, 0.0);
 }
 
@@ -265,8 +319,8 @@ TEST(JaguarSim, StopsOnItsOwnWhenThePcFallsSilent) {
   pwm[3] = 24000;
   const auto frame = jaguar_v2::EncodePwmAll(pwm);
   ::sendto(fd, frame.data(), frame.size(), 0, reinterpret_cast<sockaddr*>(&a), sizeof a);
-  ASSERT_TRUE(WaitFor([&] { return sim.state().moving; }, milliseconds(300)));
-  ASSERT_TRUE(WaitFor([&] { return !sim.state().moving; }, milliseconds(1000)));
+  ASSERT_TRUE(WaitFor([&] { return sim.state().moving; }, milliseconds(3000)));
+  ASSERT_TRUE(WaitFor([&] { return !sim.state().moving; }, milliseconds(5000)));
   EXPECT_EQ(sim.state().stopped_by, "pc silent");
   ::close(fd);
 }

@@ -60,6 +60,25 @@ TEST_F(VideoCameraTest, RoundTripDeliversEveryFrameAtItsSize) {
   EXPECT_EQ(dut.name(), "video:" + file_.string());
 }
 
+// Issue 18: a video whose container declares frames larger than camera.max_image_pixels is
+// refused when opened, naming the file and the declared size, before a frame is decoded.
+TEST_F(VideoCameraTest, FramesLargerThanTheLimitAreRefusedAtOpenNamingTheSize) {
+  VideoCameraOptions options = Options();
+  options.max_image_pixels = kWidth * kHeight - 1;
+  try {
+    VideoCamera dut(options, clock_);
+    FAIL() << "a video over the limit must not open";
+  } catch (const CameraError& e) {
+    EXPECT_FALSE(e.recoverable());
+    const std::string what = e.what();
+    EXPECT_NE(what.find(file_.string()), std::string::npos) << what;
+    EXPECT_NE(what.find("96x64"), std::string::npos) << what;
+    EXPECT_NE(what.find("camera.max_image_pixels"), std::string::npos) << what;
+  }
+  options.max_image_pixels = kWidth * kHeight;  // inclusive
+  EXPECT_NO_THROW(VideoCamera(options, clock_));
+}
+
 TEST_F(VideoCameraTest, LoopsAfterLastFrameWhenAsked) {
   VideoCameraOptions options = Options();
   options.loop = true;

@@ -138,6 +138,26 @@ TEST_F(ConfigTest, RepeatedKeyIsAnError) {
   EXPECT_NE(msg.find("memory.tau_r"), std::string::npos) << msg;
 }
 
+// camera.max_image_pixels (issue 18): a positive pixel count, 4096x4096 by default, and an
+// Axis or V4L2 camera may not be asked for frames it would then refuse.
+TEST_F(ConfigTest, ImageLimitIsCheckedAgainstTheRequestedCameraSize) {
+  EXPECT_EQ(Settings{}.daemon.camera.max_image_pixels, 4096 * 4096);
+  const std::string zero = ErrorOf("[camera]\nmax_image_pixels = 0\n");
+  EXPECT_NE(zero.find("camera.max_image_pixels"), std::string::npos) << zero;
+  const std::vector<std::string> axis = {"camera.source=axis", "camera.axis_host=cam",
+                                         "camera.width=1024", "camera.height=768",
+                                         "camera.max_image_pixels=786431"};
+  try {
+    LoadSettings(std::nullopt, axis);
+    FAIL() << "1024x768 over a limit of 786431 pixels must be refused";
+  } catch (const ConfigError& e) {
+    EXPECT_NE(std::string(e.what()).find("camera.max_image_pixels"), std::string::npos) << e.what();
+  }
+  std::vector<std::string> fits = axis;
+  fits.back() = "camera.max_image_pixels=786432";
+  EXPECT_NO_THROW(LoadSettings(std::nullopt, fits));
+}
+
 TEST_F(ConfigTest, MissingFileNamesIt) {
   try {
     LoadSettings(dir_ / "absent.ini", {});

@@ -11,6 +11,7 @@
 #include <random>
 #include <string>
 
+#include "test/support/image_bombs.h"
 #include "test/support/temp_dir.h"
 
 namespace tsc {
@@ -244,6 +245,55 @@ TEST_F(DatasetTest, EightBitDepthNamesTheFile) {
   WriteImage(dir_ / "depth" / "1.png", cv::Mat(24, 32, CV_8UC1, cv::Scalar(10)));
   const Dataset ds = Dataset::Open(dir_);
   ExpectErrorNaming([&] { ds.Load(0); }, (fs::path("depth") / "1.png").string());
+}
+
+// Issue 18: a 1.1 MB PNG of deflated zeros whose header says 20000x20000 (1.2 GB decoded) as
+// the first frame. It is refused from its header, the error names the file and the claimed
+// size, and the process's peak resident set grows by about the file, not by the image.
+TEST_F(DatasetTest, BombAsFirstFrameIsRefusedByItsHeaderNamingFileAndClaimedSize) {
+  testing_support::WriteBytes(dir_ / "1.png", testing_support::ZeroPngBomb(20000, 20000));
+  WriteImage(dir_ / "2.png", Image(2));
+  const bool can_measure = testing_support::ResetPeakRss();
+  const long before_kb = testing_support::RssKb();
+  ExpectErrorNaming([&] { Dataset::Open(dir_); }, "1.png");
+  ExpectErrorNaming([&] { Dataset::Open(dir_); }, "claims 20000x20000 pixels");
+  if (can_measure) {
+    const long grew_kb = testing_support::PeakRssKb() - before_kb;
+    std::printf("peak RSS grew by %ld kB while refusing the 20000x20000 PNG twice\n", grew_kb);
+    EXPECT_LT(grew_kb, 32 * 1024);
+  }
+}
+
+// A bomb among the frames (the 20512x35225 JPEG) fails its own Load, naming itself and what it
+// claims; the frames after it load as before: nothing is blamed on them.
+TEST_F(DatasetTest, BombAmongTheFramesFailsItsOwnLoadAndTheNextFrameLoads) {
+  WriteImage(dir_ / "1.jpg", Image(1));
+  testing_support::WriteBytes(dir_ / "2.jpg", testing_support::ForgedJpegBomb());
+  WriteImage(dir_ / "3.jpg", Image(3));
+  const Dataset ds = Dataset::Open(dir_);
+  EXPECT_NO_THROW(ds.Load(0));
+  ExpectErrorNaming([&] { ds.Load(1); }, "2.jpg");
+  ExpectErrorNaming([&] { ds.Load(1); }, "claims 20512x35225 pixels");
+  EXPECT_NO_THROW(ds.Load(2));
+  EXPECT_EQ(ds.Load(2).front().bgr.size(), cv::Size(32, 24));
+}
+
+// The limit is the configured one (camera.max_image_pixels), and it applies to depth too.
+TEST_F(DatasetTest, TheImageLimitIsConfigurable) {
+  WriteImage(dir_ / "1.png", Image(1, 32, 24));
+  DatasetOptions options;
+  options.max_image_pixels = 32 * 24 - 1;
+  ExpectErrorNaming([&] { Dataset::Open(dir_, options); }, "more than the limit of 767");
+  options.max_image_pixels = 32 * 24;
+  EXPECT_NO_THROW(Dataset::Open(dir_, options));
+  options.max_image_pixels = 0;
+  EXPECT_THROW(Dataset::Open(dir_, options), std::invalid_argument);
+  // A depth bomb is refused by its header too (it must have its frame's size).
+  testing_support::WriteBytes(
+      dir_ / "depth" / "1.png",
+      (fs::create_directories(dir_ / "depth"), testing_support::ForgedPngBomb(20000, 20000)));
+  const Dataset ds = Dataset::Open(dir_);
+  ExpectErrorNaming([&] { ds.Load(0); }, "20000x20000");
 }
 
 }  // namespace

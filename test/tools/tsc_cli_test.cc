@@ -2,9 +2,11 @@
 // (DESIGN §7.2): exit codes 0/1/2/78 and error messages that name the file or key at fault.
 
 #include <gtest/gtest.h>
+#include <sys/resource.h>
 #include <sys/wait.h>
 #include <unistd.h>
 
+#include <cstdio>
 #include <cstdlib>
 #include <filesystem>
 #include <fstream>
@@ -12,7 +14,11 @@
 #include <random>
 #include <sstream>
 #include <string>
+#include <tuple>
+#include <utility>
+#include <vector>
 
+#include "test/support/image_bombs.h"
 #include "test/support/keyframes_profile.h"
 #include "test/support/temp_dir.h"
 #include "test/support/tsc_command.h"
@@ -99,6 +105,55 @@ TEST_F(TscCliTest, ZeroSizeImageExits1NamingIt) {
   const Outcome o = Tsc("run " + Quote(ds.string()) + " --db " + Quote((dir_ / "x.db").string()));
   EXPECT_EQ(o.code, 1) << o.err;
   EXPECT_NE(o.err.find("4.png"), std::string::npos) << o.err;
+}
+
+// `tsc ARGS...` run directly (no shell between), stdout and stderr to files in `dir`; returns
+// the exit code (-1 when killed) and the child's own peak resident set (wait4), kB.
+std::pair<int, long> RunTscMeasured(const fs::path& dir, const std::vector<std::string>& args) {
+  std::vector<std::string> argv = {std::string(TSCD_BIN_DIR) + "/tsc"};
+  argv.insert(argv.end(), args.begin(), args.end());
+  std::fflush(nullptr);  // or the child's freopen writes what this process had buffered
+  const pid_t pid = fork();
+  if (pid == 0) {
+    const std::string out = (dir / "stdout.txt").string(), err = (dir / "stderr.txt").string();
+    if (!std::freopen(out.c_str(), "w", stdout) || !std::freopen(err.c_str(), "w", stderr)) {
+      _exit(127);
+    }
+    std::vector<char*> raw;
+    for (std::string& a : argv) raw.push_back(a.data());
+    raw.push_back(nullptr);
+    execv(raw[0], raw.data());
+    _exit(127);
+  }
+  int status = 0;
+  rusage usage{};
+  if (pid < 0 || wait4(pid, &status, 0, &usage) != pid) return {-1, -1};
+  return {WIFEXITED(status) ? WEXITSTATUS(status) : -1, usage.ru_maxrss};
+}
+
+// Issue 18: `tsc run` on a folder holding a decompression bomb (the 1.1 MB PNG of zeros that
+// claims 20000x20000, or a JPEG claiming 20512x35225) exits 1 naming the file and the size
+// its header claims, and never comes near decoding it: its peak RSS stays under 150 MB (it
+// was 1.25 GB for the PNG before).
+TEST_F(TscCliTest, RunOnADecompressionBombExits1NamingFileAndClaimedSize) {
+  for (const auto& [name, bytes, claim] :
+       {std::tuple{std::string("1.png"), testing_support::ZeroPngBomb(20000, 20000),
+                   std::string("20000x20000")},
+        std::tuple{std::string("1.jpg"), testing_support::ForgedJpegBomb(),
+                   std::string("20512x35225")}}) {
+    const fs::path ds = dir_ / ("bomb-" + claim);
+    fs::create_directories(ds);
+    testing_support::WriteBytes(ds / name, bytes);
+    const auto [code, peak_kb] =
+        RunTscMeasured(dir_, {"run", ds.string(), "--db", (dir_ / (claim + ".db")).string()});
+    const std::string err = ReadFile(dir_ / "stderr.txt");
+    EXPECT_EQ(code, 1) << err;
+    EXPECT_NE(err.find((ds / name).string()), std::string::npos) << err;
+    EXPECT_NE(err.find("claims " + claim + " pixels"), std::string::npos) << err;
+    std::printf("tsc run on the %s bomb: exit %d, peak RSS %ld kB\n", claim.c_str(), code, peak_kb);
+    EXPECT_GT(peak_kb, 0);
+    EXPECT_LT(peak_kb, 150 * 1024);
+  }
 }
 
 TEST_F(TscCliTest, UnknownOptionExits2) {
