@@ -489,6 +489,7 @@ TEST_F(TscdTest, LibjpegWarningsGoThroughTheLog) {
             std::string::npos)
       << log;
   EXPECT_EQ(log.find("\nCorrupt JPEG data"), std::string::npos) << "printed past the log\n" << log;
+}
 
 // The peak resident set of process `pid` (VmHWM), kB; -1 when it cannot be read.
 long PeakRssKbOf(pid_t pid) {
