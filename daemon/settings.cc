@@ -268,6 +268,12 @@ std::vector<ConfigKey> BuildTable() {
       "spacing, > 0 = a fixed unit for a camera kind",
       "descriptor distance^2", 0, 1e6,
       [](auto& o) -> auto& { return o.pipeline.memory.distance_unit; }));
+  t.push_back(Number(
+      "memory.mean_distance_unit",
+      "unit of the squared distance between D's mean and N1's centroid when the distance term "
+      "of g_N may come from the means (the smaller counts; a pan sweep's preset); 0 = views only",
+      "descriptor distance^2", 0, 1e6,
+      [](auto& o) -> auto& { return o.pipeline.memory.cost.mean_unit; }));
   t.push_back(Bool(
       "memory.svm_vote",
       "vote V_N of (3.8) from the thesis' one-class SVM d_N (trained per node) instead of the "

@@ -109,8 +109,9 @@ CostTerms PlaceMemory::Cost(const ViewDistances& vd, const Eigen::MatrixXf& vote
     const MemoryNode& child = nodes_[children[c]];
     candidates[c].places.assign(leaf_order_.begin() + child.first_leaf,
                                 leaf_order_.begin() + child.end_leaf);
+    candidates[c].centroid = Centroid(children[c]);
   }
-  CostTerms t = RecognitionCost(vd, candidates, options_.cost);
+  CostTerms t = RecognitionCost(vd, votes.rowwise().mean(), candidates, options_.cost);
   t.best = children[static_cast<size_t>(t.best)];
   if (options_.svm_vote) {
     // The thesis' vote: the fraction of D's points inside d_{N¹}'s support.

@@ -102,9 +102,14 @@ void RecognitionCostOptions::Validate() const {
     throw std::invalid_argument("memory.vote_radius must be > 0, got " +
                                 std::to_string(vote_radius));
   }
+  if (!(mean_unit >= 0.0) || !std::isfinite(mean_unit)) {
+    throw std::invalid_argument("memory.mean_distance_unit must be >= 0, got " +
+                                std::to_string(mean_unit));
+  }
 }
 
-CostTerms RecognitionCost(const ViewDistances& vd, std::span<const CostCandidate> candidates,
+CostTerms RecognitionCost(const ViewDistances& vd, const Eigen::VectorXf& mean,
+                          std::span<const CostCandidate> candidates,
                           const RecognitionCostOptions& options) {
   std::vector<Nearest> nearest;
   std::vector<double> gamma;
@@ -135,6 +140,13 @@ CostTerms RecognitionCost(const ViewDistances& vd, std::span<const CostCandidate
   }
   t.distance = Median(scaled);
   t.vote = static_cast<double>(accepted) / vd.num_votes();
+  // The distance term from the means too, where a camera kind sets their unit: a pan sweep's
+  // base points see the whole room, and a revisit along another path through it is far from
+  // every kept view yet near the room's mean (docs/decisions.md "Recognition cost").
+  if (options.mean_unit > 0.0) {
+    const double to_mean = (mean - candidates[static_cast<size_t>(t.best)].centroid).squaredNorm();
+    t.distance = std::min(t.distance, to_mean / options.mean_unit);
+  }
   // N²: the nearest other child that is not the same place held again.
   double second = std::numeric_limits<double>::infinity();
   std::vector<size_t> order;

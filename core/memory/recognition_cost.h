@@ -10,8 +10,10 @@
 //   term 1    median_j δ_j(N¹) / u_j, u_j the unit of the place whose view is nearest to x_j
 //              (PlaceMemory gives every place one unit: memory.distance_unit, a preset per
 //              camera kind, or the memory's median view spacing);
+//              With a mean unit set (a pan sweep's preset), the smaller of that and
+//              ‖Ī_D − c(N¹)‖² / mean_unit;
 //   ratio     γ̃(D, N¹) / γ̃(D, N²), where N² skips children that coincide with N¹ (their
-//              nearest views are nearer each other than D is to N¹: a room held twice is one
+//              nearest views lie within N¹'s vote radius of N¹'s: a room held twice is one
 //              candidate, so its copies do not lock each other out); 1 with no other child;
 //   V         the fraction of x_j with δ_j(N¹) ≤ vote_radius · u_j: the place explains the view.
 // docs/decisions.md "Recognition cost" gives the figures behind each choice.
@@ -52,12 +54,13 @@ class ViewDistances {
 /// ViewDistances' places) and whether it may be N¹ (merging absorbs only into terminals).
 struct CostCandidate {
   std::vector<int> places;
+  Eigen::VectorXf centroid;  ///< c(C): the mean of its places' means
   bool may_be_best = true;
 };
 
 struct CostTerms {
   int best = -1;          ///< index of N¹ in the candidates (−1: none may be)
-  double gamma = 0.0;     ///< γ̃(D, N¹), raw squared distance
+  double gamma = 0.0;     ///< γ̃(D, N¹): median over D's points of the nearest view's δ
   double distance = 0.0;  ///< term 1: median_j δ_j(N¹)/u_j
   double ratio = 1.0;     ///< γ̃(D,N¹)/γ̃(D,N²)
   double vote = 0.0;      ///< V
@@ -66,12 +69,15 @@ struct CostTerms {
 
 struct RecognitionCostOptions {
   double vote_radius = 2.0;  ///< V counts x_j with δ_j(N¹) ≤ vote_radius · u_j
+  /// Unit of ‖Ī_D − c(N¹)‖² when the distance term may also come from the means; 0: views only.
+  double mean_unit = 0.0;
   void Validate() const;
 };
 
-/// g_N over `candidates` (the children of N). Precondition: at least one candidate with a
-/// place; vd has at least one vote point.
-CostTerms RecognitionCost(const ViewDistances& vd, std::span<const CostCandidate> candidates,
+/// g_N over `candidates` (the children of N) for D with mean `mean`. Precondition: at least
+/// one candidate with a place; vd has at least one vote point.
+CostTerms RecognitionCost(const ViewDistances& vd, const Eigen::VectorXf& mean,
+                          std::span<const CostCandidate> candidates,
                           const RecognitionCostOptions& options);
 
 }  // namespace tsc

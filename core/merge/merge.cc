@@ -50,6 +50,7 @@ double RecognitionCost(const PlaceMemory& base, const HyperTerminal& h, const Le
     const MemoryNode& child = base.nodes()[static_cast<size_t>(c)];
     CostCandidate candidate;
     candidate.may_be_best = child.terminal();
+    candidate.centroid = base.Centroid(c);
     for (int l = child.first_leaf; l < child.end_leaf; ++l) {
       const int place = base.leaf_order()[static_cast<size_t>(l)];
       candidate.places.push_back(static_cast<int>(places.size()));
@@ -60,7 +61,7 @@ double RecognitionCost(const PlaceMemory& base, const HyperTerminal& h, const Le
     candidates.push_back(std::move(candidate));
   }
   const ViewDistances vd(p.samples, places, units);
-  const CostTerms t = RecognitionCost(vd, candidates, base.options().cost);
+  const CostTerms t = RecognitionCost(vd, p.mean, candidates, base.options().cost);
   *best = index[static_cast<size_t>(candidates[static_cast<size_t>(t.best)].places.front())];
   *best_gamma = (p.mean - base.places()[static_cast<size_t>(*best)].mean).squaredNorm();
   return t.cost;
