@@ -257,10 +257,28 @@ std::vector<ConfigKey> BuildTable() {
       [](auto& o) -> auto& { return o.pipeline.memory.tau_r; },
       /*min_open=*/true));
   t.push_back(Number(
-      "memory.gamma_unit",
-      "unit of squared descriptor distance in which gamma~ enters g_N of (3.8)", "", 0, 1e6,
-      [](auto& o) -> auto& { return o.pipeline.memory.gamma_unit; },
+      "memory.vote_radius",
+      "a base point of D votes for N1 when its squared distance to N1's nearest member view is "
+      "at most this many distance units u",
+      "units u", 0, 1000, [](auto& o) -> auto& { return o.pipeline.memory.cost.vote_radius; },
       /*min_open=*/true));
+  t.push_back(Number(
+      "memory.distance_unit",
+      "unit u of the distance term of g_N and of the vote radius; 0 = the memory's median view "
+      "spacing, > 0 = a fixed unit for a camera kind",
+      "descriptor distance^2", 0, 1e6,
+      [](auto& o) -> auto& { return o.pipeline.memory.distance_unit; }));
+  t.push_back(Number(
+      "memory.mean_distance_unit",
+      "unit of the squared distance between D's mean and N1's centroid when the distance term "
+      "of g_N may come from the means (the smaller counts; a pan sweep's preset); 0 = views only",
+      "descriptor distance^2", 0, 1e6,
+      [](auto& o) -> auto& { return o.pipeline.memory.cost.mean_unit; }));
+  t.push_back(Bool(
+      "memory.svm_vote",
+      "vote V_N of (3.8) from the thesis' one-class SVM d_N (trained per node) instead of the "
+      "member views",
+      [](auto& o) -> auto& { return o.pipeline.memory.svm_vote; }));
   t.push_back(Number(
       "memory.tau_l", "tau_l, levels the hybrid traversal climbs", "levels", 0, 1000,
       [](auto& o) -> auto& { return o.pipeline.memory.tau_l; }));
@@ -271,12 +289,12 @@ std::vector<ConfigKey> BuildTable() {
       "", 0, 1, [](auto& o) -> auto& { return o.pipeline.memory.tau_h; }, false,
       /*max_open=*/true));
   t.push_back(Number(
-      "memory.max_samples_per_place", "representative member descriptors kept per learned place",
+      "memory.max_samples_per_place", "member views (descriptors) kept per learned place",
       "descriptors", 1, 100000,
       [](auto& o) -> auto& { return o.pipeline.memory.max_samples_per_place; }));
   t.push_back(Number(
       "memory.max_vote_points",
-      "base points of a detected place used for the vote V_N (evenly spaced)", "base points", 1,
+      "base points of a detected place the recognition cost is measured on (evenly spaced)", "base points", 1,
       100000, [](auto& o) -> auto& { return o.pipeline.memory.max_vote_points; }));
   t.push_back(Number(
       "memory.svm_nu", "nu of the one-class SVM discriminants d_N", "", 0, 1,

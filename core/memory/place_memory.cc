@@ -1,5 +1,7 @@
 #include "core/memory/place_memory.h"
 
+#include "core/memory/member_views.h"
+
 #include <algorithm>
 #include <cmath>
 #include <functional>
@@ -19,15 +21,6 @@ uint64_t SplitMix64(uint64_t x) {
 
 uint64_t PlaceKey(PlaceId id) { return SplitMix64((uint64_t{id.robot} << 32) | id.local); }
 
-// `cap` evenly spaced columns of `x` (all of them when there are fewer). Deterministic.
-Eigen::MatrixXf EvenlySpaced(const Eigen::MatrixXf& x, int cap) {
-  const Eigen::Index n = x.cols();
-  if (n <= cap) return x;
-  Eigen::MatrixXf out(x.rows(), cap);
-  for (int j = 0; j < cap; ++j) out.col(j) = x.col(static_cast<Eigen::Index>(j) * n / cap);
-  return out;
-}
-
 }  // namespace
 
 Eigen::VectorXf DetectedPlace::Mean() const {
@@ -41,12 +34,13 @@ void PlaceMemoryOptions::Validate() const {
   };
   if (!(tau_r > 0) || !std::isfinite(tau_r))
     fail("tau_r", "must be > 0, got " + std::to_string(tau_r));
-  if (!(gamma_unit > 0) || !std::isfinite(gamma_unit))
-    fail("gamma_unit", "must be > 0, got " + std::to_string(gamma_unit));
   if (tau_l < 0) fail("tau_l", "must be >= 0, got " + std::to_string(tau_l));
   if (!(tau_h >= 0 && tau_h < 1)) fail("tau_h", "must be in [0,1), got " + std::to_string(tau_h));
   if (max_samples_per_place < 1) fail("max_samples_per_place", "must be >= 1");
   if (max_vote_points < 1) fail("max_vote_points", "must be >= 1");
+  if (!(distance_unit >= 0) || !std::isfinite(distance_unit))
+    fail("distance_unit", "must be >= 0, got " + std::to_string(distance_unit));
+  cost.Validate();
   discriminant.Validate();
 }
 
@@ -82,57 +76,85 @@ Eigen::MatrixXf PlaceMemory::VotePoints(const DetectedPlace& d) const {
   return EvenlySpaced(d.descriptors, options_.max_vote_points);
 }
 
-double PlaceMemory::Cost(const DetectedPlace& d, const Eigen::MatrixXf& votes, int node,
-                         int* best_child) const {
-  const Eigen::VectorXf mean = d.Mean();
-  // (3.6)-(3.7): the two children most similar to D.
-  double g1 = std::numeric_limits<double>::infinity(), g2 = g1;
-  int n1 = -1;
-  for (int child : nodes_[node].children) {
-    const double g = (mean - Centroid(child)).squaredNorm();
-    if (g < g1) {
-      g2 = g1;
-      g1 = g;
-      n1 = child;
-    } else if (g < g2) {
-      g2 = g;
-    }
+double PlaceMemory::MedianViewSpacing() const {
+  std::vector<double> positive;
+  for (double u : spacings_) {
+    if (u > 0.0) positive.push_back(u);
   }
-  *best_child = n1;
-  // (3.8); one child: the ratio term is 1; γ̃(D,N²) = 0 implies γ̃(D,N¹) = 0: ratio 1 too.
-  const double ratio = std::isinf(g2) || g2 <= 0.0 ? 1.0 : g1 / g2;
-  const double vote = discriminants_[n1].VoteFraction(votes);
-  // γ̃ to a terminal is D's squared distance to one place's mean and is measured in gamma_unit;
-  // to an inner node it is the distance to a centroid of several places, which says little
-  // about membership, and stays unscaled (docs/decisions.md "Recognition cost scale").
-  const double absolute = nodes_[n1].terminal() ? g1 / options_.gamma_unit : g1;
-  return absolute + ratio + (1.0 - vote);
+  if (positive.empty()) return 0.0;
+  auto mid = positive.begin() + static_cast<std::ptrdiff_t>(positive.size() / 2);
+  std::nth_element(positive.begin(), mid, positive.end());
+  return *mid;
+}
+
+double PlaceMemory::DistanceUnit() const {
+  return options_.distance_unit > 0.0 ? options_.distance_unit : MedianViewSpacing();
+}
+
+ViewDistances PlaceMemory::DistancesOf(const Eigen::MatrixXf& votes) const {
+  std::vector<const LearnedPlace*> all;
+  all.reserve(places_.size());
+  for (const LearnedPlace& p : places_) all.push_back(&p);
+  // One unit for every place: the memory's median view spacing (docs/decisions.md
+  // "Recognition cost": a place's own spacing let large, varied places absorb strangers).
+  return ViewDistances(votes, all, std::vector<double>(all.size(), DistanceUnit()));
+}
+
+CostTerms PlaceMemory::Cost(const ViewDistances& vd, const Eigen::MatrixXf& votes,
+                            int node) const {
+  // The children of N, each with the places under it (one contiguous range of leaf_order_).
+  const std::vector<int>& children = nodes_[node].children;
+  std::vector<CostCandidate> candidates(children.size());
+  for (size_t c = 0; c < children.size(); ++c) {
+    const MemoryNode& child = nodes_[children[c]];
+    candidates[c].places.assign(leaf_order_.begin() + child.first_leaf,
+                                leaf_order_.begin() + child.end_leaf);
+    candidates[c].centroid = Centroid(children[c]);
+  }
+  CostTerms t = RecognitionCost(vd, votes.rowwise().mean(), candidates, options_.cost);
+  t.best = children[static_cast<size_t>(t.best)];
+  if (options_.svm_vote) {
+    // The thesis' vote: the fraction of D's points inside d_{N¹}'s support.
+    t.cost -= 1.0 - t.vote;
+    t.vote = discriminants_[t.best].VoteFraction(votes);
+    t.cost += 1.0 - t.vote;
+  }
+  return t;
 }
 
 Recognition PlaceMemory::Descend(const DetectedPlace& d, int start) const {
+  const Eigen::MatrixXf votes = VotePoints(d);
+  return Descend(DistancesOf(votes), votes, start);
+}
+
+Recognition PlaceMemory::Descend(const ViewDistances& vd, const Eigen::MatrixXf& votes,
+                                 int start) const {
   Recognition r;
   r.start_nodes.push_back(start);
-  const Eigen::MatrixXf votes = VotePoints(d);
   for (int node = start;;) {
     r.visited.push_back(node);
-    int best = -1;
-    r.cost = Cost(d, votes, node, &best);
+    r.terms = Cost(vd, votes, node);
+    r.cost = r.terms.cost;
     if (r.cost > options_.tau_r) return r;  // (3.11) fails: not recognised
-    if (nodes_[best].terminal()) {
-      r.place = nodes_[best].place;
+    if (nodes_[r.terms.best].terminal()) {
+      r.place = nodes_[r.terms.best].place;
       return r;
     }
-    node = best;
+    node = r.terms.best;
   }
 }
 
 Recognition PlaceMemory::Recognize(const DetectedPlace& d, std::optional<int> previous) const {
   Recognition total;
   if (empty()) return total;
+  // Every descent measures against the same views: the distances are computed once.
+  const Eigen::MatrixXf votes = VotePoints(d);
+  const ViewDistances vd = DistancesOf(votes);
   auto absorb = [&total](const Recognition& r) {
     total.start_nodes.insert(total.start_nodes.end(), r.start_nodes.begin(), r.start_nodes.end());
     total.visited.insert(total.visited.end(), r.visited.begin(), r.visited.end());
     total.cost = r.cost;
+    total.terms = r.terms;
     total.place = r.place;
   };
   bool root_tried = false;
@@ -140,7 +162,7 @@ Recognition PlaceMemory::Recognize(const DetectedPlace& d, std::optional<int> pr
     // Hybrid: start at the parent of β(D_{m−1}) and climb up to τ_l levels.
     int start = nodes_[*previous].parent;
     for (int level = 0; level <= options_.tau_l && start >= 0; ++level) {
-      absorb(Descend(d, start));
+      absorb(Descend(vd, votes, start));
       root_tried = root_tried || start == root_;
       if (total.place) {
         total.hybrid = true;
@@ -149,7 +171,7 @@ Recognition PlaceMemory::Recognize(const DetectedPlace& d, std::optional<int> pr
       start = nodes_[start].parent;
     }
   }
-  if (!root_tried) absorb(Descend(d, root_));
+  if (!root_tried) absorb(Descend(vd, votes, root_));
   return total;
 }
 
@@ -164,7 +186,9 @@ int PlaceMemory::Learn(const DetectedPlace& d) {
                                 std::to_string(places_.front().mean.size()));
   }
   p.member_count = d.descriptors.cols();
-  p.samples = EvenlySpaced(d.descriptors, options_.max_samples_per_place);
+  // Thinning compares every pair: a long place is first spaced evenly to twice the cap.
+  p.samples = ThinViews(EvenlySpaced(d.descriptors, 2 * options_.max_samples_per_place),
+                        options_.max_samples_per_place);
   p.detected = {d.index};
   p.members = d.members;
   // γ of (3.12) between the new place and every learned place, streamed from the contiguous
@@ -179,6 +203,7 @@ int PlaceMemory::Learn(const DetectedPlace& d) {
     distances_[i] = (m - p.mean).squaredNorm();
   }
   slink_.Insert(distances_);
+  spacings_.push_back(ViewSpacing(p.samples));
   places_.push_back(std::move(p));
   StoreMean(static_cast<int>(places_.size()) - 1);
   ++next_local_;
@@ -194,9 +219,12 @@ void PlaceMemory::Update(int place, const DetectedPlace& d) {
   p.mean = (p.mean * static_cast<float>(p.member_count) + d.descriptors.rowwise().sum()) /
            static_cast<float>(p.member_count + added);
   p.member_count += added;
-  Eigen::MatrixXf both(p.samples.rows(), p.samples.cols() + added);
-  both << p.samples, d.descriptors;
-  p.samples = EvenlySpaced(both, options_.max_samples_per_place);
+  // The kept views first, then this visit's: thinning keeps what the visit shows anew.
+  const Eigen::MatrixXf visit = EvenlySpaced(d.descriptors, options_.max_samples_per_place);
+  Eigen::MatrixXf pool(p.samples.rows(), p.samples.cols() + visit.cols());
+  pool << p.samples, visit;
+  p.samples = ThinViews(pool, options_.max_samples_per_place);
+  spacings_[static_cast<size_t>(place)] = ViewSpacing(p.samples);
   p.detected.push_back(d.index);
   p.members.insert(p.members.end(), d.members.begin(), d.members.end());
   StoreMean(place);
@@ -247,6 +275,7 @@ void PlaceMemory::StoreMean(int place) {
 }
 
 void PlaceMemory::RetrainDiscriminant(int node) {
+  if (!TrainsDiscriminants()) return;
   discriminants_[node] = OneClassDiscriminant::Train(TrainingSet(node), options_.discriminant);
 }
 
@@ -450,6 +479,8 @@ PlaceMemory PlaceMemory::Restore(uint32_t robot, PlaceMemoryOptions options,
     memory.means_.bottomRows(stride - dim).setZero();
   }
   for (size_t i = 0; i < memory.places_.size(); ++i) memory.StoreMean(static_cast<int>(i));
+  memory.spacings_.reserve(memory.places_.size());
+  for (const LearnedPlace& p : memory.places_) memory.spacings_.push_back(ViewSpacing(p.samples));
   if (!memory.places_.empty()) memory.RebuildTree(&saved);
   return memory;
 }

@@ -1,7 +1,9 @@
 #pragma once
 // The place memory (sections 3.3, 3.5, 3.6): a rooted tree over the learned places, built by
-// incremental SLINK and simplified with τ_h, with a one-class SVM discriminant per node;
-// recognition by top-down or hybrid traversal with the cost g_N of (3.8).
+// incremental SLINK and simplified with τ_h; recognition by top-down or hybrid traversal with
+// the cost g_N of (3.8), its terms measured on the places' member views
+// (core/memory/recognition_cost.h). The one-class SVM discriminants of the thesis are trained
+// per node only with memory.svm_vote.
 
 #include <Eigen/Core>
 #include <cstdint>
@@ -11,31 +13,12 @@
 
 #include "core/detect/place_detector.h"
 #include "core/memory/discriminant.h"
+#include "core/memory/learned_place.h"
 #include "core/memory/place_id.h"
+#include "core/memory/recognition_cost.h"
 #include "core/memory/slink.h"
 
 namespace tsc {
-
-/// A detected place D_m with the descriptors of its member base points.
-struct DetectedPlace {
-  DetectedPlaceIndex index = 0;
-  std::vector<BaseIndex> members;
-  Eigen::MatrixXf descriptors;  ///< dim x |members|, column j belongs to members[j]
-  /// Ī_m of (3.5). Precondition: at least one member.
-  Eigen::VectorXf Mean() const;
-};
-
-/// A terminal node's place p ∈ P.
-struct LearnedPlace {
-  PlaceId id;
-  Eigen::VectorXf mean;                      ///< Ī_p over all member base points
-  int64_t member_count = 0;                  ///< base points averaged into `mean`
-  Eigen::MatrixXf samples;                   ///< dim x k representative member descriptors
-  std::vector<DetectedPlaceIndex> detected;  ///< detected places that compose it
-  std::vector<BaseIndex> members;            ///< member base points (this robot's stream)
-  /// Ids of other robots' places merged into this one (core/merge), sorted, without `id`.
-  std::vector<PlaceId> sources;
-};
 
 /// A node of the simplified tree. Terminals are nodes 0..P−1 (node i holds place i); inner
 /// nodes follow; the root is inner and always exists once a place is learned.
@@ -52,17 +35,24 @@ struct MemoryNode {
 };
 
 struct PlaceMemoryOptions {
-  double tau_r = 1.3;  ///< τ_r recognition cost threshold (3.11)
-  /// Unit of the first term of (3.8): g_N uses γ̃(D,N¹) / gamma_unit. Our descriptors are
-  /// normalised, so raw γ̃ is 1e-7..1e-4 and would play no part; in this unit a distance to
-  /// the nearest child at the scale that separates distinct places counts as ~1
-  /// (docs/decisions.md "Recognition cost scale").
-  double gamma_unit = 5e-6;
+  /// τ_r recognition cost threshold (3.11). Calibrated with the terms of
+  /// core/memory/recognition_cost.h (docs/calibration.md).
+  double tau_r = 1.6;
   int tau_l = 1;        ///< τ_l levels climbed by the hybrid traversal
   double tau_h = 0.25;  ///< τ_h relative merge-height gap folded by simplification, [0, 1)
-  int max_samples_per_place = 8;  ///< representative member descriptors kept per place
-  int max_vote_points = 32;       ///< base points of D used for the vote V_N (evenly spaced)
-  DiscriminantOptions discriminant;
+  /// Member views kept per place (core/memory/member_views.h).
+  int max_samples_per_place = 32;
+  int max_vote_points = 32;  ///< base points of D used for the cost (evenly spaced)
+  /// The vote V of (3.8): false, D's points within the vote radius of N¹'s nearest member
+  /// view; true, the thesis' one-class SVM d_{N¹}, trained per node (docs/decisions.md
+  /// "Recognition cost": it accepted no fresh view at the sizes a place has).
+  bool svm_vote = false;
+  /// The unit u of the distance term and the vote radius, a squared descriptor distance: 0
+  /// takes the memory's median view spacing (adapts to any camera); > 0 fixes it for a
+  /// camera kind (a preset, docs/decisions.md "Recognition cost").
+  double distance_unit = 1.5e-5;
+  RecognitionCostOptions cost;
+  DiscriminantOptions discriminant;  ///< d_N, used with svm_vote
   void Validate() const;
 };
 
@@ -70,6 +60,7 @@ struct PlaceMemoryOptions {
 struct Recognition {
   std::optional<int> place;      ///< recognised place index β(D), if any
   double cost = 0.0;             ///< g_N at the last node evaluated
+  CostTerms terms;               ///< its terms (terms.best: N¹ as a node index)
   bool hybrid = false;           ///< the hybrid traversal recognised it
   std::vector<int> start_nodes;  ///< nodes a descent started from, in order
   std::vector<int> visited;      ///< every inner node whose g_N was evaluated, in order
@@ -84,14 +75,26 @@ class PlaceMemory {
   Recognition Recognize(const DetectedPlace& d, std::optional<int> previous = std::nullopt) const;
   /// Top-down descent from `start`: while g_N ≤ τ_r go to N¹; a terminal N¹ recognises.
   Recognition Descend(const DetectedPlace& d, int start) const;
-  /// g_N(D) of (3.8) at inner node `node`; sets `best_child` to N¹.
-  double Cost(const DetectedPlace& d, const Eigen::MatrixXf& votes, int node,
-              int* best_child) const;
+  Recognition Descend(const ViewDistances& vd, const Eigen::MatrixXf& votes, int start) const;
+  /// g_N(D) of (3.8) at inner node `node` from D's vote points' distances to every place's
+  /// member views; `terms.best` is N¹ as a node index.
+  CostTerms Cost(const ViewDistances& vd, const Eigen::MatrixXf& votes, int node) const;
+  /// The nearest member views of every place to D's vote points, and the vote points.
+  ViewDistances DistancesOf(const Eigen::MatrixXf& votes) const;
+  Eigen::MatrixXf VotePoints(const DetectedPlace& d) const;
 
   /// Learns D as a new place p*+1 (SLINK insertion, rebuild, retrain changed nodes).
   int Learn(const DetectedPlace& d);
-  /// Adds D to place `place` (members, mean, samples) and retrains its path to the root.
+  /// Adds D to place `place` (members, mean, member views thinned with ThinViews so every
+  /// visit is represented) and retrains its path to the root.
   void Update(int place, const DetectedPlace& d);
+  /// The view spacing u_p of place `place` (ViewSpacing of its member views).
+  double ViewSpacingOf(int place) const { return spacings_.at(static_cast<size_t>(place)); }
+  /// The median positive view spacing over the places (0 when none has one).
+  double MedianViewSpacing() const;
+  /// u of the recognition cost: options().distance_unit, or MedianViewSpacing() when that
+  /// is 0 (0 when neither is known yet).
+  double DistanceUnit() const;
 
   uint32_t robot() const { return robot_; }
   const PlaceMemoryOptions& options() const { return options_; }
@@ -136,7 +139,7 @@ class PlaceMemory {
   const KeySlot* FindOldNode(uint64_t key) const;
   void RetrainDiscriminant(int node);
   Eigen::MatrixXf TrainingSet(int node) const;
-  Eigen::MatrixXf VotePoints(const DetectedPlace& d) const;
+  bool TrainsDiscriminants() const { return options_.svm_vote; }
   /// Copies place `place`'s mean into column `place` of `means_` (growing it as needed).
   void StoreMean(int place);
 
@@ -148,6 +151,7 @@ class PlaceMemory {
   std::vector<OneClassDiscriminant> discriminants_;  // per node; root's is unused
   std::vector<Eigen::VectorXf> centroid_sums_;       // per inner node: Σ place means
   std::vector<int> leaf_order_;
+  std::vector<double> spacings_;  // per place: ViewSpacing of its member views
   int root_ = -1;
   uint32_t next_local_ = 1;
 

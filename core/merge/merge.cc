@@ -13,17 +13,20 @@
 #include <unordered_set>
 #include <utility>
 
+#include "core/memory/member_views.h"
+#include "core/memory/recognition_cost.h"
+
 namespace tsc {
 namespace {
 
-// `cap` evenly spaced columns of `x` (all of them when there are fewer), as PlaceMemory keeps
-// its samples. Deterministic.
-Eigen::MatrixXf EvenlySpaced(const Eigen::MatrixXf& x, int cap) {
-  const Eigen::Index n = x.cols();
-  if (n <= cap) return x;
-  Eigen::MatrixXf out(x.rows(), cap);
-  for (int j = 0; j < cap; ++j) out.col(j) = x.col(static_cast<Eigen::Index>(j) * n / cap);
-  return out;
+// The radius around `centre` of the ball that holds every member view of `memory`.
+double ViewBound(const PlaceMemory& memory, const Eigen::VectorXf& centre) {
+  double bound = 0.0;
+  for (const LearnedPlace& p : memory.places()) {
+    const double spread = (p.samples.colwise() - p.mean).colwise().norm().maxCoeff();
+    bound = std::max(bound, (p.mean - centre).norm() + spread);
+  }
+  return bound;
 }
 
 std::vector<int> AllPlaces(const PlaceMemory& memory) {
@@ -32,62 +35,36 @@ std::vector<int> AllPlaces(const PlaceMemory& memory) {
   return all;
 }
 
-// The sphere S(Ī_P, ρ_P) of one place: its mean and the root mean squared distance of its
-// stored samples to the mean (the samples stand for its members).
-NodeStatistics PlaceSphere(const LearnedPlace& p) {
-  NodeStatistics s;
-  s.centroid = p.mean;
-  s.num_places = 1;
-  if (p.samples.cols() > 0) {
-    s.radius = std::sqrt(static_cast<double>((p.samples.colwise() - p.mean).squaredNorm()) /
-                         static_cast<double>(p.samples.cols()));
-  }
-  return s;
-}
-
-// V of (4.1) between two places: the overlap of their spheres as a fraction of the smaller
-// one, with the overlap proxy of (4.7) (docs/decisions.md, "Merging": the merge vote). 1 when
-// one sphere holds the other, 0 when they do not meet.
-double SphereVote(const NodeStatistics& a, const NodeStatistics& b) {
-  const double smaller = std::min(a.radius, b.radius);
-  if (smaller <= 0.0) {  // a point: inside the other sphere or not
-    return (a.centroid - b.centroid).norm() <= std::max(a.radius, b.radius) ? 1.0 : 0.0;
-  }
-  return std::clamp(Overlap(a, b) / (2.0 * smaller), 0.0, 1.0);
-}
-
-// g of (4.1) for the incoming place `p` against the terminal children `candidates` of a
-// hyper-terminal of `base`: γ̃ to the nearest place P¹ (`best`, at γ̃ `best_gamma`), the ratio
-// to the second nearest child P² of N* (1 with one child or γ̃(P²) = 0), and 1 − V(P¹, p),
-// the overlap of the two places' spheres.
+// g of (4.1) for the incoming place `p` against hyper-terminal `h` of `base`: the g_N of
+// recognition (core/memory/recognition_cost.h) with p's member views as the vote points and
+// N*'s children as the candidates; only a terminal can absorb p, so an inner child of N*
+// only enters the ratio. Sets `best` to the nearest terminal place P¹ and `best_gamma` to
+// γ(p, P¹) between the means (the distance of the merged SLINK tree).
 double RecognitionCost(const PlaceMemory& base, const HyperTerminal& h, const LearnedPlace& p,
                        int* best, double* best_gamma) {
-  const std::vector<int>& candidates = h.places;
-  double g1 = std::numeric_limits<double>::infinity(), g2 = g1;
-  *best = -1;
-  for (int c : candidates) {
-    const double g = (p.mean - base.places()[static_cast<size_t>(c)].mean).squaredNorm();
-    if (g < g1) {
-      g2 = g1;
-      g1 = g;
-      *best = c;
-    } else if (g < g2) {
-      g2 = g;
-    }
-  }
-  // (3.8) at N*: the second most similar child may be an inner child of N* (a hyper-terminal
-  // also has subtrees); only a terminal can absorb p, so an inner child nearer than every
-  // terminal makes the ratio exceed 1.
+  std::vector<const LearnedPlace*> places;
+  std::vector<double> units;
+  std::vector<int> index;  // base place index of each column
+  std::vector<CostCandidate> candidates;
   for (int c : base.nodes()[static_cast<size_t>(h.node)].children) {
-    if (base.nodes()[static_cast<size_t>(c)].terminal()) continue;
-    g2 = std::min(g2, static_cast<double>((p.mean - base.Centroid(c)).squaredNorm()));
+    const MemoryNode& child = base.nodes()[static_cast<size_t>(c)];
+    CostCandidate candidate;
+    candidate.may_be_best = child.terminal();
+    candidate.centroid = base.Centroid(c);
+    for (int l = child.first_leaf; l < child.end_leaf; ++l) {
+      const int place = base.leaf_order()[static_cast<size_t>(l)];
+      candidate.places.push_back(static_cast<int>(places.size()));
+      places.push_back(&base.places()[static_cast<size_t>(place)]);
+      units.push_back(base.DistanceUnit());
+      index.push_back(place);
+    }
+    candidates.push_back(std::move(candidate));
   }
-  *best_gamma = g1;
-  const double ratio = std::isinf(g2) || g2 <= 0.0 ? 1.0 : g1 / g2;
-  const double vote =
-      SphereVote(PlaceSphere(p), PlaceSphere(base.places()[static_cast<size_t>(*best)]));
-  // The candidates are terminals: γ̃ enters in the memory's gamma_unit, as in PlaceMemory::Cost.
-  return g1 / base.options().gamma_unit + ratio + (1.0 - vote);
+  const ViewDistances vd(p.samples, places, units);
+  const CostTerms t = RecognitionCost(vd, p.mean, candidates, base.options().cost);
+  *best = index[static_cast<size_t>(candidates[static_cast<size_t>(t.best)].places.front())];
+  *best_gamma = (p.mean - base.places()[static_cast<size_t>(*best)].mean).squaredNorm();
+  return t.cost;
 }
 
 void AddSource(LearnedPlace& target, PlaceId id) {
@@ -105,7 +82,7 @@ void Absorb(LearnedPlace& target, const LearnedPlace& p, int max_samples) {
   target.member_count += p.member_count;
   Eigen::MatrixXf both(target.samples.rows(), target.samples.cols() + p.samples.cols());
   both << target.samples, p.samples;
-  target.samples = EvenlySpaced(both, max_samples);
+  target.samples = ThinViews(both, max_samples);
   AddSource(target, p.id);
   for (PlaceId s : p.sources) AddSource(target, s);
 }
@@ -430,14 +407,17 @@ MemoryMerge Merge(const PlaceMemory& ours, const PlaceMemory& peer, PlaceMemory*
     sb = StatisticsOf(base, AllPlaces(base));
     si = StatisticsOf(incoming, AllPlaces(incoming));
     const double d = (sb.centroid - si.centroid).norm();
-    // The spheres reach a recognition radius further: two places nearer than
-    // sqrt(τ_r·gamma_unit) may be one (g ≥ γ̃/gamma_unit), so spheres closer than that must
-    // not count as apart. Without it two small memories (a single place has radius 0) are
-    // always disjoint, and a team exchanging memories as it learns would never recognise
-    // a place (docs/decisions.md, "Merging": recognition reach).
-    const double reach = std::sqrt(options.tau_r * base.options().gamma_unit);
+    // The spheres reach a recognition radius further: views nearer than sqrt(τ_r·u) may be
+    // one place's (term 1 of g is δ/u), so spheres closer than that must not count as apart.
+    // Without it two small memories (a single place has radius 0) are always disjoint, and a
+    // team exchanging memories as it learns would never recognise a place (docs/decisions.md,
+    // "Merging": recognition reach).
+    const double reach =
+        std::sqrt(options.tau_r * std::max(base.DistanceUnit(), incoming.DistanceUnit()));
     MergeCase sphere_case = MergeCase::kDisjoint;
-    if (d > sb.radius + si.radius + reach) {  // (4.5)
+    // (4.5), decided on the spheres that hold every member view: ρ of (4.4) is a root mean
+    // square, and a place outside it may coincide with one of the other memory.
+    if (d > ViewBound(base, sb.centroid) + ViewBound(incoming, si.centroid) + reach) {
       sphere_case = MergeCase::kDisjoint;
     } else {
       const bool base_large = sb.radius >= si.radius;
@@ -485,7 +465,10 @@ MemoryMerge Merge(const PlaceMemory& ours, const PlaceMemory& peer, PlaceMemory*
             continue;
           }
           const int holder = known.at(match_id);
-          if (holder != b) {
+          // A robot's own places stay apart: the holder may be a place of b's robot that
+          // absorbed the match in an earlier merge.
+          if (holder != b && base.places()[static_cast<size_t>(holder)].id.robot !=
+                                 base.places()[static_cast<size_t>(b)].id.robot) {
             join.places.Unite(b, holder);
             fold_cost[static_cast<size_t>(b)] = g;
           }

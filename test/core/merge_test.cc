@@ -39,10 +39,11 @@ DetectedPlace MakePlace(const Eigen::VectorXf& centre, uint32_t seed, int n = 6,
 }
 
 // The memories here hold hand-made descriptors on a unit scale (places 0.1-1 apart, members
-// scattered by 0.01): γ̃ is measured in that unit.
+// scattered by 0.01): the recognition cost's unit is the squared distance of two members of
+// one place, 2·kDim·0.01².
 PlaceMemoryOptions UnitScale() {
   PlaceMemoryOptions o;
-  o.gamma_unit = 1.0;
+  o.distance_unit = 2.0 * kDim * 0.01 * 0.01;
   return o;
 }
 
@@ -192,11 +193,12 @@ TEST(MergeMemories, DisjointSpheresKeepBothPlaceSets) {
 }
 
 // A memory of one place has a sphere of radius 0: two such memories would always be
-// disjoint and never compared. Their spheres reach sqrt(τ_r·gamma_unit) further, the distance
-// within which two places may still be recognised as one (here 1.14 in the unit scale).
+// disjoint and never compared. Disjointness is judged on the balls that hold every member view,
+// reaching sqrt(τ_r·u) further, the distance within which views may still be one place's
+// (0.036 here, the views spreading ~0.03 around their means).
 TEST(MergeMemories, SinglePlacesWithinTheRecognitionReachAreNotDisjoint) {
   const PlaceMemory a = MakeMemory(1, {At(0)}, 10);
-  const PlaceMemory near = MakeMemory(2, {At(0.3f)}, 30);
+  const PlaceMemory near = MakeMemory(2, {At(0.05f)}, 30);
   const PlaceMemory far = MakeMemory(2, {At(0, 2.0f)}, 30);
   EXPECT_NE(MergeMemories(a, near).merge_case, MergeCase::kDisjoint);
   EXPECT_EQ(MergeMemories(a, far).merge_case, MergeCase::kDisjoint);
@@ -660,21 +662,21 @@ TEST(MergeMemories, OurFresherPlaceWinsOverThePeersStaleCopyOfIt) {
 namespace tsc {
 namespace {
 
-// The vote of (4.1) in a merge is the overlap of the two places' spheres (mean, spread of the
-// samples): two places 0.3 apart are one place when their members spread by 1 around their
-// means, and two places when they spread by 0.01. γ̃ and the ratio are the same in both
-// cases.
-TEST(MergeMemories, TheVoteIsTheOverlapOfTheTwoPlacesSpheres) {
-  auto merge = [](float spread) {
-    PlaceMemory a(1, UnitScale()), b(2, UnitScale());
-    a.Learn(MakePlace(At(0), 1, 8, spread));
-    b.Learn(MakePlace(At(0.3f), 1, 8, spread));  // the same scatter: means 0.3 apart
-    return MergeMemories(a, b);
-  };
-  const MemoryMerge wide = merge(1.0f), narrow = merge(0.01f);
-  EXPECT_EQ(wide.absorbed.size(), 1u);
-  EXPECT_TRUE(narrow.absorbed.empty());
-  EXPECT_EQ(narrow.added.size(), 1u);
+// One g_N serves recognition and merging (DESIGN §3.3 amended): an incoming place absorbed at
+// a hyper-terminal costs what recognising its member views costs at that node. Here the
+// root is the only hyper-terminal (three places equally far apart fold into one node).
+TEST(MergeMemories, AbsorptionCostsWhatRecognitionCosts) {
+  const PlaceMemory base = MakeMemory(2, {At(0), At(0, 2), At(0, 4)}, 5);
+  ASSERT_EQ(base.nodes()[static_cast<size_t>(base.root())].children.size(), 3u);
+  const PlaceMemory incoming = MakeMemory(1, {At(0.005f)}, 77);
+  const MemoryMerge dut = MergeMemories(base, incoming);
+  ASSERT_EQ(dut.absorbed.size(), 1u);
+  DetectedPlace views;
+  views.descriptors = incoming.places()[0].samples;
+  const Recognition r = base.Recognize(views);
+  ASSERT_TRUE(r.place.has_value());
+  EXPECT_EQ(base.places()[static_cast<size_t>(*r.place)].id, dut.absorbed[0].target);
+  EXPECT_DOUBLE_EQ(dut.absorbed[0].cost, r.cost);
 }
 
 // A robot's own places stay apart in a merge: its pipeline already judged them different.
@@ -785,7 +787,9 @@ TEST(MergeMemories, RepeatedExchangesInAnyOrderEndWithTheSamePlaces) {
       }
     }
     std::vector<PlaceMemory> memory;
-    for (uint32_t r = 1; r <= 3; ++r) memory.emplace_back(r, UnitScale());
+    PlaceMemoryOptions wide = UnitScale();
+    wide.distance_unit = 2.0 * kDim * 0.3 * 0.3;  // members spread by 0.3 below
+    for (uint32_t r = 1; r <= 3; ++r) memory.emplace_back(r, wide);
     std::set<PlaceId> learned;
     std::uniform_int_distribution<int> pick(0, 2);
     auto exchange = [&] {

@@ -28,6 +28,7 @@ PipelineOptions Options() {
   PipelineOptions o;
   o.robot = kRobot;
   o.detector = DetectorOptions{2, 2, 3};
+  o.memory.svm_vote = true;  // the discriminants table is filled and checked below
   return o;
 }
 

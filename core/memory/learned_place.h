@@ -1,0 +1,37 @@
+#pragma once
+// The places of chapter 3: a detected place D_m (a run of base points, section 3.4) and a
+// learned place p ∈ P (a terminal of the place memory, section 3.3).
+
+#include <Eigen/Core>
+#include <cstdint>
+#include <vector>
+
+#include "core/detect/place_detector.h"
+#include "core/memory/place_id.h"
+
+namespace tsc {
+
+/// A detected place D_m with the descriptors of its member base points.
+struct DetectedPlace {
+  DetectedPlaceIndex index = 0;
+  std::vector<BaseIndex> members;
+  Eigen::MatrixXf descriptors;  ///< dim x |members|, column j belongs to members[j]
+  /// Ī_m of (3.5). Precondition: at least one member.
+  Eigen::VectorXf Mean() const;
+};
+
+/// A terminal node's place p ∈ P.
+struct LearnedPlace {
+  PlaceId id;
+  Eigen::VectorXf mean;      ///< Ī_p over all member base points
+  int64_t member_count = 0;  ///< base points averaged into `mean`
+  /// dim x k member views (core/memory/member_views.h): descriptors of member base points
+  /// spread over every heading and visit; recognition measures distances to them.
+  Eigen::MatrixXf samples;
+  std::vector<DetectedPlaceIndex> detected;  ///< detected places that compose it
+  std::vector<BaseIndex> members;            ///< member base points (this robot's stream)
+  /// Ids of other robots' places merged into this one (core/merge), sorted, without `id`.
+  std::vector<PlaceId> sources;
+};
+
+}  // namespace tsc

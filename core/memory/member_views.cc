@@ -1,0 +1,72 @@
+#include "core/memory/member_views.h"
+
+#include <algorithm>
+#include <limits>
+#include <vector>
+
+namespace tsc {
+namespace {
+
+// Squared distances between the columns of `x` (n x n, symmetric, zero diagonal).
+Eigen::MatrixXf PairwiseSquared(const Eigen::MatrixXf& x) {
+  const Eigen::VectorXf sq = x.colwise().squaredNorm().transpose();
+  Eigen::MatrixXf d = -2.0f * (x.transpose() * x);
+  d.colwise() += sq;
+  d.rowwise() += sq.transpose();
+  d = d.cwiseMax(0.0f);
+  d.diagonal().setZero();
+  return d;
+}
+
+}  // namespace
+
+Eigen::MatrixXf EvenlySpaced(const Eigen::MatrixXf& x, int cap) {
+  const Eigen::Index n = x.cols();
+  if (n <= cap) return x;
+  Eigen::MatrixXf out(x.rows(), cap);
+  for (int j = 0; j < cap; ++j) out.col(j) = x.col(static_cast<Eigen::Index>(j) * n / cap);
+  return out;
+}
+
+Eigen::MatrixXf ThinViews(const Eigen::MatrixXf& pool, int cap) {
+  const Eigen::Index n = pool.cols();
+  if (n <= cap) return pool;
+  const Eigen::MatrixXf d = PairwiseSquared(pool);
+  std::vector<char> kept(static_cast<size_t>(n), 1);
+  for (Eigen::Index left = n; left > cap; --left) {
+    // The closest pair among the kept views; ties go to the earlier pair in column order.
+    float best = std::numeric_limits<float>::infinity();
+    Eigen::Index drop = -1;
+    for (Eigen::Index j = 1; j < n; ++j) {
+      if (!kept[static_cast<size_t>(j)]) continue;
+      for (Eigen::Index i = 0; i < j; ++i) {
+        if (kept[static_cast<size_t>(i)] && d(i, j) < best) {
+          best = d(i, j);
+          drop = j;
+        }
+      }
+    }
+    if (drop < 0) break;  // unreachable: at least two views are kept here
+    kept[static_cast<size_t>(drop)] = 0;
+  }
+  Eigen::MatrixXf out(pool.rows(), std::count(kept.begin(), kept.end(), 1));
+  Eigen::Index c = 0;
+  for (Eigen::Index j = 0; j < n; ++j) {
+    if (kept[static_cast<size_t>(j)]) out.col(c++) = pool.col(j);
+  }
+  return out;
+}
+
+double ViewSpacing(const Eigen::MatrixXf& views) {
+  const Eigen::Index n = views.cols();
+  if (n < 2) return 0.0;
+  Eigen::MatrixXf d = PairwiseSquared(views);
+  d.diagonal().setConstant(std::numeric_limits<float>::infinity());
+  std::vector<float> nearest(static_cast<size_t>(n));
+  for (Eigen::Index j = 0; j < n; ++j) nearest[static_cast<size_t>(j)] = d.col(j).minCoeff();
+  auto mid = nearest.begin() + static_cast<std::ptrdiff_t>(n / 2);
+  std::nth_element(nearest.begin(), mid, nearest.end());
+  return *mid;
+}
+
+}  // namespace tsc

@@ -1,0 +1,27 @@
+#pragma once
+// The member views a learned place keeps (DESIGN §3.3 amended, docs/decisions.md "Member
+// views"): a bounded set of its base points' descriptors that represents every heading and
+// every visit, and the view spacing that is the place's own unit of distance.
+
+#include <Eigen/Core>
+
+namespace tsc {
+
+/// `cap` columns of `x` evenly spaced in order (all of them when there are fewer).
+/// Deterministic. Precondition: cap >= 1.
+Eigen::MatrixXf EvenlySpaced(const Eigen::MatrixXf& x, int cap);
+
+/// Thins `pool` (dim x n, the kept views first, then new ones) to at most `cap` views by
+/// dropping, while too many remain, the later view of the closest pair: what remains is spread
+/// over the views' whole extent, so a visit that shows something new keeps its views however
+/// many base points earlier visits had (evenly spaced thinning kept 7 of 8 from the second of
+/// two equal visits). Views repeating a kept one go first. Deterministic.
+/// Precondition: cap >= 1.
+Eigen::MatrixXf ThinViews(const Eigen::MatrixXf& pool, int cap);
+
+/// The place's view spacing: the median over its views of the squared distance to the
+/// nearest other view; 0 with fewer than two views. A fresh view of the place lies about
+/// that far from the nearest kept view, at 30 frames per second or one frame a metre alike.
+double ViewSpacing(const Eigen::MatrixXf& views);
+
+}  // namespace tsc

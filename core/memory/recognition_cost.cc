@@ -1,0 +1,171 @@
+#include "core/memory/recognition_cost.h"
+
+#include <algorithm>
+#include <cmath>
+#include <limits>
+#include <stdexcept>
+#include <string>
+
+#include "core/memory/member_views.h"
+
+namespace tsc {
+namespace {
+
+double Median(std::vector<double>& v) {
+  auto mid = v.begin() + static_cast<std::ptrdiff_t>(v.size() / 2);
+  std::nth_element(v.begin(), mid, v.end());
+  return *mid;
+}
+
+// Per vote point: the nearest view of candidate `c` (its distance and place).
+struct Nearest {
+  std::vector<double> distance;
+  std::vector<int> place;
+};
+
+Nearest NearestIn(const ViewDistances& vd, const CostCandidate& c) {
+  const int n = vd.num_votes();
+  Nearest out{std::vector<double>(static_cast<size_t>(n), std::numeric_limits<double>::infinity()),
+              std::vector<int>(static_cast<size_t>(n), -1)};
+  for (int p : c.places) {
+    for (int j = 0; j < n; ++j) {
+      const double d = vd.distance(j, p);
+      if (d < out.distance[static_cast<size_t>(j)]) {
+        out.distance[static_cast<size_t>(j)] = d;
+        out.place[static_cast<size_t>(j)] = p;
+      }
+    }
+  }
+  return out;
+}
+
+// Whether candidate `other` coincides with N¹ for D: the views of `other` nearest to D's
+// points lie, in the median, within the vote radius of N¹'s nearest views (N¹'s vote would
+// accept them), so the two hold the same place.
+bool Coincides(const ViewDistances& vd, const Nearest& best, const Nearest& other,
+               double vote_radius) {
+  std::vector<double> r;
+  for (int j = 0; j < vd.num_votes(); ++j) {
+    const int pa = best.place[static_cast<size_t>(j)], pb = other.place[static_cast<size_t>(j)];
+    if (pa < 0 || pb < 0) continue;
+    const auto a = vd.place(pa).samples.col(vd.view(j, pa));
+    const auto b = vd.place(pb).samples.col(vd.view(j, pb));
+    r.push_back((a - b).squaredNorm() / vd.unit(pa));
+  }
+  return !r.empty() && Median(r) <= vote_radius;
+}
+
+}  // namespace
+
+ViewDistances::ViewDistances(const Eigen::MatrixXf& votes,
+                             std::span<const LearnedPlace* const> places,
+                             std::span<const double> units)
+    : distance_(votes.cols(), static_cast<Eigen::Index>(places.size())),
+      view_(votes.cols(), static_cast<Eigen::Index>(places.size())),
+      places_(places.begin(), places.end()),
+      units_(units.begin(), units.end()) {
+  if (votes.cols() == 0) throw std::invalid_argument("view distances of no vote points");
+  if (units.size() != places.size()) throw std::invalid_argument("one unit per place needed");
+  const Eigen::RowVectorXf vote_sq = votes.colwise().squaredNorm();
+  for (size_t p = 0; p < places_.size(); ++p) {
+    const Eigen::MatrixXf& s = places_[p]->samples;
+    if (s.rows() != votes.rows() || s.cols() == 0) {
+      throw std::invalid_argument("place " + places_[p]->id.ToString() + " has " +
+                                  std::to_string(s.cols()) + " views of dimension " +
+                                  std::to_string(s.rows()) + " for vote points of dimension " +
+                                  std::to_string(votes.rows()));
+    }
+    // ‖s − x‖² = ‖s‖² + ‖x‖² − 2 sᵀx for every view s and vote point x at once.
+    Eigen::MatrixXf d = -2.0f * (s.transpose() * votes);
+    d.colwise() += s.colwise().squaredNorm().transpose();
+    d.rowwise() += vote_sq;
+    for (Eigen::Index j = 0; j < votes.cols(); ++j) {
+      Eigen::Index row = 0;
+      distance_(j, static_cast<Eigen::Index>(p)) = std::max(0.0f, d.col(j).minCoeff(&row));
+      view_(j, static_cast<Eigen::Index>(p)) = static_cast<int>(row);
+    }
+  }
+  // Units for places of one view (docs/decisions.md "Recognition cost").
+  std::vector<double> positive;
+  for (double u : units_) {
+    if (u > 0.0) positive.push_back(u);
+  }
+  double fallback = positive.empty() ? ViewSpacing(votes) : Median(positive);
+  if (!(fallback > 0.0)) fallback = std::numeric_limits<float>::min();
+  for (double& u : units_) {
+    if (!(u > 0.0)) u = fallback;
+  }
+}
+
+void RecognitionCostOptions::Validate() const {
+  if (!(vote_radius > 0.0) || !std::isfinite(vote_radius)) {
+    throw std::invalid_argument("memory.vote_radius must be > 0, got " +
+                                std::to_string(vote_radius));
+  }
+  if (!(mean_unit >= 0.0) || !std::isfinite(mean_unit)) {
+    throw std::invalid_argument("memory.mean_distance_unit must be >= 0, got " +
+                                std::to_string(mean_unit));
+  }
+}
+
+CostTerms RecognitionCost(const ViewDistances& vd, const Eigen::VectorXf& mean,
+                          std::span<const CostCandidate> candidates,
+                          const RecognitionCostOptions& options) {
+  std::vector<Nearest> nearest;
+  std::vector<double> gamma;
+  nearest.reserve(candidates.size());
+  for (const CostCandidate& c : candidates) {
+    nearest.push_back(NearestIn(vd, c));
+    std::vector<double> d = nearest.back().distance;
+    gamma.push_back(d.empty() ? std::numeric_limits<double>::infinity() : Median(d));
+  }
+  CostTerms t;
+  for (size_t c = 0; c < candidates.size(); ++c) {
+    if (!candidates[c].may_be_best || candidates[c].places.empty()) continue;
+    if (t.best < 0 || gamma[c] < gamma[static_cast<size_t>(t.best)]) t.best = static_cast<int>(c);
+  }
+  if (t.best < 0) {
+    t.cost = std::numeric_limits<double>::infinity();
+    return t;
+  }
+  const Nearest& best = nearest[static_cast<size_t>(t.best)];
+  t.gamma = gamma[static_cast<size_t>(t.best)];
+  std::vector<double> scaled;
+  int accepted = 0;
+  for (int j = 0; j < vd.num_votes(); ++j) {
+    const double u = vd.unit(best.place[static_cast<size_t>(j)]);
+    const double d = best.distance[static_cast<size_t>(j)];
+    scaled.push_back(d / u);
+    if (d <= options.vote_radius * u) ++accepted;
+  }
+  t.distance = Median(scaled);
+  t.vote = static_cast<double>(accepted) / vd.num_votes();
+  // The distance term from the means too, where a camera kind sets their unit: a pan sweep's
+  // base points see the whole room, and a revisit along another path through it is far from
+  // every kept view yet near the room's mean (docs/decisions.md "Recognition cost").
+  if (options.mean_unit > 0.0) {
+    const double to_mean = (mean - candidates[static_cast<size_t>(t.best)].centroid).squaredNorm();
+    t.distance = std::min(t.distance, to_mean / options.mean_unit);
+  }
+  // N²: the nearest other child that is not the same place held again.
+  double second = std::numeric_limits<double>::infinity();
+  std::vector<size_t> order;
+  for (size_t c = 0; c < candidates.size(); ++c) {
+    if (static_cast<int>(c) != t.best && !candidates[c].places.empty()) order.push_back(c);
+  }
+  std::sort(order.begin(), order.end(), [&](size_t a, size_t b) {
+    return gamma[a] < gamma[b] || (gamma[a] == gamma[b] && a < b);
+  });
+  for (size_t c : order) {
+    if (Coincides(vd, best, nearest[c], options.vote_radius)) continue;
+    second = gamma[c];
+    break;
+  }
+  // (3.8); no other child: the ratio term is 1; γ̃(D,N²) = 0 implies γ̃(D,N¹) = 0: ratio 1.
+  // An inner child nearer than every eligible one (merging) makes the ratio exceed 1.
+  t.ratio = std::isinf(second) || second <= 0.0 ? 1.0 : t.gamma / second;
+  t.cost = t.distance + t.ratio + (1.0 - t.vote);
+  return t;
+}
+
+}  // namespace tsc

@@ -1,0 +1,83 @@
+#pragma once
+// g_N of (3.8) from member views (DESIGN §3.3 amended; docs/decisions.md "Recognition cost"),
+// the one implementation recognition (PlaceMemory) and merging (core/merge) share.
+//
+// Every term is measured from D's vote points x_j to the member views the places keep:
+//   δ_j(C)    squared distance from x_j to the nearest view of a place under child C;
+//   γ̃(D, C)  median_j δ_j(C): a set distance that means the same at every level of the tree
+//              (a node is as near as its nearest place) and for a place seen from several
+//              headings (the nearest view, not a mean over headings, counts);
+//   term 1    median_j δ_j(N¹) / u_j, u_j the unit of the place whose view is nearest to x_j
+//              (PlaceMemory gives every place one unit: memory.distance_unit, a preset per
+//              camera kind, or the memory's median view spacing);
+//              With a mean unit set (a pan sweep's preset), the smaller of that and
+//              ‖Ī_D − c(N¹)‖² / mean_unit;
+//   ratio     γ̃(D, N¹) / γ̃(D, N²), where N² skips children that coincide with N¹ (their
+//              nearest views lie within N¹'s vote radius of N¹'s: a room held twice is one
+//              candidate, so its copies do not lock each other out); 1 with no other child;
+//   V         the fraction of x_j with δ_j(N¹) ≤ vote_radius · u_j: the place explains the view.
+// docs/decisions.md "Recognition cost" gives the figures behind each choice.
+
+#include <Eigen/Core>
+#include <span>
+#include <vector>
+
+#include "core/memory/learned_place.h"
+
+namespace tsc {
+
+/// For each vote point and each place: the nearest member view (squared distance and column).
+class ViewDistances {
+ public:
+  /// `votes` dim x n (n ≥ 1); `places` the candidates' places (their `samples` are the views)
+  /// with `units` their view spacings (same order). A place with no spacing of its own (one
+  /// view) takes the median positive spacing of the others, else D's own (the vote points'
+  /// spacing), else the smallest positive float: it is then recognised only on equal views.
+  /// Brute force over every view of every place.
+  ViewDistances(const Eigen::MatrixXf& votes, std::span<const LearnedPlace* const> places,
+                std::span<const double> units);
+  int num_votes() const { return static_cast<int>(distance_.rows()); }
+  int num_places() const { return static_cast<int>(distance_.cols()); }
+  float distance(int vote, int place) const { return distance_(vote, place); }
+  int view(int vote, int place) const { return view_(vote, place); }
+  double unit(int place) const { return units_[static_cast<size_t>(place)]; }
+  const LearnedPlace& place(int i) const { return *places_[static_cast<size_t>(i)]; }
+
+ private:
+  Eigen::MatrixXf distance_;  // votes x places
+  Eigen::MatrixXi view_;      // column of the nearest view in the place's samples
+  std::vector<const LearnedPlace*> places_;
+  std::vector<double> units_;
+};
+
+/// A child of the node g_N is evaluated at: the places under it (indices into the
+/// ViewDistances' places) and whether it may be N¹ (merging absorbs only into terminals).
+struct CostCandidate {
+  std::vector<int> places;
+  Eigen::VectorXf centroid;  ///< c(C): the mean of its places' means
+  bool may_be_best = true;
+};
+
+struct CostTerms {
+  int best = -1;          ///< index of N¹ in the candidates (−1: none may be)
+  double gamma = 0.0;     ///< γ̃(D, N¹): median over D's points of the nearest view's δ
+  double distance = 0.0;  ///< term 1: median_j δ_j(N¹)/u_j
+  double ratio = 1.0;     ///< γ̃(D,N¹)/γ̃(D,N²)
+  double vote = 0.0;      ///< V
+  double cost = 0.0;      ///< term 1 + ratio + (1 − V), (3.8)
+};
+
+struct RecognitionCostOptions {
+  double vote_radius = 2.0;  ///< V counts x_j with δ_j(N¹) ≤ vote_radius · u_j
+  /// Unit of ‖Ī_D − c(N¹)‖² when the distance term may also come from the means; 0: views only.
+  double mean_unit = 0.0;
+  void Validate() const;
+};
+
+/// g_N over `candidates` (the children of N) for D with mean `mean`. Precondition: at least
+/// one candidate with a place; vd has at least one vote point.
+CostTerms RecognitionCost(const ViewDistances& vd, const Eigen::VectorXf& mean,
+                          std::span<const CostCandidate> candidates,
+                          const RecognitionCostOptions& options);
+
+}  // namespace tsc
