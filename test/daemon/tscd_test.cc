@@ -52,6 +52,21 @@ const std::string kTscd = std::string(TSCD_BIN_DIR) + "/tscd";
 
 class TscdTest : public ::testing::Test {
  protected:
+  // Copies the first `n` frames of the real loop (name order) into the new folder `frames`
+  // and returns their paths in the loop, in that order.
+  static std::vector<fs::path> CopyLoopFrames(const fs::path& frames, size_t n) {
+    std::vector<fs::path> images;
+    for (const auto& e : fs::directory_iterator(fs::path(TSCD_DATA_DIR) / "rtabmap-loop")) {
+      if (e.path().extension() == ".jpg") images.push_back(e.path());
+    }
+    std::sort(images.begin(), images.end());
+    EXPECT_GE(images.size(), n);
+    images.resize(std::min(images.size(), n));
+    fs::create_directories(frames);
+    for (const fs::path& image : images) fs::copy_file(image, frames / image.filename());
+    return images;
+  }
+
   testing_support::TempDir temp_{"tscd_test"};
   fs::path dir_ = temp_.path();
 };
@@ -355,18 +370,8 @@ TEST_F(TscdTest, ARestartMapsNoEdgeFromThePlaceBeforeIt) {
 TEST_F(TscdTest, TruncatedFrameAndVanishingCameraAreLoggedAndSurvived) {
   TSCD_REQUIRE_PRIVATE_NETNS();
   const fs::path frames = dir_ / "frames";
-  fs::create_directories(frames);
-  const fs::path source = fs::path(TSCD_DATA_DIR) / "rtabmap-loop";
-  std::vector<fs::path> images;
-  for (const auto& e : fs::directory_iterator(source)) {
-    if (e.path().extension() == ".jpg") images.push_back(e.path());
-  }
-  std::sort(images.begin(), images.end());
-  ASSERT_GE(images.size(), 12u);
-  for (int i = 0; i < 12; ++i) {
-    fs::copy_file(images[static_cast<size_t>(i)],
-                  frames / images[static_cast<size_t>(i)].filename());
-  }
+  const std::vector<fs::path> images = CopyLoopFrames(frames, 12);
+  ASSERT_EQ(images.size(), 12u);
   const fs::path cut = frames / images[5].filename();
   fs::resize_file(cut, fs::file_size(cut) / 2);
   // A file of zero bytes, first in name order: a bad frame like the truncated one (it stopped
@@ -417,15 +422,7 @@ TEST_F(TscdTest, TruncatedFrameAndVanishingCameraAreLoggedAndSurvived) {
 TEST_F(TscdTest, SigtermWithASlowCameraExitsWithinTwoSeconds) {
   TSCD_REQUIRE_PRIVATE_NETNS();
   const fs::path frames = dir_ / "frames";
-  fs::create_directories(frames);
-  int copied = 0;
-  for (const auto& e : fs::directory_iterator(fs::path(TSCD_DATA_DIR) / "rtabmap-loop")) {
-    if (e.path().extension() == ".jpg" && copied < 3) {
-      fs::copy_file(e.path(), frames / e.path().filename());
-      ++copied;
-    }
-  }
-  ASSERT_EQ(copied, 3);
+  ASSERT_EQ(CopyLoopFrames(frames, 3).size(), 3u);
   BusListener bus;
   ChildProcess dut({kTscd, "--robot", "1", "--state-dir", (dir_ / "state").string(), "--set",
                     "camera.source=folder", "--set", "camera.path=" + frames.string(), "--set",
@@ -457,14 +454,8 @@ TEST_F(TscdTest, SigtermWithASlowCameraExitsWithinTwoSeconds) {
 TEST_F(TscdTest, LibjpegWarningsGoThroughTheLog) {
   TSCD_REQUIRE_PRIVATE_NETNS();
   const fs::path frames = dir_ / "frames";
-  fs::create_directories(frames);
-  std::vector<fs::path> images;
-  for (const auto& e : fs::directory_iterator(fs::path(TSCD_DATA_DIR) / "rtabmap-loop")) {
-    if (e.path().extension() == ".jpg") images.push_back(e.path());
-  }
-  std::sort(images.begin(), images.end());
-  ASSERT_GE(images.size(), 3u);
-  for (size_t i = 0; i < 3; ++i) fs::copy_file(images[i], frames / images[i].filename());
+  const std::vector<fs::path> images = CopyLoopFrames(frames, 3);
+  ASSERT_EQ(images.size(), 3u);
   {
     std::ifstream in(images[0], std::ios::binary);
     std::string jpeg((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
@@ -515,15 +506,8 @@ long PeakRssKbOf(pid_t pid) {
 TEST_F(TscdTest, BombFramesInAFolderCameraAreRefusedCountedAndReadingGoesOn) {
   TSCD_REQUIRE_PRIVATE_NETNS();
   const fs::path frames = dir_ / "frames";
-  fs::create_directories(frames);
-  const fs::path source = fs::path(TSCD_DATA_DIR) / "rtabmap-loop";
-  std::vector<fs::path> images;
-  for (const auto& e : fs::directory_iterator(source)) {
-    if (e.path().extension() == ".jpg") images.push_back(e.path());
-  }
-  std::sort(images.begin(), images.end());
-  ASSERT_GE(images.size(), 12u);
-  for (size_t i = 0; i < 12; ++i) fs::copy_file(images[i], frames / images[i].filename());
+  const std::vector<fs::path> images = CopyLoopFrames(frames, 12);
+  ASSERT_EQ(images.size(), 12u);
   const fs::path jpeg_bomb = frames / images[4].filename();
   const fs::path png_bomb = frames / images[8].filename();  // a PNG named .jpg: read by content
   testing_support::WriteBytes(jpeg_bomb, testing_support::ForgedJpegBomb());
