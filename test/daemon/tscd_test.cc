@@ -484,18 +484,7 @@ TEST_F(TscdTest, LibjpegWarningsGoThroughTheLog) {
 
 // The peak resident set of process `pid` (VmHWM), kB; -1 when it cannot be read.
 long PeakRssKbOf(pid_t pid) {
-  std::ifstream in("/proc/" + std::to_string(pid) + "/status");
-  std::string key;
-  while (in >> key) {
-    if (key == "VmHWM:") {
-      long kb = -1;
-      in >> kb;
-      return kb;
-    }
-    std::string rest;
-    std::getline(in, rest);
-  }
-  return -1;
+  return testing_support::ProcStatusKb("/proc/" + std::to_string(pid) + "/status", "VmHWM:");
 }
 
 // Issue 18: a folder camera whose frames include two decompression bombs (the 1.1 MB PNG of

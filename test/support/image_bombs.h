@@ -104,13 +104,13 @@ inline void WriteBytes(const std::filesystem::path& p, const std::vector<uint8_t
             static_cast<std::streamsize>(bytes.size()));
 }
 
-/// Peak resident set of this process since the last ResetPeakRss(), kB (VmHWM).
-inline long PeakRssKb() {
-  std::ifstream in("/proc/self/status");
+/// A "Key:" line's value from a /proc/<pid>/status file, kB; -1 when it cannot be read.
+inline long ProcStatusKb(const std::filesystem::path& status, const std::string& field) {
+  std::ifstream in(status);
   std::string key;
   while (in >> key) {
-    if (key == "VmHWM:") {
-      long kb = 0;
+    if (key == field) {
+      long kb = -1;
       in >> kb;
       return kb;
     }
@@ -119,6 +119,9 @@ inline long PeakRssKb() {
   }
   return -1;
 }
+
+/// Peak resident set of this process since the last ResetPeakRss(), kB (VmHWM).
+inline long PeakRssKb() { return ProcStatusKb("/proc/self/status", "VmHWM:"); }
 
 /// Resets VmHWM to the current resident set (Linux ≥ 4.0: "5" > /proc/self/clear_refs).
 /// False when the kernel does not allow it.
@@ -130,19 +133,6 @@ inline bool ResetPeakRss() {
 }
 
 /// Current resident set, kB (VmRSS).
-inline long RssKb() {
-  std::ifstream in("/proc/self/status");
-  std::string key;
-  while (in >> key) {
-    if (key == "VmRSS:") {
-      long kb = 0;
-      in >> kb;
-      return kb;
-    }
-    std::string rest;
-    std::getline(in, rest);
-  }
-  return -1;
-}
+inline long RssKb() { return ProcStatusKb("/proc/self/status", "VmRSS:"); }
 
 }  // namespace tsc::testing_support
