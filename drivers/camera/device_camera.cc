@@ -5,7 +5,9 @@
 #include <cmath>
 #include <cstdio>
 #include <filesystem>
+#include <opencv2/imgcodecs.hpp>
 #include <opencv2/videoio.hpp>
+#include <span>
 #include <stdexcept>
 #include <system_error>
 
@@ -25,6 +27,17 @@ bool PathMissing(const std::string& device) {
   return !IsIndex(device) && !std::filesystem::exists(device, ec);
 }
 
+constexpr uint32_t FourCc(const char (&code)[5]) {
+  return static_cast<uint32_t>(code[0]) | static_cast<uint32_t>(code[1]) << 8 |
+         static_cast<uint32_t>(code[2]) << 16 | static_cast<uint32_t>(code[3]) << 24;
+}
+
+/// A compressed frame as a device hands it over: bytes in one row (or column) of CV_8UC1.
+bool IsCompressed(const cv::Mat& raw) {
+  return raw.type() == CV_8UC1 && (raw.rows == 1 || raw.cols == 1) && raw.total() >= 2 &&
+         raw.isContinuous();
+}
+
 class V4l2Device : public VideoDevice {
  public:
   explicit V4l2Device(const DeviceCameraOptions& options) : options_(options) {}
@@ -42,6 +55,12 @@ class V4l2Device : public VideoDevice {
     if (options_.width > 0) capture_.set(cv::CAP_PROP_FRAME_WIDTH, options_.width);
     if (options_.height > 0) capture_.set(cv::CAP_PROP_FRAME_HEIGHT, options_.height);
     if (options_.fps > 0.0) capture_.set(cv::CAP_PROP_FPS, options_.fps);
+    // An MJPEG device's frames are taken undecoded so that DeviceCamera can read the JPEG
+    // header first: OpenCV's own decode would allocate whatever size a frame claims.
+    const auto fourcc = static_cast<uint32_t>(capture_.get(cv::CAP_PROP_FOURCC));
+    if (fourcc == FourCc("MJPG") || fourcc == FourCc("JPEG")) {
+      capture_.set(cv::CAP_PROP_CONVERT_RGB, 0);
+    }
     return true;
   }
   void Close() override { capture_.release(); }
@@ -71,6 +90,22 @@ VideoDevice& OpenOrThrow(const DeviceCameraOptions& options, VideoDevice& device
   return device;
 }
 
+/// `raw` decoded when it is a compressed frame, bounded by options.max_image_pixels; `raw`
+/// itself otherwise. Throws CameraError(recoverable) naming frame `number` and why.
+cv::Mat Decoded(const cv::Mat& raw, const DeviceCameraOptions& options, int64_t number) {
+  if (!IsCompressed(raw)) return raw;
+  ImageLimits limits;
+  limits.max_pixels = options.max_image_pixels;
+  DecodedImage decoded =
+      DecodeBounded(std::span(raw.ptr<uint8_t>(), raw.total()), cv::IMREAD_COLOR, limits);
+  if (!decoded.ok()) {
+    throw CameraError("device:" + options.device + ": frame " + std::to_string(number) + " (" +
+                          std::to_string(raw.total()) + " bytes) refused: " + decoded.error,
+                      true);
+  }
+  return decoded.image;
+}
+
 CameraIntrinsics IntrinsicsOf(VideoDevice& device, const DeviceCameraOptions& options) {
   cv::Size size = device.FrameSize();
   if (size.width <= 0 || size.height <= 0) {
@@ -78,7 +113,11 @@ CameraIntrinsics IntrinsicsOf(VideoDevice& device, const DeviceCameraOptions& op
     if (!device.Grab() || !device.Retrieve(&first)) {
       throw CameraError("device:" + options.device + ": opened but delivers no frame", false);
     }
-    size = first.size();
+    try {
+      size = Decoded(first, options, 0).size();
+    } catch (const CameraError& e) {
+      throw CameraError(std::string(e.what()) + "; its size is unknown", false);
+    }
   }
   return CameraIntrinsics::FromHorizontalFov(size.width, size.height, options.hfov_deg);
 }
@@ -104,6 +143,10 @@ void DeviceCameraOptions::Validate() const {
   if (width < 0 || height < 0) {
     throw std::invalid_argument("device camera: requested size " + std::to_string(width) + "x" +
                                 std::to_string(height) + " must not be negative");
+  }
+  if (max_image_pixels < 1) {
+    throw std::invalid_argument("device camera: max_image_pixels " +
+                                std::to_string(max_image_pixels) + " must be at least 1");
   }
   if (!(reopen_min_s > 0.0 && reopen_max_s >= reopen_min_s && reopen_max_s <= 3600.0)) {
     throw std::invalid_argument("device camera: reopen backoff [" + std::to_string(reopen_min_s) +
@@ -158,8 +201,9 @@ std::optional<CameraFrame> DeviceCamera::Next() {
   if (!device_->Retrieve(&raw)) {
     throw CameraError(name() + ": a frame could not be decoded", true);  // device stays open
   }
+  const int64_t number = retrieved_++;  // counts refused frames too, so each keeps its number
   CameraFrame frame;
-  frame.observation.bgr = ToBgrOfSize(raw, intrinsics_);
+  frame.observation.bgr = ToBgrOfSize(Decoded(raw, options_, number), intrinsics_);
   frame.utime = clock_.WallMicros();
   frame.sequence = delivered_++;
   return frame;

@@ -10,6 +10,7 @@
 
 #include "drivers/camera/camera_source.h"
 #include "drivers/clock.h"
+#include "drivers/image/bounded_decode.h"
 
 namespace tsc {
 
@@ -21,6 +22,9 @@ struct DeviceCameraOptions {
   int height = 0;
   double reopen_min_s = 0.5;  ///< first wait before reopening a lost device, seconds
   double reopen_max_s = 5.0;  ///< the wait doubles after every failed reopen, up to this
+  /// Largest compressed (MJPEG) frame decoded, width x height by its JPEG header
+  /// (camera.max_image_pixels): a frame claiming more is refused before it is decoded.
+  int64_t max_image_pixels = kDefaultMaxImagePixels;
   /// Throws std::invalid_argument naming the bad field.
   void Validate() const;
 };
@@ -35,7 +39,9 @@ class VideoDevice {
   virtual bool IsOpen() const = 0;
   /// Waits for the next frame and keeps it undecoded; false when the device stopped delivering.
   virtual bool Grab() = 0;
-  /// Decodes the last grabbed frame; false when it cannot be decoded.
+  /// The last grabbed frame: pixels, or a compressed frame as it came from the device (JPEG
+  /// bytes in one CV_8UC1 row), which DeviceCamera decodes under its size bound. False when
+  /// there is none.
   virtual bool Retrieve(cv::Mat* frame) = 0;
   /// Frame size the open device reports; 0x0 when it does not say.
   virtual cv::Size FrameSize() const = 0;
@@ -56,7 +62,9 @@ class DeviceCamera : public CameraSource {
                Clock& clock = Clock::System());
 
   /// The newest frame at most fps times per second (frames in between are grabbed and
-  /// dropped so none is stale). Never nullopt. When the device stops delivering, throws
+  /// dropped so none is stale). Never nullopt. A compressed frame whose header claims more
+  /// than max_image_pixels, or that does not decode, is a recoverable CameraError naming the
+  /// frame and its claimed size (the device stays open). When the device stops delivering, throws
   /// CameraError(recoverable = true); the next calls wait out the backoff, try to reopen and
   /// either deliver again or throw CameraError(recoverable = true) with a longer backoff.
   std::optional<CameraFrame> Next() override;
@@ -80,6 +88,7 @@ class DeviceCamera : public CameraSource {
   int64_t backoff_us_ = 0;
   int64_t retry_at_us_ = 0;
   int64_t delivered_ = 0;
+  int64_t retrieved_ = 0;  ///< frames taken from the device, delivered or refused
 };
 
 }  // namespace tsc

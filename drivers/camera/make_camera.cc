@@ -136,6 +136,7 @@ std::unique_ptr<CameraSource> MakeCamera(const CameraOptions& camera, const SimO
       options.height = camera.height;
       options.reopen_min_s = camera.reconnect_min_s;
       options.reopen_max_s = camera.reconnect_max_s;
+      options.max_image_pixels = camera.max_image_pixels;
       return std::make_unique<DeviceCamera>(options, clock);
     }
     if (camera.source == "axis")

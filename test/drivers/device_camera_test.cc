@@ -13,9 +13,12 @@
 #include <vector>
 
 #include "drivers/clock.h"
+#include "test/support/image_bombs.h"
 
 namespace tsc {
 namespace {
+
+using namespace testing_support;
 
 /// A 30 fps camera on a ManualClock: every Grab() takes one frame period.
 struct FakeDeviceState {
@@ -131,6 +134,58 @@ TEST_F(DeviceCameraTest, InterruptEndsTheReconnectWait) {
   EXPECT_FALSE(next.has_value());
   EXPECT_LT(std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count(), 2.0);
   EXPECT_EQ(state_.open_calls, 1);  // no reopen attempted
+}
+
+/// An MJPEG device handing over its frames undecoded (as V4L2 does with CAP_PROP_CONVERT_RGB
+/// off): JPEG bytes in one row; frame `bomb_at` is a forged header claiming 20512x35225.
+class MjpegDevice : public VideoDevice {
+ public:
+  explicit MjpegDevice(int bomb_at) : bomb_at_(bomb_at) {}
+  bool Open() override { return open_ = true; }
+  void Close() override { open_ = false; }
+  bool IsOpen() const override { return open_; }
+  bool Grab() override { return open_; }
+  bool Retrieve(cv::Mat* frame) override {
+    const std::vector<uint8_t> bytes =
+        retrieved_++ == bomb_at_ ? ForgedJpegBomb() : EncodeImage(".jpg", 64, 48);
+    *frame = cv::Mat(1, static_cast<int>(bytes.size()), CV_8UC1);
+    std::copy(bytes.begin(), bytes.end(), frame->ptr<uint8_t>());
+    return true;
+  }
+  cv::Size FrameSize() const override { return {64, 48}; }
+
+ private:
+  int bomb_at_;
+  int retrieved_ = 0;
+  bool open_ = false;
+};
+
+TEST_F(DeviceCameraTest, CompressedFramesAreDecodedAndABombIsRefusedBeforeDecoding) {
+  DeviceCamera dut(Options(0.0), std::make_unique<MjpegDevice>(2), clock_);
+  for (int i = 0; i < 2; ++i) {
+    const auto frame = dut.Next();
+    ASSERT_TRUE(frame.has_value());
+    EXPECT_EQ(frame->observation.bgr.size(), cv::Size(64, 48));
+    EXPECT_EQ(frame->observation.bgr.type(), CV_8UC3);
+  }
+  const bool can_measure = ResetPeakRss();
+  const long before_kb = RssKb();
+  try {
+    dut.Next();
+    FAIL() << "a frame claiming 20512x35225 must be refused";
+  } catch (const CameraError& e) {
+    EXPECT_TRUE(e.recoverable());
+    const std::string what = e.what();
+    EXPECT_NE(what.find("device:/dev/fake0: frame 2"), std::string::npos) << what;
+    EXPECT_NE(what.find("20512x35225"), std::string::npos) << what;
+  }
+  if (can_measure) {
+    EXPECT_LT(PeakRssKb() - before_kb, 20 * 1024);  // decoding it would take 2.1 GB
+  }
+  EXPECT_TRUE(dut.is_open());  // a bad frame is not a lost device
+  const auto after = dut.Next();
+  ASSERT_TRUE(after.has_value());
+  EXPECT_EQ(after->sequence, 2);  // the refused frame is not delivered
 }
 
 TEST_F(DeviceCameraTest, MissingDeviceIsFatalErrorNamingIt) {
