@@ -157,10 +157,19 @@ TEST_P(JaguarRobotTest, TeleopDrivesTheBoardThroughTscdAndOdometryFollows) {
   EXPECT_NEAR(odo_start.x, start.x, 0.01);  // both start at the route's first pose
   EXPECT_NEAR(odo_start.y, start.y, 0.01);
 
-  // Forward 2 s, turn left 1.5 s, forward 2 s; then the script holds no key for 2 s.
-  auto teleop =
-      StartTeleop(Keys('w', 40) + "; " + Keys('a', 30) + "; " + Keys('w', 40) + "; sleep 2");
+  // Forward 2 s, turn left 1.5 s, forward 2 s; then the script marks the keys' end and holds
+  // no key for 5 s. The board may pause on the way: under load a gap of over 0.4 s between
+  // keys is a dead-man stop (seen with ctest -j4), so stillness alone does not say the keys
+  // have ended; the mark does.
+  const fs::path keys_done = dir_ / "keys_done";
+  auto teleop = StartTeleop(Keys('w', 40) + "; " + Keys('a', 30) + "; " + Keys('w', 40) +
+                            "; : > " + Quote(keys_done.string()) + "; sleep 5");
   ASSERT_TRUE(WaitMoving(seconds(10))) << teleop->Log();
+  const auto keys_deadline = std::chrono::steady_clock::now() + seconds(60);
+  while (!fs::exists(keys_done) && std::chrono::steady_clock::now() < keys_deadline) {
+    std::this_thread::sleep_for(milliseconds(50));
+  }
+  ASSERT_TRUE(fs::exists(keys_done)) << "the keys did not end: " << teleop->Log();
   // The dead man: 0.4 s after the last key teleop sends stop, while the script still runs.
   ASSERT_TRUE(WaitStill(seconds(10))) << "the board kept moving after the keys stopped";
   EXPECT_TRUE(teleop->running()) << "teleop ended early: " << teleop->Log();
@@ -177,7 +186,7 @@ TEST_P(JaguarRobotTest, TeleopDrivesTheBoardThroughTscdAndOdometryFollows) {
   EXPECT_NEAR(odo.battery_volts, 25.2, 0.1);
   EXPECT_GE(odo.num_temperatures, 2);
   EXPECT_NE(odo.left_ticks, 0);
-  EXPECT_EQ(teleop->Wait(seconds(5)), 0) << teleop->Log();
+  EXPECT_EQ(teleop->Wait(seconds(10)), 0) << teleop->Log();
 
   // The camera rode along: tscd saw frames and detected places on the way.
   ASSERT_TRUE(bus.WaitFor(
