@@ -162,8 +162,8 @@ TEST_P(JaguarRobotTest, TeleopDrivesTheBoardThroughTscdAndOdometryFollows) {
   // keys is a dead-man stop (seen with ctest -j4), so stillness alone does not say the keys
   // have ended; the mark does.
   const fs::path keys_done = dir_ / "keys_done";
-  auto teleop = StartTeleop(Keys('w', 40) + "; " + Keys('a', 30) + "; " + Keys('w', 40) +
-                            "; : > " + Quote(keys_done.string()) + "; sleep 5");
+  auto teleop = StartTeleop(Keys('w', 40) + "; " + Keys('a', 30) + "; " + Keys('w', 40) + "; : > " +
+                            Quote(keys_done.string()) + "; sleep 5");
   ASSERT_TRUE(WaitMoving(seconds(10))) << teleop->Log();
   const auto keys_deadline = std::chrono::steady_clock::now() + seconds(60);
   while (!fs::exists(keys_done) && std::chrono::steady_clock::now() < keys_deadline) {
