@@ -266,8 +266,16 @@ Daemon::Daemon(Settings settings, SettingsSource source, std::unique_ptr<CameraS
   counters_.detected_places = static_cast<int32_t>(state.next_detected - 1);
   counters_.memory_version = 1;
   worker_heartbeat_ms_ = SteadyMs();
-  pipeline_ = std::make_unique<Pipeline>(camera_->intrinsics(), settings_.pipeline,
-                                         std::move(memory), std::move(map), state);
+  PipelineOptions pipeline = settings_.pipeline;
+  const std::optional<BasePointSpacing> declared = camera_->spacing();
+  const BasePointSpacing spacing =
+      ResolveSpacing(settings_.daemon.camera.spacing_m, declared ? &*declared : nullptr,
+                     settings_.daemon.camera.fps);
+  pipeline.detector.spacing_m = spacing.metres;
+  spdlog::info("base points {:.3g} m apart ({}): places of {} base points or fewer are pruned",
+               spacing.metres, spacing.basis, pipeline.detector.EffectiveTauP());
+  pipeline_ = std::make_unique<Pipeline>(camera_->intrinsics(), pipeline, std::move(memory),
+                                         std::move(map), state);
 }
 
 Daemon::~Daemon() {

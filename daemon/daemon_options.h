@@ -17,7 +17,11 @@ struct CameraOptions {
   double fps = 10.0;       ///< frames per second delivered; 0 = as fast as the source gives them
   bool loop = false;       ///< folder / video: start again at the end instead of stopping
   double hfov_deg = 60.0;  ///< horizontal field of view of folder, video, device, axis frames
-  int width = 640;         ///< axis: requested resolution; device: requested capture size
+  /// Metres of travel between base points; 0 = what the source declares (a folder's
+  /// camera.json or poses), else fps frames per second at 1.5 m/s. Place detection's τ_p
+  /// (detection.tau_p_m) counts base points with it.
+  double spacing_m = 0.0;
+  int width = 640;  ///< axis: requested resolution; device: requested capture size
   int height = 480;
   /// Largest image decoded (width x height by its header); larger ones are refused unread.
   int64_t max_image_pixels = int64_t{4096} * 4096;

@@ -249,8 +249,15 @@ std::vector<ConfigKey> BuildTable() {
       "noise",
       "base points", 1, 100000, [](auto& o) -> auto& { return o.pipeline.detector.tau_w; }));
   t.push_back(Number(
-      "detection.tau_p", "tau_p, detected places with this many base points or fewer are pruned",
-      "base points", 0, 100000, [](auto& o) -> auto& { return o.pipeline.detector.tau_p; }));
+      "detection.tau_p",
+      "tau_p, detected places with this many base points or fewer are pruned; -1 = from "
+      "tau_p_m and the base-point spacing (camera.spacing_m)",
+      "base points", -1, 100000, [](auto& o) -> auto& { return o.pipeline.detector.tau_p; }));
+  t.push_back(Number(
+      "detection.tau_p_m",
+      "tau_p as a length of travel: detected places spanning this many metres or fewer are "
+      "pruned (used when tau_p = -1)",
+      "m", 0, 10000, [](auto& o) -> auto& { return o.pipeline.detector.tau_p_m; }));
   // [memory] — sections 3.3, 3.5, 3.6
   t.push_back(Number(
       "memory.tau_r", "tau_r, recognition threshold on the cost g_N of (3.8)", "", 0, 1000,
@@ -294,8 +301,9 @@ std::vector<ConfigKey> BuildTable() {
       [](auto& o) -> auto& { return o.pipeline.memory.max_samples_per_place; }));
   t.push_back(Number(
       "memory.max_vote_points",
-      "base points of a detected place the recognition cost is measured on (evenly spaced)", "base points", 1,
-      100000, [](auto& o) -> auto& { return o.pipeline.memory.max_vote_points; }));
+      "base points of a detected place the recognition cost is measured on (evenly spaced)",
+      "base points", 1, 100000,
+      [](auto& o) -> auto& { return o.pipeline.memory.max_vote_points; }));
   t.push_back(Number(
       "memory.svm_nu", "nu of the one-class SVM discriminants d_N", "", 0, 1,
       [](auto& o) -> auto& { return o.pipeline.memory.discriminant.nu; },
@@ -369,6 +377,12 @@ std::vector<ConfigKey> BuildTable() {
       "camera.hfov_deg",
       "horizontal field of view of video, device and axis frames (folders use camera.json)",
       "degrees", 0, 180, [](auto& o) -> auto& { return o.daemon.camera.hfov_deg; }, true, true));
+  t.push_back(Number(
+      "camera.spacing_m",
+      "metres of travel between base points; 0 = what the source declares (a folder's "
+      "camera.json fps, spacing_m or keyframes, or its poses; undeclared: keyframes 1 m apart), "
+      "else camera.fps at 1.5 m/s",
+      "m", 0, 1000, [](auto& o) -> auto& { return o.daemon.camera.spacing_m; }));
   t.push_back(Number(
       "camera.width", "axis: requested resolution; device: requested capture size", "pixels", 16,
       8192, [](auto& o) -> auto& { return o.daemon.camera.width; }));

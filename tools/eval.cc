@@ -318,10 +318,26 @@ void WriteConfig(JsonWriter& w, const PipelineOptions& options) {
       }
     }
   }
+  // What detection.tau_p = -1 came to for this dataset (docs/decisions.md, "Frame rate").
+  w.Key("base_point_spacing_m").Number(options.detector.spacing_m);
+  w.Key("effective_tau_p").Number(options.detector.EffectiveTauP());
   w.End('}');
 }
 
 }  // namespace
+
+PipelineOptions OptionsForDataset(const Settings& settings, const Dataset& dataset,
+                                  std::ostream* say) {
+  PipelineOptions out = settings.pipeline;
+  const BasePointSpacing spacing =
+      ResolveSpacing(settings.daemon.camera.spacing_m, &dataset.spacing(), 0.0);
+  out.detector.spacing_m = spacing.metres;
+  if (say != nullptr) {
+    *say << "  base points     " << spacing.metres << " m apart (" << spacing.basis
+         << "): places of " << out.detector.EffectiveTauP() << " base points or fewer are pruned\n";
+  }
+  return out;
+}
 
 void WriteEvalJson(std::ostream& out, const EvalResult& r) {
   JsonWriter w(out);

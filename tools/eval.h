@@ -18,6 +18,7 @@
 #include <vector>
 
 #include "core/pipeline/pipeline.h"
+#include "daemon/settings.h"
 #include "drivers/dataset/dataset.h"
 #include "tools/scoring.h"
 
@@ -80,6 +81,12 @@ struct EvalResult {
   double descriptor_ms_median = 0.0;  ///< bubble surface + descriptor + intensity, per frame
   double frame_ms_median = 0.0;       ///< descriptor + pipeline step of the main run, per frame
 };
+
+/// The pipeline options of `settings` for `dataset`: place detection counts τ_p in base
+/// points at the dataset's spacing (camera.spacing_m when set, else what the dataset declares;
+/// Dataset::spacing). Writes the spacing, its basis and τ_p to `say` unless it is null.
+PipelineOptions OptionsForDataset(const Settings& settings, const Dataset& dataset,
+                                  std::ostream* say);
 
 /// Runs and scores. Throws DatasetError (naming the frame and file) for unreadable frames,
 /// std::invalid_argument for bad options.

@@ -12,6 +12,7 @@
 #include <fstream>
 #include <iostream>
 #include <optional>
+#include <sstream>
 #include <string>
 #include <vector>
 
@@ -226,10 +227,11 @@ int Run(const std::vector<std::string>& args) {
   }
 
   const Settings settings = ConfigFrom(vm);
-  const PipelineOptions& options = settings.pipeline;
   const fs::path dataset_dir = vm["dataset"].as<std::string>();
   const fs::path db_path = vm["db"].as<std::string>();
   const Dataset dataset = Dataset::Open(dataset_dir, DatasetOptionsOf(settings));
+  std::ostringstream spacing;  // said after the summary line
+  const PipelineOptions options = OptionsForDataset(settings, dataset, &spacing);
   if (options.features.NeedsDepth() && !dataset.has_depth()) {
     throw DatasetError(dataset_dir.string() + ": bubble.features = " + options.features.ToString() +
                        " needs depth, but the dataset has no depth/ folder");
@@ -309,6 +311,7 @@ int Run(const std::vector<std::string>& args) {
       static_cast<long long>(counts.recognized), static_cast<long long>(counts.partial),
       pipeline.map().places().size(), pipeline.map().edges().size(),
       static_cast<long long>(counts.mapped), Median(pipeline_ms), Median(total_ms));
+  std::cout << spacing.str();
   return kExitOk;
 }
 
@@ -363,10 +366,11 @@ int Eval(const std::vector<std::string>& args) {
   const EvalOptions eval =
       vm.count("sweep") ? ParseSweep(vm["sweep"].as<std::string>()) : EvalOptions{};
   const Settings settings = ConfigFrom(vm);
-  const PipelineOptions& options = settings.pipeline;
   const fs::path dataset_dir = vm["dataset"].as<std::string>();
   const fs::path json_path = vm["json"].as<std::string>();
   const Dataset dataset = Dataset::Open(dataset_dir, DatasetOptionsOf(settings));
+  std::ostringstream spacing;  // said after the summary line
+  const PipelineOptions options = OptionsForDataset(settings, dataset, &spacing);
   if (options.features.NeedsDepth() && !dataset.has_depth()) {
     throw DatasetError(dataset_dir.string() + ": bubble.features = " + options.features.ToString() +
                        " needs depth, but the dataset has no depth/ folder");
@@ -391,6 +395,7 @@ int Eval(const std::vector<std::string>& args) {
       r.truth.has_labels() ? (r.truth.has_revisits() ? "labels, revisits" : "labels")
                            : (r.truth.has_revisits() ? "revisits" : "none"),
       r.good, r.uninformative, r.incoherent, r.main.detected.size(), r.main.learned_places);
+  std::cout << spacing.str();
   if (r.boundaries) {
     std::printf("  boundaries       F1 %.3f (precision %.3f, recall %.3f; %d true, %d detected)\n",
                 r.boundaries->f1, r.boundaries->precision, r.boundaries->recall,

@@ -1,5 +1,7 @@
 #include "core/detect/place_detector.h"
 
+#include <algorithm>
+#include <cmath>
 #include <stdexcept>
 #include <string>
 
@@ -10,14 +12,33 @@ void DetectorOptions::Validate() const {
     throw std::invalid_argument("detection.tau_n must be >= 1, got " + std::to_string(tau_n));
   if (tau_w < 1)
     throw std::invalid_argument("detection.tau_w must be >= 1, got " + std::to_string(tau_w));
-  if (tau_p < 0)
-    throw std::invalid_argument("detection.tau_p must be >= 0, got " + std::to_string(tau_p));
+  if (tau_p < -1) {
+    throw std::invalid_argument("detection.tau_p must be >= 0 (or -1: from tau_p_m), got " +
+                                std::to_string(tau_p));
+  }
+  if (!(tau_p_m >= 0.0 && tau_p_m <= 1e4)) {
+    throw std::invalid_argument("detection.tau_p_m must be in [0, 10000] m, got " +
+                                std::to_string(tau_p_m));
+  }
+  if (!(spacing_m > 0.0 && spacing_m <= 1e3)) {
+    throw std::invalid_argument("base point spacing must be in (0, 1000] m, got " +
+                                std::to_string(spacing_m));
+  }
+}
+
+int DetectorOptions::EffectiveTauP() const {
+  if (tau_p >= 0) return tau_p;
+  // The tolerance keeps 3.75 / 0.15 at 25 (it is 24.999... in doubles).
+  const double count = std::floor(tau_p_m / spacing_m + 1e-9);
+  return static_cast<int>(std::min(count, 100000.0));
 }
 
 PlaceDetector::PlaceDetector(DetectorOptions options, DetectedPlaceIndex next_place,
                              BaseIndex first_base)
-    : options_(options), next_place_(next_place), expected_k_(first_base) {
-  options_.Validate();
+    : options_(options),
+      tau_p_((options_.Validate(), options_.EffectiveTauP())),
+      next_place_(next_place),
+      expected_k_(first_base) {
   if (next_place < 1) throw std::invalid_argument("detected place indices start at 1");
 }
 
@@ -67,7 +88,7 @@ std::vector<DetectionEvent> PlaceDetector::Finish() {
 
 void PlaceDetector::AppendGood(BaseIndex k, std::vector<DetectionEvent>& out) {
   current_.push_back(k);
-  if (!current_opened_ && static_cast<int64_t>(current_.size()) > options_.tau_p) {
+  if (!current_opened_ && static_cast<int64_t>(current_.size()) > tau_p_) {
     current_opened_ = true;
     current_index_ = next_place_++;
     out.push_back(PlaceOpened{current_index_, current_});

@@ -18,9 +18,19 @@ using DetectedPlaceIndex = int64_t;
 struct DetectorOptions {
   int tau_n = 2;  ///< τ_n: a bad point within this many points extends the temporal window
   int tau_w = 2;  ///< τ_w: temporal windows this long or longer are transitions, shorter noise
-  /// τ_p: places with this many base points or fewer are pruned. 25 suits a camera sampled
-  /// every ~0.15 m (the simulated robot); sparse keyframe sequences use config/keyframes.ini.
-  int tau_p = 25;
+  /// τ_p in base points: places with this many base points or fewer are pruned. -1 (the
+  /// default): derived from tau_p_m and spacing_m, so that one configuration serves a 10 fps
+  /// camera and a keyframe sequence (DESIGN §3.2 amended; docs/decisions.md, "Frame rate").
+  int tau_p = -1;
+  /// τ_p as a length of travel: places spanning this many metres or fewer are pruned (3.75 m
+  /// = the thesis-sized 25 base points of the simulated robot's 0.15 m step).
+  double tau_p_m = 3.75;
+  /// Metres of travel between consecutive base points, as the source declares it (a dataset's
+  /// camera.json or poses, a camera's route or rate; docs/decisions.md, "Frame rate").
+  double spacing_m = 0.15;
+  /// τ_p in base points: tau_p when set, else the largest count whose length count x
+  /// spacing_m is at most tau_p_m.
+  int EffectiveTauP() const;
   void Validate() const;
 };
 
@@ -78,6 +88,7 @@ class PlaceDetector {
   void CloseCurrentPlace(std::vector<DetectionEvent>& out);
 
   DetectorOptions options_;
+  int tau_p_;  // options_.EffectiveTauP()
   DetectedPlaceIndex next_place_;
   BaseIndex expected_k_;
   std::vector<BaseIndex> current_;  // good points of the current place

@@ -288,7 +288,7 @@ void Pipeline::RecogniseWhereabouts(BaseIndex k, FrameResult& out) {
   const std::vector<BaseIndex>& members = detector_.current_members();
   const int64_t extent = static_cast<int64_t>(members.size());
   if (n <= 0 || memory_.empty() || !whereabouts_ || members.empty() || members.back() != k ||
-      extent < n || extent > options_.detector.tau_p) {
+      extent < n || extent > options_.detector.EffectiveTauP()) {
     return;
   }
   const std::vector<BaseIndex> window(members.end() - n, members.end());

@@ -11,6 +11,7 @@
 
 #include "core/bubble/camera.h"
 #include "core/bubble/surface.h"
+#include "drivers/dataset/base_point_spacing.h"
 #include "drivers/stop_signal.h"
 
 namespace tsc {
@@ -52,6 +53,10 @@ class CameraSource {
   virtual const CameraIntrinsics& intrinsics() const = 0;
   /// "folder:/data/x", "video:/a.mp4", "device:/dev/video0", "sim:office/7/route 2" — for logs.
   virtual std::string name() const = 0;
+  /// How far apart its base points are, with the evidence, when the source knows (a dataset
+  /// folder's declaration); nullopt for a live camera, whose spacing follows its frame rate
+  /// (docs/decisions.md, "Frame rate").
+  virtual std::optional<BasePointSpacing> spacing() const { return std::nullopt; }
 
  protected:
   /// Raised by Interrupt(); sources wait on it (Clock::WaitUntil(us, interrupted_)).

@@ -42,6 +42,7 @@ class FolderCamera : public CameraSource {
   std::optional<CameraFrame> Next() override;
   const CameraIntrinsics& intrinsics() const override { return intrinsics_; }
   std::string name() const override { return "folder:" + options_.folder.string(); }
+  std::optional<BasePointSpacing> spacing() const override { return dataset_.spacing(); }
 
   /// Frames in the folder.
   int size() const { return dataset_.size(); }

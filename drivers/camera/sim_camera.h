@@ -53,6 +53,12 @@ class SimCamera : public CameraSource {
   const CameraIntrinsics& intrinsics() const override { return intrinsics_; }
   /// "sim:office/7/route 2" or "sim:office/7/base".
   std::string name() const override;
+  /// Scripted route: its walking step, one route frame per base point whatever the frame rate
+  /// (as `tsc sim` declares it). Driven by a base: nullopt, the spacing follows the rate.
+  std::optional<BasePointSpacing> spacing() const override {
+    if (base_ != nullptr) return std::nullopt;
+    return BasePointSpacing{options_.scene.route.step_m, "simulated route step"};
+  }
 
   const sim::World& world() const { return scenario_.world; }
   /// This robot's scripted route (also when driven by a base: where it would go).

@@ -179,7 +179,51 @@ std::map<std::string, double> ReadNumbers(const fs::path& file, const std::strin
 struct CameraFile {
   CameraIntrinsics camera;  ///< of one view
   PanSweep sweep;
+  std::optional<BasePointSpacing> spacing;  ///< when declared
 };
+
+// "spacing_m", "fps" or "keyframes" of camera.json; nullopt when none is given.
+std::optional<BasePointSpacing> DeclaredSpacing(const fs::path& file, const std::string& text) {
+  const JsonValue root = ParseJson(text);  // already parsed once by ReadNumbers
+  std::optional<BasePointSpacing> out;
+  for (size_t i = 0; i < root.keys.size(); ++i) {
+    const std::string& key = root.keys[i];
+    const JsonValue& v = root.items[i];
+    if (key != "spacing_m" && key != "fps" && key != "keyframes") continue;
+    if (out) Fail(file, "give one of \"spacing_m\", \"fps\" and \"keyframes\"");
+    if (key == "keyframes") {
+      if (v.kind != JsonValue::Kind::kBool || !v.boolean) {
+        Fail(file, "\"keyframes\" must be true when given");
+      }
+      out = BasePointSpacing{kKeyframeSpacingM, "camera.json keyframes"};
+      continue;
+    }
+    const double most = key == "fps" ? 1000.0 : 100.0;
+    if (v.kind != JsonValue::Kind::kNumber || !(v.number > 0.0 && v.number <= most)) {
+      Fail(file, "\"" + key + "\" must be a number in (0, " +
+                     std::to_string(static_cast<int>(most)) + "]");
+    }
+    out = key == "fps" ? BasePointSpacing{kAssumedSpeedMps / v.number, "camera.json fps"}
+                       : BasePointSpacing{v.number, "camera.json spacing_m"};
+  }
+  return out;
+}
+
+// Median distance between consecutive posed frames; nullopt with fewer than two steps or a
+// median of zero (a camera standing still says nothing of its spacing).
+std::optional<double> MedianPoseStep(const std::vector<std::optional<GroundTruthPose>>& poses) {
+  std::vector<double> steps;
+  for (size_t i = 1; i < poses.size(); ++i) {
+    if (poses[i] && poses[i - 1]) {
+      steps.push_back(std::hypot(poses[i]->x - poses[i - 1]->x, poses[i]->y - poses[i - 1]->y));
+    }
+  }
+  if (steps.size() < 2) return std::nullopt;
+  std::nth_element(steps.begin(), steps.begin() + static_cast<long>(steps.size() / 2), steps.end());
+  const double median = steps[steps.size() / 2];
+  if (!(median > 0.0)) return std::nullopt;
+  return median;
+}
 
 CameraFile ReadCamera(const fs::path& file, int image_width, int height) {
   std::ifstream in(file);
@@ -187,6 +231,7 @@ CameraFile ReadCamera(const fs::path& file, int image_width, int height) {
   std::stringstream text;
   text << in.rdbuf();
   const std::map<std::string, double> v = ReadNumbers(file, text.str());
+  const std::optional<BasePointSpacing> spacing = DeclaredSpacing(file, text.str());
   const auto has = [&](const char* k) { return v.count(k) > 0; };
   // A whole-number member in [1, most] (`fallback` when absent), checked before it becomes
   // an int: a value beyond int's range would be undefined behaviour.
@@ -223,7 +268,7 @@ CameraFile ReadCamera(const fs::path& file, int image_width, int height) {
     } else {
       Fail(file, "needs \"hfov_deg\" or all of \"fx\", \"fy\", \"cx\", \"cy\"");
     }
-    if (cam_w == width && cam_h == height) return CameraFile{*camera, sweep};
+    if (cam_w == width && cam_h == height) return CameraFile{*camera, sweep, spacing};
     // Calibrated at another resolution: scale when the aspect ratio is the same.
     const double ratio =
         (static_cast<double>(cam_w) / cam_h) / (static_cast<double>(width) / height);
@@ -232,7 +277,7 @@ CameraFile ReadCamera(const fs::path& file, int image_width, int height) {
                      " but the images' views are " + std::to_string(width) + "x" +
                      std::to_string(height));
     }
-    return CameraFile{camera->Scaled(width, height), sweep};
+    return CameraFile{camera->Scaled(width, height), sweep, spacing};
   } catch (const std::invalid_argument& e) {
     Fail(file, e.what());
   }
@@ -332,7 +377,7 @@ Dataset Dataset::Open(const fs::path& folder, const DatasetOptions& options) {
       fs::exists(camera_file, ec)
           ? ReadCamera(camera_file, first.cols, first.rows)
           : CameraFile{CameraIntrinsics::FromHorizontalFov(first.cols, first.rows, kDefaultHfovDeg),
-                       PanSweep()};
+                       PanSweep(), std::nullopt};
 
   Dataset ds(folder, std::move(images), std::move(depths), camera.camera, camera.sweep,
              cv::Size(first.cols, first.rows), options);
@@ -357,6 +402,14 @@ Dataset Dataset::Open(const fs::path& folder, const DatasetOptions& options) {
              "line " + std::to_string(line) + ": expected frame,place or frame,place,x,y,heading");
       }
     }
+  }
+
+  if (camera.spacing) {
+    ds.spacing_ = *camera.spacing;
+  } else if (const std::optional<double> step = MedianPoseStep(ds.poses_)) {
+    ds.spacing_ = BasePointSpacing{*step, "poses (median step)"};
+  } else {
+    ds.spacing_ = BasePointSpacing{kKeyframeSpacingM, "undeclared: keyframes assumed"};
   }
 
   const fs::path revisits_file = folder / "revisits.csv";

@@ -8,7 +8,10 @@
 //                       (default: 60° horizontal field of view at the first image's size);
 //                       "sweep_views":K,"sweep_deg":D: every image holds the K views of a
 //                       pan sweep side by side (view j at pan j·D/K, counter-clockwise), and
-//                       the intrinsics are those of one view
+//                       the intrinsics are those of one view; "spacing_m":S (metres of
+//                       travel between frames), "fps":F (frames of a camera moving at
+//                       kAssumedSpeedMps) or "keyframes":true (about a metre apart) declare
+//                       how far apart the frames are (BasePointSpacing)
 //   DATASET/groundtruth.csv  optional: frame,place[,x,y,heading]   (frame 1-based)
 //   DATASET/revisits.csv     optional: frame,revisits              (1-based, space separated)
 //
@@ -23,6 +26,7 @@
 
 #include "core/bubble/camera.h"
 #include "core/bubble/surface.h"
+#include "drivers/dataset/base_point_spacing.h"
 #include "drivers/image/bounded_decode.h"
 
 namespace tsc {
@@ -92,6 +96,11 @@ class Dataset {
   /// on the file's header, before anything is decoded, and the error says what it claims.
   std::vector<Observation> Load(int i) const;
 
+  /// How far apart the frames are: camera.json's "spacing_m", "fps" (at kAssumedSpeedMps) or
+  /// "keyframes"; else the median step between consecutive ground-truth poses; else a
+  /// keyframe sequence (kKeyframeSpacingM) is assumed. Place detection's τ_p follows it.
+  const BasePointSpacing& spacing() const { return spacing_; }
+
   /// Per-frame place label (0-based frames, "" where unlabelled); empty without
   /// groundtruth.csv.
   const std::vector<std::string>& labels() const { return labels_; }
@@ -110,6 +119,7 @@ class Dataset {
   std::vector<std::filesystem::path> depths_;
   CameraIntrinsics camera_;
   PanSweep sweep_;
+  BasePointSpacing spacing_;
   cv::Size frame_size_;  ///< of every frame (all its views side by side): the first frame's
   DatasetOptions options_;
   std::vector<std::string> labels_;

@@ -74,7 +74,10 @@ int WriteRobotDataset(const fs::path& folder, const World& world,
   }
   WriteText(folder / "camera.json",
             "{\"width\":" + std::to_string(ro.width) + ",\"height\":" + std::to_string(ro.height) +
-                ",\"hfov_deg\":" + std::to_string(ro.hfov_deg) + sweep + "}\n");
+                ",\"hfov_deg\":" + std::to_string(ro.hfov_deg) + sweep +
+                // The route's walking step: the base-point spacing place detection counts its
+                // shortest place with (Dataset::spacing).
+                ",\"spacing_m\":" + std::to_string(options.route.step_m) + "}\n");
   WriteText(folder / "world.json", world.ToJson());
 
   const Renderer renderer(world, ro, static_cast<std::uint32_t>(rng()));

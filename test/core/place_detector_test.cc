@@ -70,6 +70,24 @@ TEST(PlaceDetector, PrunesPlaceWithExtentAtMostTauP) {
   EXPECT_EQ(o.closed[0].members.front(), 5);
 }
 
+// τ_p as a length (DESIGN §3.2 amended): 3.75 m is 25 base points of the simulated camera's
+// 0.15 m step and 3 of keyframes a metre apart; an explicit τ_p wins.
+TEST(PlaceDetector, TauPFollowsTheBasePointSpacing) {
+  DetectorOptions options;
+  EXPECT_EQ(options.EffectiveTauP(), 25);
+  options.spacing_m = 1.0;
+  EXPECT_EQ(options.EffectiveTauP(), 3);
+  EXPECT_EQ(RunPattern("ggg", options).pruned.size(), 1u);   // 3 m: pruned
+  EXPECT_EQ(RunPattern("gggg", options).closed.size(), 1u);  // 4 m: a place
+  options.tau_p = 7;
+  EXPECT_EQ(options.EffectiveTauP(), 7);
+  options.tau_p = -2;
+  EXPECT_THROW(options.Validate(), std::invalid_argument);
+  options.tau_p = -1;
+  options.spacing_m = 0.0;
+  EXPECT_THROW(options.Validate(), std::invalid_argument);
+}
+
 TEST(PlaceDetector, AbsorbsGoodPointsBetweenBadPointsWithinTauN) {
   // Bad, good, good, bad: with τ_n = 3 the two good points belong to the window, which then
   // spans 4 points and is a transition (τ_w = 4).

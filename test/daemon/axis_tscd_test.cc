@@ -93,7 +93,7 @@ RobotRun RunRobot(const std::vector<std::string>& extra, milliseconds tick,
 
   BusListener bus;
   // The route is short and, with a sweep, a base point takes several frames: places span few
-  // base points, so tscd runs with the keyframes plenitude threshold (config/keyframes.ini).
+  // base points, so tscd runs with a small plenitude threshold (tau_p 3, as for keyframes).
   std::vector<std::string> argv = {kBin + "/tscd",
                                    "--robot",
                                    "1",

@@ -1,7 +1,8 @@
 #pragma once
 // The tscd command line of a small, fast simulated robot for the daemon tests: robot 1,
-// 160x120 frames as fast as the pipeline takes them, announces every 0.2 s, and the keyframes
-// plenitude threshold (tau_p 3) so the sparse places of a short run are not pruned.
+// 160x120 frames as fast as the pipeline takes them, announces every 0.2 s, and a small
+// plenitude threshold (tau_p 3, as keyframes a metre apart get) so the sparse places of a short
+// run are not pruned.
 
 #include <filesystem>
 #include <string>

@@ -114,6 +114,35 @@ TEST_F(DatasetTest, CameraJsonWithIntrinsicsScaledToTheImages) {
   EXPECT_NEAR(ds.camera().cy(), 14.75, 1e-9);  // pixel-centre convention
 }
 
+// How far apart the frames are (DESIGN §3.2 amended): declared in camera.json, else from the
+// poses, else a keyframe sequence is assumed.
+TEST_F(DatasetTest, SpacingIsDeclaredOrTakenFromThePosesOrKeyframesAreAssumed) {
+  for (int i = 1; i <= 4; ++i) WriteImage(dir_ / (std::to_string(i) + ".png"), Image(i, 40, 30));
+  EXPECT_DOUBLE_EQ(Dataset::Open(dir_).spacing().metres, kKeyframeSpacingM);
+  EXPECT_EQ(Dataset::Open(dir_).spacing().basis, "undeclared: keyframes assumed");
+
+  // Poses: the median step (a turn in place, step 0, does not decide it).
+  WriteText(dir_ / "groundtruth.csv",
+            "frame,place,x,y,heading\n1,a,0,0,0\n2,a,0.2,0,0\n3,a,0.2,0,1\n4,a,0.4,0,1\n");
+  EXPECT_NEAR(Dataset::Open(dir_).spacing().metres, 0.2, 1e-12);
+
+  const std::pair<const char*, double> declared[] = {
+      {R"({"hfov_deg": 60, "spacing_m": 0.5})", 0.5},
+      {R"({"hfov_deg": 60, "fps": 30})", kAssumedSpeedMps / 30},
+      {R"({"hfov_deg": 60, "keyframes": true})", kKeyframeSpacingM}};
+  for (const auto& [json, metres] : declared) {
+    WriteText(dir_ / "camera.json", json);
+    EXPECT_NEAR(Dataset::Open(dir_).spacing().metres, metres, 1e-12) << json;  // over the poses
+  }
+  for (const char* bad :
+       {R"({"hfov_deg": 60, "keyframes": false})", R"({"hfov_deg": 60, "spacing_m": 0})",
+        R"({"hfov_deg": 60, "fps": -1})", R"({"hfov_deg": 60, "spacing_m": "1"})",
+        R"({"hfov_deg": 60, "fps": 10, "spacing_m": 1})"}) {
+    WriteText(dir_ / "camera.json", bad);
+    ExpectErrorNaming([&] { Dataset::Open(dir_); }, "camera.json");
+  }
+}
+
 TEST_F(DatasetTest, BadCameraJsonNamesTheFile) {
   WriteImage(dir_ / "1.png", Image(1));
   WriteText(dir_ / "camera.json", R"({"width": 32, "height": )");

@@ -15,7 +15,7 @@
 
 #include "drivers/dataset/json_reader.h"
 #include "drivers/world/dataset_writer.h"
-#include "test/support/keyframes_profile.h"
+#include "test/support/default_profile.h"
 #include "test/support/temp_dir.h"
 #include "tools/plots.h"
 
@@ -26,7 +26,8 @@ namespace fs = std::filesystem;
 class EvalTest : public ::testing::Test {
  protected:
   // Rooms a, b, c visited along a -> b -> c -> b -> a, 10 panning frames each, separated by
-  // 3 dark frames (unlabelled transitions); poses along a line, rooms 5 m apart.
+  // 3 dark frames (unlabelled transitions); poses along a line, a frame per metre (keyframes:
+  // the poses give the spacing, so τ_p is 3 base points), rooms 12 m apart.
   fs::path MakeLabelledDataset() {
     const fs::path ds = dir_ / "rooms";
     fs::create_directories(ds);
@@ -56,7 +57,7 @@ class EvalTest : public ::testing::Test {
     const int route[] = {0, 1, 2, 1, 0};
     for (int v = 0; v < 5; ++v) {
       if (v > 0) {
-        const double door = 2.5 * (route[v - 1] + route[v]) + 1.0;
+        const double door = 6.0 * (route[v - 1] + route[v]) + 4.5;
         for (int t = 0; t < 3; ++t) {
           write(cv::Mat(120, 160, CV_8UC3, cv::Scalar(3, 3, 3)), "", door);
         }
@@ -64,7 +65,7 @@ class EvalTest : public ::testing::Test {
       const int room = route[v];
       for (int i = 0; i < 10; ++i) {
         write(rooms[static_cast<size_t>(room)](cv::Rect(2 * i, 0, 160, 120)).clone(),
-              std::string(1, static_cast<char>('a' + room)), 5.0 * room + 0.2 * i);
+              std::string(1, static_cast<char>('a' + room)), 12.0 * room + 1.0 * i);
       }
     }
     gt.close();
@@ -119,7 +120,7 @@ TEST_F(EvalTest, RtabmapLoopRecognisesWithFullPrecisionAndWritesPlots) {
   const fs::path folder = fs::path(TSCD_DATA_DIR) / "rtabmap-loop";
   if (!fs::exists(folder)) GTEST_SKIP() << folder << " is not present";
   const Dataset dataset = Dataset::Open(folder);
-  const EvalResult r = Evaluate(dataset, testing_support::KeyframesProfile(), EvalOptions{});
+  const EvalResult r = Evaluate(dataset, testing_support::DefaultProfile(dataset), EvalOptions{});
 
   EXPECT_EQ(r.frames, 84);
   EXPECT_EQ(r.good + r.uninformative + r.incoherent, 84);
@@ -144,7 +145,7 @@ TEST_F(EvalTest, RtabmapLoopRecognisesWithFullPrecisionAndWritesPlots) {
        {"\"frames\":84", "\"detected_places\":", "\"learned_places\":", "\"recognition\":{",
         "\"precision\":1,", "\"recall\":", "\"recall_at_full_precision\":", "\"pr_curve\":[[1,",
         "\"map\":{", "\"edges\":", "\"timing\":{",
-        "\"descriptor_ms_median\":", "\"frame_ms_median\":", "\"memory.tau_r\":1.4"}) {
+        "\"descriptor_ms_median\":", "\"frame_ms_median\":", "\"memory.tau_r\":1.6"}) {
     EXPECT_NE(text.find(key), std::string::npos) << key << " in " << text;
   }
   const JsonValue root = ParseJson(text);
@@ -171,7 +172,12 @@ TEST_F(EvalTest, LabelledDatasetScoresBoundariesEdgesAndDrawsFloorPlan) {
   ASSERT_EQ(dataset.size(), 62);
   EvalOptions eval;
   eval.sweep_from = 1.0, eval.sweep_to = 1.6, eval.sweep_step = 0.2;
-  const EvalResult r = Evaluate(dataset, testing_support::KeyframesProfile(), eval);
+  // The rooms' block textures differ only by tint, which the descriptor barely separates
+  // (W5 of issue 19): at the default τ_r 1.6 one room is taken for another (precision 0.67;
+  // docs/calibration.md, seventh pass). This test is about scoring, so it decides at 1.4.
+  PipelineOptions options = testing_support::DefaultProfile(dataset);
+  options.memory.tau_r = 1.4;
+  const EvalResult r = Evaluate(dataset, options, eval);
 
   ASSERT_TRUE(r.boundaries.has_value());
   EXPECT_EQ(r.boundaries->true_boundaries, 4);
@@ -247,7 +253,7 @@ TEST_F(EvalTest, FloorPlanDrawsTheSimulatedWorldAndSurvivesABadWorldJson) {
   ASSERT_EQ(dataset.size(), 40);
   EvalOptions eval;
   eval.sweep_from = 1.2, eval.sweep_to = 1.4, eval.sweep_step = 0.2;
-  const EvalResult r = Evaluate(dataset, testing_support::KeyframesProfile(), eval);
+  const EvalResult r = Evaluate(dataset, testing_support::DefaultProfile(dataset), eval);
 
   std::ostringstream warnings;
   WritePlots(r, dataset, dir_ / "with", warnings);

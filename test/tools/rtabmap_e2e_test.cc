@@ -1,6 +1,6 @@
 // End to end on real frames: ../shared/data/rtabmap-loop (84 frames of an office loop; frames
-// 41-84 revisit 1-40). The keyframes parameter set (config/keyframes.ini), scored with the rules of
-// DESIGN §7.1b.
+// 41-84 revisit 1-40). The shipped defaults (τ_p follows the keyframes' spacing), scored with the
+// rules of DESIGN §7.1b.
 
 #include <gtest/gtest.h>
 
@@ -11,7 +11,7 @@
 #include "core/pipeline/pipeline.h"
 #include "drivers/dataset/dataset.h"
 #include "store/store.h"
-#include "test/support/keyframes_profile.h"
+#include "test/support/default_profile.h"
 #include "test/support/temp_dir.h"
 #include "tools/scoring.h"
 
@@ -27,7 +27,7 @@ TEST(RtabmapLoop, LearnsPlacesAndRecognisesRevisitsWithoutMistakes) {
 
   const testing_support::TempDir temp("tscd_e2e_test");
   const std::filesystem::path db = temp.path() / "rtabmap.db";
-  const PipelineOptions options = testing_support::KeyframesProfile();
+  const PipelineOptions options = testing_support::DefaultProfile(dataset);
   Store store = Store::Open(db);
   StoredState state = store.Load(options.robot, options.memory);
   Pipeline pipeline(dataset.camera(), options, std::move(state.memory), std::move(state.map),

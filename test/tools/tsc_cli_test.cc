@@ -19,7 +19,6 @@
 #include <vector>
 
 #include "test/support/image_bombs.h"
-#include "test/support/keyframes_profile.h"
 #include "test/support/temp_dir.h"
 #include "test/support/tsc_command.h"
 
@@ -179,13 +178,10 @@ TEST_F(TscCliTest, BadConfigKeyExits78NamingFileAndKey) {
   EXPECT_NE(range.err.find("memory.tau_h"), std::string::npos) << range.err;
 }
 
-// The dataset's places span a few frames: the keyframes parameter set fits it.
-const std::string kKeyframes = " --config " + Quote(testing_support::KeyframesConfig().string());
-
 TEST_F(TscCliTest, RunThenInspect) {
   const fs::path ds = MakeDataset(12);
   const fs::path db = dir_ / "run.db", events = dir_ / "events.jsonl";
-  const Outcome run = Tsc("run " + Quote(ds.string()) + " --db " + Quote(db.string()) + kKeyframes +
+  const Outcome run = Tsc("run " + Quote(ds.string()) + " --db " + Quote(db.string()) +
                           " --events " + Quote(events.string()));
   ASSERT_EQ(run.code, 0) << run.err;
   EXPECT_NE(run.out.find("12 frames"), std::string::npos) << run.out;
@@ -217,8 +213,7 @@ TEST_F(TscCliTest, RunThenInspect) {
   EXPECT_NE(ReadFile(dot).find("digraph"), std::string::npos);
 
   // Running again continues the same store.
-  const Outcome again =
-      Tsc("run " + Quote(ds.string()) + " --db " + Quote(db.string()) + kKeyframes);
+  const Outcome again = Tsc("run " + Quote(ds.string()) + " --db " + Quote(db.string()));
   ASSERT_EQ(again.code, 0) << again.err;
   const Outcome after = Tsc("inspect --json --db " + Quote(db.string()));
   EXPECT_NE(after.out.find("\"base_points\":24"), std::string::npos) << after.out;

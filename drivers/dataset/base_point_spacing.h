@@ -1,0 +1,31 @@
+#pragma once
+// How far apart a camera's base points are taken, in metres of travel: place detection's τ_p
+// is a length (detection.tau_p_m) and needs it to count base points, so that one
+// configuration serves a 10 fps camera and a keyframe sequence (DESIGN §3.2 amended;
+// docs/decisions.md, "Frame rate").
+
+#include <string>
+
+namespace tsc {
+
+/// Speed assumed for a camera that declares only its frame rate: the simulated robot's
+/// (0.15 m per frame at 10 fps); a walking person is about as fast.
+inline constexpr double kAssumedSpeedMps = 1.5;
+/// Spacing of a keyframe sequence that does not state it (the real loop of ../shared/data:
+/// keyframes about a metre apart, as RTAB-Map and FAB-MAP datasets take them).
+inline constexpr double kKeyframeSpacingM = 1.0;
+
+/// How far apart a dataset's frames were taken, and on what evidence.
+struct BasePointSpacing {
+  double metres = kKeyframeSpacingM;
+  /// "camera.json spacing_m", "camera.json fps", "camera.json keyframes", "poses (median
+  /// step)" or "undeclared: keyframes assumed".
+  std::string basis;
+};
+
+/// The spacing place detection uses: `configured` (camera.spacing_m) when positive, else what
+/// the source declares, else that of a camera of `fps` frames per second moving at
+/// kAssumedSpeedMps (0.15 m at 10 fps; fps 0, as fast as frames come, counts as 10).
+BasePointSpacing ResolveSpacing(double configured, const BasePointSpacing* declared, double fps);
+
+}  // namespace tsc
