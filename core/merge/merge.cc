@@ -710,8 +710,18 @@ MemoryMerge Merge(const PlaceMemory& ours, const PlaceMemory& peer, PlaceMemory*
     slink = SingleLinkage(static_cast<int>(places.size()), std::move(links));
   }
 
-  result.memory = PlaceMemory::Restore(robot, options, std::move(places), std::move(slink),
-                                       next_local, std::move(saved));
+  // A robot whose store was wiped gets its old places back from a peer: its new places are
+  // numbered after every id of its own the team still holds, as a place or as a source, so no
+  // id is given twice (issue 21 item 5).
+  uint32_t next = next_local;
+  for (const LearnedPlace& p : places) {
+    if (p.id.robot == robot) next = std::max(next, p.id.local + 1);
+    for (const PlaceId& s : p.sources) {
+      if (s.robot == robot) next = std::max(next, s.local + 1);
+    }
+  }
+  result.memory = PlaceMemory::Restore(robot, options, std::move(places), std::move(slink), next,
+                                       std::move(saved));
   // Count the non-root nodes whose key was not among the reusable discriminants.
   for (size_t i = 0; i < result.memory.nodes().size(); ++i) {
     if (static_cast<int>(i) == result.memory.root()) continue;

@@ -450,6 +450,38 @@ TEST(MergeMemories, MergingTheSamePeerTwiceChangesNothing) {
   ExpectSameMemory(reverse.memory, reverse_twice.memory);
 }
 
+// A robot whose store was wiped starts again with an empty memory; a teammate still holds its
+// old places. Merging takes them back (issue 21 item 5) and the robot's next place is numbered
+// after them, never reusing an id the team holds (as a place or as a merged source).
+TEST(MergeMemories, ARobotWithAWipedStoreTakesItsPlacesBackAndNumbersOnAfterThem) {
+  const PlaceMemory before = MakeMemory(1, {At(0), At(1.5f), At(3)}, 10);
+  PlaceMemory peer(2, UnitScale());
+  peer.Learn(MakePlace(At(0, 4.5f), 40));
+  const MemoryMerge team = MergeMemories(peer, before);  // the peer holds 1:1..1:3
+  ASSERT_EQ(team.memory.places().size(), 4u);
+
+  PlaceMemory wiped(1, UnitScale());
+  ASSERT_EQ(wiped.next_local_id(), 1u);
+  const MemoryMerge rejoined = MergeMemories(wiped, team.memory);
+  EXPECT_EQ(rejoined.memory.places().size(), 4u);
+  for (uint32_t local = 1; local <= 3; ++local) {
+    EXPECT_TRUE(rejoined.memory.Find(PlaceId{1, local}).has_value()) << "1:" << local;
+  }
+  EXPECT_EQ(rejoined.memory.next_local_id(), 4u);
+  PlaceMemory after = rejoined.memory;
+  after.Learn(MakePlace(At(0, 9), 50));
+  EXPECT_TRUE(after.Find(PlaceId{1, 4}).has_value());
+
+  // An id that the team holds only as a source of another robot's place counts too: robot 3's
+  // place 3:1 was joined with 2:1 (the same room), which keeps the smaller id.
+  const MemoryMerge joined = MergeMemories(peer, MakeMemory(3, {At(0, 4.5f)}, 40));
+  ASSERT_EQ(joined.memory.places().size(), 1u);
+  ASSERT_EQ(joined.memory.places()[0].id, (PlaceId{2, 1}));
+  ASSERT_EQ(joined.memory.places()[0].sources, (std::vector<PlaceId>{PlaceId{3, 1}}));
+  const MemoryMerge from_sources = MergeMemories(PlaceMemory(3, UnitScale()), joined.memory);
+  EXPECT_EQ(from_sources.memory.next_local_id(), 2u);
+}
+
 // The form that takes its inputs' places instead of copying them gives the same merge in every
 // case (peer into ours and ours into the larger peer, absorbed, added, known, fresher copy).
 TEST(MergeMemories, GivingUpTheInputsGivesTheSameMerge) {
