@@ -189,7 +189,8 @@ struct Daemon::Loop {
         status(io),
         watchdog(io),
         motor(io),
-        exchange(io) {}
+        exchange(io),
+        join(io) {}
   asio::signal_set signals;
   asio::posix::stream_descriptor lcm;
   asio::steady_timer announce;
@@ -197,6 +198,7 @@ struct Daemon::Loop {
   asio::steady_timer watchdog;
   asio::steady_timer motor;
   asio::steady_timer exchange;
+  asio::steady_timer join;
 };
 
 Daemon::Daemon(Settings settings, SettingsSource source, std::unique_ptr<CameraSource> camera,
@@ -274,8 +276,13 @@ Daemon::Daemon(Settings settings, SettingsSource source, std::unique_ptr<CameraS
   pipeline.detector.spacing_m = spacing.metres;
   spdlog::info("base points {:.3g} m apart ({}): places of {} base points or fewer are pruned",
                spacing.metres, spacing.basis, pipeline.detector.EffectiveTauP());
+  const bool fresh = memory.places().empty() && settings_.daemon.bus.join_wait_s > 0.0;
   pipeline_ = std::make_unique<Pipeline>(camera_->intrinsics(), pipeline, std::move(memory),
                                          std::move(map), state);
+  const auto wait = std::chrono::duration_cast<JoinGate::Clock::duration>(
+      std::chrono::duration<double>(settings_.daemon.bus.join_wait_s));
+  // A peer heard whose memory does not complete holds learning at most ten join waits.
+  join_ = std::make_unique<JoinGate>(fresh, wait, 10 * wait, JoinGate::Clock::now());
 }
 
 Daemon::~Daemon() {
@@ -323,7 +330,27 @@ int Daemon::Run() {
 // ---------------------------------------------------------------------------------------------
 // Event loop
 
+void Daemon::OnJoinTimer() {
+  const std::string why = join_->Tick(JoinGate::Clock::now());
+  if (!why.empty()) {
+    spdlog::info("learning starts: {} in {} s", why, settings_.daemon.bus.join_wait_s);
+    return;
+  }
+  if (join_->open()) return;
+  loop_->join.expires_after(std::chrono::milliseconds(100));
+  loop_->join.async_wait([this](const boost::system::error_code& ec) {
+    if (!ec) OnJoinTimer();
+  });
+}
+
 void Daemon::StartTimers() {
+  if (!join_->open()) {
+    spdlog::info(
+        "the memory is empty: listening for peers for {} s before learning (lcm.join_wait_s), "
+        "so that a robot rejoining its team takes its places back first",
+        settings_.daemon.bus.join_wait_s);
+    OnJoinTimer();
+  }
   OnStatusTimer();
   if (notifier_.watchdog_interval()) OnWatchdogTimer();
   if (base_) OnMotorTimer();
@@ -620,6 +647,7 @@ void Daemon::Shutdown() {
   // queue, finishes the stream and commits; the loop stays alive meanwhile so it could still
   // publish.
   camera_->Interrupt();
+  join_->Open();  // a camera still waiting to start ends at once
   if (camera_thread_.joinable()) camera_thread_.join();
   queue_.PushEnd();  // end of stream: close the open place and commit
   queue_.Close();
@@ -638,6 +666,7 @@ void Daemon::Shutdown() {
   loop_->watchdog.cancel();
   loop_->motor.cancel();
   loop_->exchange.cancel();
+  loop_->join.cancel();
   if (base_) base_->Stop();  // again, in case a command slipped in; the destructor stops too
 }
 
@@ -699,6 +728,7 @@ void Daemon::OnPeerAnnounce(const std::string& channel, const uint8_t* data, siz
   const auto a = Authentic<announce_t>(channel, data, size, "announce");
   if (!a || a->robot == static_cast<int32_t>(robot_)) return;
   CountReceived(ChannelFamily::kAnnounce, size);
+  if (a->places > 0) join_->PeerHeard(JoinGate::Clock::now());  // it may hold our places
   if (!exchange_.OnAnnounce(*a, PeerExchange::Clock::now())) {
     const int64_t n = ++counters_.messages_rejected;
     if (ShouldLog(n)) {
@@ -766,6 +796,7 @@ std::string Daemon::StatusLine() const {
 // Camera thread
 
 void Daemon::CameraLoop() {
+  join_->Wait();
   while (!stopping_) {
     try {
       std::optional<CameraFrame> frame = camera_->Next();
@@ -926,6 +957,18 @@ void Daemon::MergePeer(const PeerSnapshot& snapshot) {
               peer_into_ours ? "into ours" : "ours into the larger peer memory",
               ToString(merge_case), absorbed.size(), added, places_before, places_after, ms);
   if (changed && !absorptions.empty()) spdlog::info("  absorbed: {}", absorptions);
+  if (!join_->open()) {
+    join_->PeerMerged();
+    uint32_t next = 0;
+    {
+      std::lock_guard lock(pipeline_mutex_);
+      next = pipeline_->memory().next_local_id();
+    }
+    spdlog::info(
+        "learning starts: the team's memory is merged; new places are numbered from "
+        "{}:{}",
+        robot_, next);
+  }
   asio::post(*io_, [this, absorbed = std::move(absorbed)]() mutable {
     PublishMerged(std::move(absorbed), NowUtime());
   });

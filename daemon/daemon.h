@@ -19,6 +19,7 @@
 
 #include "core/pipeline/pipeline.h"
 #include "daemon/frame_queue.h"
+#include "daemon/join_gate.h"
 #include "daemon/lcm_bus.h"
 #include "daemon/memory_snapshot.h"
 #include "daemon/peer_exchange.h"
@@ -116,6 +117,7 @@ class Daemon {
   void OnPeerAnnounce(const std::string& channel, const uint8_t* data, size_t size);
   void OnPeerPortion(const std::string& channel, const uint8_t* data, size_t size);
   void OnExchangeTimer();
+  void OnJoinTimer();
   void OnPeerSnapshot(PeerSnapshot snapshot);
   /// Decodes an exchange message and checks its signature; counts and logs what it drops.
   template <typename T>
@@ -176,6 +178,7 @@ class Daemon {
   // Owned by the worker once it runs; the mutex lets the loop take snapshots.
   mutable std::mutex pipeline_mutex_;
   std::unique_ptr<Pipeline> pipeline_;
+  std::unique_ptr<JoinGate> join_;  ///< the camera waits here while a fresh robot listens
   std::optional<Store> store_;
   std::vector<FrameResult> pending_;        // results not yet committed (store missing or failing)
   std::optional<PeerMerge> unsaved_merge_;  // a merged memory the store has not taken yet

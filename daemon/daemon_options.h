@@ -65,6 +65,9 @@ struct BusOptions {
   double memory_period_s = 5.0;
   int portion_bytes = 60000;  ///< upper bound of one encoded memory portion (one datagram)
   std::string team_key_file;  ///< HMAC key shared by the team; empty = unsigned
+  /// With an empty memory, how long to listen for peers before learning (a robot rejoining
+  /// with a wiped store takes its old places back first; daemon/join_gate.h); 0 = at once.
+  double join_wait_s = 2.0;
 };
 
 /// The motor channel (drivers/base, drivers/motor). Facts the protocol sources leave uncertain

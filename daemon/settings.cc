@@ -488,6 +488,11 @@ std::vector<ConfigKey> BuildTable() {
       "lcm.announce_period_s", "seconds between announces on TSC_ANNOUNCE", "s", 0.05, 3600,
       [](auto& o) -> auto& { return o.daemon.bus.announce_period_s; }));
   t.push_back(Number(
+      "lcm.join_wait_s",
+      "with an empty memory, seconds to listen for peers (and take back this robot's places "
+      "from them) before learning; 0 = learn at once",
+      "s", 0, 600, [](auto& o) -> auto& { return o.daemon.bus.join_wait_s; }));
+  t.push_back(Number(
       "lcm.memory_period_s",
       "least time between two broadcasts of a changed memory on TSC_MEMORY_<robot>; requests "
       "are answered at once",

@@ -1,0 +1,164 @@
+// Issue 21 item 5: a robot whose state directory was wiped rejoins a running team, takes its
+// old places back from a teammate before it learns, and numbers its new places after them.
+// Two tscd in a private network namespace on the simulated world of a 3-robot team: robot 1
+// drives route 0 beside robot 2 (route 1), stops, loses its store, and drives route 2.
+#include <gtest/gtest.h>
+
+#include <algorithm>
+#include <chrono>
+#include <csignal>
+#include <filesystem>
+#include <set>
+#include <string>
+#include <thread>
+#include <vector>
+
+#include "core/memory/place_memory.h"
+#include "store/store.h"
+#include "test/daemon/bus_listener.h"
+#include "test/daemon/fast_sim_robot.h"
+#include "test/support/child_process.h"
+#include "test/support/temp_dir.h"
+
+namespace tsc {
+namespace {
+
+namespace fs = std::filesystem;
+using std::chrono::milliseconds;
+using std::chrono::seconds;
+using testing_support::BusListener;
+using testing_support::ChildProcess;
+
+std::vector<std::string> Robot(int id, const fs::path& state, int route) {
+  std::vector<std::string> argv = testing_support::FastSimRobot(
+      state, {"--set", "sim.team_size=3", "--set", "sim.route=" + std::to_string(route)});
+  argv.at(2) = std::to_string(id);  // FastSimRobot starts "tscd --robot 1"
+  return argv;
+}
+
+bool CameraEnded(const BusListener& b, int robot) {
+  if (!b.announces.count("TSC_ANNOUNCE")) return false;
+  const auto& all = b.announces.at("TSC_ANNOUNCE");
+  for (auto a = all.rbegin(); a != all.rend(); ++a) {
+    if (a->robot == robot) return a->status.find("camera ended") != std::string::npos;
+  }
+  return false;
+}
+
+// Robot `robot`'s place ids in a stored memory: its places and the sources other places hold.
+std::set<PlaceId> OwnIds(const fs::path& db, uint32_t owner, uint32_t robot) {
+  Store store = Store::Open(db);
+  const StoredState saved = store.Load(owner, PlaceMemoryOptions{});
+  std::set<PlaceId> ids;
+  for (const LearnedPlace& p : saved.memory.places()) {
+    if (p.id.robot == robot) ids.insert(p.id);
+    for (const PlaceId& s : p.sources) {
+      if (s.robot == robot) ids.insert(s);
+    }
+  }
+  return ids;
+}
+
+// Ids of robot `robot` in every memory portion seen on `channel`: places and sources. Ids are
+// never dropped from a memory, so the union over time is what the sender holds now.
+std::set<PlaceId> IdsOf(const BusListener& b, const std::string& channel, int robot) {
+  std::set<PlaceId> ids;
+  if (!b.portions.count(channel)) return ids;
+  auto add = [&](const place_ref_t& r) {
+    if (r.robot == robot) {
+      ids.insert(PlaceId{static_cast<uint32_t>(r.robot), static_cast<uint32_t>(r.local)});
+    }
+  };
+  for (const memory_portion_t& m : b.portions.at(channel)) {
+    for (const learned_place_t& p : m.places) {
+      add(p.id);
+      for (const place_ref_t& s : p.sources) add(s);
+    }
+  }
+  return ids;
+}
+
+TEST(RejoinTest, AWipedRobotTakesItsPlacesBackFromTheTeamAndNumbersOnAfterThem) {
+  TSCD_REQUIRE_PRIVATE_NETNS();
+  testing_support::TempDir temp("rejoin_test");
+  const fs::path dir = temp.path();
+  BusListener bus;
+
+  ChildProcess robot1(Robot(1, dir / "r1", 0), dir / "r1-first.log");
+  ChildProcess robot2(Robot(2, dir / "r2", 1), dir / "r2.log");
+  ASSERT_TRUE(bus.WaitFor(
+      [](const BusListener& b) { return CameraEnded(b, 1) && CameraEnded(b, 2); }, seconds(180)))
+      << robot1.Log() << robot2.Log();
+  // Robot 2 holds every place robot 1 has broadcast (as a place or a source) before robot 1
+  // stops.
+  ASSERT_TRUE(bus.WaitFor(
+      [&](const BusListener& b) {
+        const std::set<PlaceId> own = IdsOf(b, "TSC_MEMORY_1", 1);
+        const std::set<PlaceId> held = IdsOf(b, "TSC_MEMORY_2", 1);
+        return own.size() >= 2 && std::includes(held.begin(), held.end(), own.begin(), own.end());
+      },
+      seconds(90)))
+      << robot1.Log() << robot2.Log();
+  robot1.Signal(SIGTERM);
+  ASSERT_EQ(robot1.Wait(seconds(30)), 0) << robot1.Log();
+  const std::set<PlaceId> before = OwnIds(dir / "r1" / "memory.db", 1, 1);
+  std::set<PlaceId> held;
+  bus.Inspect([&](const BusListener& b) { held = IdsOf(b, "TSC_MEMORY_2", 1); });
+  ASSERT_TRUE(std::includes(held.begin(), held.end(), before.begin(), before.end()))
+      << before.size() << " places stored, " << held.size() << " held by robot 2";
+  const uint32_t highest =
+      std::max_element(before.begin(), before.end(), [](const PlaceId& a, const PlaceId& b) {
+        return a.local < b.local;
+      })->local;
+
+  // The store is lost; robot 1 starts again, on another route.
+  fs::remove_all(dir / "r1");
+  size_t events_before = 0;
+  int64_t first_boot = 0;
+  bus.Inspect([&](const BusListener& b) {
+    if (b.events.count("TSC_EVENT_1")) events_before = b.events.at("TSC_EVENT_1").size();
+    for (const announce_t& a : b.announces.at("TSC_ANNOUNCE")) {
+      if (a.robot == 1) first_boot = a.boot_id;
+    }
+  });
+  ChildProcess again(Robot(1, dir / "r1", 2), dir / "r1-again.log");
+  ASSERT_TRUE(bus.WaitFor(
+      [&](const BusListener& b) {
+        const auto& all = b.announces.at("TSC_ANNOUNCE");
+        for (auto a = all.rbegin(); a != all.rend(); ++a) {
+          if (a->robot == 1) {
+            return a->boot_id != first_boot && a->status.find("camera ended") != std::string::npos;
+          }
+        }
+        return false;
+      },
+      seconds(180)))
+      << again.Log();
+  std::this_thread::sleep_for(milliseconds(500));
+  std::vector<PlaceId> learned;
+  bus.Inspect([&](const BusListener& b) {
+    const auto& events = b.events.at("TSC_EVENT_1");
+    for (size_t i = events_before; i < events.size(); ++i) {
+      if (events[i].event == "learned") {
+        learned.push_back(PlaceId{static_cast<uint32_t>(events[i].place.robot),
+                                  static_cast<uint32_t>(events[i].place.local)});
+      }
+    }
+  });
+  again.Signal(SIGTERM);
+  ASSERT_EQ(again.Wait(seconds(30)), 0) << again.Log();
+  const std::string log = again.Log();
+  EXPECT_NE(log.find("learning starts: the team's memory is merged"), std::string::npos) << log;
+  ASSERT_FALSE(learned.empty()) << "route 2 taught robot 1 nothing new: " << log;
+  for (const PlaceId& p : learned) {
+    EXPECT_GT(p.local, highest) << p.ToString() << " reuses an id the team held";
+  }
+  const std::set<PlaceId> after = OwnIds(dir / "r1" / "memory.db", 1, 1);
+  EXPECT_TRUE(std::includes(after.begin(), after.end(), before.begin(), before.end()))
+      << "robot 1 did not take back all of its " << before.size() << " places";
+  robot2.Signal(SIGTERM);
+  EXPECT_EQ(robot2.Wait(seconds(30)), 0) << robot2.Log();
+}
+
+}  // namespace
+}  // namespace tsc
