@@ -2,7 +2,8 @@
 // The tscd command line of a small, fast simulated robot for the daemon tests: robot 1,
 // 160x120 frames as fast as the pipeline takes them, announces every 0.2 s, and a small
 // plenitude threshold (tau_p 3, as keyframes a metre apart get) so the sparse places of a short
-// run are not pruned.
+// run are not pruned; it learns at once (lcm.join_wait_s 0: a robot alone has no team to rejoin,
+// and the crash tests kill it within its first seconds).
 
 #include <filesystem>
 #include <string>
@@ -26,7 +27,9 @@ inline std::vector<std::string> FastSimRobot(const std::filesystem::path& state,
                                    "--set",
                                    "lcm.announce_period_s=0.2",
                                    "--set",
-                                   "detection.tau_p=3"};
+                                   "detection.tau_p=3",
+                                   "--set",
+                                   "lcm.join_wait_s=0"};
   argv.insert(argv.end(), extra.begin(), extra.end());
   return argv;
 }

@@ -31,8 +31,9 @@ using testing_support::ChildProcess;
 
 std::vector<std::string> Robot(int id, const fs::path& state, int route) {
   std::vector<std::string> argv = testing_support::FastSimRobot(
-      state, {"--set", "sim.team_size=3", "--set", "sim.route=" + std::to_string(route)});
-  argv.at(2) = std::to_string(id);  // FastSimRobot starts "tscd --robot 1"
+      state, {"--set", "sim.team_size=3", "--set", "sim.route=" + std::to_string(route), "--set",
+              "lcm.join_wait_s=2"});  // the default, which FastSimRobot turns off
+  argv.at(2) = std::to_string(id);    // FastSimRobot starts "tscd --robot 1"
   return argv;
 }
 
