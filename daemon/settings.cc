@@ -277,8 +277,8 @@ std::vector<ConfigKey> BuildTable() {
       [](auto& o) -> auto& { return o.pipeline.memory.distance_unit; }));
   t.push_back(Number(
       "memory.step_unit",
-      "when > 0, the unit u of the distance term is this multiple of D's median squared step "
-      "between consecutive base points (experimental)",
+      "the unit u of the distance term is at least this multiple of D's median squared step "
+      "between consecutive base points (0: distance_unit alone)",
       "", 0, 1e6, [](auto& o) -> auto& { return o.pipeline.memory.step_unit; }));
   t.push_back(Number(
       "memory.mean_distance_unit",

@@ -102,7 +102,9 @@ double PlaceMemory::UnitFor(const DetectedPlace& d) const {
   }
   auto mid = steps.begin() + static_cast<std::ptrdiff_t>(steps.size() / 2);
   std::nth_element(steps.begin(), mid, steps.end());
-  return *mid > 0.0 ? options_.step_unit * *mid : DistanceUnit();
+  // At least D's own step: a revisit is not expected nearer the memory's views than D's
+  // consecutive base points are to each other.
+  return std::max(DistanceUnit(), options_.step_unit * *mid);
 }
 
 ViewDistances PlaceMemory::DistancesOf(const Eigen::MatrixXf& votes, double unit) const {
