@@ -276,6 +276,11 @@ std::vector<ConfigKey> BuildTable() {
       "descriptor distance^2", 0, 1e6,
       [](auto& o) -> auto& { return o.pipeline.memory.distance_unit; }));
   t.push_back(Number(
+      "memory.step_unit",
+      "the unit u of the distance term is at least this multiple of D's median squared step "
+      "between consecutive base points (0: distance_unit alone)",
+      "", 0, 1e6, [](auto& o) -> auto& { return o.pipeline.memory.step_unit; }));
+  t.push_back(Number(
       "memory.mean_distance_unit",
       "unit of the squared distance between D's mean and N1's centroid when the distance term "
       "of g_N may come from the means (the smaller counts; a pan sweep's preset); 0 = views only",

@@ -11,6 +11,8 @@
 #include <string>
 #include <tuple>
 
+#include "core/memory/sequence_localisation.h"
+
 namespace tsc {
 
 std::string MajorityLabel(const GroundTruth& truth, const std::vector<int>& frames) {
@@ -342,18 +344,18 @@ std::vector<LoopClosure> PlaceMembersMirror::Recognise(const PlaceId& place,
   RequireOneDescriptorPerFrame(frames, descriptors);
   std::vector<LoopClosure> out;
   const auto it = places_.find(place);
-  for (size_t j = 0; j < frames.size(); ++j) {
-    LoopClosure c{frames[j], -1};
-    float best = std::numeric_limits<float>::infinity();
-    if (it != places_.end()) {
-      const Members& m = it->second;
-      const auto x = descriptors.col(static_cast<Eigen::Index>(j));
-      for (size_t i = 0; i < m.frames.size(); ++i) {
-        const float d = (m.descriptors[i] - x).squaredNorm();
-        if (d < best) best = d, c.named = m.frames[i];  // ties: the first member
-      }
+  Eigen::MatrixXf members;
+  if (it != places_.end() && !it->second.descriptors.empty()) {
+    const Members& m = it->second;
+    members.resize(descriptors.rows(), static_cast<Eigen::Index>(m.descriptors.size()));
+    for (size_t i = 0; i < m.descriptors.size(); ++i) {
+      members.col(static_cast<Eigen::Index>(i)) = m.descriptors[i];
     }
-    out.push_back(c);
+  }
+  const std::vector<int> shown = LocaliseAlongSequence(descriptors, members);
+  for (size_t j = 0; j < frames.size(); ++j) {
+    out.push_back(LoopClosure{
+        frames[j], shown[j] < 0 ? -1 : it->second.frames[static_cast<size_t>(shown[j])]});
   }
   // Joins only after naming: P as it was when recognised.
   Append(places_[place], frames, descriptors);

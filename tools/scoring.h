@@ -183,8 +183,9 @@ class PlaceMembersMirror {
   void Learn(const PlaceId& place, const std::vector<int>& frames,
              const Eigen::MatrixXf& descriptors);
   /// A detected place recognised as `place`: each of its frames names the member frame of
-  /// `place` nearest to its descriptor (L2), over the members as they were before this
-  /// recognition; then its frames join the place. A place never learned names -1.
+  /// `place` it shows (LocaliseAlongSequence: its neighbourhood against the members'), over
+  /// the members as they were before this recognition; then its frames join the place. A
+  /// place never learned names -1.
   std::vector<LoopClosure> Recognise(const PlaceId& place, const std::vector<int>& frames,
                                      const Eigen::MatrixXf& descriptors);
 

@@ -1,13 +1,13 @@
 #include "core/memory/place_memory.h"
 
-#include "core/memory/member_views.h"
-
 #include <algorithm>
 #include <cmath>
 #include <functional>
 #include <limits>
 #include <stdexcept>
 #include <string>
+
+#include "core/memory/member_views.h"
 
 namespace tsc {
 namespace {
@@ -38,6 +38,8 @@ void PlaceMemoryOptions::Validate() const {
   if (!(tau_h >= 0 && tau_h < 1)) fail("tau_h", "must be in [0,1), got " + std::to_string(tau_h));
   if (max_samples_per_place < 1) fail("max_samples_per_place", "must be >= 1");
   if (max_vote_points < 1) fail("max_vote_points", "must be >= 1");
+  if (!(step_unit >= 0) || !std::isfinite(step_unit))
+    fail("step_unit", "must be >= 0, got " + std::to_string(step_unit));
   if (!(distance_unit >= 0) || !std::isfinite(distance_unit))
     fail("distance_unit", "must be >= 0, got " + std::to_string(distance_unit));
   cost.Validate();
@@ -91,17 +93,30 @@ double PlaceMemory::DistanceUnit() const {
   return options_.distance_unit > 0.0 ? options_.distance_unit : MedianViewSpacing();
 }
 
-ViewDistances PlaceMemory::DistancesOf(const Eigen::MatrixXf& votes) const {
+double PlaceMemory::UnitFor(const DetectedPlace& d) const {
+  const Eigen::Index n = d.descriptors.cols();
+  if (options_.step_unit <= 0.0 || n < 2) return DistanceUnit();
+  std::vector<double> steps(static_cast<size_t>(n - 1));
+  for (Eigen::Index i = 0; i + 1 < n; ++i) {
+    steps[static_cast<size_t>(i)] = (d.descriptors.col(i + 1) - d.descriptors.col(i)).squaredNorm();
+  }
+  auto mid = steps.begin() + static_cast<std::ptrdiff_t>(steps.size() / 2);
+  std::nth_element(steps.begin(), mid, steps.end());
+  // At least D's own step: a revisit is not expected nearer the memory's views than D's
+  // consecutive base points are to each other.
+  return std::max(DistanceUnit(), options_.step_unit * *mid);
+}
+
+ViewDistances PlaceMemory::DistancesOf(const Eigen::MatrixXf& votes, double unit) const {
   std::vector<const LearnedPlace*> all;
   all.reserve(places_.size());
   for (const LearnedPlace& p : places_) all.push_back(&p);
-  // One unit for every place: the memory's median view spacing (docs/decisions.md
-  // "Recognition cost": a place's own spacing let large, varied places absorb strangers).
-  return ViewDistances(votes, all, std::vector<double>(all.size(), DistanceUnit()));
+  // One unit for every place (docs/decisions.md "Recognition cost": a place's own spacing let
+  // large, varied places absorb strangers).
+  return ViewDistances(votes, all, std::vector<double>(all.size(), unit));
 }
 
-CostTerms PlaceMemory::Cost(const ViewDistances& vd, const Eigen::MatrixXf& votes,
-                            int node) const {
+CostTerms PlaceMemory::Cost(const ViewDistances& vd, const Eigen::MatrixXf& votes, int node) const {
   // The children of N, each with the places under it (one contiguous range of leaf_order_).
   const std::vector<int>& children = nodes_[node].children;
   std::vector<CostCandidate> candidates(children.size());
@@ -124,7 +139,7 @@ CostTerms PlaceMemory::Cost(const ViewDistances& vd, const Eigen::MatrixXf& vote
 
 Recognition PlaceMemory::Descend(const DetectedPlace& d, int start) const {
   const Eigen::MatrixXf votes = VotePoints(d);
-  return Descend(DistancesOf(votes), votes, start);
+  return Descend(DistancesOf(votes, UnitFor(d)), votes, start);
 }
 
 Recognition PlaceMemory::Descend(const ViewDistances& vd, const Eigen::MatrixXf& votes,
@@ -149,7 +164,7 @@ Recognition PlaceMemory::Recognize(const DetectedPlace& d, std::optional<int> pr
   if (empty()) return total;
   // Every descent measures against the same views: the distances are computed once.
   const Eigen::MatrixXf votes = VotePoints(d);
-  const ViewDistances vd = DistancesOf(votes);
+  const ViewDistances vd = DistancesOf(votes, UnitFor(d));
   auto absorb = [&total](const Recognition& r) {
     total.start_nodes.insert(total.start_nodes.end(), r.start_nodes.begin(), r.start_nodes.end());
     total.visited.insert(total.visited.end(), r.visited.begin(), r.visited.end());

@@ -51,6 +51,11 @@ struct PlaceMemoryOptions {
   /// takes the memory's median view spacing (adapts to any camera); > 0 fixes it for a
   /// camera kind (a preset, docs/decisions.md "Recognition cost").
   double distance_unit = 1.5e-5;
+  /// u is at least this multiple of D's own step, the median squared distance between D's
+  /// consecutive base points: a revisit is not expected nearer the memory's views than D's
+  /// frames are to each other (real keyframes a metre apart; docs/decisions.md "Recognition
+  /// cost"). 0: distance_unit alone.
+  double step_unit = 0.5;
   RecognitionCostOptions cost;
   DiscriminantOptions discriminant;  ///< d_N, used with svm_vote
   void Validate() const;
@@ -80,7 +85,10 @@ class PlaceMemory {
   /// member views; `terms.best` is N¹ as a node index.
   CostTerms Cost(const ViewDistances& vd, const Eigen::MatrixXf& votes, int node) const;
   /// The nearest member views of every place to D's vote points, and the vote points.
-  ViewDistances DistancesOf(const Eigen::MatrixXf& votes) const;
+  ViewDistances DistancesOf(const Eigen::MatrixXf& votes, double unit) const;
+  /// u for D: the larger of DistanceUnit() and step_unit x D's median consecutive squared
+  /// step (DistanceUnit() alone when D has one point or step_unit is 0).
+  double UnitFor(const DetectedPlace& d) const;
   Eigen::MatrixXf VotePoints(const DetectedPlace& d) const;
 
   /// Learns D as a new place p*+1 (SLINK insertion, rebuild, retrain changed nodes).

@@ -401,5 +401,38 @@ TEST(PlaceMemoryViews, AOnePlaceMemoryRecognisesItsPlace) {
   EXPECT_FALSE(dut.Recognize(views::Visit(views::MakeRoom(rng), 3, rng)).place.has_value());
 }
 
+// Keyframes far apart (the real loop's, a metre) come no nearer the member views than their own
+// step: with the unit fixed for a dense camera such a revisit is not recognised; with u at
+// least half D's own step it is, and a room never seen still is not.
+TEST(PlaceMemoryViews, ASparseRevisitIsMeasuredInItsOwnStep) {
+  std::mt19937 rng(15);
+  PlaceMemoryOptions dense = views::ViewOptions();
+  dense.step_unit = 0.0;
+  PlaceMemory probe(1, dense);
+  std::vector<views::Room> rooms;
+  for (int r = 0; r < 4; ++r) {
+    rooms.push_back(views::MakeRoom(rng));
+    probe.Learn(views::Visit(rooms.back(), r + 1, rng));
+  }
+  dense.distance_unit = probe.MedianViewSpacing();  // fixed, as a camera preset is
+  PlaceMemoryOptions own_step = dense;
+  own_step.step_unit = 0.5;
+  PlaceMemory fixed(1, dense), stepped(1, own_step);
+  // Both passes are keyframes 12 path steps apart, the second halfway between the first's.
+  std::mt19937 again(16);
+  for (int r = 0; r < 4; ++r) {
+    const DetectedPlace d = views::Visit(rooms[static_cast<size_t>(r)], r + 1, again, 0, -1, 12);
+    fixed.Learn(d);
+    stepped.Learn(d);
+  }
+  const DetectedPlace sparse = views::Visit(rooms[1], 20, again, 6, -1, 12);
+  EXPECT_FALSE(fixed.Recognize(sparse).place.has_value());
+  const Recognition got = stepped.Recognize(sparse);
+  ASSERT_TRUE(got.place.has_value()) << "cost " << got.cost;
+  EXPECT_EQ(*got.place, 1);
+  const views::Room stranger = views::MakeRoom(rng);
+  EXPECT_FALSE(stepped.Recognize(views::Visit(stranger, 21, again, 6, -1, 12)).place.has_value());
+}
+
 }  // namespace
 }  // namespace tsc
