@@ -291,23 +291,26 @@ Eigen::MatrixXf Columns(std::initializer_list<std::pair<float, float>> points) {
   return m;
 }
 
-// Each frame of a recognised place names the nearest member frame of the place as it was
-// when recognised; the recognised frames join it afterwards.
-TEST(PlaceMembersMirror, NamesTheNearestMemberAsThePlaceWasWhenRecognised) {
+// Each frame of a recognised place names the member frame of the place it shows (along the
+// sequence: core/memory/sequence_localisation), over the place as it was when recognised; the
+// recognised frames join it afterwards. Descriptors are amplitudes (positive): A, B, C, D
+// below are distinct directions.
+TEST(PlaceMembersMirror, NamesTheMemberItShowsAsThePlaceWasWhenRecognised) {
   const PlaceId p{1, 1}, q{1, 2};
+  const std::pair<float, float> a{1.0f, 0.1f}, b{0.6f, 0.6f}, c{0.1f, 1.0f}, d{0.3f, 0.9f};
   PlaceMembersMirror dut;
-  dut.Learn(p, {0, 1, 2}, Columns({{0, 0}, {1, 0}, {2, 0}}));
-  dut.Learn(q, {3}, Columns({{10, 10}}));
-  // 10 is nearest 2, 11 nearest 0; 12 is nearest q's frame, but only p's members compete.
-  EXPECT_EQ(dut.Recognise(p, {10, 11, 12}, Columns({{2.2f, 0.1f}, {-0.4f, 0}, {9, 9}})),
-            (std::vector<LoopClosure>{{10, 2}, {11, 0}, {12, 2}}));
-  // Now 10, 11, 12 are members of p; 20 equals 10's view. 21 equals 20's view, but 20 was not
-  // yet a member when p was recognised.
-  EXPECT_EQ(dut.Recognise(p, {20, 21}, Columns({{2.2f, 0.1f}, {2.2f, 0.1f}})),
-            (std::vector<LoopClosure>{{20, 10}, {21, 10}}));
+  dut.Learn(p, {0, 1, 2}, Columns({a, b, c}));
+  dut.Learn(q, {3}, Columns({d}));
+  // The stretch seen again names its frames; d is q's view, but only p's members compete.
+  EXPECT_EQ(dut.Recognise(p, {10, 11, 12}, Columns({a, b, d})),
+            (std::vector<LoopClosure>{{10, 0}, {11, 1}, {12, 2}}));
+  // Now 10, 11, 12 are members of p; 20 and 21 show 12's view: both name 12 (20 was not yet a
+  // member when p was recognised, so 21 cannot name it).
+  EXPECT_EQ(dut.Recognise(p, {20, 21}, Columns({d, d})),
+            (std::vector<LoopClosure>{{20, 12}, {21, 12}}));
   // A place the mirror never saw learned names no frame.
-  EXPECT_EQ(dut.Recognise({1, 9}, {30}, Columns({{0, 0}})), (std::vector<LoopClosure>{{30, -1}}));
-  EXPECT_THROW(dut.Recognise(p, {40, 41}, Columns({{0, 0}})), std::invalid_argument);
+  EXPECT_EQ(dut.Recognise({1, 9}, {30}, Columns({a})), (std::vector<LoopClosure>{{30, -1}}));
+  EXPECT_THROW(dut.Recognise(p, {40, 41}, Columns({a})), std::invalid_argument);
 }
 
 TEST(ViewOverlap, TwoMetresAndFortyFiveDegreesAroundTheCircle) {
