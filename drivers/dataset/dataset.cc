@@ -159,9 +159,11 @@ int FrameIndex(const fs::path& file, int line, const std::string& field, int fra
   return static_cast<int>(v - 1);
 }
 
-// ---- camera.json: a JSON object whose numeric members are read (others are ignored).
+// ---- camera.json: a JSON object; its numeric members and "keyframes" are read (others are
+// ignored).
 
-std::map<std::string, double> ReadNumbers(const fs::path& file, const std::string& text) {
+// The JSON object of `text`; fails naming `file` when it is not one.
+JsonValue ReadObject(const fs::path& file, const std::string& text) {
   JsonValue root;
   try {
     root = ParseJson(text);
@@ -169,6 +171,11 @@ std::map<std::string, double> ReadNumbers(const fs::path& file, const std::strin
     Fail(file, e.what());
   }
   if (root.kind != JsonValue::Kind::kObject) Fail(file, "expected a JSON object");
+  return root;
+}
+
+// The numeric members of `root` (others are ignored).
+std::map<std::string, double> Numbers(const JsonValue& root) {
   std::map<std::string, double> out;
   for (size_t i = 0; i < root.keys.size(); ++i) {
     if (root.items[i].kind == JsonValue::Kind::kNumber) out[root.keys[i]] = root.items[i].number;
@@ -183,8 +190,7 @@ struct CameraFile {
 };
 
 // "spacing_m", "fps" or "keyframes" of camera.json; nullopt when none is given.
-std::optional<BasePointSpacing> DeclaredSpacing(const fs::path& file, const std::string& text) {
-  const JsonValue root = ParseJson(text);  // already parsed once by ReadNumbers
+std::optional<BasePointSpacing> DeclaredSpacing(const fs::path& file, const JsonValue& root) {
   std::optional<BasePointSpacing> out;
   for (size_t i = 0; i < root.keys.size(); ++i) {
     const std::string& key = root.keys[i];
@@ -230,8 +236,9 @@ CameraFile ReadCamera(const fs::path& file, int image_width, int height) {
   if (!in) Fail(file, "cannot open");
   std::stringstream text;
   text << in.rdbuf();
-  const std::map<std::string, double> v = ReadNumbers(file, text.str());
-  const std::optional<BasePointSpacing> spacing = DeclaredSpacing(file, text.str());
+  const JsonValue root = ReadObject(file, text.str());
+  const std::map<std::string, double> v = Numbers(root);
+  const std::optional<BasePointSpacing> spacing = DeclaredSpacing(file, root);
   const auto has = [&](const char* k) { return v.count(k) > 0; };
   // A whole-number member in [1, most] (`fallback` when absent), checked before it becomes
   // an int: a value beyond int's range would be undefined behaviour.
