@@ -77,8 +77,36 @@ void BM_Recognize(benchmark::State& state) {
   state.counters["recognised_fraction"] =
       static_cast<double>(recognised) / static_cast<double>(state.iterations());
   state.counters["tree_depth"] = memory.Depth();
+  // The shortlist's cost in quality: the queries recognised as measuring every place does.
+  PlaceMemoryOptions exhaustive_options = memory.options();
+  exhaustive_options.shortlist = 0;
+  const PlaceMemory exhaustive =
+      PlaceMemory::Restore(memory.robot(), exhaustive_options, memory.places(), memory.slink(),
+                           memory.next_local_id(), {});
+  int agree = 0;
+  for (const DetectedPlace& q : queries)
+    agree += memory.Recognize(q).place == exhaustive.Recognize(q).place;
+  state.counters["agrees_with_exhaustive"] =
+      static_cast<double>(agree) / static_cast<double>(queries.size());
 }
 BENCHMARK(BM_Recognize)->Arg(10)->Arg(100)->Arg(1000)->Arg(10000)->Unit(benchmark::kMicrosecond);
+
+// The index's share of a recognition: estimating every place's distance to D's queries.
+void BM_ViewIndexEstimate(benchmark::State& state) {
+  const int n = static_cast<int>(state.range(0));
+  SyntheticPlaces places(1);
+  ViewIndex index;
+  for (int p = 0; p < n; ++p) {
+    const DetectedPlace d = places.Place(p);
+    LearnedPlace learned;
+    learned.mean = d.Mean();
+    learned.samples = d.descriptors;
+    index.Set(p, learned);
+  }
+  const Eigen::MatrixXf queries = places.Place(7).descriptors.leftCols(5);
+  for (auto _ : state) benchmark::DoNotOptimize(index.Estimate(queries));
+}
+BENCHMARK(BM_ViewIndexEstimate)->Arg(1000)->Arg(10000)->Unit(benchmark::kMicrosecond);
 
 void BM_Learn(benchmark::State& state) {
   const int n = static_cast<int>(state.range(0));

@@ -38,6 +38,7 @@ void PlaceMemoryOptions::Validate() const {
   if (!(tau_h >= 0 && tau_h < 1)) fail("tau_h", "must be in [0,1), got " + std::to_string(tau_h));
   if (max_samples_per_place < 1) fail("max_samples_per_place", "must be >= 1");
   if (max_vote_points < 1) fail("max_vote_points", "must be >= 1");
+  if (shortlist < 0) fail("shortlist", "must be >= 0, got " + std::to_string(shortlist));
   if (!(step_unit >= 0) || !std::isfinite(step_unit))
     fail("step_unit", "must be >= 0, got " + std::to_string(step_unit));
   if (!(distance_unit >= 0) || !std::isfinite(distance_unit))
@@ -108,12 +109,25 @@ double PlaceMemory::UnitFor(const DetectedPlace& d) const {
 }
 
 ViewDistances PlaceMemory::DistancesOf(const Eigen::MatrixXf& votes, double unit) const {
-  std::vector<const LearnedPlace*> all;
-  all.reserve(places_.size());
-  for (const LearnedPlace& p : places_) all.push_back(&p);
+  std::vector<const LearnedPlace*> all(places_.size(), nullptr);
+  std::vector<float> estimates;
+  const int n = static_cast<int>(places_.size());
+  if (options_.shortlist > 0 && n > options_.shortlist) {
+    // The index keys each place by its mean and spread views; D is asked by its mean and a
+    // few of its vote points, so a revisit along part of a place still finds it.
+    Eigen::MatrixXf queries(votes.rows(), 1 + std::min<Eigen::Index>(2, votes.cols()));
+    queries.col(0) = votes.rowwise().mean();
+    queries.rightCols(queries.cols() - 1) = EvenlySpaced(votes, 2);
+    estimates = view_index_.Estimate(queries);
+    for (int p : Shortlist(estimates, options_.shortlist)) {
+      all[static_cast<size_t>(p)] = &places_[static_cast<size_t>(p)];
+    }
+  } else {
+    for (size_t p = 0; p < places_.size(); ++p) all[p] = &places_[p];
+  }
   // One unit for every place (docs/decisions.md "Recognition cost": a place's own spacing let
   // large, varied places absorb strangers).
-  return ViewDistances(votes, all, std::vector<double>(all.size(), unit));
+  return ViewDistances(votes, all, std::vector<double>(all.size(), unit), estimates);
 }
 
 CostTerms PlaceMemory::Cost(const ViewDistances& vd, const Eigen::MatrixXf& votes, int node) const {
@@ -221,6 +235,7 @@ int PlaceMemory::Learn(const DetectedPlace& d) {
   spacings_.push_back(ViewSpacing(p.samples));
   places_.push_back(std::move(p));
   StoreMean(static_cast<int>(places_.size()) - 1);
+  view_index_.Set(static_cast<int>(places_.size()) - 1, places_.back());
   ++next_local_;
   RebuildTree(nullptr);
   return static_cast<int>(places_.size()) - 1;
@@ -243,6 +258,7 @@ void PlaceMemory::Update(int place, const DetectedPlace& d) {
   p.detected.push_back(d.index);
   p.members.insert(p.members.end(), d.members.begin(), d.members.end());
   StoreMean(place);
+  view_index_.Set(place, p);
   // The place's path to the root: centroids move, discriminants see new members.
   const Eigen::VectorXf delta = p.mean - old_mean;
   RetrainDiscriminant(place);
@@ -493,7 +509,10 @@ PlaceMemory PlaceMemory::Restore(uint32_t robot, PlaceMemoryOptions options,
     memory.means_.resize(stride, static_cast<Eigen::Index>(memory.places_.size()));
     memory.means_.bottomRows(stride - dim).setZero();
   }
-  for (size_t i = 0; i < memory.places_.size(); ++i) memory.StoreMean(static_cast<int>(i));
+  for (size_t i = 0; i < memory.places_.size(); ++i) {
+    memory.StoreMean(static_cast<int>(i));
+    memory.view_index_.Set(static_cast<int>(i), memory.places_[i]);
+  }
   memory.spacings_.reserve(memory.places_.size());
   for (const LearnedPlace& p : memory.places_) memory.spacings_.push_back(ViewSpacing(p.samples));
   if (!memory.places_.empty()) memory.RebuildTree(&saved);

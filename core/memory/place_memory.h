@@ -17,6 +17,7 @@
 #include "core/memory/place_id.h"
 #include "core/memory/recognition_cost.h"
 #include "core/memory/slink.h"
+#include "core/memory/view_index.h"
 
 namespace tsc {
 
@@ -56,6 +57,9 @@ struct PlaceMemoryOptions {
   /// frames are to each other (real keyframes a metre apart; docs/decisions.md "Recognition
   /// cost"). 0: distance_unit alone.
   double step_unit = 0.5;
+  /// Places measured exactly per recognition once the memory holds more: the ones whose
+  /// keys in the view index come nearest D (core/memory/view_index.h). 0: every place.
+  int shortlist = 32;
   RecognitionCostOptions cost;
   DiscriminantOptions discriminant;  ///< d_N, used with svm_vote
   void Validate() const;
@@ -84,7 +88,8 @@ class PlaceMemory {
   /// g_N(D) of (3.8) at inner node `node` from D's vote points' distances to every place's
   /// member views; `terms.best` is N¹ as a node index.
   CostTerms Cost(const ViewDistances& vd, const Eigen::MatrixXf& votes, int node) const;
-  /// The nearest member views of every place to D's vote points, and the vote points.
+  /// The nearest member views of every place to D's vote points (only of the shortlist's
+  /// places once the memory holds more than options().shortlist; the others infinitely far).
   ViewDistances DistancesOf(const Eigen::MatrixXf& votes, double unit) const;
   /// u for D: the larger of DistanceUnit() and step_unit x D's median consecutive squared
   /// step (DistanceUnit() alone when D has one point or step_unit is 0).
@@ -168,6 +173,7 @@ class PlaceMemory {
   // rows [0, dim); the stride is padded so every column is aligned like a VectorXf, which
   // keeps the distances bit-identical to (places_[i].mean − x).squaredNorm().
   Eigen::MatrixXf means_;
+  ViewIndex view_index_;  // keys of every place, in place order
 
   // Scratch reused across rebuilds (no per-learn allocation).
   std::vector<KeySlot> key_table_;

@@ -59,15 +59,24 @@ bool Coincides(const ViewDistances& vd, const Nearest& best, const Nearest& othe
 
 ViewDistances::ViewDistances(const Eigen::MatrixXf& votes,
                              std::span<const LearnedPlace* const> places,
-                             std::span<const double> units)
+                             std::span<const double> units, std::span<const float> estimates)
     : distance_(votes.cols(), static_cast<Eigen::Index>(places.size())),
       view_(votes.cols(), static_cast<Eigen::Index>(places.size())),
       places_(places.begin(), places.end()),
-      units_(units.begin(), units.end()) {
+      units_(units.begin(), units.end()),
+      estimates_(estimates.begin(), estimates.end()) {
   if (votes.cols() == 0) throw std::invalid_argument("view distances of no vote points");
   if (units.size() != places.size()) throw std::invalid_argument("one unit per place needed");
+  if (!estimates.empty() && estimates.size() != places.size())
+    throw std::invalid_argument("one estimate per place needed");
   const Eigen::RowVectorXf vote_sq = votes.colwise().squaredNorm();
   for (size_t p = 0; p < places_.size(); ++p) {
+    if (places_[p] == nullptr) {
+      distance_.col(static_cast<Eigen::Index>(p))
+          .setConstant(std::numeric_limits<float>::infinity());
+      view_.col(static_cast<Eigen::Index>(p)).setConstant(-1);
+      continue;
+    }
     const Eigen::MatrixXf& s = places_[p]->samples;
     if (s.rows() != votes.rows() || s.cols() == 0) {
       throw std::invalid_argument("place " + places_[p]->id.ToString() + " has " +
@@ -86,6 +95,7 @@ ViewDistances::ViewDistances(const Eigen::MatrixXf& votes,
     }
   }
   // Units for places of one view (docs/decisions.md "Recognition cost").
+  if (std::all_of(units_.begin(), units_.end(), [](double u) { return u > 0.0; })) return;
   std::vector<double> positive;
   for (double u : units_) {
     if (u > 0.0) positive.push_back(u);
@@ -113,18 +123,24 @@ CostTerms RecognitionCost(const ViewDistances& vd, const Eigen::VectorXf& mean,
                           const RecognitionCostOptions& options) {
   std::vector<Nearest> nearest;
   std::vector<double> gamma;
+  std::vector<char> measured;
   nearest.reserve(candidates.size());
   for (const CostCandidate& c : candidates) {
     nearest.push_back(NearestIn(vd, c));
     std::vector<double> d = nearest.back().distance;
     gamma.push_back(d.empty() ? std::numeric_limits<double>::infinity() : Median(d));
+    measured.push_back(std::isfinite(gamma.back()));
+    if (measured.back()) continue;
+    // A child with no place in the shortlist: its rough distance, good enough for N² (it is
+    // never N¹, and the places nearest D are the ones measured).
+    for (int p : c.places) gamma.back() = std::min<double>(gamma.back(), vd.estimate(p));
   }
   CostTerms t;
   for (size_t c = 0; c < candidates.size(); ++c) {
-    if (!candidates[c].may_be_best || candidates[c].places.empty()) continue;
+    if (!candidates[c].may_be_best || candidates[c].places.empty() || !measured[c]) continue;
     if (t.best < 0 || gamma[c] < gamma[static_cast<size_t>(t.best)]) t.best = static_cast<int>(c);
   }
-  if (t.best < 0) {
+  if (t.best < 0) {  // none may be N¹, or none has a place measured
     t.cost = std::numeric_limits<double>::infinity();
     return t;
   }

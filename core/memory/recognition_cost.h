@@ -19,6 +19,7 @@
 // docs/decisions.md "Recognition cost" gives the figures behind each choice.
 
 #include <Eigen/Core>
+#include <limits>
 #include <span>
 #include <vector>
 
@@ -33,21 +34,31 @@ class ViewDistances {
   /// with `units` their view spacings (same order). A place with no spacing of its own (one
   /// view) takes the median positive spacing of the others, else D's own (the vote points'
   /// spacing), else the smallest positive float: it is then recognised only on equal views.
-  /// Brute force over every view of every place.
+  /// Brute force over every view of every place given; a null place is not measured (left
+  /// out of a shortlist, core/memory/view_index.h): infinitely far, with no nearest view.
+  /// `estimates` (empty, or one per place) stand in for a place that is not measured where
+  /// only a rough distance is needed: the ratio's N² (RecognitionCost).
   ViewDistances(const Eigen::MatrixXf& votes, std::span<const LearnedPlace* const> places,
-                std::span<const double> units);
+                std::span<const double> units, std::span<const float> estimates = {});
   int num_votes() const { return static_cast<int>(distance_.rows()); }
   int num_places() const { return static_cast<int>(distance_.cols()); }
   float distance(int vote, int place) const { return distance_(vote, place); }
   int view(int vote, int place) const { return view_(vote, place); }
   double unit(int place) const { return units_[static_cast<size_t>(place)]; }
   const LearnedPlace& place(int i) const { return *places_[static_cast<size_t>(i)]; }
+  bool measured(int place) const { return places_[static_cast<size_t>(place)] != nullptr; }
+  /// A rough squared distance to a place that is not measured (infinite without estimates).
+  float estimate(int place) const {
+    return estimates_.empty() ? std::numeric_limits<float>::infinity()
+                              : estimates_[static_cast<size_t>(place)];
+  }
 
  private:
   Eigen::MatrixXf distance_;  // votes x places
   Eigen::MatrixXi view_;      // column of the nearest view in the place's samples
   std::vector<const LearnedPlace*> places_;
   std::vector<double> units_;
+  std::vector<float> estimates_;
 };
 
 /// A child of the node g_N is evaluated at: the places under it (indices into the

@@ -1,0 +1,137 @@
+#include "core/memory/view_index.h"
+
+#include <algorithm>
+#include <cstdint>
+#include <limits>
+#include <numeric>
+#include <stdexcept>
+#include <string>
+
+#include "core/memory/member_views.h"
+
+namespace tsc {
+namespace {
+
+uint64_t SplitMix64(uint64_t x) {
+  x += 0x9e3779b97f4a7c15ULL;
+  x = (x ^ (x >> 30)) * 0xbf58476d1ce4e5b9ULL;
+  x = (x ^ (x >> 27)) * 0x94d049bb133111ebULL;
+  return x ^ (x >> 31);
+}
+
+Eigen::MatrixXf RademacherProjection(Eigen::Index dim) {
+  Eigen::MatrixXf p(ViewIndex::kDimensions, dim);
+  for (Eigen::Index c = 0; c < dim; ++c) {
+    for (Eigen::Index r = 0; r < p.rows(); ++r) {
+      const uint64_t bits = SplitMix64(static_cast<uint64_t>(c * p.rows() + r));
+      p(r, c) = (bits & 1) ? 1.0f : -1.0f;
+    }
+  }
+  return p;
+}
+
+}  // namespace
+
+Eigen::MatrixXf ViewIndex::Project(const Eigen::MatrixXf& x) const { return projection_ * x; }
+
+void ViewIndex::Set(int place, const LearnedPlace& p) {
+  if (place < 0 || place > size()) {
+    throw std::out_of_range("view index: place " + std::to_string(place) + " of " +
+                            std::to_string(size()));
+  }
+  if (p.mean.size() == 0 || p.samples.cols() == 0 || p.samples.rows() != p.mean.size()) {
+    throw std::invalid_argument("view index: place " + p.id.ToString() + " has no views");
+  }
+  if (projection_.cols() != p.mean.size()) {
+    if (size() > 0) {
+      throw std::invalid_argument("view index: dimension " + std::to_string(p.mean.size()) +
+                                  " differs from the index's " +
+                                  std::to_string(projection_.cols()));
+    }
+    projection_ = RademacherProjection(p.mean.size());
+  }
+  Eigen::MatrixXf keys(p.mean.size(), kKeysPerPlace);
+  keys.col(0) = p.mean;
+  const Eigen::MatrixXf spread = ThinViews(p.samples, kKeysPerPlace - 1);
+  // A place with fewer views repeats its last one: every place has the same number of keys.
+  for (int k = 1; k < kKeysPerPlace; ++k) {
+    keys.col(k) = spread.col(std::min<Eigen::Index>(k - 1, spread.cols() - 1));
+  }
+  const Eigen::MatrixXf projected = Project(keys);
+  const Eigen::Index first = static_cast<Eigen::Index>(place) * kKeysPerPlace;
+  if (place == size()) {
+    // Grows by half, as the means cache does: appending one place is amortised O(1) copies.
+    if (first + kKeysPerPlace > keys_.rows()) {
+      Eigen::MatrixXf grown(
+          std::max<Eigen::Index>(64 * kKeysPerPlace, keys_.rows() + keys_.rows() / 2), kDimensions);
+      grown.topRows(keys_.rows()) = keys_;
+      keys_.swap(grown);
+    }
+    key_norms_.resize(static_cast<size_t>(first + kKeysPerPlace));
+  }
+  keys_.middleRows(first, kKeysPerPlace) = projected.transpose();
+  for (int k = 0; k < kKeysPerPlace; ++k) {
+    key_norms_[static_cast<size_t>(first + k)] = projected.col(k).squaredNorm();
+  }
+}
+
+void ViewIndex::Clear() {
+  keys_.resize(0, kDimensions);
+  key_norms_.clear();
+}
+
+std::vector<float> ViewIndex::Estimate(const Eigen::MatrixXf& queries) const {
+  if (queries.cols() == 0 || queries.rows() != projection_.cols()) {
+    throw std::invalid_argument("view index: queries of dimension " +
+                                std::to_string(queries.rows()) + " for an index of " +
+                                std::to_string(projection_.cols()));
+  }
+  const int places = size();
+  const Eigen::MatrixXf q = Project(queries);
+  const Eigen::RowVectorXf q_norms = q.colwise().squaredNorm();
+  // ‖k − q‖² = ‖k‖² + ‖q‖² − 2 kᵀq for every key and query in one product; the keys are rows,
+  // so the product streams them as they lie.
+  const Eigen::Index n = static_cast<Eigen::Index>(places) * kKeysPerPlace;
+  // Query by query over blocks of keys that stay in cache, so the keys are read from memory
+  // once: a column-major block times a vector streams each dimension's column and vectorises
+  // without reductions (a product of matrices repacked every key first; 10⁴ places, 3x).
+  constexpr Eigen::Index kBlock = 1024;
+  Eigen::VectorXf nearest(n);
+  Eigen::VectorXf dot(kBlock);
+  for (Eigen::Index first = 0; first < n; first += kBlock) {
+    const Eigen::Index len = std::min(kBlock, n - first);
+    auto block_nearest = nearest.segment(first, len);
+    block_nearest.setConstant(std::numeric_limits<float>::infinity());
+    for (Eigen::Index j = 0; j < q.cols(); ++j) {
+      dot.head(len).noalias() = keys_.middleRows(first, len) * q.col(j);
+      block_nearest = block_nearest.cwiseMin((q_norms[j] - 2.0f * dot.head(len).array()).matrix());
+    }
+  }
+  std::vector<float> out(static_cast<size_t>(places));
+  for (int p = 0; p < places; ++p) {
+    const auto i = static_cast<Eigen::Index>(p) * kKeysPerPlace;
+    float e = std::numeric_limits<float>::infinity();
+    for (int k = 0; k < kKeysPerPlace; ++k)
+      e = std::min(e, key_norms_[static_cast<size_t>(i + k)] + nearest[i + k]);
+    out[static_cast<size_t>(p)] = e;
+  }
+  // ±1 entries multiply squared distances by the projection's dimension on average.
+  for (float& e : out) e = std::max(0.0f, e / static_cast<float>(kDimensions));
+  return out;
+}
+
+std::vector<int> Shortlist(const std::vector<float>& estimates, int count) {
+  std::vector<int> out(estimates.size());
+  std::iota(out.begin(), out.end(), 0);
+  if (count >= static_cast<int>(out.size())) return out;
+  auto nearer = [&](int a, int b) {
+    const float ea = estimates[static_cast<size_t>(a)], eb = estimates[static_cast<size_t>(b)];
+    return ea < eb || (ea == eb && a < b);
+  };
+  std::nth_element(out.begin(), out.begin() + std::max(0, count), out.end(), nearer);
+  out.resize(static_cast<size_t>(std::max(0, count)));
+  std::sort(out.begin(), out.end());
+  return out;
+}
+
+}  // namespace tsc

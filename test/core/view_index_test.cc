@@ -1,0 +1,125 @@
+#include "core/memory/view_index.h"
+
+#include <gtest/gtest.h>
+
+#include <algorithm>
+#include <cmath>
+#include <random>
+#include <vector>
+
+#include "core/memory/place_memory.h"
+
+namespace tsc {
+namespace {
+
+constexpr int kDim = 200;
+
+// Places on the descriptor scale, grouped in sites as a robot's rooms are (positive,
+// sum-normalised sites; each place its site perturbed by 20 %, its views by another 3 %).
+class Places {
+ public:
+  explicit Places(uint32_t seed) : rng_(seed) {
+    std::uniform_real_distribution<float> u(0.0f, 1.0f);
+    for (int s = 0; s < 16; ++s) {
+      Eigen::VectorXf c(kDim);
+      for (int i = 0; i < kDim; ++i) c[i] = u(rng_);
+      sites_.push_back(c / c.sum());
+    }
+  }
+  // Visit `visit` of place p: `views` base points (the same place every visit, fresh noise).
+  DetectedPlace Visit(int p, int visit, int views = 10) {
+    std::mt19937 place_rng(static_cast<uint32_t>(p) * 7919u + 1u);
+    std::mt19937 view_rng(static_cast<uint32_t>(p) * 104729u + static_cast<uint32_t>(visit));
+    std::normal_distribution<float> place_noise(0.0f, 0.2f), view_noise(0.0f, 0.03f);
+    Eigen::VectorXf centre = sites_[static_cast<size_t>(p) % sites_.size()];
+    for (int i = 0; i < kDim; ++i) centre[i] *= std::max(0.0f, 1.0f + place_noise(place_rng));
+    DetectedPlace d;
+    d.index = p + 1;
+    d.descriptors.resize(kDim, views);
+    for (int j = 0; j < views; ++j) {
+      d.members.push_back(static_cast<BaseIndex>(p) * 100 + j);
+      for (int i = 0; i < kDim; ++i)
+        d.descriptors(i, j) = std::max(0.0f, centre[i] * (1.0f + view_noise(view_rng)));
+    }
+    return d;
+  }
+
+ private:
+  std::mt19937 rng_;
+  std::vector<Eigen::VectorXf> sites_;
+};
+
+LearnedPlace AsLearned(const DetectedPlace& d) {
+  LearnedPlace p;
+  p.id = PlaceId{1, static_cast<uint32_t>(d.index)};
+  p.mean = d.Mean();
+  p.samples = d.descriptors;
+  p.member_count = d.descriptors.cols();
+  return p;
+}
+
+TEST(ViewIndex, NamesThePlacesWhoseKeysAreNearestInIncreasingOrder) {
+  Places places(11);
+  ViewIndex index;
+  for (int p = 0; p < 200; ++p) index.Set(p, AsLearned(places.Visit(p, 0)));
+  ASSERT_EQ(index.size(), 200);
+  int found = 0;
+  for (int p = 0; p < 200; p += 7) {
+    const std::vector<int> near = Shortlist(index.Estimate(places.Visit(p, 1).descriptors), 8);
+    ASSERT_EQ(near.size(), 8u);
+    EXPECT_TRUE(std::is_sorted(near.begin(), near.end()));
+    found += std::binary_search(near.begin(), near.end(), p);
+  }
+  // A fresh visit's place is among the 8 of 200 nearest (every one of 29 here).
+  EXPECT_EQ(found, 29);
+  // Asked for as many as it holds, or more, the index names every place.
+  EXPECT_EQ(Shortlist(index.Estimate(places.Visit(0, 1).descriptors), 500).size(), 200u);
+}
+
+TEST(ViewIndex, RekeysAPlaceItAlreadyHolds) {
+  Places places(12);
+  ViewIndex index;
+  for (int p = 0; p < 50; ++p) index.Set(p, AsLearned(places.Visit(p, 0)));
+  const Eigen::MatrixXf elsewhere = places.Visit(49, 1).descriptors;
+  index.Set(3, AsLearned(places.Visit(49, 2)));  // place 3 now looks like place 49
+  const std::vector<int> near = Shortlist(index.Estimate(elsewhere), 2);
+  EXPECT_EQ(near, (std::vector<int>{3, 49}));
+  EXPECT_EQ(index.size(), 50);
+  EXPECT_THROW(index.Set(52, AsLearned(places.Visit(1, 0))), std::out_of_range);
+}
+
+// The shortlist changes how much is measured, not what is recognised: a memory of 300 places
+// measuring 16 of them per recognition names the same place as one measuring all of them.
+TEST(PlaceMemoryShortlist, RecognisesWhatTheExhaustiveSearchRecognises) {
+  Places places(13);
+  PlaceMemoryOptions options;
+  options.shortlist = 16;
+  PlaceMemory memory(1, options);
+  for (int p = 0; p < 300; ++p) memory.Learn(places.Visit(p, 0));
+  PlaceMemoryOptions exhaustive_options = options;
+  exhaustive_options.shortlist = 0;
+  const PlaceMemory exhaustive = PlaceMemory::Restore(1, exhaustive_options, memory.places(),
+                                                      memory.slink(), memory.next_local_id(), {});
+  int recognised = 0, correct = 0;
+  for (int p = 0; p < 300; p += 5) {
+    const DetectedPlace revisit = places.Visit(p, 1, 6);
+    const Recognition fast = memory.Recognize(revisit);
+    const Recognition full = exhaustive.Recognize(revisit);
+    EXPECT_EQ(fast.place, full.place) << "place " << p;
+    recognised += fast.place.has_value();
+    correct += fast.place == p;
+  }
+  EXPECT_GT(recognised, 30);  // of 60 revisits: the comparison is about real recognitions
+  EXPECT_EQ(correct, recognised);
+
+  // Only the shortlist is measured: the other places are infinitely far.
+  const Eigen::MatrixXf votes = memory.VotePoints(places.Visit(7, 1));
+  const ViewDistances vd = memory.DistancesOf(votes, memory.DistanceUnit());
+  int measured = 0;
+  for (int p = 0; p < vd.num_places(); ++p) measured += std::isfinite(vd.distance(0, p));
+  EXPECT_EQ(measured, 16);
+  EXPECT_TRUE(std::isfinite(vd.distance(0, 7)));
+}
+
+}  // namespace
+}  // namespace tsc
