@@ -310,6 +310,11 @@ std::vector<ConfigKey> BuildTable() {
       "base points", 1, 100000,
       [](auto& o) -> auto& { return o.pipeline.memory.max_vote_points; }));
   t.push_back(Number(
+      "memory.shortlist",
+      "places measured exactly per recognition once the memory holds more: those whose keys "
+      "in the view index come nearest the detected place; 0 = every place",
+      "places", 0, 1000000, [](auto& o) -> auto& { return o.pipeline.memory.shortlist; }));
+  t.push_back(Number(
       "memory.svm_nu", "nu of the one-class SVM discriminants d_N", "", 0, 1,
       [](auto& o) -> auto& { return o.pipeline.memory.discriminant.nu; },
       /*min_open=*/true));
@@ -333,6 +338,11 @@ std::vector<ConfigKey> BuildTable() {
       "neighbourhood is still shorter than a place (extent <= tau_p), so the map records a "
       "pruned passage through a known place; 0 = off",
       "base points", 0, 100000, [](auto& o) -> auto& { return o.pipeline.whereabouts_points; }));
+  t.push_back(Bool(
+      "pipeline.split_known_tails",
+      "while a place is open, recognise its last tau_p + 1 base points; when they show a "
+      "learned place the rest does not, split the place where they begin",
+      [](auto& o) -> auto& { return o.pipeline.split_known_tails; }));
   const size_t pipeline_keys = t.size();
   // [daemon] — tscd itself (DESIGN §6)
   t.push_back(Text(

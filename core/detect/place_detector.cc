@@ -86,6 +86,23 @@ std::vector<DetectionEvent> PlaceDetector::Finish() {
   return out;
 }
 
+std::vector<DetectionEvent> PlaceDetector::SplitBefore(BaseIndex first) {
+  const auto at = std::lower_bound(current_.begin(), current_.end(), first);
+  if (!current_opened_ || window_open_ || at == current_.end() || *at != first ||
+      at == current_.begin()) {
+    throw std::logic_error("place detector: no open place to split before base point " +
+                           std::to_string(first));
+  }
+  std::vector<BaseIndex> tail(at, current_.end());
+  current_.erase(at, current_.end());
+  // A head of τ_p base points or fewer is no place (its opening index stays unused).
+  if (static_cast<int64_t>(current_.size()) <= tau_p_) current_opened_ = false;
+  std::vector<DetectionEvent> out;
+  CloseCurrentPlace(out);
+  for (BaseIndex k : tail) AppendGood(k, out);
+  return out;
+}
+
 void PlaceDetector::AppendGood(BaseIndex k, std::vector<DetectionEvent>& out) {
   current_.push_back(k);
   if (!current_opened_ && static_cast<int64_t>(current_.size()) > tau_p_) {

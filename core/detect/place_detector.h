@@ -76,6 +76,15 @@ class PlaceDetector {
   std::vector<DetectionEvent> Add(BaseIndex k, bool good);
   /// Closes any open window and place as if a transition followed.
   std::vector<DetectionEvent> Finish();
+  /// Ends the open place before its base point `first`, as if a transition without base
+  /// points lay there: the members before `first` close as one place (PlaceClosed, or
+  /// PlacePruned when τ_p or fewer), the rest continue as the next place (PlaceOpened when
+  /// more than τ_p). The pipeline splits where a place it already knows begins inside the
+  /// open one (Pipeline, "known tails"). Throws std::logic_error unless a place is open, no
+  /// temporal window is, and `first` is a member after the first.
+  std::vector<DetectionEvent> SplitBefore(BaseIndex first);
+  bool place_open() const { return current_opened_; }
+  bool window_open() const { return window_open_; }
 
   const DetectorOptions& options() const { return options_; }
   DetectedPlaceIndex next_place() const { return next_place_; }

@@ -130,6 +130,7 @@ FrameResult Pipeline::ProcessDescriptor(const Descriptor& descriptor,
   previous_descriptor_ = judged;
   recent_.emplace_back(k, descriptor.values());
   HandleDetection(detector_.Add(k, out.base.status == BaseStatus::kGood), k, out);
+  SplitAtKnownTail(k, out);
   RecogniseWhereabouts(k, out);
   TrimDescriptors();
   return out;
@@ -152,6 +153,7 @@ void Pipeline::AdoptMerged(PlaceMemory memory, TopologicalMap map) {
     }
   }
   partial_recognition_.reset();
+  known_tail_.reset();
   memory_ = std::move(memory);
   map_ = std::move(map);
   handed_over_ = false;
@@ -218,6 +220,7 @@ void Pipeline::HandleDetection(const std::vector<DetectionEvent>& events, BaseIn
     return previous_place_ ? memory_.Find(*previous_place_) : std::nullopt;
   };
   for (const DetectionEvent& event : events) {
+    if (!std::holds_alternative<WindowClosed>(event)) known_tail_.reset();
     if (const auto* opened = std::get_if<PlaceOpened>(&event)) {
       partial_recognition_.reset();
       if (!options_.recognize_partial || memory_.empty()) continue;
@@ -301,6 +304,35 @@ void Pipeline::RecogniseWhereabouts(BaseIndex k, FrameResult& out) {
     whereabouts_ = id;
   }
   whereabouts_seen_ = k;
+}
+
+void Pipeline::SplitAtKnownTail(BaseIndex k, FrameResult& out) {
+  if (!options_.split_known_tails || memory_.empty() || !detector_.place_open() ||
+      detector_.window_open()) {
+    return;
+  }
+  const std::vector<BaseIndex>& members = detector_.current_members();
+  const int64_t tail_size = options_.detector.EffectiveTauP() + 1;
+  const int64_t size = static_cast<int64_t>(members.size());
+  // The head left by a split must be a place of its own (more than τ_p base points); the
+  // tail is checked every quarter of its length (a recognition per base point at 30 fps would
+  // cost more than the frame).
+  const int64_t every = std::max<int64_t>(1, tail_size / 4);
+  if (size < 2 * tail_size || members.back() != k || (size - 2 * tail_size) % every != 0) return;
+  const std::vector<BaseIndex> tail(members.end() - tail_size, members.end());
+  const auto previous = previous_place_ ? memory_.Find(*previous_place_) : std::nullopt;
+  const Recognition r = memory_.Recognize(Gather(0, tail), previous);
+  const std::optional<int> seen_before = std::exchange(known_tail_, std::nullopt);
+  if (!r.place || r.place == partial_recognition_) return;
+  // Two checks in a row must show the same place: one tail alone split corridors at look-alike
+  // stretches (docs/decisions.md, "Known tails").
+  if (seen_before != r.place) {
+    known_tail_ = r.place;
+    return;
+  }
+  const std::vector<BaseIndex> head(members.begin(), members.end() - tail_size);
+  if (memory_.Recognize(Gather(0, head), previous).place == r.place) return;
+  HandleDetection(detector_.SplitBefore(tail.front()), k, out);
 }
 
 TransitionRegion Pipeline::SinceWhereabouts(BaseIndex before) const {

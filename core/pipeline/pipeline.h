@@ -90,6 +90,14 @@ struct PipelineOptions {
   /// short passage through it is mapped A → P → B instead of A → B. 0: off, the map has only
   /// the edges β(D_{m−1})β(D_m). docs/decisions.md, "Map".
   int whereabouts_points = 0;
+  /// Known tails: while a place is open, its last τ_p + 1 base points are recognised every
+  /// quarter of that length; when they show a learned place that the rest of the open place
+  /// is not, the place is split where they begin (PlaceDetector::SplitBefore). A robot that
+  /// returns to a known place without a visible transition (a loop closing along a corridor)
+  /// then recognises it instead of learning it into a new place with what came before.
+  /// docs/decisions.md, "Known tails": off by default, it traded frame-level recall and
+  /// corridor boundaries for place-level recall on the calibration worlds.
+  bool split_known_tails = false;
   void Validate() const;
 };
 
@@ -147,6 +155,7 @@ class Pipeline {
  private:
   void HandleDetection(const std::vector<DetectionEvent>& events, BaseIndex k, FrameResult& out);
   void RecogniseWhereabouts(BaseIndex k, FrameResult& out);
+  void SplitAtKnownTail(BaseIndex k, FrameResult& out);
   // The base points after the last one that showed the whereabouts and before `before`
   // (empty when there are none, or the whereabouts were never seen).
   TransitionRegion SinceWhereabouts(BaseIndex before) const;
@@ -176,6 +185,7 @@ class Pipeline {
   std::optional<Eigen::VectorXf> previous_descriptor_;        // coherence descriptor of x_{k−1}
   std::deque<std::pair<BaseIndex, Eigen::VectorXf>> recent_;  // descriptors not yet closed
   std::optional<int> partial_recognition_;  // place the open place was recognised as
+  std::optional<int> known_tail_;           // place the open place's tail showed at the last check
   bool handed_over_ = false;                // memory_ is on loan to a merge (HandOverMemory)
 };
 

@@ -240,6 +240,49 @@ TEST_F(PipelineTest, APrunedPassageThroughAKnownPlaceIsMappedThroughIt) {
   }
 }
 
+// A loop closing without a visible transition: the robot comes from a new stretch (centre 2)
+// into known place A (centre 0) so gradually that no base point is incoherent. The open place
+// then holds the new stretch and A's revisit; with known tails it is split where A begins,
+// so the revisit is recognised as A instead of being learned with the new stretch.
+TEST_F(PipelineTest, AKnownPlaceEnteredWithoutATransitionIsSplitOffAndRecognised) {
+  for (const bool split : {false, true}) {
+    SCOPED_TRACE(split);
+    PipelineOptions options = Options();  // τ_p = 3: tails of 4 base points, checked each
+    options.split_known_tails = split;
+    Pipeline pipeline(CameraIntrinsics::FromHorizontalFov(64, 48, 60), options,
+                      PlaceMemory(1, options.memory), TopologicalMap());
+    rng_.seed(7);
+    Visit(pipeline, 0, 15);  // learns A
+    Visit(pipeline, 1, 15);  // learns B
+    std::normal_distribution<float> noise(0.0f, 0.02f);
+    int incoherent = 0;
+    auto frame = [&](const Eigen::VectorXf& centre) {
+      Eigen::VectorXf v = centre;
+      for (int i = 0; i < kDim; ++i) v[i] = std::max(0.0f, v[i] * (1.0f + noise(rng_)));
+      const FrameResult r =
+          pipeline.ProcessDescriptor(Descriptor(Normalised(v)), IntensityStats{0.5, 0.05});
+      incoherent += r.base.status != BaseStatus::kGood;
+    };
+    for (int j = 0; j < 15; ++j) frame(centres_[2]);
+    ASSERT_EQ(incoherent, 1);  // the first, after the transition from B
+    for (int j = 1; j <= 30; ++j) {
+      const float t = static_cast<float>(j) / 30.0f;
+      frame(Normalised((1.0f - t) * centres_[2] + t * centres_[0]));
+    }
+    for (int j = 0; j < 15; ++j) frame(centres_[0]);
+    ASSERT_EQ(incoherent, 1);  // no transition into A
+    Visit(pipeline, 1, 15);  // a transition closes the open place, then B again
+    pipeline.Finish();
+    const LearnedPlace& a = pipeline.memory().places().at(0);
+    if (split) {
+      EXPECT_EQ(a.detected.size(), 2u);  // A learned, then recognised on the split-off tail
+      EXPECT_EQ(pipeline.memory().places().size(), 3u);  // A, B and the new stretch
+    } else {
+      EXPECT_EQ(a.detected.size(), 1u);  // the revisit went into a place with the stretch
+    }
+  }
+}
+
 TEST_F(PipelineTest, StateContinuesIndices) {
   Visit(0, 10);
   Collect(dut_.Finish());

@@ -2,6 +2,7 @@
 
 #include <gtest/gtest.h>
 
+#include <stdexcept>
 #include <string>
 #include <vector>
 
@@ -105,6 +106,42 @@ TEST(PlaceDetector, ShortWindowIsNoiseInsidePlace) {
   const Outcome o = RunPattern("gggggbgggg", DetectorOptions{2, 2, 2});
   ASSERT_EQ(o.closed.size(), 1u);
   EXPECT_EQ(o.closed[0].members.size(), 9u);
+}
+
+TEST(PlaceDetector, SplitsTheOpenPlaceBeforeAMember) {
+  DetectorOptions options{2, 2, 3};
+  PlaceDetector dut(options);
+  for (BaseIndex k = 0; k < 10; ++k) dut.Add(k, true);
+  ASSERT_TRUE(dut.place_open());
+  const std::vector<DetectionEvent> events = dut.SplitBefore(6);
+  ASSERT_EQ(events.size(), 2u);
+  const auto* head = std::get_if<PlaceClosed>(&events[0]);
+  ASSERT_NE(head, nullptr);
+  EXPECT_EQ(head->members, (std::vector<BaseIndex>{0, 1, 2, 3, 4, 5}));
+  const auto* tail = std::get_if<PlaceOpened>(&events[1]);
+  ASSERT_NE(tail, nullptr);
+  EXPECT_EQ(tail->place, head->place + 1);
+  EXPECT_EQ(tail->members, (std::vector<BaseIndex>{6, 7, 8, 9}));
+  // The tail continues as the open place and closes with no base point between the two.
+  const std::vector<DetectionEvent> end = dut.Finish();
+  ASSERT_EQ(end.size(), 1u);
+  const auto& closed = std::get<PlaceClosed>(end[0]);
+  EXPECT_EQ(closed.members.front(), 6);
+  EXPECT_TRUE(closed.transition_before.empty());
+}
+
+TEST(PlaceDetector, SplitLeavesAHeadOfTauPOrFewerToD0AndRefusesWithoutAnOpenPlace) {
+  PlaceDetector dut(DetectorOptions{2, 2, 3});
+  EXPECT_THROW(dut.SplitBefore(0), std::logic_error);
+  for (BaseIndex k = 0; k < 8; ++k) dut.Add(k, true);
+  EXPECT_THROW(dut.SplitBefore(0), std::logic_error);  // nothing before the first member
+  EXPECT_THROW(dut.SplitBefore(8), std::logic_error);  // not a member
+  const std::vector<DetectionEvent> events = dut.SplitBefore(3);
+  ASSERT_EQ(events.size(), 2u);
+  EXPECT_EQ(std::get<PlacePruned>(events[0]).members, (std::vector<BaseIndex>{0, 1, 2}));
+  // The tail opens once it passes τ_p, and keeps the rest of the members.
+  EXPECT_EQ(std::get<PlaceOpened>(events[1]).members, (std::vector<BaseIndex>{3, 4, 5, 6}));
+  EXPECT_EQ(dut.current_members(), (std::vector<BaseIndex>{3, 4, 5, 6, 7}));
 }
 
 TEST(PlaceDetector, RejectsOutOfOrderBasePoints) {
