@@ -7,8 +7,8 @@
 #include <fstream>
 #include <string>
 
-#include "daemon/settings.h"
 #include "fuzz/fuzz_target.h"
+#include "settings/settings.h"
 
 extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
   // The parser reads files: one per process, rewritten for every input, removed at exit.

@@ -12,7 +12,7 @@
 #include <vector>
 
 #include "core/pipeline/pipeline.h"
-#include "daemon/daemon_options.h"
+#include "settings/daemon_options.h"
 
 namespace tsc {
 

@@ -5,7 +5,7 @@
 #include <set>
 #include <sstream>
 
-#include "daemon/settings.h"
+#include "settings/settings.h"
 #include "test/support/temp_dir.h"
 
 namespace tsc {

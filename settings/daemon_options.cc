@@ -1,4 +1,4 @@
-#include "daemon/daemon_options.h"
+#include "settings/daemon_options.h"
 
 #include <cstdint>
 #include <stdexcept>

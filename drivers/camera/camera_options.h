@@ -1,13 +1,15 @@
 #pragma once
-// What tscd needs beyond the pipeline: where its memory lives, which camera it reads, how it
-// talks on LCM. Plain values; the configuration table (settings.h) names and checks them.
+// Which camera source a robot reads and how (drivers/camera/make_camera.h chooses and opens it),
+// and the simulated world its simulated camera and base live in. Plain values: the
+// configuration table (settings/settings.h) names and checks them as camera.* and sim.*; the
+// factory turns them into the chosen source's own Options.
 
 #include <cstdint>
 #include <string>
 
 namespace tsc {
 
-/// Where frames come from (drivers/camera).
+/// Where frames come from.
 struct CameraOptions {
   /// "sim" (the simulated world, rendered live), "folder" (a dataset folder), "video" (a file
   /// OpenCV reads), "device" (V4L2 / USB camera through OpenCV), "axis" (Axis VAPIX camera
@@ -55,61 +57,6 @@ struct SimOptions {
   std::string drive = "route";
   int width = 320;  ///< rendered frame size, pixels
   int height = 240;
-};
-
-/// LCM bus and the memory exchange.
-struct BusOptions {
-  std::string url = "udpm://239.255.76.67:7667?ttl=0";  ///< host-local multicast
-  double announce_period_s = 1.0;
-  /// Least time between two broadcasts of a changed memory (requests are answered at once).
-  double memory_period_s = 5.0;
-  int portion_bytes = 60000;  ///< upper bound of one encoded memory portion (one datagram)
-  std::string team_key_file;  ///< HMAC key shared by the team; empty = unsigned
-  /// With an empty memory, how long to listen for peers before learning (a robot rejoining
-  /// with a wiped store takes its old places back first; daemon/join_gate.h); 0 = at once.
-  double join_wait_s = 2.0;
-};
-
-/// The motor channel (drivers/base, drivers/motor). Facts the protocol sources leave uncertain
-/// (counts per metre, signs of the sides, speed at full power) are calibration keys.
-struct MotorOptions {
-  /// "sim": the simulated base (with camera.source = sim and sim.drive = commands);
-  /// "jaguar-v2": Jaguar V2/V4 board, binary protocol over UDP; "jaguar-ascii": Jaguar
-  /// 4x4/V6 boards, ASCII protocol over TCP.
-  std::string driver = "sim";
-  std::string address = "192.168.0.60";  ///< the board's IPv4 address
-  int port = 10001;
-  double max_linear_mps = 1.0;     ///< |forward speed| limit, m/s
-  double max_angular_radps = 1.5;  ///< |turn rate| limit, rad/s
-  double watchdog_s = 0.5;         ///< no command this long → stop
-  double link_timeout_s = 2.0;     ///< board silent this long → link lost, stop
-  double full_power_mps = 1.5;     ///< side speed at full power
-  double track_width_m = 0.52;
-  double counts_per_metre = 640.0;
-  int left_sign = 1;  ///< sign of the left side's power and encoder counts
-  int right_sign = -1;
-  int forward_sign = 1;  ///< V2: ch3 PWM above 16384 drives forward (1) or backward (-1)
-  int turn_sign = 1;     ///< V2: ch4 PWM above 16384 turns counter-clockwise (1) or not (-1)
-};
-
-struct DaemonOptions {
-  std::string state_dir = "/var/lib/tscd";  ///< holds memory.db
-  /// Base points waiting for the pipeline, a pan sweep's views counting once (drop-oldest
-  /// whole sweeps: daemon/frame_queue.h).
-  int queue_frames = 8;
-  /// Results kept in memory while the store cannot be written (full disk, read-only); beyond
-  /// it the oldest results' base point records are dropped (learned places and edges never).
-  int max_pending_results = 10000;
-  /// At stop, how long tscd keeps trying a failing store before it spills what it holds
-  /// (seconds; below the unit's TimeoutStopSec).
-  double stop_store_wait_s = 10.0;
-  std::string log_level = "info";  ///< trace | debug | info | warn | error
-  CameraOptions camera;
-  SimOptions sim;
-  BusOptions bus;
-  MotorOptions motor;
-  /// Throws std::invalid_argument naming the bad field.
-  void Validate() const;
 };
 
 }  // namespace tsc

@@ -1,4 +1,4 @@
-#include "daemon/settings.h"
+#include "settings/settings.h"
 
 #include <boost/program_options/options_description.hpp>
 #include <boost/program_options/parsers.hpp>
