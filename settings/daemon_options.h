@@ -5,6 +5,7 @@
 
 #include <string>
 
+#include "core/range.h"
 #include "drivers/camera/camera_options.h"
 #include "drivers/motor/motor_options.h"
 
@@ -17,6 +18,7 @@ struct BusOptions {
   /// Least time between two broadcasts of a changed memory (requests are answered at once).
   double memory_period_s = 5.0;
   int portion_bytes = 60000;  ///< upper bound of one encoded memory portion (one datagram)
+  static constexpr Range kPortionBytesRange{4096, 65000};  ///< below one UDP datagram
   std::string team_key_file;  ///< HMAC key shared by the team; empty = unsigned
   /// With an empty memory, how long to listen for peers before learning (a robot rejoining
   /// with a wiped store takes its old places back first; daemon/join_gate.h); 0 = at once.
@@ -31,6 +33,9 @@ struct DaemonOptions {
   /// Results kept in memory while the store cannot be written (full disk, read-only); beyond
   /// it the oldest results' base point records are dropped (learned places and edges never).
   int max_pending_results = 10000;
+  // Valid ranges (also the configuration's, daemon.*).
+  static constexpr Range kQueueFramesRange{1, 1000};
+  static constexpr Range kMaxPendingResultsRange{1, 10000000};
   /// At stop, how long tscd keeps trying a failing store before it spills what it holds
   /// (seconds; below the unit's TimeoutStopSec).
   double stop_store_wait_s = 10.0;

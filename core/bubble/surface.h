@@ -8,6 +8,7 @@
 
 #include "core/bubble/camera.h"
 #include "core/bubble/features.h"
+#include "core/range.h"
 
 namespace tsc {
 
@@ -40,7 +41,12 @@ struct BubbleSurfaceOptions {
   float rest_radius = 0.0f;   ///< rho_0, radius of unobserved directions
   double max_depth_m = 10.0;  ///< range that maps to depth feature value 1
   int patch_px = 12;          ///< side of the resampled d_phi x d_phi patch, pixels
-  void Validate() const;      ///< throws std::invalid_argument naming the bad field
+  // Valid ranges (also the configuration's, bubble.*); d_phi_deg must also divide 180.
+  static constexpr Range kDPhiDegRange{0, 90, /*min_open=*/true};
+  static constexpr Range kRestRadiusRange{0, 1};
+  static constexpr Range kMaxDepthMRange{0, 1000, /*min_open=*/true};
+  static constexpr Range kPatchPxRange{6, 64};
+  void Validate() const;  ///< throws std::invalid_argument naming the bad field
 };
 
 /// The N_v bubble surfaces of one base point. Observe() overwrites the directions a frame

@@ -38,10 +38,7 @@ void PipelineOptions::Validate() const {
   reliability.Validate();
   detector.Validate();
   memory.Validate();
-  if (whereabouts_points < 0) {
-    throw std::invalid_argument("pipeline.whereabouts_points must be >= 0, got " +
-                                std::to_string(whereabouts_points));
-  }
+  kWhereaboutsPointsRange.Check("pipeline.whereabouts_points", whereabouts_points);
   if (!features.Contains(Feature::kIntensity)) {
     throw std::invalid_argument("bubble.features must include intensity (place detection uses it)");
   }

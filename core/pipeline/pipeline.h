@@ -15,6 +15,7 @@
 #include "core/detect/reliability.h"
 #include "core/map/topological_map.h"
 #include "core/memory/place_memory.h"
+#include "core/range.h"
 
 namespace tsc {
 
@@ -90,6 +91,8 @@ struct PipelineOptions {
   /// short passage through it is mapped A → P → B instead of A → B. 0: off, the map has only
   /// the edges β(D_{m−1})β(D_m). docs/decisions.md, "Map".
   int whereabouts_points = 0;
+  /// Valid range of whereabouts_points (also the configuration's).
+  static constexpr Range kWhereaboutsPointsRange{0, 100000};
   void Validate() const;
 };
 

@@ -7,6 +7,8 @@
 #include <cstdint>
 #include <string>
 
+#include "core/range.h"
+
 namespace tsc {
 
 /// Where frames come from.
@@ -15,8 +17,9 @@ struct CameraOptions {
   /// OpenCV reads), "device" (V4L2 / USB camera through OpenCV), "axis" (Axis VAPIX camera
   /// over HTTP with PTZ), "none" (not chosen: Validate refuses it; the installed tscd.ini).
   std::string source = "sim";
-  std::string path;        ///< folder or video file; "/dev/videoN" or "N" for a device
-  double fps = 10.0;       ///< frames per second delivered; 0 = as fast as the source gives them
+  std::string path;   ///< folder or video file; "/dev/videoN" or "N" for a device
+  double fps = 10.0;  ///< frames per second delivered; 0 = as fast as the source gives them
+  static constexpr Range kFpsRange{0, 1000};  ///< also the configuration's (camera.fps)
   bool loop = false;       ///< folder / video: start again at the end instead of stopping
   double hfov_deg = 60.0;  ///< horizontal field of view of folder, video, device, axis frames
   /// Metres of travel between base points; 0 = what the source declares (a folder's
