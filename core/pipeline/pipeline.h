@@ -124,21 +124,8 @@ class Pipeline {
   FrameResult Finish();
 
   /// Continues with a merged memory and map (core/merge). The previous place follows the
-  /// place that absorbed it; a recognition of the open place is forgotten (place indices may
-  /// have moved). Throws std::invalid_argument when `memory` belongs to another robot.
-  /// Ends a hand-over (HandOverMemory) when one is under way.
+  /// place that absorbed it. Throws std::invalid_argument when `memory` belongs to another robot.
   void AdoptMerged(PlaceMemory memory, TopologicalMap map);
-  /// Hands the memory over to a merge that gives its inputs up (core/merge's moving
-  /// MergeMemories), so the places are moved into the merged memory instead of copied. Until
-  /// AdoptMerged or TakeBack ends the hand-over, memory() is an empty memory of the robot and
-  /// ProcessDescriptor, Finish and another HandOverMemory throw std::logic_error.
-  PlaceMemory HandOverMemory();
-  /// Ends a hand-over with the memory to continue with: the one handed over, unchanged (a merge
-  /// that brought nothing new returns it), or the same memory as last committed (after a
-  /// failed merge). Throws std::logic_error when no hand-over is under way and
-  /// std::invalid_argument when `memory` belongs to another robot.
-  void TakeBack(PlaceMemory memory);
-  bool memory_handed_over() const { return handed_over_; }
 
   const PlaceMemory& memory() const { return memory_; }
   const TopologicalMap& map() const { return map_; }
@@ -159,7 +146,6 @@ class Pipeline {
                           FrameResult& out);
   DetectedPlace Gather(DetectedPlaceIndex m, const std::vector<BaseIndex>& members) const;
   void TrimDescriptors();
-  void RequireMemory(const char* what) const;
 
   PipelineOptions options_;
   BubbleSurface surface_;
@@ -178,8 +164,6 @@ class Pipeline {
   std::optional<BaseIndex> whereabouts_seen_;
   std::optional<Eigen::VectorXf> previous_descriptor_;        // coherence descriptor of x_{k−1}
   std::deque<std::pair<BaseIndex, Eigen::VectorXf>> recent_;  // descriptors not yet closed
-  std::optional<int> partial_recognition_;  // place the open place was recognised as
-  bool handed_over_ = false;                // memory_ is on loan to a merge (HandOverMemory)
 };
 
 }  // namespace tsc
