@@ -1,4 +1,4 @@
-// Fuzz target: a configuration file (daemon/settings), as tscd and tsc read it with --config.
+// Fuzz target: a configuration file (settings/settings.h), as tscd and tsc read it with --config.
 // Any input must either load and validate or be refused with a ConfigError.
 
 #include <unistd.h>
