@@ -86,6 +86,21 @@ void BubbleSurface::Reset() {
   observed_.setZero();
 }
 
+void BubbleSurface::Set(int feature, int tilt, int pan, float value) {
+  if (feature < 0 || feature >= static_cast<int>(rho_.size()) || tilt < 0 ||
+      tilt >= grid_.n_tilt() || pan < 0 || pan >= grid_.n_pan()) {
+    throw std::invalid_argument("bubble surface: no feature " + std::to_string(feature) +
+                                " at tilt row " + std::to_string(tilt) + ", pan column " +
+                                std::to_string(pan));
+  }
+  if (!(std::isfinite(value) && value >= 0.0f)) {
+    throw std::invalid_argument("bubble surface: value " + std::to_string(value) +
+                                " is not finite and >= 0");
+  }
+  rho_[feature](tilt, pan) = value;
+  observed_(tilt, pan) = 1;
+}
+
 int BubbleSurface::ObservedCount() const { return observed_.cast<int>().sum(); }
 
 std::vector<BubbleSurface::PatchSite> BubbleSurface::ComputeSites(const PanTilt& pan_tilt) const {

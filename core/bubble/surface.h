@@ -60,18 +60,21 @@ class BubbleSurface {
   void Observe(const Observation& obs);
   /// Forgets all observations (a new base point).
   void Reset();
+  /// Sets feature block `feature`'s value at one grid direction (row `tilt`, column `pan`) and
+  /// marks the direction observed; the other features there keep their values. For surfaces
+  /// made of known values (tests, synthetic data). Throws std::invalid_argument on an index
+  /// out of range or a value that is not finite and >= 0.
+  void Set(int feature, int tilt, int pan, float value);
 
   const ViewingGrid& grid() const { return grid_; }
   const FeatureSet& features() const { return features_; }
   const CameraIntrinsics& camera() const { return camera_; }
   /// rho for feature block `i`: n_tilt x n_pan, row = tilt index, column = pan index.
   const Eigen::MatrixXf& radius(int i) const { return rho_[i]; }
-  Eigen::MatrixXf& mutable_radius(int i) { return rho_[i]; }
   /// 1 where a direction has been observed.
   const Eigen::Matrix<uint8_t, Eigen::Dynamic, Eigen::Dynamic>& observed() const {
     return observed_;
   }
-  Eigen::Matrix<uint8_t, Eigen::Dynamic, Eigen::Dynamic>& mutable_observed() { return observed_; }
   int ObservedCount() const;
 
  private:
