@@ -13,8 +13,8 @@
 #include <utility>
 
 #include "core/merge/merge.h"
-#include "daemon/daemon_options.h"
 #include "daemon/memory_snapshot.h"
+#include "settings/daemon_options.h"
 
 namespace tsc {
 namespace {

@@ -23,11 +23,11 @@
 #include "daemon/lcm_bus.h"
 #include "daemon/memory_snapshot.h"
 #include "daemon/peer_exchange.h"
-#include "daemon/settings.h"
 #include "daemon/system_notifier.h"
 #include "daemon/team_key.h"
 #include "drivers/base/motor_base.h"
 #include "drivers/camera/camera_source.h"
+#include "settings/settings.h"
 #include "store/store.h"
 
 namespace boost::asio {

@@ -141,7 +141,7 @@ int main(int argc, char** argv) {
   std::unique_ptr<tsc::MotorBase> base;
   std::unique_ptr<tsc::CameraSource> camera;
   try {
-    base = tsc::MakeMotor(settings.daemon);
+    base = tsc::MakeMotor(settings.daemon.motor, settings.daemon.camera, settings.daemon.sim);
   } catch (const std::exception& e) {
     spdlog::critical("motor: {}", e.what());
     return kExitConfig;

@@ -1,4 +1,4 @@
-// Fuzz target: a configuration file (daemon/settings), as tscd and tsc read it with --config.
+// Fuzz target: a configuration file (settings/settings.h), as tscd and tsc read it with --config.
 // Any input must either load and validate or be refused with a ConfigError.
 
 #include <unistd.h>
@@ -7,8 +7,8 @@
 #include <fstream>
 #include <string>
 
-#include "daemon/settings.h"
 #include "fuzz/fuzz_target.h"
+#include "settings/settings.h"
 
 extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
   // The parser reads files: one per process, rewritten for every input, removed at exit.

@@ -3,8 +3,6 @@
 // detected places, transition regions, place memory, learned places, topological map.
 // WAL mode, one transaction per pipeline result, a schema version table with migrations.
 
-#include <sqlite3.h>
-
 #include <cstdint>
 #include <filesystem>
 #include <map>
@@ -15,6 +13,8 @@
 #include <string>
 
 #include "core/pipeline/pipeline.h"
+
+struct sqlite3;  // <sqlite3.h>, included by store.cc only
 
 namespace tsc {
 

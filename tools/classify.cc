@@ -7,8 +7,8 @@
 #include <sstream>
 #include <stdexcept>
 
-#include "daemon/settings.h"
 #include "drivers/dataset/dataset.h"
+#include "settings/settings.h"
 #include "tools/eval.h"
 #include "tools/events_json.h"
 #include "tools/frame_view.h"

@@ -11,8 +11,8 @@
 #include <sstream>
 #include <stdexcept>
 
-#include "daemon/settings.h"
 #include "drivers/dataset/dataset.h"
+#include "settings/settings.h"
 #include "tools/classify.h"
 #include "tools/command_line.h"
 #include "tools/eval.h"

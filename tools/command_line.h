@@ -10,7 +10,7 @@
 #include <string>
 #include <vector>
 
-#include "daemon/settings.h"
+#include "settings/settings.h"
 
 namespace tsc {
 

@@ -6,7 +6,7 @@
 #include <cstdlib>
 #include <stdexcept>
 
-#include "daemon/settings.h"
+#include "settings/settings.h"
 #include "tools/events_json.h"
 #include "tools/frame_view.h"
 

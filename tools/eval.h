@@ -18,8 +18,8 @@
 #include <vector>
 
 #include "core/pipeline/pipeline.h"
-#include "daemon/settings.h"
 #include "drivers/dataset/dataset.h"
+#include "settings/settings.h"
 #include "tools/scoring.h"
 
 namespace tsc {

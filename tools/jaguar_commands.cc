@@ -14,10 +14,10 @@
 #include <sstream>
 #include <thread>
 
-#include "daemon/daemon_options.h"
 #include "daemon/lcm_bus.h"
 #include "drivers/camera/make_camera.h"
 #include "jaguar/motor_command_t.hpp"
+#include "settings/daemon_options.h"
 #include "tools/command_line.h"
 #include "tools/jaguar_sim.h"
 

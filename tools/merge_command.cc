@@ -8,7 +8,7 @@
 #include <stdexcept>
 
 #include "core/merge/merge.h"
-#include "daemon/settings.h"
+#include "settings/settings.h"
 #include "store/store.h"
 #include "tools/command_line.h"
 

@@ -18,7 +18,7 @@
 #include <stdexcept>
 
 #include "daemon/lcm_bus.h"
-#include "daemon/settings.h"
+#include "settings/settings.h"
 #include "tools/command_line.h"
 #include "tools/inspect.h"
 #include "tools/robot_processes.h"

@@ -20,9 +20,9 @@
 #include <thread>
 
 #include "daemon/lcm_bus.h"
-#include "daemon/settings.h"
 #include "drivers/camera/make_camera.h"
 #include "drivers/camera/sim_camera.h"
+#include "settings/settings.h"
 #include "store/store.h"
 #include "tools/command_line.h"
 #include "tools/events_json.h"

@@ -16,8 +16,8 @@
 #include <string>
 #include <vector>
 
-#include "daemon/settings.h"
 #include "drivers/dataset/dataset.h"
+#include "settings/settings.h"
 #include "store/store.h"
 #include "tools/axis_sim_command.h"
 #include "tools/classify_command.h"

@@ -6,11 +6,6 @@
 #include <string>
 
 namespace tsc {
-namespace {
-
-constexpr int kMaxHarmonics = 64;
-
-}  // namespace
 
 Descriptor::Descriptor(Eigen::VectorXf values) : values_(std::move(values)) {
   for (Eigen::Index k = 0; k < values_.size(); ++k) {
@@ -38,14 +33,8 @@ double ChiSquared(const Eigen::VectorXf& a, const Eigen::VectorXf& b) {
 }
 
 void DescriptorOptions::Validate() const {
-  if (h1 < 0 || h1 > kMaxHarmonics) {
-    throw std::invalid_argument("descriptor.harmonics_pan (H1) must be in [0, " +
-                                std::to_string(kMaxHarmonics) + "], got " + std::to_string(h1));
-  }
-  if (h2 < 0 || h2 > kMaxHarmonics) {
-    throw std::invalid_argument("descriptor.harmonics_tilt (H2) must be in [0, " +
-                                std::to_string(kMaxHarmonics) + "], got " + std::to_string(h2));
-  }
+  kHarmonicsRange.Check("descriptor.harmonics_pan (H1)", h1);
+  kHarmonicsRange.Check("descriptor.harmonics_tilt (H2)", h2);
 }
 
 DescriptorComputer::DescriptorComputer(const ViewingGrid& grid, DescriptorOptions options)

@@ -6,6 +6,7 @@
 #include <vector>
 
 #include "core/bubble/surface.h"
+#include "core/range.h"
 
 namespace tsc {
 
@@ -38,6 +39,8 @@ struct DescriptorOptions {
   /// false: a fixed scale, the (0,0) entry of a unit sphere, over N_v, so the level of a
   /// feature (a room's colour) stays in the descriptor. See docs/decisions.md.
   bool block_sum = true;
+  /// Valid range of h1 and h2 (also the configuration's, descriptor.harmonics_*).
+  static constexpr Range kHarmonicsRange{0, 64};
   void Validate() const;
 };
 

@@ -17,10 +17,7 @@ constexpr size_t kSiteCacheSize = 16;
 
 // Number of d_phi steps in 180 degrees; throws unless it is a whole number.
 int StepsIn180(double d_phi_deg) {
-  if (!(std::isfinite(d_phi_deg) && d_phi_deg > 0.0 && d_phi_deg <= 90.0)) {
-    throw std::invalid_argument("bubble.d_phi_deg must be in (0, 90], got " +
-                                std::to_string(d_phi_deg));
-  }
+  BubbleSurfaceOptions::kDPhiDegRange.Check("bubble.d_phi_deg", d_phi_deg);
   const double steps = 180.0 / d_phi_deg;
   const double whole = std::round(steps);
   if (std::abs(steps - whole) > 1e-9 * steps) {
@@ -65,18 +62,9 @@ ViewingGrid::ViewingGrid(double d_phi_deg)
 
 void BubbleSurfaceOptions::Validate() const {
   StepsIn180(d_phi_deg);
-  if (!(std::isfinite(rest_radius) && rest_radius >= 0.0f)) {
-    throw std::invalid_argument("bubble.rest_radius must be finite and >= 0, got " +
-                                std::to_string(rest_radius));
-  }
-  if (!(std::isfinite(max_depth_m) && max_depth_m > 0.0)) {
-    throw std::invalid_argument("bubble.max_depth_m must be positive, got " +
-                                std::to_string(max_depth_m));
-  }
-  if (patch_px < 6 || patch_px > 64) {
-    throw std::invalid_argument("bubble.patch_px must be in [6, 64], got " +
-                                std::to_string(patch_px));
-  }
+  kRestRadiusRange.Check("bubble.rest_radius", rest_radius);
+  kMaxDepthMRange.Check("bubble.max_depth_m", max_depth_m);
+  kPatchPxRange.Check("bubble.patch_px", patch_px);
 }
 
 BubbleSurface::BubbleSurface(FeatureSet features, CameraIntrinsics camera,
@@ -96,6 +84,21 @@ BubbleSurface::BubbleSurface(FeatureSet features, CameraIntrinsics camera,
 void BubbleSurface::Reset() {
   for (auto& r : rho_) r.setConstant(options_.rest_radius);
   observed_.setZero();
+}
+
+void BubbleSurface::Set(int feature, int tilt, int pan, float value) {
+  if (feature < 0 || feature >= static_cast<int>(rho_.size()) || tilt < 0 ||
+      tilt >= grid_.n_tilt() || pan < 0 || pan >= grid_.n_pan()) {
+    throw std::invalid_argument("bubble surface: no feature " + std::to_string(feature) +
+                                " at tilt row " + std::to_string(tilt) + ", pan column " +
+                                std::to_string(pan));
+  }
+  if (!(std::isfinite(value) && value >= 0.0f)) {
+    throw std::invalid_argument("bubble surface: value " + std::to_string(value) +
+                                " is not finite and >= 0");
+  }
+  rho_[feature](tilt, pan) = value;
+  observed_(tilt, pan) = 1;
 }
 
 int BubbleSurface::ObservedCount() const { return observed_.cast<int>().sum(); }

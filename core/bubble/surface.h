@@ -8,6 +8,7 @@
 
 #include "core/bubble/camera.h"
 #include "core/bubble/features.h"
+#include "core/range.h"
 
 namespace tsc {
 
@@ -40,7 +41,12 @@ struct BubbleSurfaceOptions {
   float rest_radius = 0.0f;   ///< rho_0, radius of unobserved directions
   double max_depth_m = 10.0;  ///< range that maps to depth feature value 1
   int patch_px = 12;          ///< side of the resampled d_phi x d_phi patch, pixels
-  void Validate() const;      ///< throws std::invalid_argument naming the bad field
+  // Valid ranges (also the configuration's, bubble.*); d_phi_deg must also divide 180.
+  static constexpr Range kDPhiDegRange{0, 90, /*min_open=*/true};
+  static constexpr Range kRestRadiusRange{0, 1};
+  static constexpr Range kMaxDepthMRange{0, 1000, /*min_open=*/true};
+  static constexpr Range kPatchPxRange{6, 64};
+  void Validate() const;  ///< throws std::invalid_argument naming the bad field
 };
 
 /// The N_v bubble surfaces of one base point. Observe() overwrites the directions a frame
@@ -54,18 +60,21 @@ class BubbleSurface {
   void Observe(const Observation& obs);
   /// Forgets all observations (a new base point).
   void Reset();
+  /// Sets feature block `feature`'s value at one grid direction (row `tilt`, column `pan`) and
+  /// marks the direction observed; the other features there keep their values. For surfaces
+  /// made of known values (tests, synthetic data). Throws std::invalid_argument on an index
+  /// out of range or a value that is not finite and >= 0.
+  void Set(int feature, int tilt, int pan, float value);
 
   const ViewingGrid& grid() const { return grid_; }
   const FeatureSet& features() const { return features_; }
   const CameraIntrinsics& camera() const { return camera_; }
   /// rho for feature block `i`: n_tilt x n_pan, row = tilt index, column = pan index.
   const Eigen::MatrixXf& radius(int i) const { return rho_[i]; }
-  Eigen::MatrixXf& mutable_radius(int i) { return rho_[i]; }
   /// 1 where a direction has been observed.
   const Eigen::Matrix<uint8_t, Eigen::Dynamic, Eigen::Dynamic>& observed() const {
     return observed_;
   }
-  Eigen::Matrix<uint8_t, Eigen::Dynamic, Eigen::Dynamic>& mutable_observed() { return observed_; }
   int ObservedCount() const;
 
  private:

@@ -8,22 +8,11 @@
 namespace tsc {
 
 void DetectorOptions::Validate() const {
-  if (tau_n < 1)
-    throw std::invalid_argument("detection.tau_n must be >= 1, got " + std::to_string(tau_n));
-  if (tau_w < 1)
-    throw std::invalid_argument("detection.tau_w must be >= 1, got " + std::to_string(tau_w));
-  if (tau_p < -1) {
-    throw std::invalid_argument("detection.tau_p must be >= 0 (or -1: from tau_p_m), got " +
-                                std::to_string(tau_p));
-  }
-  if (!(tau_p_m >= 0.0 && tau_p_m <= 1e4)) {
-    throw std::invalid_argument("detection.tau_p_m must be in [0, 10000] m, got " +
-                                std::to_string(tau_p_m));
-  }
-  if (!(spacing_m > 0.0 && spacing_m <= 1e3)) {
-    throw std::invalid_argument("base point spacing must be in (0, 1000] m, got " +
-                                std::to_string(spacing_m));
-  }
+  kTauNRange.Check("detection.tau_n", tau_n);
+  kTauWRange.Check("detection.tau_w", tau_w);
+  kTauPRange.Check("detection.tau_p (-1: from tau_p_m)", tau_p);
+  kTauPMRange.Check("detection.tau_p_m (m)", tau_p_m);
+  kSpacingMRange.Check("base point spacing (m)", spacing_m);
 }
 
 int DetectorOptions::EffectiveTauP() const {

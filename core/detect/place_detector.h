@@ -8,6 +8,8 @@
 #include <variant>
 #include <vector>
 
+#include "core/range.h"
+
 namespace tsc {
 
 /// Index k of a base point in the robot's stream, 0-based, strictly increasing.
@@ -28,6 +30,12 @@ struct DetectorOptions {
   /// Metres of travel between consecutive base points, as the source declares it (a dataset's
   /// camera.json or poses, a camera's route or rate; docs/decisions.md, "Frame rate").
   double spacing_m = 0.15;
+  // Valid ranges (tau_* also the configuration's, detection.*).
+  static constexpr Range kTauNRange{1, 100000};
+  static constexpr Range kTauWRange{1, 100000};
+  static constexpr Range kTauPRange{-1, 100000};  ///< -1: from tau_p_m
+  static constexpr Range kTauPMRange{0, 10000};
+  static constexpr Range kSpacingMRange{0, 1000, /*min_open=*/true};
   /// τ_p in base points: tau_p when set, else the largest count whose length count x
   /// spacing_m is at most tau_p_m.
   int EffectiveTauP() const;

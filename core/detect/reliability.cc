@@ -8,21 +8,10 @@
 #include "core/bubble/descriptor.h"
 
 namespace tsc {
-namespace {
-
-void CheckRange(const char* name, double value, double lo, double hi) {
-  if (!(std::isfinite(value) && value >= lo && value <= hi)) {
-    throw std::invalid_argument(std::string(name) + " must be in [" + std::to_string(lo) + ", " +
-                                std::to_string(hi) + "], got " + std::to_string(value));
-  }
-}
-
-}  // namespace
-
 void ReliabilityOptions::Validate() const {
-  CheckRange("detection.tau_mu", tau_mu, 0.0, 1.0);
-  CheckRange("detection.tau_sigma", tau_sigma, 0.0, 0.25);  // variance of values in [0,1]
-  CheckRange("detection.tau_kappa", tau_kappa, 0.0, 1.0);   // χ² of normalised descriptors
+  kTauMuRange.Check("detection.tau_mu", tau_mu);
+  kTauSigmaRange.Check("detection.tau_sigma", tau_sigma);
+  kTauKappaRange.Check("detection.tau_kappa", tau_kappa);
 }
 
 const char* BaseStatusName(BaseStatus s) {

@@ -6,6 +6,7 @@
 #include <optional>
 
 #include "core/bubble/surface.h"
+#include "core/range.h"
 
 namespace tsc {
 
@@ -13,6 +14,10 @@ struct ReliabilityOptions {
   double tau_mu = 0.08;      ///< τ_μ: mean intensity at or below → uninformative, [0,1]
   double tau_sigma = 0.002;  ///< τ_σ: intensity variance at or below → uninformative, [0,0.25]
   double tau_kappa = 0.02;   ///< τ_κ: χ² to the previous descriptor above → incoherent, [0,1]
+  // Valid ranges (also the configuration's, detection.*).
+  static constexpr Range kTauMuRange{0, 1};
+  static constexpr Range kTauSigmaRange{0, 0.25};  ///< variance of values in [0, 1]
+  static constexpr Range kTauKappaRange{0, 1};     ///< χ² of normalised descriptors
   void Validate() const;
 };
 

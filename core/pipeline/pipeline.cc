@@ -38,10 +38,7 @@ void PipelineOptions::Validate() const {
   reliability.Validate();
   detector.Validate();
   memory.Validate();
-  if (whereabouts_points < 0) {
-    throw std::invalid_argument("pipeline.whereabouts_points must be >= 0, got " +
-                                std::to_string(whereabouts_points));
-  }
+  kWhereaboutsPointsRange.Check("pipeline.whereabouts_points", whereabouts_points);
   if (!features.Contains(Feature::kIntensity)) {
     throw std::invalid_argument("bubble.features must include intensity (place detection uses it)");
   }
@@ -108,7 +105,6 @@ FrameResult Pipeline::Process(std::span<const Observation> views) {
 FrameResult Pipeline::ProcessDescriptor(const Descriptor& descriptor,
                                         const IntensityStats& intensity,
                                         const Descriptor* coherence) {
-  RequireMemory("process a base point");
   if (!memory_.empty() && descriptor.dim() != memory_.places().front().mean.size()) {
     throw std::invalid_argument("descriptor of dimension " + std::to_string(descriptor.dim()) +
                                 " for a memory of dimension " +
@@ -156,41 +152,11 @@ void Pipeline::AdoptMerged(PlaceMemory memory, TopologicalMap map) {
   known_tail_.reset();
   memory_ = std::move(memory);
   map_ = std::move(map);
-  handed_over_ = false;
-}
-
-PlaceMemory Pipeline::HandOverMemory() {
-  RequireMemory("hand the memory over");
-  PlaceMemory out = std::exchange(memory_, PlaceMemory(memory_.robot(), memory_.options()));
-  handed_over_ = true;
-  return out;
-}
-
-void Pipeline::TakeBack(PlaceMemory memory) {
-  if (!handed_over_)
-    throw std::logic_error("pipeline: a memory taken back that was not handed over");
-  if (memory.robot() != memory_.robot()) {
-    throw std::invalid_argument("memory of robot " + std::to_string(memory.robot()) +
-                                " taken back by the pipeline of robot " +
-                                std::to_string(memory_.robot()));
-  }
-  memory_ = std::move(memory);
-  handed_over_ = false;
-}
-
-// Learning into the placeholder of a memory on loan would lose what was learned when the
-// memory comes back.
-void Pipeline::RequireMemory(const char* what) const {
-  if (handed_over_) {
-    throw std::logic_error(std::string("pipeline: cannot ") + what +
-                           " while its memory is handed over to a merge");
-  }
 }
 
 FrameResult Pipeline::Finish() {
   FrameResult out;
   out.has_base = false;
-  RequireMemory("finish the stream");
   HandleDetection(detector_.Finish(), next_base_ - 1, out);
   TrimDescriptors();
   return out;
@@ -227,7 +193,7 @@ void Pipeline::HandleDetection(const std::vector<DetectionEvent>& events, BaseIn
       const Recognition r =
           memory_.Recognize(Gather(opened->place, opened->members), previous_index());
       if (!r.place) continue;
-      partial_recognition_ = *r.place;
+      partial_recognition_ = *r.place;  // a known tail of the same place is no split
       PlaceEvent e = MakeEvent(EventKind::kRecognized, k, opened->place);
       e.place = memory_.places()[*r.place].id;
       e.cost = r.cost;

@@ -15,6 +15,7 @@
 #include "core/detect/reliability.h"
 #include "core/map/topological_map.h"
 #include "core/memory/place_memory.h"
+#include "core/range.h"
 
 namespace tsc {
 
@@ -90,6 +91,8 @@ struct PipelineOptions {
   /// short passage through it is mapped A → P → B instead of A → B. 0: off, the map has only
   /// the edges β(D_{m−1})β(D_m). docs/decisions.md, "Map".
   int whereabouts_points = 0;
+  /// Valid range of whereabouts_points (also the configuration's).
+  static constexpr Range kWhereaboutsPointsRange{0, 100000};
   /// Known tails: while a place is open, its last τ_p + 1 base points are recognised every
   /// quarter of that length; when they show a learned place that the rest of the open place
   /// is not, the place is split where they begin (PlaceDetector::SplitBefore). A robot that
@@ -129,21 +132,8 @@ class Pipeline {
   FrameResult Finish();
 
   /// Continues with a merged memory and map (core/merge). The previous place follows the
-  /// place that absorbed it; a recognition of the open place is forgotten (place indices may
-  /// have moved). Throws std::invalid_argument when `memory` belongs to another robot.
-  /// Ends a hand-over (HandOverMemory) when one is under way.
+  /// place that absorbed it. Throws std::invalid_argument when `memory` belongs to another robot.
   void AdoptMerged(PlaceMemory memory, TopologicalMap map);
-  /// Hands the memory over to a merge that gives its inputs up (core/merge's moving
-  /// MergeMemories), so the places are moved into the merged memory instead of copied. Until
-  /// AdoptMerged or TakeBack ends the hand-over, memory() is an empty memory of the robot and
-  /// ProcessDescriptor, Finish and another HandOverMemory throw std::logic_error.
-  PlaceMemory HandOverMemory();
-  /// Ends a hand-over with the memory to continue with: the one handed over, unchanged (a merge
-  /// that brought nothing new returns it), or the same memory as last committed (after a
-  /// failed merge). Throws std::logic_error when no hand-over is under way and
-  /// std::invalid_argument when `memory` belongs to another robot.
-  void TakeBack(PlaceMemory memory);
-  bool memory_handed_over() const { return handed_over_; }
 
   const PlaceMemory& memory() const { return memory_; }
   const TopologicalMap& map() const { return map_; }
@@ -165,7 +155,6 @@ class Pipeline {
                           FrameResult& out);
   DetectedPlace Gather(DetectedPlaceIndex m, const std::vector<BaseIndex>& members) const;
   void TrimDescriptors();
-  void RequireMemory(const char* what) const;
 
   PipelineOptions options_;
   BubbleSurface surface_;
@@ -186,7 +175,6 @@ class Pipeline {
   std::deque<std::pair<BaseIndex, Eigen::VectorXf>> recent_;  // descriptors not yet closed
   std::optional<int> partial_recognition_;  // place the open place was recognised as
   std::optional<int> known_tail_;           // place the open place's tail showed at the last check
-  bool handed_over_ = false;                // memory_ is on loan to a merge (HandOverMemory)
 };
 
 }  // namespace tsc

@@ -1,14 +1,14 @@
 #pragma once
-// Chooses and opens the camera source the daemon's settings name. The settings' value types
-// (daemon/daemon_options.h) are plain structs; only this factory reads them, the sources take
-// their own Options.
+// Chooses and opens the camera source CameraOptions names (camera.* and sim.* of the
+// configuration). Those are plain structs (camera_options.h); only this factory reads them, the
+// sources take their own Options.
 
 #include <memory>
 
-#include "daemon/daemon_options.h"
 #include "drivers/base/motor_base.h"
 #include "drivers/base/sim_base.h"
 #include "drivers/camera/axis_camera.h"
+#include "drivers/camera/camera_options.h"
 #include "drivers/camera/camera_source.h"
 #include "drivers/camera/sim_camera.h"
 #include "drivers/clock.h"
@@ -26,12 +26,12 @@ std::unique_ptr<CameraSource> MakeCamera(const CameraOptions& camera, const SimO
                                          const MotorBase* base = nullptr, bool sim_depth = false,
                                          Clock& clock = Clock::System());
 
-/// The simulated camera's options for the daemon's settings. Throws std::invalid_argument
+/// The simulated camera's options for camera.* and sim.*. Throws std::invalid_argument
 /// naming the bad sim.* value.
 SimCameraOptions ToSimCameraOptions(const CameraOptions& camera, const SimOptions& sim,
                                     bool depth = false);
 
-/// The Axis camera's options for the daemon's settings; reads the password file. Throws
+/// The Axis camera's options for camera.*; reads the password file. Throws
 /// CameraError(recoverable = false) naming camera.axis_* when the file cannot be used,
 /// std::invalid_argument naming the bad value.
 AxisCameraOptions ToAxisCameraOptions(const CameraOptions& camera);

@@ -10,14 +10,14 @@
 namespace tsc {
 namespace {
 
-bool CameraRidesBase(const DaemonOptions& d) {
-  return d.camera.source == "sim" && d.sim.drive == "commands";
+bool CameraRidesBase(const CameraOptions& camera, const SimOptions& sim) {
+  return camera.source == "sim" && sim.drive == "commands";
 }
 
 }  // namespace
 
-JaguarOptions ToJaguarOptions(const DaemonOptions& d) {
-  const MotorOptions& m = d.motor;
+JaguarOptions ToJaguarOptions(const MotorOptions& m, const CameraOptions& camera,
+                              const SimOptions& sim) {
   JaguarOptions o;
   o.host = m.address;
   o.port = m.port;
@@ -32,8 +32,8 @@ JaguarOptions ToJaguarOptions(const DaemonOptions& d) {
   o.right_sign = m.right_sign;
   o.forward_sign = m.forward_sign;
   o.turn_sign = m.turn_sign;
-  if (CameraRidesBase(d)) {
-    const SimBaseOptions start = ToSimBaseOptions(d.sim);
+  if (CameraRidesBase(camera, sim)) {
+    const SimBaseOptions start = ToSimBaseOptions(sim);
     o.start_x_m = start.start_x_m;
     o.start_y_m = start.start_y_m;
     o.start_heading_rad = start.start_heading_rad;
@@ -42,20 +42,23 @@ JaguarOptions ToJaguarOptions(const DaemonOptions& d) {
   return o;
 }
 
-std::unique_ptr<MotorBase> MakeMotor(const DaemonOptions& d) {
-  if (d.motor.driver == "sim") {
-    if (!CameraRidesBase(d)) return nullptr;
-    SimBaseOptions o = ToSimBaseOptions(d.sim);
-    o.max_linear_mps = d.motor.max_linear_mps;
-    o.max_angular_radps = d.motor.max_angular_radps;
-    o.watchdog_s = d.motor.watchdog_s;
+std::unique_ptr<MotorBase> MakeMotor(const MotorOptions& motor, const CameraOptions& camera,
+                                     const SimOptions& sim) {
+  if (motor.driver == "sim") {
+    if (!CameraRidesBase(camera, sim)) return nullptr;
+    SimBaseOptions o = ToSimBaseOptions(sim);
+    o.max_linear_mps = motor.max_linear_mps;
+    o.max_angular_radps = motor.max_angular_radps;
+    o.watchdog_s = motor.watchdog_s;
     return std::make_unique<SimBase>(o);
   }
-  if (d.motor.driver == "jaguar-v2") return std::make_unique<JaguarV2Base>(ToJaguarOptions(d));
-  if (d.motor.driver == "jaguar-ascii") {
-    return std::make_unique<JaguarAsciiBase>(ToJaguarOptions(d));
+  if (motor.driver == "jaguar-v2") {
+    return std::make_unique<JaguarV2Base>(ToJaguarOptions(motor, camera, sim));
   }
-  throw std::invalid_argument("motor.driver: '" + d.motor.driver +
+  if (motor.driver == "jaguar-ascii") {
+    return std::make_unique<JaguarAsciiBase>(ToJaguarOptions(motor, camera, sim));
+  }
+  throw std::invalid_argument("motor.driver: '" + motor.driver +
                               "' is not one of sim | jaguar-v2 | jaguar-ascii");
 }
 

@@ -339,32 +339,21 @@ void ExpectSameMemory(const PlaceMemory& a, const PlaceMemory& b) {
   EXPECT_EQ(a.next_local_id(), b.next_local_id());
 }
 
-TEST_F(PipelineTest, MemoryHandedOverToAMergeThatBringsNothingNewComesBackUnchanged) {
+TEST_F(PipelineTest, AdoptingAMergeThatBringsNothingNewKeepsTheMemory) {
   Visit(0, 15);
   Visit(1, 15);
-  Visit(2, 15);  // closes place 1; place 2 stays open across the hand-over
+  Visit(2, 15);  // closes place 1; place 2 stays open across the merge
   ASSERT_EQ(dut_.memory().places().size(), 2u);
   const PlaceMemory before = dut_.memory();
 
   // A peer that knows nothing new: the merge returns ours as it was.
-  MemoryMerge merged = MergeMemories(dut_.HandOverMemory(), PlaceMemory(2, Options().memory));
+  MemoryMerge merged = MergeMemories(dut_.memory(), PlaceMemory(2, Options().memory));
   ASSERT_EQ(merged.merge_case, MergeCase::kNothingNew);
   ASSERT_TRUE(merged.peer_into_ours);
-  EXPECT_TRUE(dut_.memory_handed_over());
-  EXPECT_TRUE(dut_.memory().empty());
-  // On loan: nothing may learn into the placeholder, nothing is half done.
   const BaseIndex next = dut_.state().next_base;
-  EXPECT_THROW(dut_.ProcessDescriptor(Descriptor(centres_[0]), IntensityStats{0.5, 0.05}),
-               std::logic_error);
-  EXPECT_THROW(dut_.Finish(), std::logic_error);
-  EXPECT_THROW(dut_.HandOverMemory(), std::logic_error);
-  EXPECT_THROW(dut_.TakeBack(PlaceMemory(2, Options().memory)), std::invalid_argument);
+  dut_.AdoptMerged(std::move(merged.memory), dut_.map());
   EXPECT_EQ(dut_.state().next_base, next);
-
-  dut_.TakeBack(std::move(merged.memory));
-  EXPECT_FALSE(dut_.memory_handed_over());
   ExpectSameMemory(dut_.memory(), before);
-  EXPECT_THROW(dut_.TakeBack(PlaceMemory(1, Options().memory)), std::logic_error);
   // The pipeline goes on with it: place 2 is learned, the revisit of place 0 recognised.
   Visit(0, 15);
   Visit(1, 15);
@@ -372,19 +361,15 @@ TEST_F(PipelineTest, MemoryHandedOverToAMergeThatBringsNothingNewComesBackUnchan
   EXPECT_GE(Count(EventKind::kRecognized), 1);
 }
 
-TEST_F(PipelineTest, AdoptingTheMergedMemoryEndsAHandOver) {
+TEST_F(PipelineTest, AdoptingTheMergedMemoryContinuesWithIt) {
   Visit(0, 15);
   Visit(1, 15);
   Visit(2, 15);
   testing_support::RandomMemory peer = testing_support::MakeRandomMemory(2, 1, kDim, 5);
-  const PlaceMemory copy_of_ours = dut_.memory();
-  const MemoryMerge reference = MergeMemories(copy_of_ours, peer.memory);
-  MemoryMerge merged = MergeMemories(dut_.HandOverMemory(), std::move(peer.memory));
+  const MemoryMerge merged = MergeMemories(dut_.memory(), peer.memory);
   ASSERT_NE(merged.merge_case, MergeCase::kNothingNew);
-  TopologicalMap map = MergeMaps(dut_.map(), peer.map, merged.memory);
-  dut_.AdoptMerged(std::move(merged.memory), std::move(map));
-  EXPECT_FALSE(dut_.memory_handed_over());
-  ExpectSameMemory(dut_.memory(), reference.memory);
+  dut_.AdoptMerged(merged.memory, MergeMaps(dut_.map(), peer.map, merged.memory));
+  ExpectSameMemory(dut_.memory(), merged.memory);
   EXPECT_EQ(dut_.memory().places().size(), 3u);
   Visit(0, 15);
   Visit(1, 15);

@@ -19,9 +19,9 @@
 
 #include "core/pipeline/pipeline.h"
 #include "daemon/lcm_bus.h"
-#include "daemon/settings.h"
 #include "drivers/dataset/dataset.h"
 #include "drivers/world/dataset_writer.h"
+#include "settings/settings.h"
 #include "store/store.h"
 #include "test/daemon/bus_listener.h"
 #include "test/daemon/fast_sim_robot.h"

@@ -22,7 +22,7 @@
 
 #include "core/bubble/descriptor.h"
 #include "core/pipeline/pipeline.h"
-#include "daemon/daemon_options.h"
+#include "drivers/camera/camera_options.h"
 #include "drivers/camera/make_camera.h"
 #include "test/support/temp_dir.h"
 #include "tools/axis_sim.h"

@@ -2,8 +2,8 @@
 // The shipped defaults (config/tscd.ini, untouched) as the offline tools apply them to a
 // dataset: place detection's τ_p follows the dataset's base-point spacing (tsc run / eval).
 
-#include "daemon/settings.h"
 #include "drivers/dataset/dataset.h"
+#include "settings/settings.h"
 #include "tools/eval.h"
 
 namespace tsc::testing_support {

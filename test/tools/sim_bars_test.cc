@@ -18,10 +18,10 @@
 #include <set>
 #include <string>
 
-#include "daemon/settings.h"
 #include "drivers/dataset/dataset.h"
 #include "drivers/world/dataset_writer.h"
 #include "drivers/world/scenario.h"
+#include "settings/settings.h"
 #include "test/support/temp_dir.h"
 #include "tools/eval.h"
 
@@ -109,9 +109,10 @@ TEST_F(SimBarsTest, RecognitionPrecisionAndMapBarsOnThreeWorlds) {
 }
 
 // NOT met yet. Last measured (160x120, defaults): boundary F1 0.91 / 0.94 / 0.75, recall 0.13 /
-// 0.23 / 0.75 at the default τ_r (0.60 / 0.46 / 0.75 at full precision over the sweep). Most recall misses are corridor stretches revisited in the opposite direction (a
-// 60° camera sees other walls) and room walk-outs; see docs/results.md. Outdoor F1 misses the four
-// street <-> square crossings, which the descriptor does not see (docs/calibration.md, fifth pass).
+// 0.23 / 0.75 at the default τ_r (0.60 / 0.46 / 0.75 at full precision over the sweep). Most recall
+// misses are corridor stretches revisited in the opposite direction (a 60° camera sees other walls)
+// and room walk-outs; see docs/results.md. Outdoor F1 misses the four street <-> square crossings,
+// which the descriptor does not see (docs/calibration.md, fifth pass).
 TEST_F(SimBarsTest, DISABLED_BoundaryAndRecallBarsOnThreeWorlds) {
   for (const TestWorld& w : kWorlds) {
     const EvalResult r = Run(w, sim::LightingMode::kDay);

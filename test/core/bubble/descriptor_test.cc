@@ -11,6 +11,7 @@
 #include <random>
 #include <stdexcept>
 #include <string>
+#include <utility>
 
 #include "core/bubble/surface.h"
 
@@ -40,24 +41,39 @@ void FillRandom(BubbleSurface& surface, std::mt19937& rng) {
   for (int i = 0; i < g.n_pan(); ++i) {
     for (int j = g.n_tilt() / 4; j < 3 * g.n_tilt() / 4; ++j) {
       if (u(rng) > 0.3f) continue;
-      surface.mutable_observed()(j, i) = 1;
-      for (int k = 0; k < surface.features().size(); ++k) surface.mutable_radius(k)(j, i) = u(rng);
+      for (int k = 0; k < surface.features().size(); ++k) surface.Set(k, j, i, u(rng));
     }
   }
 }
 
-// The same surface turned by k grid steps in f1 (a heading change of k·d_phi).
-BubbleSurface RotatedInPan(const BubbleSurface& surface, int k) {
+// `surface` with nothing observed, then each observed direction (j, i) of it set again at
+// `to(j, i)` = (tilt row, pan column) with its values mapped by `value(feature, v)`.
+template <typename To, typename Value>
+BubbleSurface Remapped(const BubbleSurface& surface, To to, Value value) {
   BubbleSurface out = surface;
-  const int n = surface.grid().n_pan();
-  for (int i = 0; i < n; ++i) {
-    const int to = ((i + k) % n + n) % n;
-    out.mutable_observed().col(to) = surface.observed().col(i);
-    for (int f = 0; f < surface.features().size(); ++f) {
-      out.mutable_radius(f).col(to) = surface.radius(f).col(i);
+  out.Reset();
+  for (int i = 0; i < surface.grid().n_pan(); ++i) {
+    for (int j = 0; j < surface.grid().n_tilt(); ++j) {
+      if (!surface.observed()(j, i)) continue;
+      const auto [tilt, pan] = to(j, i);
+      for (int f = 0; f < surface.features().size(); ++f) {
+        out.Set(f, tilt, pan, value(f, surface.radius(f)(j, i)));
+      }
     }
   }
   return out;
+}
+const auto kSameValue = [](int, float v) { return v; };
+
+// The same surface turned by k grid steps in f1 (a heading change of k·d_phi).
+BubbleSurface RotatedInPan(const BubbleSurface& surface, int k) {
+  const int n = surface.grid().n_pan();
+  return Remapped(
+      surface,
+      [&](int j, int i) {
+        return std::pair{j, ((i + k) % n + n) % n};
+      },
+      kSameValue);
 }
 
 class DescriptorTest : public ::testing::Test {
@@ -100,8 +116,13 @@ TEST_F(DescriptorTest, IsInvariantWhenShiftedWithEnergyEntriesAndRestRadius) {
 
 TEST_F(DescriptorTest, KeepsFeatureLevelOnlyWithFixedScale) {
   FillRandom(surface_, rng_);
-  BubbleSurface brighter = surface_;
-  brighter.mutable_radius(0) *= 0.5f;  // the same hue pattern at half the level
+  // The same hue pattern at half the level.
+  const BubbleSurface brighter = Remapped(
+      surface_,
+      [](int j, int i) {
+        return std::pair{j, i};
+      },
+      [](int f, float v) { return f == 0 ? 0.5f * v : v; });
   const Eigen::VectorXf block_sum = dut_.Compute(surface_).values();
   EXPECT_LT(RelativeError(block_sum, dut_.Compute(brighter).values()), 1e-5);
 
@@ -121,11 +142,12 @@ TEST_F(DescriptorTest, IsAlsoInvariantWhenObservationsShiftInTiltAwayFromThePole
   // z holds both cos(h2 f2) and sin(h2 f2) terms, so a shift in f2 only rotates each pair
   // and zᵀz (A.7) keeps it, as long as nothing crosses f2 = 0 or π.
   FillRandom(surface_, rng_);
-  BubbleSurface moved = surface_;
-  const int rows = moved.grid().n_tilt() - 3;
-  for (int f = 0; f < moved.features().size(); ++f) {
-    moved.mutable_radius(f).bottomRows(rows) = surface_.radius(f).topRows(rows);
-  }
+  const BubbleSurface moved = Remapped(
+      surface_,
+      [](int j, int i) {
+        return std::pair{j + 3, i};
+      },
+      kSameValue);
   EXPECT_LT(RelativeError(dut_.Compute(surface_).values(), dut_.Compute(moved).values()), 1e-5);
 }
 
@@ -134,13 +156,12 @@ TEST_F(DescriptorTest, ChangesWhenPanColumnsAreRearranged) {
   std::vector<int> order(surface_.grid().n_pan());
   for (int i = 0; i < static_cast<int>(order.size()); ++i) order[i] = i;
   std::shuffle(order.begin(), order.end(), rng_);
-  BubbleSurface shuffled = surface_;
-  for (int i = 0; i < static_cast<int>(order.size()); ++i) {
-    shuffled.mutable_observed().col(order[i]) = surface_.observed().col(i);
-    for (int f = 0; f < shuffled.features().size(); ++f) {
-      shuffled.mutable_radius(f).col(order[i]) = surface_.radius(f).col(i);
-    }
-  }
+  const BubbleSurface shuffled = Remapped(
+      surface_,
+      [&](int j, int i) {
+        return std::pair{j, order[i]};
+      },
+      kSameValue);
   EXPECT_GT(ChiSquared(dut_.Compute(surface_).values(), dut_.Compute(shuffled).values()), 1e-4);
 }
 
@@ -165,7 +186,12 @@ TEST(DescriptorComputer, HasDimensionNvTimesHarmonicsForEveryThesisSet) {
 
 TEST_F(DescriptorTest, IsNonNegativeWithBlocksSummingToOneOverNv) {
   FillRandom(surface_, rng_);
-  surface_.mutable_radius(2).setZero();  // a feature that saw nothing
+  // A feature that saw nothing.
+  for (int i = 0; i < surface_.grid().n_pan(); ++i) {
+    for (int j = 0; j < surface_.grid().n_tilt(); ++j) {
+      if (surface_.observed()(j, i)) surface_.Set(2, j, i, 0.0f);
+    }
+  }
   const Descriptor d = dut_.Compute(surface_);
   const int nv = surface_.features().size();
   ASSERT_EQ(d.dim(), nv * dut_.block_size());
@@ -180,9 +206,25 @@ TEST_F(DescriptorTest, IsNonNegativeWithBlocksSummingToOneOverNv) {
   }
 }
 
+TEST(BubbleSurface, SetMarksTheDirectionObservedAndChecksItsInput) {
+  BubbleSurface dut(FeatureSet::Thesis(2, true), Vga());
+  dut.Set(1, 5, 7, 0.25f);
+  EXPECT_EQ(dut.observed()(5, 7), 1);
+  EXPECT_EQ(dut.radius(1)(5, 7), 0.25f);
+  EXPECT_EQ(dut.ObservedCount(), 1);
+  EXPECT_THROW(dut.Set(dut.features().size(), 0, 0, 0.5f), std::invalid_argument);
+  EXPECT_THROW(dut.Set(0, dut.grid().n_tilt(), 0, 0.5f), std::invalid_argument);
+  EXPECT_THROW(dut.Set(0, 0, -1, 0.5f), std::invalid_argument);
+  EXPECT_THROW(dut.Set(0, 0, 0, -0.1f), std::invalid_argument);
+  EXPECT_THROW(dut.Set(0, 0, 0, std::numeric_limits<float>::quiet_NaN()), std::invalid_argument);
+  EXPECT_EQ(dut.ObservedCount(), 1);
+}
+
 TEST_F(DescriptorTest, RawBlockIsQuadratureOfA4ForAConstantSurface) {
   // ρ = 1 everywhere: z_00 = (1/π²)·2π·π·[1, 0, 0, 0], so I_00 = 4; every h1 > 0 vanishes.
-  surface_.mutable_radius(0).setOnes();
+  for (int i = 0; i < surface_.grid().n_pan(); ++i) {
+    for (int j = 0; j < surface_.grid().n_tilt(); ++j) surface_.Set(0, j, i, 1.0f);
+  }
   const Eigen::VectorXf raw = dut_.RawBlock(surface_, 0);
   EXPECT_NEAR(raw[0], 4.0, 1e-4);
   for (int h1 = 1; h1 <= 9; ++h1) {

@@ -93,10 +93,8 @@ TEST(IntensityStatistics, UsesObservedDirectionsOnly) {
   EXPECT_EQ(IntensityStatistics(dut).mean, 0.0);
   EXPECT_EQ(IntensityStatistics(dut).variance, 0.0);
   const int block = dut.features().IndexOf(Feature::kIntensity);
-  dut.mutable_observed()(10, 0) = 1;
-  dut.mutable_radius(block)(10, 0) = 0.2f;
-  dut.mutable_observed()(11, 0) = 1;
-  dut.mutable_radius(block)(11, 0) = 0.6f;
+  dut.Set(block, 10, 0, 0.2f);
+  dut.Set(block, 11, 0, 0.6f);
   const IntensityStats stats = IntensityStatistics(dut);
   EXPECT_NEAR(stats.mean, 0.4, 1e-7);
   EXPECT_NEAR(stats.variance, 0.04, 1e-7);

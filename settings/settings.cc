@@ -1,4 +1,4 @@
-#include "daemon/settings.h"
+#include "settings/settings.h"
 
 #include <boost/program_options/options_description.hpp>
 #include <boost/program_options/parsers.hpp>
@@ -32,11 +32,6 @@ std::string FormatNumber(T v) {
   }
 }
 
-std::string FormatBound(double v) {
-  if (v == std::floor(v) && std::abs(v) < 1e15) return std::to_string(static_cast<long long>(v));
-  return FormatNumber(v);
-}
-
 std::string Trim(const std::string& s) {
   size_t b = 0, e = s.size();
   while (b < e && std::isspace(static_cast<unsigned char>(s[b]))) ++b;
@@ -56,12 +51,6 @@ std::string WrapComment(const std::string& text) {
     line += " " + w;
   }
   return out + line + "\n";
-}
-
-bool InRange(const ConfigKey& k, double v) {
-  if (k.min_open ? v <= k.min : v < k.min) return false;
-  if (k.max_open ? v >= k.max : v > k.max) return false;
-  return true;
 }
 
 // Parses a number of type T (integers must be whole) and checks the key's range.
@@ -85,7 +74,7 @@ T ParseNumber(const ConfigKey& k, const std::string& text) {
       throw std::invalid_argument("'" + s + "' is not a finite number");
     }
   }
-  if (!InRange(k, v)) {
+  if (!k.range.Contains(v)) {
     throw std::invalid_argument("out of range " + k.RangeText() +
                                 (k.unit.empty() ? "" : " (" + k.unit + ")"));
   }
@@ -100,26 +89,32 @@ bool ParseBool(const std::string& text) {
 }
 
 // `field` is a generic lambda returning a reference to the option inside Settings
-// (const or not), so one accessor serves both get and set.
+// (const or not), so one accessor serves both get and set. `range` is the Options struct's
+// declaration where it has one (its Validate() checks the same), else declared here.
 template <typename Field>
-ConfigKey Number(std::string key, std::string description, std::string unit, double min, double max,
-                 Field field, bool min_open = false, bool max_open = false) {
+ConfigKey Number(std::string key, std::string description, std::string unit, Range range,
+                 Field field) {
   using T = std::remove_cvref_t<decltype(field(std::declval<Settings&>()))>;
   ConfigKey k;
   k.key = std::move(key);
   k.description = std::move(description);
   k.unit = std::move(unit);
   k.kind = std::is_integral_v<T> ? ConfigKey::Kind::kInteger : ConfigKey::Kind::kReal;
-  k.min = min;
-  k.max = max;
-  k.min_open = min_open;
-  k.max_open = max_open;
+  k.range = range;
   k.get = [field](const Settings& o) { return FormatNumber(field(o)); };
   // The row is copied into the setter so the range check can name it.
   k.set = [field, row = k](Settings& o, const std::string& v) {
     field(o) = ParseNumber<T>(row, v);
   };
   return k;
+}
+
+// A numeric key whose range only the configuration declares (no Validate() checks it).
+template <typename Field>
+ConfigKey Number(std::string key, std::string description, std::string unit, double min, double max,
+                 Field field, bool min_open = false, bool max_open = false) {
+  return Number(std::move(key), std::move(description), std::move(unit),
+                Range{min, max, min_open, max_open}, field);
 }
 
 template <typename Field>
@@ -188,8 +183,8 @@ std::vector<ConfigKey> BuildTable() {
   {
     ConfigKey k = Number(
         "bubble.d_phi_deg", "d_phi, spacing of the grid of viewing directions; must divide 180",
-        "degrees", 0, 90, [](auto& o) -> auto& { return o.pipeline.surface.d_phi_deg; },
-        /*min_open=*/true);
+        "degrees", BubbleSurfaceOptions::kDPhiDegRange,
+        [](auto& o) -> auto& { return o.pipeline.surface.d_phi_deg; });
     k.set = [in_range = k.set](Settings& o, const std::string& v) {
       in_range(o, v);
       const double steps = 180.0 / o.pipeline.surface.d_phi_deg;
@@ -200,21 +195,25 @@ std::vector<ConfigKey> BuildTable() {
     t.push_back(std::move(k));
   }
   t.push_back(Number(
-      "bubble.rest_radius", "rho_0, radius of directions never observed", "feature value", 0, 1,
+      "bubble.rest_radius", "rho_0, radius of directions never observed", "feature value",
+      BubbleSurfaceOptions::kRestRadiusRange,
       [](auto& o) -> auto& { return o.pipeline.surface.rest_radius; }));
   t.push_back(Number(
-      "bubble.max_depth_m", "range that maps to depth feature value 1", "m", 0, 1000,
-      [](auto& o) -> auto& { return o.pipeline.surface.max_depth_m; },
-      /*min_open=*/true));
+      "bubble.max_depth_m", "range that maps to depth feature value 1", "m",
+      BubbleSurfaceOptions::kMaxDepthMRange,
+      [](auto& o) -> auto& { return o.pipeline.surface.max_depth_m; }));
   t.push_back(Number(
-      "bubble.patch_px", "side of the resampled d_phi x d_phi image patch", "pixels", 6, 64,
+      "bubble.patch_px", "side of the resampled d_phi x d_phi image patch", "pixels",
+      BubbleSurfaceOptions::kPatchPxRange,
       [](auto& o) -> auto& { return o.pipeline.surface.patch_px; }));
   // [descriptor] — (A.3)-(A.7)
   t.push_back(Number(
-      "descriptor.harmonics_pan", "H1, harmonics of the Fourier series in pan", "", 0, 64,
+      "descriptor.harmonics_pan", "H1, harmonics of the Fourier series in pan", "",
+      DescriptorOptions::kHarmonicsRange,
       [](auto& o) -> auto& { return o.pipeline.descriptor.h1; }));
   t.push_back(Number(
-      "descriptor.harmonics_tilt", "H2, harmonics of the Fourier series in tilt", "", 0, 64,
+      "descriptor.harmonics_tilt", "H2, harmonics of the Fourier series in tilt", "",
+      DescriptorOptions::kHarmonicsRange,
       [](auto& o) -> auto& { return o.pipeline.descriptor.h2; }));
   t.push_back(Bool(
       "descriptor.amplitude",
@@ -227,37 +226,44 @@ std::vector<ConfigKey> BuildTable() {
   // [detection] — section 3.4, appendix C
   t.push_back(Number(
       "detection.tau_mu", "tau_mu, mean intensity at or below which a base point is uninformative",
-      "intensity", 0, 1, [](auto& o) -> auto& { return o.pipeline.reliability.tau_mu; }));
+      "intensity", ReliabilityOptions::kTauMuRange,
+      [](auto& o) -> auto& { return o.pipeline.reliability.tau_mu; }));
   t.push_back(Number(
       "detection.tau_sigma",
       "tau_sigma, intensity variance at or below which a base point is "
       "uninformative",
-      "intensity^2", 0, 0.25, [](auto& o) -> auto& { return o.pipeline.reliability.tau_sigma; }));
+      "intensity^2", ReliabilityOptions::kTauSigmaRange,
+      [](auto& o) -> auto& { return o.pipeline.reliability.tau_sigma; }));
   t.push_back(Number(
       "detection.tau_kappa",
       "tau_kappa, chi^2 to the previous descriptor above which a base point is "
       "incoherent",
-      "chi^2", 0, 1, [](auto& o) -> auto& { return o.pipeline.reliability.tau_kappa; }));
+      "chi^2", ReliabilityOptions::kTauKappaRange,
+      [](auto& o) -> auto& { return o.pipeline.reliability.tau_kappa; }));
   t.push_back(Number(
       "detection.tau_n",
       "tau_n, a bad base point within this many points extends the temporal "
       "window",
-      "base points", 1, 100000, [](auto& o) -> auto& { return o.pipeline.detector.tau_n; }));
+      "base points", DetectorOptions::kTauNRange,
+      [](auto& o) -> auto& { return o.pipeline.detector.tau_n; }));
   t.push_back(Number(
       "detection.tau_w",
       "tau_w, temporal windows this long or longer are transitions, shorter ones "
       "noise",
-      "base points", 1, 100000, [](auto& o) -> auto& { return o.pipeline.detector.tau_w; }));
+      "base points", DetectorOptions::kTauWRange,
+      [](auto& o) -> auto& { return o.pipeline.detector.tau_w; }));
   t.push_back(Number(
       "detection.tau_p",
       "tau_p, detected places with this many base points or fewer are pruned; -1 = from "
       "tau_p_m and the base-point spacing (camera.spacing_m)",
-      "base points", -1, 100000, [](auto& o) -> auto& { return o.pipeline.detector.tau_p; }));
+      "base points", DetectorOptions::kTauPRange,
+      [](auto& o) -> auto& { return o.pipeline.detector.tau_p; }));
   t.push_back(Number(
       "detection.tau_p_m",
       "tau_p as a length of travel: detected places spanning this many metres or fewer are "
       "pruned (used when tau_p = -1)",
-      "m", 0, 10000, [](auto& o) -> auto& { return o.pipeline.detector.tau_p_m; }));
+      "m", DetectorOptions::kTauPMRange,
+      [](auto& o) -> auto& { return o.pipeline.detector.tau_p_m; }));
   // [memory] — sections 3.3, 3.5, 3.6
   t.push_back(Number(
       "memory.tau_r", "tau_r, recognition threshold on the cost g_N of (3.8)", "", 0, 1000,
@@ -337,7 +343,8 @@ std::vector<ConfigKey> BuildTable() {
       "base points of the window on which the robot recognises known places while a maximal "
       "neighbourhood is still shorter than a place (extent <= tau_p), so the map records a "
       "pruned passage through a known place; 0 = off",
-      "base points", 0, 100000, [](auto& o) -> auto& { return o.pipeline.whereabouts_points; }));
+      "base points", PipelineOptions::kWhereaboutsPointsRange,
+      [](auto& o) -> auto& { return o.pipeline.whereabouts_points; }));
   t.push_back(Bool(
       "pipeline.split_known_tails",
       "while a place is open, recognise its last tau_p + 1 base points; when they show a "
@@ -355,12 +362,14 @@ std::vector<ConfigKey> BuildTable() {
       "daemon.queue_frames",
       "base points waiting for the pipeline (a pan sweep's views count as one); when full the "
       "oldest is dropped, all its views, and counted once (frames_dropped)",
-      "base points", 1, 1000, [](auto& o) -> auto& { return o.daemon.queue_frames; }));
+      "base points", DaemonOptions::kQueueFramesRange,
+      [](auto& o) -> auto& { return o.daemon.queue_frames; }));
   t.push_back(Number(
       "daemon.max_pending_results",
       "results kept in memory while the store cannot be written; beyond it the oldest base "
       "point records are dropped (learned places and map edges are always kept)",
-      "results", 1, 10000000, [](auto& o) -> auto& { return o.daemon.max_pending_results; }));
+      "results", DaemonOptions::kMaxPendingResultsRange,
+      [](auto& o) -> auto& { return o.daemon.max_pending_results; }));
   t.push_back(Number(
       "daemon.stop_store_wait_s",
       "at stop, how long a failing store is tried before what is not in it is spilled to a "
@@ -384,7 +393,7 @@ std::vector<ConfigKey> BuildTable() {
       [](auto& o) -> auto& { return o.daemon.camera.path; }));
   t.push_back(Number(
       "camera.fps", "frames per second delivered to the pipeline; 0 = as fast as the source", "1/s",
-      0, 1000, [](auto& o) -> auto& { return o.daemon.camera.fps; }));
+      CameraOptions::kFpsRange, [](auto& o) -> auto& { return o.daemon.camera.fps; }));
   t.push_back(Bool(
       "camera.loop", "folder and video: start again at the end instead of stopping",
       [](auto& o) -> auto& { return o.daemon.camera.loop; }));
@@ -514,8 +523,8 @@ std::vector<ConfigKey> BuildTable() {
       "s", 0, 3600, [](auto& o) -> auto& { return o.daemon.bus.memory_period_s; }));
   t.push_back(Number(
       "lcm.portion_bytes",
-      "upper bound of one encoded memory portion; keep it below one UDP datagram", "bytes", 4096,
-      65000, [](auto& o) -> auto& { return o.daemon.bus.portion_bytes; }));
+      "upper bound of one encoded memory portion; keep it below one UDP datagram", "bytes",
+      BusOptions::kPortionBytesRange, [](auto& o) -> auto& { return o.daemon.bus.portion_bytes; }));
   t.push_back(Text(
       "lcm.team_key_file",
       "file holding the team's HMAC key, readable only by tscd's user (mode 0600); "
@@ -603,8 +612,7 @@ std::string ConfigKey::RangeText() const {
       return text_range;
     case Kind::kInteger:
     case Kind::kReal:
-      return std::string(min_open ? "(" : "[") + FormatBound(min) + ", " + FormatBound(max) +
-             (max_open ? ")" : "]");
+      return range.Text();
   }
   return "";
 }

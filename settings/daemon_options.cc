@@ -1,4 +1,4 @@
-#include "daemon/daemon_options.h"
+#include "settings/daemon_options.h"
 
 #include <cstdint>
 #include <stdexcept>
@@ -9,10 +9,8 @@ namespace tsc {
 
 void DaemonOptions::Validate() const {
   if (state_dir.empty()) throw std::invalid_argument("daemon.state_dir: a folder is required");
-  if (queue_frames < 1) throw std::invalid_argument("daemon.queue_frames: must be at least 1");
-  if (max_pending_results < 1) {
-    throw std::invalid_argument("daemon.max_pending_results: must be at least 1");
-  }
+  kQueueFramesRange.Check("daemon.queue_frames", queue_frames);
+  kMaxPendingResultsRange.Check("daemon.max_pending_results", max_pending_results);
   if (camera.source == "none") {
     throw std::invalid_argument(
         "camera.source = none: no camera chosen yet. Set camera.source to device (a V4L2/USB "
@@ -33,7 +31,7 @@ void DaemonOptions::Validate() const {
   } else if (camera.source != "sim" && camera.path.empty()) {
     throw std::invalid_argument("camera.path: required for camera.source = " + camera.source);
   }
-  if (camera.fps < 0) throw std::invalid_argument("camera.fps: must not be negative");
+  CameraOptions::kFpsRange.Check("camera.fps", camera.fps);
   if ((camera.source == "axis" || camera.source == "device") &&
       int64_t{camera.width} * camera.height > camera.max_image_pixels) {
     throw std::invalid_argument(
@@ -57,7 +55,7 @@ void DaemonOptions::Validate() const {
                                   " must be 1 or -1");
     }
   }
-  if (bus.portion_bytes < 4096) throw std::invalid_argument("lcm.portion_bytes: below 4096");
+  BusOptions::kPortionBytesRange.Check("lcm.portion_bytes", bus.portion_bytes);
 }
 
 }  // namespace tsc

@@ -2,10 +2,11 @@
 #include <unistd.h>
 
 #include <fstream>
+#include <functional>
 #include <set>
 #include <sstream>
 
-#include "daemon/settings.h"
+#include "settings/settings.h"
 #include "test/support/temp_dir.h"
 
 namespace tsc {
@@ -120,6 +121,52 @@ TEST_F(ConfigTest, OutOfRangeNamesKeyAndRange) {
   const std::string open = ErrorOf("[memory]\ntau_h = 1\n");
   EXPECT_NE(open.find("memory.tau_h"), std::string::npos) << open;
   EXPECT_NE(open.find("[0, 1)"), std::string::npos) << open;
+}
+
+// Ranges the Options structs check in Validate() are declared once, beside the option: the
+// table shows and applies that declaration, and a value just outside it is refused by both.
+TEST_F(ConfigTest, ValidatedRangesAreTheOptionsOwn) {
+  struct Case {
+    const char* key;
+    Range range;
+    std::function<void(Settings&, double)> set;
+  };
+  const std::vector<Case> cases = {
+      {"detection.tau_n", DetectorOptions::kTauNRange,
+       [](Settings& s, double v) { s.pipeline.detector.tau_n = static_cast<int>(v); }},
+      {"detection.tau_sigma", ReliabilityOptions::kTauSigmaRange,
+       [](Settings& s, double v) { s.pipeline.reliability.tau_sigma = v; }},
+      {"bubble.patch_px", BubbleSurfaceOptions::kPatchPxRange,
+       [](Settings& s, double v) { s.pipeline.surface.patch_px = static_cast<int>(v); }},
+      {"descriptor.harmonics_pan", DescriptorOptions::kHarmonicsRange,
+       [](Settings& s, double v) { s.pipeline.descriptor.h1 = static_cast<int>(v); }},
+      {"pipeline.whereabouts_points", PipelineOptions::kWhereaboutsPointsRange,
+       [](Settings& s, double v) { s.pipeline.whereabouts_points = static_cast<int>(v); }},
+      {"daemon.queue_frames", DaemonOptions::kQueueFramesRange,
+       [](Settings& s, double v) { s.daemon.queue_frames = static_cast<int>(v); }},
+      {"lcm.portion_bytes", BusOptions::kPortionBytesRange,
+       [](Settings& s, double v) { s.daemon.bus.portion_bytes = static_cast<int>(v); }},
+      {"camera.fps", CameraOptions::kFpsRange,
+       [](Settings& s, double v) { s.daemon.camera.fps = v; }},
+  };
+  for (const Case& c : cases) {
+    const ConfigKey* k = FindConfigKey(c.key);
+    ASSERT_NE(k, nullptr) << c.key;
+    EXPECT_EQ(k->RangeText(), c.range.Text()) << c.key;
+    for (const double outside : {c.range.min - 1, c.range.max + 1}) {
+      Settings direct;
+      c.set(direct, outside);
+      EXPECT_ANY_THROW({
+        direct.pipeline.Validate();
+        direct.daemon.Validate();
+      }) << c.key
+         << " = " << outside;
+      Settings read;
+      EXPECT_THROW(ApplyOverride(std::string(c.key) + "=" + FormatRangeNumber(outside), read),
+                   ConfigError)
+          << c.key << " = " << outside;
+    }
+  }
 }
 
 TEST_F(ConfigTest, MalformedValuesNameKey) {

@@ -12,7 +12,8 @@
 #include <vector>
 
 #include "core/pipeline/pipeline.h"
-#include "daemon/daemon_options.h"
+#include "core/range.h"
+#include "settings/daemon_options.h"
 
 namespace tsc {
 
@@ -40,10 +41,9 @@ struct ConfigKey {
   /// The model's parameters (read by the offline tools too) or the daemon's own.
   enum class Scope { kPipeline, kDaemon };
   Scope scope = Scope::kPipeline;
-  double min = 0.0;  ///< range of numeric keys
-  double max = 0.0;
-  bool min_open = false;   ///< the range excludes min
-  bool max_open = false;   ///< the range excludes max
+  /// Range of numeric keys: the Options struct's own declaration (e.g.
+  /// DetectorOptions::kTauNRange, which its Validate() checks too) where it has one.
+  Range range;
   std::string text_range;  ///< the accepted values of text keys
   /// Current value, formatted as the INI file would hold it.
   std::function<std::string(const Settings&)> get;
