@@ -157,6 +157,26 @@ std::string ProgressLine(const std::vector<RobotStats>& robots, double elapsed) 
   return s.str();
 }
 
+// DIR/team_map.png: the final memory of `whose` over the floor plan (tools/plots.h). A picture
+// that cannot be drawn is reported, not fatal.
+void WriteTeamMapOf(const std::vector<ReplayedRobot>& robots, const ReplayedRobot& whose,
+                    const Settings& settings, long long world, const std::string& kind,
+                    const fs::path& out) {
+  try {
+    const WorldPlan plan = WorldPlanOf(settings);
+    std::ostringstream title, subtitle;
+    title << "team map: robot " << whose.id << "'s memory after merging, " << kind << " world "
+          << world;
+    subtitle << whose.memory.places().size() << " places, " << whose.map.edges().size()
+             << " edges, " << robots.size() << " robots";
+    WriteTeamMap(TeamMapOf(whose.memory, whose.map, robots, title.str(), subtitle.str()), &plan,
+                 out / "team_map.png");
+    std::cout << "team map: " << (out / "team_map.png").string() << "\n";
+  } catch (const std::exception& e) {
+    std::cerr << "tsc: no team map: " << e.what() << "\n";
+  }
+}
+
 // "2,1,3": a permutation of 1..n (UsageError otherwise).
 std::vector<uint32_t> ParseOrder(const std::string& text, int n) {
   std::vector<uint32_t> order;
@@ -235,6 +255,7 @@ int TeamOffline(const std::vector<Settings>& robot_settings, const std::vector<u
   }
   const TeamVerdict verdict = JudgeTeam(scoring);
   PrintTeamVerdict(std::cout, verdict);
+  WriteTeamMapOf(robots, robots.front(), robot_settings.front(), world, kind, out);
   json << "]" << TeamVerdictJson(verdict) << ",\"seconds\":null,\"fps\":" << JsonNumber(fps)
        << ",\"mode\":\"offline\",\"order\":[";
   for (size_t i = 0; i < order.size(); ++i) json << (i ? "," : "") << order[i];
@@ -455,6 +476,8 @@ int Team(const std::vector<std::string>& args) {
   // Summary: the stores are the truth (they survive the processes).
   bool ok = true;
   std::vector<TeamMemoryForScoring> scoring(robots.size());
+  // Each robot's route (labels, positions), then its store's assignments, memory and map.
+  std::vector<ReplayedRobot> routes = RoutesOf(robot_settings);
   bool any_dropped = false;
   std::ostringstream json;
   json << "{\"robots\":[";
@@ -477,14 +500,12 @@ int Team(const std::vector<std::string>& args) {
       // and peers' places absorbed into one of its places.
       // The route's labels by base point: frame k of the route is base point k as long as no
       // frame was dropped (and the robot did not restart).
-      const SimCamera route(
-          ToSimCameraOptions(robot_settings[i].daemon.camera, robot_settings[i].daemon.sim));
-      std::vector<std::string> labels;
-      for (const sim::RouteFrame& f : route.route()) labels.push_back(f.label);
       any_dropped |= r.dropped > 0;
-      scoring[i] =
-          ForMergeScoring(static_cast<uint32_t>(r.id),
-                          Store::Open(r.dir / "memory.db").LoadAssignments(), labels, s.memory);
+      ReplayedRobot& route = routes[i];
+      route.assignments = Store::Open(r.dir / "memory.db").LoadAssignments();
+      route.memory = s.memory;
+      route.map = s.map;
+      scoring[i] = ForMergeScoring(route.id, route.assignments, route.labels, s.memory);
       for (const LearnedPlace& p : s.memory.places()) {
         if (p.id.robot == static_cast<uint32_t>(r.id)) {
           ++own;
@@ -525,6 +546,8 @@ int Team(const std::vector<std::string>& args) {
   if (any_dropped) {
     std::cout << "  (frames were dropped: place labels from the route may be shifted)\n";
   }
+  WriteTeamMapOf(routes, routes.front(), robot_settings.front(), vm["world"].as<long long>(),
+                 vm["kind"].as<std::string>(), out);
   json << "]" << TeamVerdictJson(verdict);
   json << ",\"seconds\":" << JsonNumber(run_s) << ",\"fps\":" << JsonNumber(vm["fps"].as<double>())
        << "}\n";

@@ -98,7 +98,10 @@ ReplayedRobot ReplayRoute(const Settings& settings, uint32_t robot) {
 
   ReplayedRobot out;
   out.id = robot;
-  for (const sim::RouteFrame& f : camera.route()) out.labels.push_back(f.label);
+  for (const sim::RouteFrame& f : camera.route()) {
+    out.labels.push_back(f.label);
+    out.positions.emplace_back(f.pose.x, f.pose.y);
+  }
 
   // The daemon's pipeline (daemon.cc): its options, robot id, and the spacing its camera
   // declares.
@@ -258,6 +261,80 @@ std::string TeamVerdictJson(const TeamVerdict& v) {
   }
   json << "]";
   return json.str();
+}
+
+std::vector<ReplayedRobot> RoutesOf(const std::vector<Settings>& settings) {
+  std::vector<ReplayedRobot> out;
+  for (size_t i = 0; i < settings.size(); ++i) {
+    const SimCamera route(ToSimCameraOptions(settings[i].daemon.camera, settings[i].daemon.sim));
+    ReplayedRobot r;
+    r.id = static_cast<uint32_t>(i + 1);
+    for (const sim::RouteFrame& f : route.route()) {
+      r.labels.push_back(f.label);
+      r.positions.emplace_back(f.pose.x, f.pose.y);
+    }
+    out.push_back(std::move(r));
+  }
+  return out;
+}
+
+TeamMapPicture TeamMapOf(const PlaceMemory& memory, const TopologicalMap& map,
+                         const std::vector<ReplayedRobot>& robots, std::string title,
+                         std::string subtitle) {
+  TeamMapPicture out;
+  out.title = std::move(title);
+  out.subtitle = std::move(subtitle);
+  out.map = map;
+  // Every robot's frames of each of its own places.
+  std::map<PlaceId, std::vector<std::pair<const ReplayedRobot*, BaseIndex>>> frames_of;
+  for (const ReplayedRobot& r : robots) {
+    out.robots.push_back({r.id, r.positions});
+    for (const auto& [place, members] : r.assignments) {
+      if (place.robot != r.id) continue;
+      for (BaseIndex b : members) {
+        if (b >= 0 && b < static_cast<BaseIndex>(r.positions.size())) {
+          frames_of[place].emplace_back(&r, b);
+        }
+      }
+    }
+  }
+  for (const LearnedPlace& p : memory.places()) {
+    TeamMapPicture::Place place;
+    place.id = p.id;
+    place.sources = p.sources;
+    double sx = 0, sy = 0;
+    int n = 0;
+    std::map<std::string, int> votes;
+    std::vector<PlaceId> ids = {p.id};
+    ids.insert(ids.end(), p.sources.begin(), p.sources.end());
+    for (const PlaceId& id : ids) {
+      const auto it = frames_of.find(id);
+      if (it == frames_of.end()) continue;
+      for (const auto& [robot, b] : it->second) {
+        const auto& [x, y] = robot->positions[static_cast<size_t>(b)];
+        sx += x, sy += y, ++n;
+        const std::string& l = robot->labels[static_cast<size_t>(b)];
+        if (!l.empty()) ++votes[l];
+      }
+    }
+    if (n > 0) {
+      place.located = true;
+      place.x = sx / n;
+      place.y = sy / n;
+    }
+    if (!votes.empty()) {
+      place.label = std::max_element(votes.begin(), votes.end(), [](const auto& a, const auto& b) {
+                      return a.second < b.second;
+                    })->first;
+    }
+    out.places.push_back(std::move(place));
+  }
+  return out;
+}
+
+WorldPlan WorldPlanOf(const Settings& settings) {
+  const SimCamera camera(ToSimCameraOptions(settings.daemon.camera, settings.daemon.sim));
+  return ParseWorldPlan(camera.world().ToJson(), "simulated world");
 }
 
 void PrintTeamVerdict(std::ostream& out, const TeamVerdict& v) {

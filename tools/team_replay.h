@@ -21,6 +21,7 @@
 #include "core/map/topological_map.h"
 #include "core/memory/place_memory.h"
 #include "daemon/settings.h"
+#include "tools/plots.h"
 #include "tools/scoring.h"
 
 namespace tsc {
@@ -36,7 +37,9 @@ struct ReplayedRobot {
   TopologicalMap map;
   PlaceAssignments assignments;     ///< every detected place of its route and its place
   std::vector<std::string> labels;  ///< ground-truth label of each route frame (= base point)
-  int64_t frames = 0;               ///< base points processed
+  /// Ground-truth position of each route frame (metres, x east, y north).
+  std::vector<std::pair<double, double>> positions;
+  int64_t frames = 0;  ///< base points processed
   int detected_places = 0;
   int recognitions = 0;    ///< detected places recognised (final decisions)
   int learned = 0;         ///< detected places learned as new places
@@ -93,6 +96,21 @@ TeamVerdict JudgeTeam(const std::vector<TeamMemoryForScoring>& robots);
 /// The "merge" object and what follows it in summary.json (without the closing brace):
 /// `,"merge":{...},"consistent":..,"known_places":[..],"places_per_label":[..]`.
 std::string TeamVerdictJson(const TeamVerdict& verdict);
+
+/// The robots' routes as ReplayRoute records them (labels, positions) without replaying them,
+/// for a live run whose memories come from the stores: the route of robot i + 1 from
+/// `settings[i]`. Throws what SimCamera throws.
+std::vector<ReplayedRobot> RoutesOf(const std::vector<Settings>& settings);
+
+/// The team map of one final memory (tools/plots.h): each place at the mean position of the
+/// frames of all its ids (own and absorbed) in the routes of the robots that learned them
+/// (`robots`: their assignments and positions), with their majority label; every robot's
+/// trajectory; the map's edges.
+TeamMapPicture TeamMapOf(const PlaceMemory& memory, const TopologicalMap& map,
+                         const std::vector<ReplayedRobot>& robots, std::string title,
+                         std::string subtitle);
+/// The floor plan of the simulated world of `settings` (sim.*).
+WorldPlan WorldPlanOf(const Settings& settings);
 
 /// Prints the verdict for people (merges, place recall, consistency, places per label).
 void PrintTeamVerdict(std::ostream& out, const TeamVerdict& verdict);

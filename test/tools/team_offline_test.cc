@@ -7,6 +7,7 @@
 
 #include <cmath>
 #include <filesystem>
+#include <opencv2/imgcodecs.hpp>
 #include <string>
 #include <vector>
 
@@ -62,6 +63,10 @@ TEST_F(TeamOfflineTest, TwoRunsWriteTheSameSummaryAndTheFiguresAreSane) {
   ASSERT_FALSE(json.empty());
   EXPECT_EQ(Summary("b"), json);
 
+  // The team map: a picture of the final memory over the floor plan (item 4).
+  const cv::Mat map = cv::imread((temp_.path() / "a" / "team_map.png").string());
+  EXPECT_GT(map.cols, 500);
+  EXPECT_GT(map.rows, 300);
   EXPECT_NE(json.find("\"mode\":\"offline\""), std::string::npos);
   EXPECT_EQ(ArrayAt(json, "order"), "[1,2,3]");
   EXPECT_NE(json.find("\"settled\":true"), std::string::npos);
