@@ -7,8 +7,10 @@
 
 #include <cmath>
 #include <filesystem>
+#include <iostream>
 #include <opencv2/imgcodecs.hpp>
 #include <string>
+#include <utility>
 #include <vector>
 
 #include "test/support/temp_dir.h"
@@ -107,6 +109,39 @@ TEST_F(TeamOfflineTest, TwoRunsWriteTheSameSummaryAndTheFiguresAreSane) {
     p = ppl.find(',', p);
     if (p == std::string::npos) break;
     ++p;
+  }
+}
+
+// Issue 21's bars on the deterministic evaluation: three robots with the pan-sweep camera
+// (config/sweep.ini) at 160x120, on three worlds whose seeds were picked before measuring
+// (201 office, 202 corridors, 203 outdoor), merged in the default order: merge place recall
+// >= 0.8 at precision >= 0.95, places per label <= 1.5 in every final memory, memories
+// consistent.
+TEST_F(TeamOfflineTest, MergeBarsWithPanSweepsOnThreeWorlds) {
+  for (const auto& [kind, seed] : std::vector<std::pair<std::string, int>>{
+           {"office", 201}, {"corridors", 202}, {"outdoor", 203}}) {
+    const std::string out = kind + "-" + std::to_string(seed);
+    const auto run = testing_support::RunTsc(
+        temp_.path(),
+        "team --offline --robots 3 --world " + std::to_string(seed) + " --kind " + kind +
+            " --config " +
+            testing_support::Quote(std::string(TSCD_SOURCE_DIR) + "/config/sweep.ini") +
+            " --set sim.width=160 --set sim.height=120 --out " +
+            testing_support::Quote((temp_.path() / out).string()));
+    ASSERT_EQ(run.code, 0) << run.out << run.err;
+    const std::string json = Summary(out);
+    std::cout << out << ": " << json;
+    SCOPED_TRACE(out);
+    EXPECT_GE(NumberAt(json, "place_recall"), 0.8);
+    EXPECT_GE(NumberAt(json, "precision", json.find("\"merge\":")), 0.95);
+    EXPECT_NE(json.find("\"consistent\":true"), std::string::npos);
+    const std::string ppl = ArrayAt(json, "places_per_label");
+    for (size_t p = 1; p < ppl.size();) {
+      EXPECT_LE(std::stod(ppl.substr(p)), 1.5) << ppl;
+      p = ppl.find(',', p);
+      if (p == std::string::npos) break;
+      ++p;
+    }
   }
 }
 
