@@ -77,6 +77,11 @@ until nothing changes, each robot in --order merges every other robot's memory i
 are the live run's (cpu, memory and seconds null), plus "mode", "order" and "settled". The
 same arguments give the same file.
 
+Both runs draw DIR/team_map.png: robot 1's final memory over the simulated floor plan, each
+place at the mean position of its frames in the colour of the robot whose id it carries,
+merged places ringed in the colours of the robots they absorbed, room labels from the ground
+truth.
+
 Options)";
 
 struct RobotStats {
