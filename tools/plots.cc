@@ -119,6 +119,63 @@ void Swatch(cv::Mat& img, cv::Point& at, const cv::Scalar& colour, const std::st
   at.x += 28 + TextSize(label).width + 22;
 }
 
+// Colours of the floor plan.
+const cv::Scalar kRoomFloor(247, 247, 247), kOutdoorFloor(240, 247, 240);
+const cv::Scalar kBox(205, 205, 205), kWall(70, 70, 70), kDoor(150, 205, 240);
+const cv::Scalar kRoomLabel(160, 160, 160);
+const cv::Scalar kMapEdgeOverWorld(150, 70, 130);
+
+// The floor plan of `world`: room floors, boxes, doors, walls and room labels. `px` maps
+// metres to pixels, `rect_px` a rectangle; `scale` is pixels per metre.
+template <typename Px, typename RectPx>
+void DrawWorldPlan(cv::Mat& img, const WorldPlan& world, const Px& px, const RectPx& rect_px,
+                   double scale) {
+  for (const WorldPlan::Room& room : world.rooms) {
+    cv::rectangle(img, rect_px(room.rect), room.outdoor ? kOutdoorFloor : kRoomFloor, cv::FILLED);
+  }
+  for (const WorldPlan::Room& room : world.rooms) {
+    for (const WorldPlan::Rect& b : room.boxes) {
+      cv::rectangle(img, rect_px(b), kBox, cv::FILLED);
+      cv::rectangle(img, rect_px(b), cv::Scalar(175, 175, 175), 1);
+    }
+  }
+  const int wall_px = std::clamp(static_cast<int>(std::lround(0.12 * scale)), 3, 6);
+  for (const WorldPlan::Rect& d : world.doors) {
+    cv::line(img, px(d.x0, d.y0), px(d.x1, d.y1), kDoor, 2, cv::LINE_AA);
+  }
+  for (const WorldPlan::Rect& wl : world.walls) {
+    cv::line(img, px(wl.x0, wl.y0), px(wl.x1, wl.y1), kWall, wall_px, cv::LINE_AA);
+  }
+  // Room labels: centred, a little above the centre where the place markers usually sit.
+  for (const WorldPlan::Room& room : world.rooms) {
+    const cv::Rect box = rect_px(room.rect);
+    const double label_scale = 0.65;
+    const cv::Size t = TextSize(room.label, label_scale);
+    cv::Point at(box.x + (box.width - t.width) / 2, box.y + (box.height + t.height) / 2);
+    if (box.height > 4 * t.height + 60) at.y -= 30;
+    Text(img, room.label, at, label_scale, kRoomLabel, 2);
+  }
+}
+
+// A scale bar of 1, 2, 5, 10, ... metres (or units), about 100-250 pixels long, at the left of
+// row `y`, and "north up" at the right.
+void ScaleBar(cv::Mat& img, double scale, int y, const std::string& unit) {
+  double bar = 1e-6;
+  for (double u = 1e-6; bar * scale < 100; u *= 10) {
+    for (double m : {1.0, 2.0, 5.0}) {
+      bar = m * u;
+      if (bar * scale >= 100) break;
+    }
+  }
+  const int bar_px = static_cast<int>(std::lround(bar * scale));
+  cv::line(img, {20, y}, {20 + bar_px, y}, kText, 2);
+  for (int x : {20, 20 + bar_px}) cv::line(img, {x, y - 6}, {x, y + 6}, kText, 2);
+  std::ostringstream bar_text;
+  bar_text << bar << unit;
+  Text(img, bar_text.str(), {30 + bar_px, y + 5}, 0.45);
+  Text(img, "north up", {img.cols - 20 - TextSize("north up").width, y + 5}, 0.45, kAxis);
+}
+
 // Field access for ParseWorldPlan; `where` names the element, e.g. "rooms[2]".
 const JsonValue& Field(const JsonValue& obj, const std::string& key, const std::string& where,
                        JsonValue::Kind kind, const char* type) {
@@ -571,38 +628,10 @@ cv::Mat DrawFloorPlan(const EvalResult& r, const Dataset& dataset, const WorldPl
            " learned places, " + std::to_string(r.main.map.edges().size()) + " edges",
        {20, 52}, 0.45);
 
-  const cv::Scalar kRoomFloor(247, 247, 247), kOutdoorFloor(240, 247, 240);
-  const cv::Scalar kBox(205, 205, 205), kWall(70, 70, 70), kDoor(150, 205, 240);
-  const cv::Scalar kRoomLabel(160, 160, 160), kTrajectory(225, 185, 140);
+  const cv::Scalar kTrajectory(225, 185, 140);
   // Map edges in purple over a world, so that they do not look like walls.
-  const cv::Scalar kEdge = world ? cv::Scalar(150, 70, 130) : kAxis;
-  if (world) {
-    for (const WorldPlan::Room& room : world->rooms) {
-      cv::rectangle(img, rect_px(room.rect), room.outdoor ? kOutdoorFloor : kRoomFloor, cv::FILLED);
-    }
-    for (const WorldPlan::Room& room : world->rooms) {
-      for (const WorldPlan::Rect& b : room.boxes) {
-        cv::rectangle(img, rect_px(b), kBox, cv::FILLED);
-        cv::rectangle(img, rect_px(b), cv::Scalar(175, 175, 175), 1);
-      }
-    }
-    const int wall_px = std::clamp(static_cast<int>(std::lround(0.12 * scale)), 3, 6);
-    for (const WorldPlan::Rect& d : world->doors) {
-      cv::line(img, px(d.x0, d.y0), px(d.x1, d.y1), kDoor, 2, cv::LINE_AA);
-    }
-    for (const WorldPlan::Rect& wl : world->walls) {
-      cv::line(img, px(wl.x0, wl.y0), px(wl.x1, wl.y1), kWall, wall_px, cv::LINE_AA);
-    }
-    // Room labels: centred, a little above the centre where the place markers usually sit.
-    for (const WorldPlan::Room& room : world->rooms) {
-      const cv::Rect box = rect_px(room.rect);
-      const double label_scale = 0.65;
-      const cv::Size t = TextSize(room.label, label_scale);
-      cv::Point at(box.x + (box.width - t.width) / 2, box.y + (box.height + t.height) / 2);
-      if (box.height > 4 * t.height + 60) at.y -= 30;
-      Text(img, room.label, at, label_scale, kRoomLabel, 2);
-    }
-  }
+  const cv::Scalar kEdge = world ? kMapEdgeOverWorld : kAxis;
+  if (world) DrawWorldPlan(img, *world, px, rect_px, scale);
 
   // Trajectory.
   std::vector<cv::Point> path;
@@ -642,22 +671,8 @@ cv::Mat DrawFloorPlan(const EvalResult& r, const Dataset& dataset, const WorldPl
     Text(img, label, corner, 0.42);
   }
 
-  // Scale bar: 1, 2, 5, 10, ... units, about 100-250 pixels long.
-  double bar = 1e-6;
-  for (double unit = 1e-6; bar * scale < 100; unit *= 10) {
-    for (double m : {1.0, 2.0, 5.0}) {
-      bar = m * unit;
-      if (bar * scale >= 100) break;
-    }
-  }
-  const int bar_px = static_cast<int>(std::lround(bar * scale));
   const int bar_y = h - bottom + 28;
-  cv::line(img, {20, bar_y}, {20 + bar_px, bar_y}, kText, 2);
-  for (int x : {20, 20 + bar_px}) cv::line(img, {x, bar_y - 6}, {x, bar_y + 6}, kText, 2);
-  std::ostringstream bar_text;
-  bar_text << bar << (world ? " m" : " (dataset units)");
-  Text(img, bar_text.str(), {30 + bar_px, bar_y + 5}, 0.45);
-  Text(img, "north up", {w - 20 - TextSize("north up").width, bar_y + 5}, 0.45, kAxis);
+  ScaleBar(img, scale, bar_y, world ? " m" : " (dataset units)");
 
   cv::Point legend(20, bar_y + 36);
   if (world) {
@@ -669,6 +684,127 @@ cv::Mat DrawFloorPlan(const EvalResult& r, const Dataset& dataset, const WorldPl
   Swatch(img, legend, kEdge, "map edge (thicker: more traversals)", 20);
   Swatch(img, legend, Palette(0), "learned place at its mean pose (id, truth label)", 20);
   return img;
+}
+
+cv::Mat DrawTeamMap(const TeamMapPicture& team, const WorldPlan* world) {
+  double min_x = 1e300, max_x = -1e300, min_y = 1e300, max_y = -1e300;
+  const auto extend = [&](double x, double y) {
+    min_x = std::min(min_x, x), max_x = std::max(max_x, x);
+    min_y = std::min(min_y, y), max_y = std::max(max_y, y);
+  };
+  for (const TeamMapPicture::Robot& r : team.robots) {
+    for (const auto& [x, y] : r.trajectory) extend(x, y);
+  }
+  for (const TeamMapPicture::Place& p : team.places) {
+    if (p.located) extend(p.x, p.y);
+  }
+  if (min_x > max_x) return {};
+  if (world) {
+    for (const WorldPlan::Room& room : world->rooms) {
+      extend(room.rect.x0, room.rect.y0), extend(room.rect.x1, room.rect.y1);
+    }
+    for (const WorldPlan::Rect& w : world->walls) extend(w.x0, w.y0), extend(w.x1, w.y1);
+  }
+  const int margin = 40, area = 900, top = 70, bottom = 130, min_width = 860;
+  const double span = std::max({max_x - min_x, max_y - min_y, 1e-9});
+  const double scale = area / span;
+  const int plan_w = static_cast<int>(std::lround((max_x - min_x) * scale));
+  const int plan_h = static_cast<int>(std::lround((max_y - min_y) * scale));
+  const int w = std::max(plan_w + 2 * margin, min_width);
+  const int h = top + plan_h + 2 * margin + bottom;
+  const int x_off = (w - plan_w) / 2;
+  cv::Mat img(h, w, CV_8UC3, kWhite);
+  const auto px = [&](double x, double y) {  // y up
+    return cv::Point(x_off + static_cast<int>(std::lround((x - min_x) * scale)),
+                     top + margin + plan_h - static_cast<int>(std::lround((y - min_y) * scale)));
+  };
+  const auto rect_px = [&](const WorldPlan::Rect& rc) {
+    return cv::Rect(px(std::min(rc.x0, rc.x1), std::max(rc.y0, rc.y1)),
+                    px(std::max(rc.x0, rc.x1), std::min(rc.y0, rc.y1)));
+  };
+  Text(img, team.title, {20, 28}, 0.6);
+  Text(img, team.subtitle, {20, 52}, 0.45);
+  if (world) DrawWorldPlan(img, *world, px, rect_px, scale);
+
+  // Trajectories, light, in each robot's colour.
+  const auto robot_colour = [](uint32_t id) { return Palette(id > 0 ? id - 1 : 0); };
+  for (const TeamMapPicture::Robot& r : team.robots) {
+    std::vector<cv::Point> path;
+    for (const auto& [x, y] : r.trajectory) path.push_back(px(x, y));
+    const cv::Scalar c = robot_colour(r.id);
+    const cv::Scalar light(0.35 * c[0] + 0.65 * 255, 0.35 * c[1] + 0.65 * 255,
+                           0.35 * c[2] + 0.65 * 255);
+    cv::polylines(img, path, false, light, 2, cv::LINE_AA);
+  }
+  // Edges between the places' positions.
+  std::map<PlaceId, cv::Point> where;
+  for (const TeamMapPicture::Place& p : team.places) {
+    if (p.located) where[p.id] = px(p.x, p.y);
+  }
+  for (const auto& [key, e] : team.map.edges()) {
+    if (!where.count(e.a) || !where.count(e.b)) continue;
+    cv::line(img, where[e.a], where[e.b], kAxis,
+             static_cast<int>(std::min<int64_t>(1 + e.traversals, 4)), cv::LINE_AA);
+  }
+  // Places: filled with the colour of the robot whose id they carry; a merged place ringed in
+  // the colours of the robots whose places it absorbed.
+  int merged = 0;
+  for (const TeamMapPicture::Place& p : team.places) {
+    if (!p.located) continue;
+    const cv::Point at = where[p.id];
+    std::set<uint32_t> others;
+    for (const PlaceId& s : p.sources) {
+      if (s.robot != p.id.robot) others.insert(s.robot);
+    }
+    int radius = 11;
+    if (!p.sources.empty()) {
+      ++merged;
+      int ring = 11 + 5 * static_cast<int>(others.size());
+      cv::circle(img, at, ring + 1, kText, 1, cv::LINE_AA);
+      for (uint32_t r : others) {
+        cv::circle(img, at, ring, robot_colour(r), cv::FILLED, cv::LINE_AA);
+        ring -= 5;
+      }
+      if (others.empty()) {  // joined with its own robot's places only
+        cv::circle(img, at, 15, kText, 2, cv::LINE_AA);
+      }
+      radius = 11;
+    }
+    cv::circle(img, at, radius, robot_colour(p.id.robot), cv::FILLED, cv::LINE_AA);
+    cv::circle(img, at, radius, kText, 1, cv::LINE_AA);
+    std::string name = p.id.ToString();
+    for (const PlaceId& s : p.sources) name += "+" + s.ToString();
+    if (!p.label.empty()) name += " " + p.label;
+    const cv::Size t = TextSize(name, 0.42);
+    const cv::Point corner = at + cv::Point(13 + 5 * static_cast<int>(others.size()), 5);
+    cv::rectangle(img, cv::Rect(corner.x - 2, corner.y - t.height - 3, t.width + 4, t.height + 7),
+                  kWhite, cv::FILLED);
+    Text(img, name, corner, 0.42);
+  }
+
+  const int bar_y = h - bottom + 28;
+  ScaleBar(img, scale, bar_y, world ? " m" : " (units)");
+  cv::Point legend(20, bar_y + 36);
+  for (const TeamMapPicture::Robot& r : team.robots) {
+    Swatch(img, legend, robot_colour(r.id), "robot " + std::to_string(r.id), 20);
+  }
+  Swatch(img, legend, kAxis, "map edge (thicker: more traversals)", 20);
+  Text(img,
+       "place: filled in the colour of the robot whose id it carries, at the mean position of "
+       "its frames;",
+       {20, legend.y + 24}, 0.42);
+  Text(img,
+       "merged place (" + std::to_string(merged) +
+           "): ringed in the colours of the robots it absorbed, named id+sources; room label "
+           "from the ground truth",
+       {20, legend.y + 44}, 0.42);
+  return img;
+}
+
+void WriteTeamMap(const TeamMapPicture& team, const WorldPlan* world, const fs::path& png) {
+  const cv::Mat img = DrawTeamMap(team, world);
+  if (img.empty()) throw std::runtime_error(png.string() + ": nothing to draw");
+  Write(png, img);
 }
 
 std::vector<fs::path> WritePlots(const EvalResult& r, const Dataset& dataset, const fs::path& dir,

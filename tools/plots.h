@@ -21,6 +21,7 @@
 #include <optional>
 #include <ostream>
 #include <string>
+#include <utility>
 #include <vector>
 
 #include "core/classify/classification_score.h"
@@ -62,6 +63,37 @@ cv::Mat DrawPrCurve(const EvalResult& result);
 /// are drawn under the trajectory and the places.
 cv::Mat DrawFloorPlan(const EvalResult& result, const Dataset& dataset,
                       const WorldPlan* world = nullptr);
+
+/// What a team map shows (`tsc team`, issue 21): one final memory's places and map over the
+/// simulated floor plan.
+struct TeamMapPicture {
+  std::string title;     ///< first line
+  std::string subtitle;  ///< second line
+  struct Robot {
+    uint32_t id = 0;
+    std::vector<std::pair<double, double>> trajectory;  ///< metres, x east, y north
+  };
+  std::vector<Robot> robots;
+  struct Place {
+    PlaceId id;
+    std::vector<PlaceId> sources;  ///< ids it absorbed (merged place when not empty)
+    double x = 0.0, y = 0.0;       ///< mean position of the frames of all its ids
+    bool located = false;          ///< false: no frame of it is known (not drawn)
+    std::string label;             ///< majority ground-truth label of those frames
+  };
+  std::vector<Place> places;
+  TopologicalMap map;
+};
+/// The team map: each robot's trajectory in its colour (robot r: palette colour r − 1), each
+/// place at its position filled with the colour of the robot whose id it carries, a merged
+/// place ringed in the colours of the robots whose places it absorbed and named with all its
+/// ids, the map's edges, and the floor plan with its room labels when `world` is given. Empty
+/// when no place and no trajectory has a position.
+cv::Mat DrawTeamMap(const TeamMapPicture& team, const WorldPlan* world);
+/// Draws the team map into `png`. Throws std::runtime_error naming the file when it cannot be
+/// written or there is nothing to draw.
+void WriteTeamMap(const TeamMapPicture& team, const WorldPlan* world,
+                  const std::filesystem::path& png);
 
 /// A precision-recall curve over the confidence threshold τ of `tsc classify`, named for
 /// the legend (a feature set or a model).

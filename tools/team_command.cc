@@ -2,8 +2,10 @@
 
 #include <unistd.h>
 
+#include <algorithm>
 #include <boost/program_options.hpp>
 #include <chrono>
+#include <cmath>
 #include <csignal>
 #include <cstdio>
 #include <cstdlib>
@@ -29,20 +31,13 @@
 #include "tools/inspect.h"
 #include "tools/robot_processes.h"
 #include "tools/scoring.h"
+#include "tools/team_replay.h"
 #include "tsc/announce_t.hpp"
 #include "tsc/place_event_t.hpp"
 #include "tsc/stats_t.hpp"
 
 namespace tsc {
 namespace {
-
-// A figure for people: three significant digits (recall 0.0833, not 0.08333333333333333);
-// summary.json keeps every digit.
-std::string Figure(double v) {
-  char buf[32];
-  std::snprintf(buf, sizeof buf, "%.3g", v);
-  return buf;
-}
 
 // A duration for people, in whole seconds.
 std::string Seconds(double seconds) {
@@ -62,6 +57,8 @@ constexpr const char* kTeamHelp =
     R"(usage: tsc team --robots N --world SEED [--kind office|corridors|outdoor]
                 [--seconds S] [--out DIR] [--fps F] [--config FILE] [--set KEY=VALUE]...
                 [--netns new|current]
+       tsc team --offline --robots N --world SEED [--order I,J,..] [--kind ..] [--out DIR]
+                [--config FILE] [--set KEY=VALUE]...
 
 Runs a team simulation on this host: N tscd processes (robot ids 1..N) in one private network
 namespace (`unshare -n`, multicast routed on lo only, so no packet leaves the namespace), each
@@ -72,6 +69,18 @@ memory), prints a summary per robot with merge correctness (DESIGN 7.1b) and whe
 final memories are consistent (know the same places), and writes DIR/summary.json,
 DIR/robot-<id>/memory.db, tscd.log and memory.png. --netns current runs in the caller's namespace, which must itself be private
 (tests do this to listen in); it is refused when that namespace has any interface but lo.
+
+--offline is the deterministic evaluation: no process, no network. Each robot's route is
+replayed in this process with the pipeline and settings its tscd would use; then, in rounds
+until nothing changes, each robot in --order merges every other robot's memory in --order
+(received as tscd receives it; MergeMemories, MergeMaps). The summary and DIR/summary.json
+are the live run's (cpu, memory and seconds null), plus "mode", "order" and "settled". The
+same arguments give the same file.
+
+Both runs draw DIR/team_map.png: robot 1's final memory over the simulated floor plan, each
+place at the mean position of its frames in the colour of the robot whose id it carries,
+merged places ringed in the colours of the robots they absorbed, room labels from the ground
+truth.
 
 Options)";
 
@@ -153,6 +162,114 @@ std::string ProgressLine(const std::vector<RobotStats>& robots, double elapsed) 
   return s.str();
 }
 
+// DIR/team_map.png: the final memory of `whose` over the floor plan (tools/plots.h). A picture
+// that cannot be drawn is reported, not fatal.
+void WriteTeamMapOf(const std::vector<ReplayedRobot>& robots, const ReplayedRobot& whose,
+                    const Settings& settings, long long world, const std::string& kind,
+                    const fs::path& out) {
+  try {
+    const WorldPlan plan = WorldPlanOf(settings);
+    std::ostringstream title, subtitle;
+    title << "team map: robot " << whose.id << "'s memory after merging, " << kind << " world "
+          << world;
+    subtitle << whose.memory.places().size() << " places, " << whose.map.edges().size()
+             << " edges, " << robots.size() << " robots";
+    WriteTeamMap(TeamMapOf(whose.memory, whose.map, robots, title.str(), subtitle.str()), &plan,
+                 out / "team_map.png");
+    std::cout << "team map: " << (out / "team_map.png").string() << "\n";
+  } catch (const std::exception& e) {
+    std::cerr << "tsc: no team map: " << e.what() << "\n";
+  }
+}
+
+// "2,1,3": a permutation of 1..n (UsageError otherwise).
+std::vector<uint32_t> ParseOrder(const std::string& text, int n) {
+  std::vector<uint32_t> order;
+  std::stringstream in(text);
+  std::string item;
+  while (std::getline(in, item, ',')) {
+    size_t used = 0;
+    int id = 0;
+    try {
+      id = std::stoi(item, &used);
+    } catch (const std::exception&) {
+      used = 0;
+    }
+    if (used == 0 || used != item.size() || id < 1 || id > n) {
+      throw UsageError("--order: '" + item + "' is not a robot id in 1.." + std::to_string(n));
+    }
+    order.push_back(static_cast<uint32_t>(id));
+  }
+  std::vector<uint32_t> sorted = order, all;
+  std::sort(sorted.begin(), sorted.end());
+  for (int i = 1; i <= n; ++i) all.push_back(static_cast<uint32_t>(i));
+  if (sorted != all) {
+    throw UsageError("--order must name each robot 1.." + std::to_string(n) + " once");
+  }
+  return order;
+}
+
+// `tsc team --offline`: every route replayed in this process, the memories exchanged in
+// `order` until nothing changes (tools/team_replay.h), scored and written as the live run
+// writes summary.json (process figures null), plus "mode", "order" and "settled".
+int TeamOffline(const std::vector<Settings>& robot_settings, const std::vector<uint32_t>& order,
+                const fs::path& out, long long world, const std::string& kind, double fps) {
+  fs::create_directories(out);
+  const size_t n = robot_settings.size();
+  std::cout << "tsc team --offline: " << n << " robots in world " << world << " (" << kind
+            << "), merge order";
+  for (uint32_t id : order) std::cout << " " << id;
+  std::cout << ", output in " << out.string() << "\n";
+  std::vector<ReplayedRobot> robots;
+  for (size_t i = 0; i < n; ++i) {
+    robots.push_back(ReplayRoute(robot_settings[i], static_cast<uint32_t>(i + 1)));
+    const ReplayedRobot& r = robots.back();
+    std::cout << "robot " << r.id << ": route replayed, " << r.frames << " base points, "
+              << r.memory.places().size() << " places, " << r.recognitions << " recognised\n";
+  }
+  const bool settled =
+      ExchangeMemories(robots, order, robot_settings.front().daemon.bus.portion_bytes);
+  std::cout << "memory exchange " << (settled ? "settled" : "did NOT settle (20 rounds)") << "\n";
+
+  std::vector<TeamMemoryForScoring> scoring;
+  std::ostringstream json;
+  json << "{\"robots\":[";
+  std::cout << "\nrobot  frames  detected  places  recognised  edges  own  merged-in  absorbed\n";
+  for (size_t i = 0; i < robots.size(); ++i) {
+    const ReplayedRobot& r = robots[i];
+    scoring.push_back(ForMergeScoring(r.id, r.assignments, r.labels, r.memory));
+    int64_t own = 0, from_peers = 0, absorbed = 0;
+    for (const LearnedPlace& p : r.memory.places()) {
+      (p.id.robot == r.id ? own : from_peers) += 1;
+      absorbed += static_cast<int64_t>(p.sources.size());
+    }
+    const size_t places = r.memory.places().size(), edges = r.map.edges().size();
+    std::cout << std::setw(5) << r.id << std::setw(8) << r.frames << std::setw(10)
+              << r.detected_places << std::setw(8) << places << std::setw(12) << r.recognitions
+              << std::setw(7) << edges << std::setw(5) << own << std::setw(11) << from_peers
+              << std::setw(10) << absorbed << "\n";
+    const double none = std::nan("");
+    json << (i ? "," : "") << "{\"robot\":" << r.id << ",\"exit_status\":0"
+         << ",\"frames\":" << r.frames << ",\"frames_dropped\":0"
+         << ",\"detected_places\":" << r.detected_places << ",\"places\":" << places
+         << ",\"recognitions\":" << r.recognitions << ",\"edges\":" << edges
+         << ",\"own_places\":" << own << ",\"places_from_peers\":" << from_peers
+         << ",\"peer_places_absorbed\":" << absorbed << ",\"merged_events\":" << r.absorbed
+         << ",\"cpu_percent\":" << JsonNumber(none) << ",\"peak_rss_mb\":" << JsonNumber(none)
+         << ",\"db\":null,\"log\":null}";
+  }
+  const TeamVerdict verdict = JudgeTeam(scoring);
+  PrintTeamVerdict(std::cout, verdict);
+  WriteTeamMapOf(robots, robots.front(), robot_settings.front(), world, kind, out);
+  json << "]" << TeamVerdictJson(verdict) << ",\"seconds\":null,\"fps\":" << JsonNumber(fps)
+       << ",\"mode\":\"offline\",\"order\":[";
+  for (size_t i = 0; i < order.size(); ++i) json << (i ? "," : "") << order[i];
+  json << "],\"settled\":" << (settled ? "true" : "false") << "}\n";
+  WriteTextFile(out / "summary.json", json.str());
+  std::cout << "summary: " << (out / "summary.json").string() << "\n";
+  return settled ? kExitOk : kExitFailure;
+}
+
 int Team(const std::vector<std::string>& args) {
   po::options_description desc(kTeamHelp);
   desc.add_options()("help,h", "show this help")(
@@ -171,7 +288,13 @@ int Team(const std::vector<std::string>& args) {
       "config", po::value<std::string>()->value_name("FILE"), "tscd configuration for all")(
       "set", po::value<std::vector<std::string>>()->composing()->value_name("KEY=VALUE"),
       "override a key for every robot (repeatable)")(
-      "netns", po::value<std::string>()->default_value("new"), "new|current");
+      "netns", po::value<std::string>()->default_value("new"), "new|current")(
+      "offline",
+      "deterministic evaluation: replay every route in this process, then merge "
+      "(no robot processes, no network; DIR/summary.json as the live run writes it)")(
+      "order", po::value<std::string>()->value_name("I,J,..."),
+      "with --offline: the order in which the robots merge each other's memories (a "
+      "permutation of 1..N; default 1,2,..,N)");
   const po::variables_map vm = ParseCommandLine(args, desc);
   if (vm.count("help")) {
     std::cout << desc << "\n";
@@ -186,11 +309,7 @@ int Team(const std::vector<std::string>& args) {
   const std::string netns = vm["netns"].as<std::string>();
   if (netns != "new" && netns != "current") throw UsageError("--netns is new or current");
 
-  if (const auto failed = EnterPrivateNetwork("team", args, netns, kNetnsEnv)) return *failed;
-
-  const fs::path out = vm["out"].as<std::string>();
-  fs::create_directories(out);
-  const fs::path tscd = TscdBesideThisTsc();
+  if (vm.count("order") && !vm.count("offline")) throw UsageError("--order needs --offline");
 
   std::vector<std::string> common;
   if (vm.count("config")) common = {"--config", vm["config"].as<std::string>()};
@@ -224,6 +343,20 @@ int Team(const std::vector<std::string>& args) {
     if (vm.count("config")) file = vm["config"].as<std::string>();
     robot_settings.push_back(LoadSettings(file, overrides));
   }
+  if (vm.count("offline")) {
+    std::vector<uint32_t> order;
+    for (int i = 1; i <= n; ++i) order.push_back(static_cast<uint32_t>(i));
+    if (vm.count("order")) order = ParseOrder(vm["order"].as<std::string>(), n);
+    return TeamOffline(robot_settings, order, vm["out"].as<std::string>(),
+                       vm["world"].as<long long>(), vm["kind"].as<std::string>(),
+                       vm["fps"].as<double>());
+  }
+
+  if (const auto failed = EnterPrivateNetwork("team", args, netns, kNetnsEnv)) return *failed;
+
+  const fs::path out = vm["out"].as<std::string>();
+  fs::create_directories(out);
+  const fs::path tscd = TscdBesideThisTsc();
 
   LcmBus bus(kLcmUrl);
   std::map<int, RobotStats*> by_id;
@@ -348,6 +481,8 @@ int Team(const std::vector<std::string>& args) {
   // Summary: the stores are the truth (they survive the processes).
   bool ok = true;
   std::vector<TeamMemoryForScoring> scoring(robots.size());
+  // Each robot's route (labels, positions), then its store's assignments, memory and map.
+  std::vector<ReplayedRobot> routes = RoutesOf(robot_settings);
   bool any_dropped = false;
   std::ostringstream json;
   json << "{\"robots\":[";
@@ -370,33 +505,12 @@ int Team(const std::vector<std::string>& args) {
       // and peers' places absorbed into one of its places.
       // The route's labels by base point: frame k of the route is base point k as long as no
       // frame was dropped (and the robot did not restart).
-      const SimCamera route(
-          ToSimCameraOptions(robot_settings[i].daemon.camera, robot_settings[i].daemon.sim));
-      GroundTruth truth;
-      for (const sim::RouteFrame& f : route.route()) truth.labels.push_back(f.label);
       any_dropped |= r.dropped > 0;
-      // Labels of every place this robot learned, from the detected places it assigned to
-      // them (these survive a merge that absorbed the place into a peer's).
-      std::map<PlaceId, std::vector<int>> frames_of;
-      for (const auto& [place, members] : Store::Open(r.dir / "memory.db").LoadAssignments()) {
-        std::vector<int> frames;
-        for (BaseIndex b : members) {
-          if (b >= 0 && b < static_cast<BaseIndex>(truth.labels.size())) {
-            frames.push_back(static_cast<int>(b));
-          }
-        }
-        if (place.robot != static_cast<uint32_t>(r.id)) {
-          if (!frames.empty()) {
-            scoring[i].peer_recognitions.emplace_back(place, MajorityLabel(truth, frames));
-          }
-          continue;
-        }
-        std::vector<int>& all = frames_of[place];
-        all.insert(all.end(), frames.begin(), frames.end());
-      }
-      for (const auto& [place, frames] : frames_of) {
-        scoring[i].own_labels[place] = MajorityLabel(truth, frames);
-      }
+      ReplayedRobot& route = routes[i];
+      route.assignments = Store::Open(r.dir / "memory.db").LoadAssignments();
+      route.memory = s.memory;
+      route.map = s.map;
+      scoring[i] = ForMergeScoring(route.id, route.assignments, route.labels, s.memory);
       for (const LearnedPlace& p : s.memory.places()) {
         if (p.id.robot == static_cast<uint32_t>(r.id)) {
           ++own;
@@ -404,9 +518,6 @@ int Team(const std::vector<std::string>& args) {
           ++from_peers;
         }
         absorbed += static_cast<int64_t>(p.sources.size());
-        std::vector<PlaceId> group = {p.id};
-        group.insert(group.end(), p.sources.begin(), p.sources.end());
-        scoring[i].groups.push_back(std::move(group));
       }
       try {
         RenderPng(ToDot(s.memory, s.map), r.dir / "memory.png");
@@ -435,43 +546,14 @@ int Team(const std::vector<std::string>& args) {
          << ",\"db\":" << JsonString((r.dir / "memory.db").string())
          << ",\"log\":" << JsonString((r.dir / "tscd.log").string()) << "}";
   }
-  const MergeScore merge = ScoreMerges(scoring);
-  // Consistent memories (chapter 4): every robot knows the same places, as places of its own
-  // memory or as the sources they absorbed.
-  std::vector<std::set<PlaceId>> known(scoring.size());
-  for (size_t i = 0; i < scoring.size(); ++i) {
-    for (const std::vector<PlaceId>& g : scoring[i].groups) known[i].insert(g.begin(), g.end());
-  }
-  bool consistent = true;
-  for (const std::set<PlaceId>& k : known) consistent &= k == known.front();
-  std::cout << "merges (DESIGN 7.1b): " << merge.merges << " pairs merged, " << merge.correct
-            << " correct, " << merge.same_label_pairs
-            << " pairs of places of different robots in the same room; precision "
-            << Figure(merge.precision) << ", recall " << Figure(merge.recall) << "\n"
-            << "places merged with a place of another robot in their room: "
-            << merge.places_merged_with_namesake << " of " << merge.places_with_namesake
-            << " (place recall " << Figure(merge.place_recall) << ")\n"
-            << "peer places recognised by the robots' pipelines: " << merge.peer_recognitions
-            << " detected places, " << merge.peer_recognitions_correct << " correct\n";
-  std::cout << "memories " << (consistent ? "consistent" : "NOT consistent")
-            << ": places known (own, taken or absorbed) per robot:";
-  for (size_t i = 0; i < known.size(); ++i) std::cout << " " << known[i].size();
-  std::cout << "\n";
+  const TeamVerdict verdict = JudgeTeam(scoring);
+  PrintTeamVerdict(std::cout, verdict);
   if (any_dropped) {
     std::cout << "  (frames were dropped: place labels from the route may be shifted)\n";
   }
-  json << "],\"merge\":{\"merges\":" << merge.merges << ",\"correct\":" << merge.correct
-       << ",\"same_label_pairs\":" << merge.same_label_pairs
-       << ",\"precision\":" << JsonNumber(merge.precision)
-       << ",\"recall\":" << JsonNumber(merge.recall)
-       << ",\"places_with_namesake\":" << merge.places_with_namesake
-       << ",\"places_merged_with_namesake\":" << merge.places_merged_with_namesake
-       << ",\"place_recall\":" << JsonNumber(merge.place_recall)
-       << ",\"peer_recognitions\":" << merge.peer_recognitions
-       << ",\"peer_recognitions_correct\":" << merge.peer_recognitions_correct << "}";
-  json << ",\"consistent\":" << (consistent ? "true" : "false") << ",\"known_places\":[";
-  for (size_t i = 0; i < known.size(); ++i) json << (i ? "," : "") << known[i].size();
-  json << "]";
+  WriteTeamMapOf(routes, routes.front(), robot_settings.front(), vm["world"].as<long long>(),
+                 vm["kind"].as<std::string>(), out);
+  json << "]" << TeamVerdictJson(verdict);
   json << ",\"seconds\":" << JsonNumber(run_s) << ",\"fps\":" << JsonNumber(vm["fps"].as<double>())
        << "}\n";
   WriteTextFile(out / "summary.json", json.str());

@@ -2,8 +2,9 @@
 // `tsc team`: a team simulation on one host (DESIGN §4, §7.2). N tscd processes share one
 // private network namespace (no packet leaves it), each driving its own route through the same
 // simulated world; live progress per robot from their announces; a clean stop; a summary per
-// robot (frames, places, recognitions, edges) as text and as OUT/summary.json, and a picture
-// of each robot's memory.
+// robot (frames, places, recognitions, edges) as text and as OUT/summary.json, a picture of each
+// robot's memory and the team map (OUT/team_map.png). `tsc team --offline` is the deterministic
+// evaluation: the routes replayed in-process and merged in a given order (tools/team_replay.h).
 
 #include <string>
 #include <vector>

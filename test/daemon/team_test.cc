@@ -187,6 +187,9 @@ TEST_F(TeamTest, AfterTheRoutesEveryRobotKnowsEveryPlaceExactlyOnce) {
   EXPECT_EQ(team.Log().find("still changing"), std::string::npos) << team.Log();
   const std::string summary = ReadFile(dir_ / "team" / "summary.json");
   EXPECT_NE(summary.find("\"consistent\":true"), std::string::npos) << summary;
+  // The team map over the floor plan (issue 21, item 4).
+  const fs::path team_map = dir_ / "team" / "team_map.png";
+  EXPECT_TRUE(fs::exists(team_map) && fs::file_size(team_map) > 10000u) << team.Log();
 
   const std::set<PlaceId> own = OwnPlacesOfTheTeam(dir_ / "team", 3);
   ASSERT_GE(own.size(), 6u);

@@ -1,0 +1,170 @@
+// `tsc team --offline` end to end (issue 21, item 3): three robots' routes through a small
+// simulated world replayed in-process by the real binary, their memories exchanged in a fixed
+// or given order, scored as the live run scores. Two runs with the same arguments write the
+// same summary.json; the figures are within their ranges and agree with each other.
+
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <filesystem>
+#include <iostream>
+#include <opencv2/imgcodecs.hpp>
+#include <string>
+#include <utility>
+#include <vector>
+
+#include "test/support/temp_dir.h"
+#include "test/support/tsc_command.h"
+
+namespace tsc {
+namespace {
+namespace fs = std::filesystem;
+
+using testing_support::ReadFile;
+
+// The number after "key": at or after `from` in a summary.json; NaN when absent.
+double NumberAt(const std::string& json, const std::string& key, size_t from = 0) {
+  const size_t at = json.find("\"" + key + "\":", from);
+  if (at == std::string::npos) return std::nan("");
+  return std::stod(json.substr(at + key.size() + 3));
+}
+
+// The text of the JSON array after "key": ("[1,2,3]"); "" when absent.
+std::string ArrayAt(const std::string& json, const std::string& key) {
+  const size_t at = json.find("\"" + key + "\":[");
+  if (at == std::string::npos) return "";
+  const size_t open = at + key.size() + 3;
+  return json.substr(open, json.find(']', open) - open + 1);
+}
+
+class TeamOfflineTest : public ::testing::Test {
+ protected:
+  // World 5 (office), three robots, frames of 160x120 (the bubble surface resamples to its own
+  // patch size), the pan-sweep camera of config/sweep.ini.
+  testing_support::TscOutcome Run(const std::string& out, const std::string& extra = "") {
+    const std::string args =
+        "team --offline --robots 3 --world 5 --config " +
+        testing_support::Quote(std::string(TSCD_SOURCE_DIR) + "/config/sweep.ini") +
+        " --set sim.width=160 --set sim.height=120 --out " +
+        testing_support::Quote((temp_.path() / out).string()) + " " + extra;
+    return testing_support::RunTsc(temp_.path(), args);
+  }
+  std::string Summary(const std::string& out) {
+    return ReadFile(temp_.path() / out / "summary.json");
+  }
+  testing_support::TempDir temp_{"tscd_team_offline_test"};
+};
+
+TEST_F(TeamOfflineTest, TwoRunsWriteTheSameSummaryAndTheFiguresAreSane) {
+  const auto first = Run("a");
+  ASSERT_EQ(first.code, 0) << first.out << first.err;
+  const auto second = Run("b");
+  ASSERT_EQ(second.code, 0) << second.out << second.err;
+  const std::string json = Summary("a");
+  std::cout << first.out << json;
+  ASSERT_FALSE(json.empty());
+  EXPECT_EQ(Summary("b"), json);
+
+  // The team map: a picture of the final memory over the floor plan (item 4).
+  const cv::Mat map = cv::imread((temp_.path() / "a" / "team_map.png").string());
+  EXPECT_GT(map.cols, 500);
+  EXPECT_GT(map.rows, 300);
+  EXPECT_NE(json.find("\"mode\":\"offline\""), std::string::npos);
+  EXPECT_EQ(ArrayAt(json, "order"), "[1,2,3]");
+  EXPECT_NE(json.find("\"settled\":true"), std::string::npos);
+  // Every robot walked its route and learned places; after the exchange every memory holds
+  // places of the others.
+  size_t at = 0;
+  for (int r = 1; r <= 3; ++r) {
+    at = json.find("{\"robot\":" + std::to_string(r), at);
+    ASSERT_NE(at, std::string::npos) << "robot " << r;
+    EXPECT_GT(NumberAt(json, "frames", at), 0) << "robot " << r;
+    EXPECT_GT(NumberAt(json, "own_places", at), 0) << "robot " << r;
+    EXPECT_GT(NumberAt(json, "places_from_peers", at) + NumberAt(json, "peer_places_absorbed", at),
+              0)
+        << "robot " << r;
+  }
+  // The exchange settled, so every robot knows the same places.
+  EXPECT_NE(json.find("\"consistent\":true"), std::string::npos);
+  const std::string known = ArrayAt(json, "known_places");
+  const size_t comma = known.find(',');
+  ASSERT_NE(comma, std::string::npos) << known;
+  const std::string k = known.substr(1, comma - 1);
+  EXPECT_EQ(known, "[" + k + "," + k + "," + k + "]");
+  // Scores within their ranges, and their parts agree.
+  const double merges = NumberAt(json, "merges"), correct = NumberAt(json, "correct");
+  EXPECT_GT(merges, 0);  // three tours of one office share rooms
+  EXPECT_LE(correct, merges);
+  EXPECT_DOUBLE_EQ(NumberAt(json, "precision", json.find("\"merge\":")), correct / merges);
+  const double with = NumberAt(json, "places_with_namesake");
+  const double merged = NumberAt(json, "places_merged_with_namesake");
+  EXPECT_GT(with, 0);
+  EXPECT_LE(merged, with);
+  EXPECT_DOUBLE_EQ(NumberAt(json, "place_recall"), merged / with);
+  const std::string ppl = ArrayAt(json, "places_per_label");
+  ASSERT_FALSE(ppl.empty());
+  for (size_t p = 1; p < ppl.size();) {
+    const double v = std::stod(ppl.substr(p));
+    EXPECT_GE(v, 1.0) << ppl;  // a labelled place per room at least
+    p = ppl.find(',', p);
+    if (p == std::string::npos) break;
+    ++p;
+  }
+}
+
+// Issue 21's bars on the deterministic evaluation: three robots with the pan-sweep camera
+// (config/sweep.ini) at 160x120, on three worlds whose seeds were picked before measuring
+// (201 office, 202 corridors, 203 outdoor), merged in the default order: merge place recall
+// >= 0.8 at precision >= 0.95, places per label <= 1.5 in every final memory, memories
+// consistent.
+TEST_F(TeamOfflineTest, MergeBarsWithPanSweepsOnThreeWorlds) {
+  for (const auto& [kind, seed] : std::vector<std::pair<std::string, int>>{
+           {"office", 201}, {"corridors", 202}, {"outdoor", 203}}) {
+    const std::string out = kind + "-" + std::to_string(seed);
+    const auto run = testing_support::RunTsc(
+        temp_.path(),
+        "team --offline --robots 3 --world " + std::to_string(seed) + " --kind " + kind +
+            " --config " +
+            testing_support::Quote(std::string(TSCD_SOURCE_DIR) + "/config/sweep.ini") +
+            " --set sim.width=160 --set sim.height=120 --out " +
+            testing_support::Quote((temp_.path() / out).string()));
+    ASSERT_EQ(run.code, 0) << run.out << run.err;
+    const std::string json = Summary(out);
+    std::cout << out << ": " << json;
+    SCOPED_TRACE(out);
+    EXPECT_GE(NumberAt(json, "place_recall"), 0.8);
+    EXPECT_GE(NumberAt(json, "precision", json.find("\"merge\":")), 0.95);
+    EXPECT_NE(json.find("\"consistent\":true"), std::string::npos);
+    const std::string ppl = ArrayAt(json, "places_per_label");
+    for (size_t p = 1; p < ppl.size();) {
+      EXPECT_LE(std::stod(ppl.substr(p)), 1.5) << ppl;
+      p = ppl.find(',', p);
+      if (p == std::string::npos) break;
+      ++p;
+    }
+  }
+}
+
+TEST_F(TeamOfflineTest, AGivenOrderIsUsedAndWritten) {
+  const auto run = Run("order", "--order 3,1,2");
+  ASSERT_EQ(run.code, 0) << run.out << run.err;
+  const std::string json = Summary("order");
+  EXPECT_EQ(ArrayAt(json, "order"), "[3,1,2]");
+  EXPECT_NE(json.find("\"consistent\":true"), std::string::npos);
+}
+
+TEST_F(TeamOfflineTest, AnOrderThatIsNotAPermutationIsAUsageError) {
+  for (const std::string order : {"1,2", "1,2,2", "1,2,4", "a,b,c"}) {
+    const auto run = Run("bad", "--order " + order);
+    EXPECT_EQ(run.code, 2) << order << ": " << run.err;
+    EXPECT_NE(run.err.find("--order"), std::string::npos) << run.err;
+  }
+  // --order without --offline.
+  const auto live =
+      testing_support::RunTsc(temp_.path(), "team --robots 3 --world 5 --order 1,2,3 --out " +
+                                                testing_support::Quote(temp_.path().string()));
+  EXPECT_EQ(live.code, 2) << live.err;
+}
+
+}  // namespace
+}  // namespace tsc

@@ -1,0 +1,359 @@
+#include "tools/team_replay.h"
+
+#include <algorithm>
+#include <cstdio>
+#include <map>
+#include <optional>
+#include <ostream>
+#include <sstream>
+#include <stdexcept>
+
+#include "core/merge/merge.h"
+#include "core/pipeline/pipeline.h"
+#include "daemon/memory_snapshot.h"
+#include "daemon/snapshot_assembler.h"
+#include "drivers/camera/make_camera.h"
+#include "drivers/camera/sim_camera.h"
+#include "drivers/dataset/base_point_spacing.h"
+#include "tools/events_json.h"
+
+namespace tsc {
+namespace {
+
+// A figure for people: three significant digits.
+std::string Figure(double v) {
+  char buf[32];
+  std::snprintf(buf, sizeof buf, "%.3g", v);
+  return buf;
+}
+
+// What the route did, from the pipeline's results alone (as the store records it): each
+// decided detected place and its place, and the counts of the announces.
+class RouteRecorder {
+ public:
+  explicit RouteRecorder(ReplayedRobot& robot) : robot_(robot) {}
+  void Consume(const FrameResult& r) {
+    if (r.has_base) ++robot_.frames;
+    for (const DetectedPlace& d : r.closed_places) closed_.emplace(d.index, d.members);
+    for (const PlaceEvent& e : r.events) {
+      if (e.kind == EventKind::kDetected) ++robot_.detected_places;
+      const bool recognized = e.kind == EventKind::kRecognized && !e.partial;
+      if (!recognized && e.kind != EventKind::kLearned) continue;
+      const auto it = closed_.find(e.detected_place);
+      if (it == closed_.end() || !e.place) {
+        throw std::logic_error("team replay: decision on detected place " +
+                               std::to_string(e.detected_place) + " before it closed");
+      }
+      robot_.assignments.emplace_back(*e.place, it->second);
+      ++(recognized ? robot_.recognitions : robot_.learned);
+      closed_.erase(it);
+    }
+  }
+
+ private:
+  ReplayedRobot& robot_;
+  std::map<DetectedPlaceIndex, std::vector<BaseIndex>> closed_;  // closed, not yet decided
+};
+
+// `memory` and `map` of robot `robot` as a peer receives them: cut into portions
+// (BuildSnapshot), assembled and checked (SnapshotAssembler), rebuilt (ToPlaceMemory).
+std::pair<PlaceMemory, TopologicalMap> AsReceived(const PlaceMemory& memory,
+                                                  const TopologicalMap& map, uint32_t robot,
+                                                  int64_t version, int portion_bytes,
+                                                  const PlaceMemoryOptions& options) {
+  SnapshotHeader header;
+  header.robot = static_cast<int32_t>(robot);
+  header.boot_id = 1;
+  header.version = version;
+  const MemorySnapshot snapshot = BuildSnapshot(memory, map, header, portion_bytes);
+  SnapshotAssembler assembler(static_cast<int32_t>(robot));
+  for (const memory_portion_t& p : snapshot.portions) {
+    const SnapshotAssembler::Result r = assembler.Accept(p);
+    if (r.verdict != SnapshotAssembler::Verdict::kAccepted) {
+      throw std::logic_error("team replay: portion of robot " + std::to_string(robot) +
+                             " refused: " + r.reason);
+    }
+  }
+  std::string reason;
+  const std::optional<PeerSnapshot> peer = assembler.Take(&reason);
+  if (!peer) {
+    throw std::logic_error("team replay: snapshot of robot " + std::to_string(robot) +
+                           " refused: " + reason);
+  }
+  return {ToPlaceMemory(*peer, options), ToTopologicalMap(*peer)};
+}
+
+}  // namespace
+
+ReplayedRobot ReplayRoute(const Settings& settings, uint32_t robot) {
+  if (settings.daemon.camera.source != "sim") {
+    throw std::invalid_argument("team replay: camera.source is " + settings.daemon.camera.source +
+                                ", not sim");
+  }
+  SimCameraOptions camera_options =
+      ToSimCameraOptions(settings.daemon.camera, settings.daemon.sim, false);
+  camera_options.fps = 0.0;  // as fast as they render: nothing is dropped, nothing waits
+  camera_options.loop = false;
+  SimCamera camera(camera_options);
+
+  ReplayedRobot out;
+  out.id = robot;
+  for (const sim::RouteFrame& f : camera.route()) {
+    out.labels.push_back(f.label);
+    out.positions.emplace_back(f.pose.x, f.pose.y);
+  }
+
+  // The daemon's pipeline (daemon.cc): its options, robot id, and the spacing its camera
+  // declares.
+  PipelineOptions options = settings.pipeline;
+  options.robot = robot;
+  const std::optional<BasePointSpacing> declared = camera.spacing();
+  options.detector.spacing_m =
+      ResolveSpacing(settings.daemon.camera.spacing_m, declared ? &*declared : nullptr,
+                     settings.daemon.camera.fps)
+          .metres;
+  Pipeline pipeline(camera.intrinsics(), options, PlaceMemory(robot, options.memory),
+                    TopologicalMap{});
+  RouteRecorder recorder(out);
+  std::vector<Observation> sweep;
+  while (std::optional<CameraFrame> frame = camera.Next()) {
+    sweep.push_back(std::move(frame->observation));
+    if (!frame->ends_base_point) continue;
+    recorder.Consume(pipeline.Process(sweep));
+    sweep.clear();
+  }
+  recorder.Consume(pipeline.Finish());
+  out.memory = pipeline.memory();
+  out.map = pipeline.map();
+  return out;
+}
+
+bool MergePeer(ReplayedRobot& ours, const ReplayedRobot& peer, int portion_bytes) {
+  auto [peer_memory, peer_map] = AsReceived(peer.memory, peer.map, peer.id, 1 + peer.merges_adopted,
+                                            portion_bytes, ours.memory.options());
+  MemoryMerge merged = MergeMemories(ours.memory, peer_memory);
+  TopologicalMap map = MergeMaps(ours.map, peer_map, merged.memory);
+  // As the daemon (MergePeer): a merge that brings nothing new is not adopted.
+  if (!merged.changed && map.edges().size() == ours.map.edges().size()) return false;
+  ours.absorbed += static_cast<int64_t>(merged.absorbed.size());
+  ++ours.merges_adopted;
+  ours.memory = std::move(merged.memory);
+  ours.map = std::move(map);
+  return true;
+}
+
+bool ExchangeMemories(std::vector<ReplayedRobot>& robots, const std::vector<uint32_t>& order,
+                      int portion_bytes, int max_rounds) {
+  std::map<uint32_t, size_t> index;
+  for (size_t i = 0; i < robots.size(); ++i) index[robots[i].id] = i;
+  {
+    std::vector<uint32_t> sorted = order;
+    std::sort(sorted.begin(), sorted.end());
+    std::vector<uint32_t> ids;
+    for (const auto& [id, i] : index) ids.push_back(id);
+    if (sorted != ids || index.size() != robots.size()) {
+      throw std::invalid_argument("the merge order must name every robot of the team once");
+    }
+  }
+  for (int round = 0; round < max_rounds; ++round) {
+    bool changed = false;
+    for (uint32_t r : order) {
+      for (uint32_t s : order) {
+        if (s != r) changed |= MergePeer(robots[index[r]], robots[index[s]], portion_bytes);
+      }
+    }
+    if (!changed) return true;
+  }
+  return false;
+}
+
+TeamMemoryForScoring ForMergeScoring(uint32_t robot, const PlaceAssignments& assignments,
+                                     const std::vector<std::string>& labels,
+                                     const PlaceMemory& memory) {
+  GroundTruth truth;
+  truth.labels = labels;
+  TeamMemoryForScoring out;
+  // Labels of every place this robot learned, from the detected places it assigned to them
+  // (these survive a merge that absorbed the place into a peer's).
+  std::map<PlaceId, std::vector<int>> frames_of;
+  for (const auto& [place, members] : assignments) {
+    std::vector<int> frames;
+    for (BaseIndex b : members) {
+      if (b >= 0 && b < static_cast<BaseIndex>(labels.size())) {
+        frames.push_back(static_cast<int>(b));
+      }
+    }
+    if (place.robot != robot) {
+      if (!frames.empty()) out.peer_recognitions.emplace_back(place, MajorityLabel(truth, frames));
+      continue;
+    }
+    std::vector<int>& all = frames_of[place];
+    all.insert(all.end(), frames.begin(), frames.end());
+  }
+  for (const auto& [place, frames] : frames_of) {
+    out.own_labels[place] = MajorityLabel(truth, frames);
+  }
+  for (const LearnedPlace& p : memory.places()) {
+    std::vector<PlaceId> group = {p.id};
+    group.insert(group.end(), p.sources.begin(), p.sources.end());
+    out.groups.push_back(std::move(group));
+  }
+  return out;
+}
+
+double PlacesPerLabel(const std::vector<std::vector<PlaceId>>& groups,
+                      const std::map<PlaceId, std::string>& labels) {
+  int labelled = 0;
+  std::set<std::string> distinct;
+  for (const std::vector<PlaceId>& g : groups) {
+    std::map<std::string, int> count;
+    for (const PlaceId& id : g) {
+      const auto it = labels.find(id);
+      if (it != labels.end() && !it->second.empty()) ++count[it->second];
+    }
+    if (count.empty()) continue;
+    const auto best =
+        std::max_element(count.begin(), count.end(), [](const auto& a, const auto& b) {
+          return a.second < b.second;  // the first of equal counts: the smallest label
+        });
+    ++labelled;
+    distinct.insert(best->first);
+  }
+  return distinct.empty() ? 0.0
+                          : static_cast<double>(labelled) / static_cast<double>(distinct.size());
+}
+
+TeamVerdict JudgeTeam(const std::vector<TeamMemoryForScoring>& robots) {
+  TeamVerdict v;
+  v.merge = ScoreMerges(robots);
+  std::map<PlaceId, std::string> labels;
+  for (const TeamMemoryForScoring& r : robots)
+    labels.insert(r.own_labels.begin(), r.own_labels.end());
+  // Consistent memories (chapter 4): every robot knows the same places, as places of its own
+  // memory or as the sources they absorbed.
+  v.known.resize(robots.size());
+  for (size_t i = 0; i < robots.size(); ++i) {
+    for (const std::vector<PlaceId>& g : robots[i].groups) v.known[i].insert(g.begin(), g.end());
+    v.places_per_label.push_back(PlacesPerLabel(robots[i].groups, labels));
+  }
+  for (const std::set<PlaceId>& k : v.known) v.consistent &= k == v.known.front();
+  return v;
+}
+
+std::string TeamVerdictJson(const TeamVerdict& v) {
+  const MergeScore& merge = v.merge;
+  std::ostringstream json;
+  json << ",\"merge\":{\"merges\":" << merge.merges << ",\"correct\":" << merge.correct
+       << ",\"same_label_pairs\":" << merge.same_label_pairs
+       << ",\"precision\":" << JsonNumber(merge.precision)
+       << ",\"recall\":" << JsonNumber(merge.recall)
+       << ",\"pair_recall\":" << JsonNumber(merge.recall)
+       << ",\"places_with_namesake\":" << merge.places_with_namesake
+       << ",\"places_merged_with_namesake\":" << merge.places_merged_with_namesake
+       << ",\"place_recall\":" << JsonNumber(merge.place_recall)
+       << ",\"peer_recognitions\":" << merge.peer_recognitions
+       << ",\"peer_recognitions_correct\":" << merge.peer_recognitions_correct << "}";
+  json << ",\"consistent\":" << (v.consistent ? "true" : "false") << ",\"known_places\":[";
+  for (size_t i = 0; i < v.known.size(); ++i) json << (i ? "," : "") << v.known[i].size();
+  json << "],\"places_per_label\":[";
+  for (size_t i = 0; i < v.places_per_label.size(); ++i) {
+    json << (i ? "," : "") << JsonNumber(v.places_per_label[i]);
+  }
+  json << "]";
+  return json.str();
+}
+
+std::vector<ReplayedRobot> RoutesOf(const std::vector<Settings>& settings) {
+  std::vector<ReplayedRobot> out;
+  for (size_t i = 0; i < settings.size(); ++i) {
+    const SimCamera route(ToSimCameraOptions(settings[i].daemon.camera, settings[i].daemon.sim));
+    ReplayedRobot r;
+    r.id = static_cast<uint32_t>(i + 1);
+    for (const sim::RouteFrame& f : route.route()) {
+      r.labels.push_back(f.label);
+      r.positions.emplace_back(f.pose.x, f.pose.y);
+    }
+    out.push_back(std::move(r));
+  }
+  return out;
+}
+
+TeamMapPicture TeamMapOf(const PlaceMemory& memory, const TopologicalMap& map,
+                         const std::vector<ReplayedRobot>& robots, std::string title,
+                         std::string subtitle) {
+  TeamMapPicture out;
+  out.title = std::move(title);
+  out.subtitle = std::move(subtitle);
+  out.map = map;
+  // Every robot's frames of each of its own places.
+  std::map<PlaceId, std::vector<std::pair<const ReplayedRobot*, BaseIndex>>> frames_of;
+  for (const ReplayedRobot& r : robots) {
+    out.robots.push_back({r.id, r.positions});
+    for (const auto& [place, members] : r.assignments) {
+      if (place.robot != r.id) continue;
+      for (BaseIndex b : members) {
+        if (b >= 0 && b < static_cast<BaseIndex>(r.positions.size())) {
+          frames_of[place].emplace_back(&r, b);
+        }
+      }
+    }
+  }
+  for (const LearnedPlace& p : memory.places()) {
+    TeamMapPicture::Place place;
+    place.id = p.id;
+    place.sources = p.sources;
+    double sx = 0, sy = 0;
+    int n = 0;
+    std::map<std::string, int> votes;
+    std::vector<PlaceId> ids = {p.id};
+    ids.insert(ids.end(), p.sources.begin(), p.sources.end());
+    for (const PlaceId& id : ids) {
+      const auto it = frames_of.find(id);
+      if (it == frames_of.end()) continue;
+      for (const auto& [robot, b] : it->second) {
+        const auto& [x, y] = robot->positions[static_cast<size_t>(b)];
+        sx += x, sy += y, ++n;
+        const std::string& l = robot->labels[static_cast<size_t>(b)];
+        if (!l.empty()) ++votes[l];
+      }
+    }
+    if (n > 0) {
+      place.located = true;
+      place.x = sx / n;
+      place.y = sy / n;
+    }
+    if (!votes.empty()) {
+      place.label = std::max_element(votes.begin(), votes.end(), [](const auto& a, const auto& b) {
+                      return a.second < b.second;
+                    })->first;
+    }
+    out.places.push_back(std::move(place));
+  }
+  return out;
+}
+
+WorldPlan WorldPlanOf(const Settings& settings) {
+  const SimCamera camera(ToSimCameraOptions(settings.daemon.camera, settings.daemon.sim));
+  return ParseWorldPlan(camera.world().ToJson(), "simulated world");
+}
+
+void PrintTeamVerdict(std::ostream& out, const TeamVerdict& v) {
+  const MergeScore& merge = v.merge;
+  out << "merges (DESIGN 7.1b): " << merge.merges << " pairs merged, " << merge.correct
+      << " correct, " << merge.same_label_pairs
+      << " pairs of places of different robots in the same room; precision "
+      << Figure(merge.precision) << ", recall " << Figure(merge.recall) << "\n"
+      << "places merged with a place of another robot in their room: "
+      << merge.places_merged_with_namesake << " of " << merge.places_with_namesake
+      << " (place recall " << Figure(merge.place_recall) << ")\n"
+      << "peer places recognised by the robots' pipelines: " << merge.peer_recognitions
+      << " detected places, " << merge.peer_recognitions_correct << " correct\n";
+  out << "memories " << (v.consistent ? "consistent" : "NOT consistent")
+      << ": places known (own, taken or absorbed) per robot:";
+  for (const std::set<PlaceId>& k : v.known) out << " " << k.size();
+  out << "\nplaces per label per final memory:";
+  for (double p : v.places_per_label) out << " " << Figure(p);
+  out << "\n";
+}
+
+}  // namespace tsc
