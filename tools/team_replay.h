@@ -20,7 +20,7 @@
 
 #include "core/map/topological_map.h"
 #include "core/memory/place_memory.h"
-#include "daemon/settings.h"
+#include "settings/settings.h"
 #include "tools/plots.h"
 #include "tools/scoring.h"
 

@@ -26,7 +26,7 @@
 #include <tuple>
 #include <vector>
 
-#include "daemon/settings.h"
+#include "settings/settings.h"
 #include "tools/team_replay.h"
 
 namespace tsc {
