@@ -127,6 +127,53 @@ const cv::Scalar kMapEdgeOverWorld(150, 70, 130);
 
 // The floor plan of `world`: room floors, boxes, doors, walls and room labels. `px` maps
 // metres to pixels, `rect_px` a rectangle; `scale` is pixels per metre.
+// The drawing area of a floor plan: the extent of what is drawn (points, then the world's
+// rooms and walls), one scale along x and y, y up, the plan centred horizontally.
+class PlanLayout {
+ public:
+  void Extend(double x, double y) {
+    min_x_ = std::min(min_x_, x), max_x_ = std::max(max_x_, x);
+    min_y_ = std::min(min_y_, y), max_y_ = std::max(max_y_, y);
+  }
+  bool empty() const { return min_x_ > max_x_; }
+  /// A white image with the plan's longer side `area` pixels, `top` pixels of title above and
+  /// `bottom` of legend below, at least `min_width` wide. Precondition: !empty().
+  cv::Mat Canvas(const WorldPlan* world, int area, int top, int bottom, int min_width) {
+    if (world) {
+      for (const WorldPlan::Room& room : world->rooms) {
+        Extend(room.rect.x0, room.rect.y0), Extend(room.rect.x1, room.rect.y1);
+      }
+      for (const WorldPlan::Rect& w : world->walls) Extend(w.x0, w.y0), Extend(w.x1, w.y1);
+    }
+    const double span = std::max({max_x_ - min_x_, max_y_ - min_y_, 1e-9});
+    scale_ = area / span;  // pixels per unit, the same along x and y
+    const int plan_w = static_cast<int>(std::lround((max_x_ - min_x_) * scale_));
+    plan_h_ = static_cast<int>(std::lround((max_y_ - min_y_) * scale_));
+    const int w = std::max(plan_w + 2 * kMargin, min_width);
+    x_off_ = (w - plan_w) / 2;
+    top_ = top;
+    return cv::Mat(top + plan_h_ + 2 * kMargin + bottom, w, CV_8UC3, kWhite);
+  }
+  cv::Point Px(double x, double y) const {
+    return cv::Point(
+        x_off_ + static_cast<int>(std::lround((x - min_x_) * scale_)),
+        top_ + kMargin + plan_h_ - static_cast<int>(std::lround((y - min_y_) * scale_)));
+  }
+  cv::Rect RectPx(const WorldPlan::Rect& rc) const {
+    return cv::Rect(Px(std::min(rc.x0, rc.x1), std::max(rc.y0, rc.y1)),
+                    Px(std::max(rc.x0, rc.x1), std::min(rc.y0, rc.y1)));
+  }
+  double scale() const { return scale_; }
+  /// The first row below the plan: where the legend starts.
+  int legend_top() const { return top_ + plan_h_ + 2 * kMargin; }
+
+ private:
+  static constexpr int kMargin = 40;
+  double min_x_ = 1e300, max_x_ = -1e300, min_y_ = 1e300, max_y_ = -1e300;
+  double scale_ = 1.0;
+  int x_off_ = 0, top_ = 0, plan_h_ = 0;
+};
+
 template <typename Px, typename RectPx>
 void DrawWorldPlan(cv::Mat& img, const WorldPlan& world, const Px& px, const RectPx& rect_px,
                    double scale) {
@@ -584,38 +631,15 @@ cv::Mat DrawConfusionMatrix(const Eigen::MatrixXi& confusion,
 
 cv::Mat DrawFloorPlan(const EvalResult& r, const Dataset& dataset, const WorldPlan* world) {
   const auto& poses = dataset.poses();
-  double min_x = 1e300, max_x = -1e300, min_y = 1e300, max_y = -1e300;
-  const auto extend = [&](double x, double y) {
-    min_x = std::min(min_x, x), max_x = std::max(max_x, x);
-    min_y = std::min(min_y, y), max_y = std::max(max_y, y);
-  };
+  PlanLayout layout;
   for (const auto& p : poses) {
-    if (p) extend(p->x, p->y);
+    if (p) layout.Extend(p->x, p->y);
   }
-  if (min_x > max_x) return {};
-  if (world) {
-    for (const WorldPlan::Room& room : world->rooms) {
-      extend(room.rect.x0, room.rect.y0), extend(room.rect.x1, room.rect.y1);
-    }
-    for (const WorldPlan::Rect& w : world->walls) extend(w.x0, w.y0), extend(w.x1, w.y1);
-  }
-  const int margin = 40, area = 760, top = 70, bottom = 110, min_width = 680;
-  const double span = std::max({max_x - min_x, max_y - min_y, 1e-9});
-  const double scale = area / span;  // pixels per unit, the same along x and y
-  const int plan_w = static_cast<int>(std::lround((max_x - min_x) * scale));
-  const int plan_h = static_cast<int>(std::lround((max_y - min_y) * scale));
-  const int w = std::max(plan_w + 2 * margin, min_width);
-  const int h = top + plan_h + 2 * margin + bottom;
-  const int x_off = (w - plan_w) / 2;  // centre the plan horizontally
-  cv::Mat img(h, w, CV_8UC3, kWhite);
-  const auto px = [&](double x, double y) {  // y up
-    return cv::Point(x_off + static_cast<int>(std::lround((x - min_x) * scale)),
-                     top + margin + plan_h - static_cast<int>(std::lround((y - min_y) * scale)));
-  };
-  const auto rect_px = [&](const WorldPlan::Rect& rc) {
-    return cv::Rect(px(std::min(rc.x0, rc.x1), std::max(rc.y0, rc.y1)),
-                    px(std::max(rc.x0, rc.x1), std::min(rc.y0, rc.y1)));
-  };
+  if (layout.empty()) return {};
+  cv::Mat img = layout.Canvas(world, 760, 70, 110, 680);
+  const double scale = layout.scale();
+  const auto px = [&](double x, double y) { return layout.Px(x, y); };
+  const auto rect_px = [&](const WorldPlan::Rect& rc) { return layout.RectPx(rc); };
 
   const std::string name = fs::path(r.dataset).filename().string();
   Text(img,
@@ -671,7 +695,7 @@ cv::Mat DrawFloorPlan(const EvalResult& r, const Dataset& dataset, const WorldPl
     Text(img, label, corner, 0.42);
   }
 
-  const int bar_y = h - bottom + 28;
+  const int bar_y = layout.legend_top() + 28;
   ScaleBar(img, scale, bar_y, world ? " m" : " (dataset units)");
 
   cv::Point legend(20, bar_y + 36);
@@ -687,41 +711,18 @@ cv::Mat DrawFloorPlan(const EvalResult& r, const Dataset& dataset, const WorldPl
 }
 
 cv::Mat DrawTeamMap(const TeamMapPicture& team, const WorldPlan* world) {
-  double min_x = 1e300, max_x = -1e300, min_y = 1e300, max_y = -1e300;
-  const auto extend = [&](double x, double y) {
-    min_x = std::min(min_x, x), max_x = std::max(max_x, x);
-    min_y = std::min(min_y, y), max_y = std::max(max_y, y);
-  };
+  PlanLayout layout;
   for (const TeamMapPicture::Robot& r : team.robots) {
-    for (const auto& [x, y] : r.trajectory) extend(x, y);
+    for (const auto& [x, y] : r.trajectory) layout.Extend(x, y);
   }
   for (const TeamMapPicture::Place& p : team.places) {
-    if (p.located) extend(p.x, p.y);
+    if (p.located) layout.Extend(p.x, p.y);
   }
-  if (min_x > max_x) return {};
-  if (world) {
-    for (const WorldPlan::Room& room : world->rooms) {
-      extend(room.rect.x0, room.rect.y0), extend(room.rect.x1, room.rect.y1);
-    }
-    for (const WorldPlan::Rect& w : world->walls) extend(w.x0, w.y0), extend(w.x1, w.y1);
-  }
-  const int margin = 40, area = 900, top = 70, bottom = 130, min_width = 860;
-  const double span = std::max({max_x - min_x, max_y - min_y, 1e-9});
-  const double scale = area / span;
-  const int plan_w = static_cast<int>(std::lround((max_x - min_x) * scale));
-  const int plan_h = static_cast<int>(std::lround((max_y - min_y) * scale));
-  const int w = std::max(plan_w + 2 * margin, min_width);
-  const int h = top + plan_h + 2 * margin + bottom;
-  const int x_off = (w - plan_w) / 2;
-  cv::Mat img(h, w, CV_8UC3, kWhite);
-  const auto px = [&](double x, double y) {  // y up
-    return cv::Point(x_off + static_cast<int>(std::lround((x - min_x) * scale)),
-                     top + margin + plan_h - static_cast<int>(std::lround((y - min_y) * scale)));
-  };
-  const auto rect_px = [&](const WorldPlan::Rect& rc) {
-    return cv::Rect(px(std::min(rc.x0, rc.x1), std::max(rc.y0, rc.y1)),
-                    px(std::max(rc.x0, rc.x1), std::min(rc.y0, rc.y1)));
-  };
+  if (layout.empty()) return {};
+  cv::Mat img = layout.Canvas(world, 900, 70, 130, 860);
+  const double scale = layout.scale();
+  const auto px = [&](double x, double y) { return layout.Px(x, y); };
+  const auto rect_px = [&](const WorldPlan::Rect& rc) { return layout.RectPx(rc); };
   Text(img, team.title, {20, 28}, 0.6);
   Text(img, team.subtitle, {20, 52}, 0.45);
   if (world) DrawWorldPlan(img, *world, px, rect_px, scale);
@@ -782,7 +783,7 @@ cv::Mat DrawTeamMap(const TeamMapPicture& team, const WorldPlan* world) {
     Text(img, name, corner, 0.42);
   }
 
-  const int bar_y = h - bottom + 28;
+  const int bar_y = layout.legend_top() + 28;
   ScaleBar(img, scale, bar_y, world ? " m" : " (units)");
   cv::Point legend(20, bar_y + 36);
   for (const TeamMapPicture::Robot& r : team.robots) {

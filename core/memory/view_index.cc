@@ -8,16 +8,10 @@
 #include <string>
 
 #include "core/memory/member_views.h"
+#include "core/split_mix64.h"
 
 namespace tsc {
 namespace {
-
-uint64_t SplitMix64(uint64_t x) {
-  x += 0x9e3779b97f4a7c15ULL;
-  x = (x ^ (x >> 30)) * 0xbf58476d1ce4e5b9ULL;
-  x = (x ^ (x >> 27)) * 0x94d049bb133111ebULL;
-  return x ^ (x >> 31);
-}
 
 Eigen::MatrixXf RademacherProjection(Eigen::Index dim) {
   Eigen::MatrixXf p(ViewIndex::kDimensions, dim);
