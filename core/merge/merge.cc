@@ -73,6 +73,23 @@ void AddSource(LearnedPlace& target, PlaceId id) {
   if (it == target.sources.end() || *it != id) target.sources.insert(it, id);
 }
 
+// The canonical id of a merged place (docs/decisions.md, "Merging": canonical ids): the
+// smallest id of its group, its own id and every source. Which memory was the base decides
+// which place absorbs which, so without it one settled team held 1:1{2:7,3:1} and
+// 2:7{1:1,3:1} for one place. Returns the id it carried before (itself when unchanged).
+PlaceId TakeSmallestId(LearnedPlace& p) {
+  const PlaceId before = p.id;
+  if (p.sources.empty() || !(p.sources.front() < p.id)) return before;
+  p.id = p.sources.front();
+  p.sources.erase(p.sources.begin());
+  p.sources.insert(std::lower_bound(p.sources.begin(), p.sources.end(), before), before);
+  return before;
+}
+
+bool CarriesSmallestId(const LearnedPlace& p) {
+  return p.sources.empty() || p.id < p.sources.front();
+}
+
 // Merges the incoming place `p` into `target`: weighted mean by member counts, counts added,
 // samples pooled and thinned to the cap, ids absorbed. Members and detected places index the
 // other robot's stream and are not copied.
@@ -508,8 +525,10 @@ MemoryMerge Merge(const PlaceMemory& ours, const PlaceMemory& peer, PlaceMemory*
     if (t >= 0) t = holder[static_cast<size_t>(t)];
   }
   for (auto& [b, unused] : join.learned) b = holder[static_cast<size_t>(b)];
+  // A memory from before canonical ids (a store written earlier) is renamed by any merge.
+  const bool renames = !std::all_of(ours.places().begin(), ours.places().end(), CarriesSmallestId);
   result.changed = anything_new || join.places.united() || !join.learned.empty() ||
-                   (!peer_into_ours && base_knows_more);
+                   (!peer_into_ours && base_knows_more) || renames;
   if (!result.changed && peer_into_ours) {  // ours unchanged: no need to rebuild it
     result.memory = ours_owned != nullptr ? std::move(*ours_owned) : ours;
     return result;
@@ -710,6 +729,22 @@ MemoryMerge Merge(const PlaceMemory& ours, const PlaceMemory& peer, PlaceMemory*
     slink = SingleLinkage(static_cast<int>(places.size()), std::move(links));
   }
 
+  // Every merged place carries the smallest id of its group whichever memory was the base;
+  // the absorptions name the places as they are now (a renamed target's new id absorbed its
+  // old one).
+  std::unordered_map<PlaceId, PlaceId, PlaceIdHash> renamed;
+  for (LearnedPlace& p : places) {
+    if (const PlaceId before = TakeSmallestId(p); before != p.id) renamed.emplace(before, p.id);
+  }
+  if (!renamed.empty()) {
+    for (Absorption& a : result.absorbed) {
+      const auto it = renamed.find(a.target);
+      if (it == renamed.end()) continue;
+      if (a.source == it->second) a.source = a.target;
+      a.target = it->second;
+    }
+  }
+
   // A robot whose store was wiped gets its old places back from a peer: its new places are
   // numbered after every id of its own the team still holds, as a place or as a source, so no
   // id is given twice (issue 21 item 5).
@@ -812,11 +847,16 @@ TopologicalMap MergeMaps(const TopologicalMap& ours, const TopologicalMap& peer,
   };
   using Edges = std::map<std::pair<PlaceId, PlaceId>, MapEdge>;
   std::set<PlaceId> places;
-  // Within one map, edges that collapse onto one pair are distinct transitions: their counts
-  // add up. Between the two maps they are not: memories travel back and forth, so the peer's
-  // map already holds the counts it took from ours, and adding them would double every count
-  // on each exchange (the soak saw them overflow int64 within minutes). The larger count wins:
-  // idempotent, commutative, and never more than was traversed.
+  // An edge's count is the largest count of the edges that collapse onto it, within a map as
+  // between the two maps. Between maps counts cannot add up: memories travel back and forth,
+  // so the peer's map already holds the counts it took from ours, and adding them would
+  // double every count on each exchange (the soak saw them overflow int64 within minutes).
+  // Within a map they used to add up, but a map's edges are themselves edges collapsed by
+  // earlier merges, so the sum depended on which places had been joined when (3 robots
+  // settling on different counts in different orders). The largest count is idempotent,
+  // commutative and associative: once the team agrees on which ids are one place, every
+  // robot holds the largest count any robot's own edge between those places has, whatever
+  // the order of the merges (docs/decisions.md, "Merging": traversal counts).
   auto collapse = [&](const TopologicalMap& map, bool keep_transitions) {
     Edges edges;
     for (PlaceId p : map.places()) places.insert(resolve(p));
@@ -825,7 +865,7 @@ TopologicalMap MergeMaps(const TopologicalMap& ours, const TopologicalMap& peer,
       if (a == b) continue;  // both ends collapsed onto one place
       if (b < a) std::swap(a, b);
       MapEdge& out = edges.try_emplace({a, b}, MapEdge{a, b, 0, {}}).first->second;
-      out.traversals += e.traversals;
+      out.traversals = std::max(out.traversals, e.traversals);
       if (keep_transitions) {
         out.transitions.insert(out.transitions.end(), e.transitions.begin(), e.transitions.end());
       }

@@ -104,7 +104,9 @@ bool PeerGoesIntoOurs(const PlaceMemory& ours, const PlaceMemory& peer);
 
 /// T^m + T^n of figure 4.6 from the perspective of `ours` (robot m). The smaller memory (by
 /// place count; on a tie, the one of the higher robot id) is merged into the larger, so the
-/// result is the same place set whichever robot computes it. Deterministic; merging the same peer
+/// result is the same place set whichever robot computes it. Every merged place carries the
+/// smallest id of its group (its id and its sources), whichever memory was the base, and
+/// Absorption records name the places by those ids. Deterministic; merging the same peer
 /// state again changes nothing. Both memories must have the same descriptor dimension
 /// (std::invalid_argument).
 MemoryMerge MergeMemories(const PlaceMemory& ours, const PlaceMemory& peer);
@@ -115,9 +117,10 @@ MemoryMerge MergeMemories(const PlaceMemory& ours, const PlaceMemory& peer);
 MemoryMerge MergeMemories(PlaceMemory&& ours, PlaceMemory&& peer);
 
 /// G^m + G^n of §4.6 over the merged memory: every place id (own or absorbed) is replaced by
-/// the merged place that holds it, edges are the union with traversal counts added, and
-/// self-loops are dropped. Transition regions are kept only from `ours` (they index our own
-/// base point stream).
+/// the merged place that holds it, edges are the union, an edge's traversal count the largest
+/// count among the edges of both maps that collapse onto it (so the result does not depend on
+/// the order of merges), and self-loops are dropped. Transition regions are kept only from `ours`
+/// (they index our own base point stream).
 TopologicalMap MergeMaps(const TopologicalMap& ours, const TopologicalMap& peer,
                          const PlaceMemory& merged);
 

@@ -707,7 +707,12 @@ TEST(MergeMemories, AbsorptionCostsWhatRecognitionCosts) {
   views.descriptors = incoming.places()[0].samples;
   const Recognition r = base.Recognize(views);
   ASSERT_TRUE(r.place.has_value());
-  EXPECT_EQ(base.places()[static_cast<size_t>(*r.place)].id, dut.absorbed[0].target);
+  // The place recognition picks absorbed the incoming 1:1; the merged place carries the
+  // smaller id of the two (canonical ids), so the record reads "2:1 into 1:1".
+  const PlaceId recognised = base.places()[static_cast<size_t>(*r.place)].id;
+  EXPECT_EQ(recognised, (PlaceId{2, 1}));
+  EXPECT_EQ(dut.absorbed[0].source, recognised);
+  EXPECT_EQ(dut.absorbed[0].target, (PlaceId{1, 1}));
   EXPECT_DOUBLE_EQ(dut.absorbed[0].cost, r.cost);
 }
 
