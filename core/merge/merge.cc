@@ -62,6 +62,14 @@ double RecognitionCost(const PlaceMemory& base, const HyperTerminal& h, const Le
   }
   const ViewDistances vd(p.samples, places, units);
   const CostTerms t = RecognitionCost(vd, p.mean, candidates, base.options().cost);
+  if (t.best < 0) {
+    // N* has no terminal child (every child is an inner node): nothing here can absorb p.
+    // Indexing the candidates with −1 read before the vector (found by BM_MergeMemories/10000:
+    // a segfault, earlier "SLINK insert: bad distance" on the memory it produced).
+    *best = -1;
+    *best_gamma = std::numeric_limits<double>::infinity();
+    return std::numeric_limits<double>::infinity();
+  }
   *best = index[static_cast<size_t>(candidates[static_cast<size_t>(t.best)].places.front())];
   *best_gamma = (p.mean - base.places()[static_cast<size_t>(*best)].mean).squaredNorm();
   return t.cost;
