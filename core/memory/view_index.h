@@ -41,7 +41,9 @@ class ViewIndex {
   // kDimensions x dim, entries ±1 from a fixed seed: a Johnson-Lindenstrauss map, the same
   // for every memory of that dimension, so no basis has to be learned or kept in step.
   Eigen::MatrixXf projection_;
-  Eigen::MatrixXf keys_;  // capacity x kDimensions; the first kKeysPerPlace · size() rows are keys
+  // capacity x kDimensions; the first kKeysPerPlace · size() rows are keys. Starts 0 x
+  // kDimensions so that copying it into a grown block has matching shapes.
+  Eigen::MatrixXf keys_ = Eigen::MatrixXf(0, kDimensions);
   std::vector<float> key_norms_;
 };
 
