@@ -135,6 +135,8 @@ CostTerms PlaceMemory::Cost(const ViewDistances& vd, const Eigen::MatrixXf& vote
     candidates[c].centroid = Centroid(children[c]);
   }
   CostTerms t = RecognitionCost(vd, votes.rowwise().mean(), candidates, options_.cost);
+  // No child with a shortlisted place: infinite cost, so the descent stops here.
+  if (t.best < 0) return t;
   t.best = children[static_cast<size_t>(t.best)];
   if (options_.svm_vote) {
     // The thesis' vote: the fraction of D's points inside d_{N¹}'s support.

@@ -129,7 +129,8 @@ CostTerms RecognitionCost(const ViewDistances& vd, const Eigen::VectorXf& mean,
     nearest.push_back(NearestIn(vd, c));
     std::vector<double> d = nearest.back().distance;
     gamma.push_back(d.empty() ? std::numeric_limits<double>::infinity() : Median(d));
-    measured.push_back(std::isfinite(gamma.back()));
+    measured.push_back(
+        std::any_of(c.places.begin(), c.places.end(), [&vd](int p) { return vd.measured(p); }));
     if (measured.back()) continue;
     // A child with no place in the shortlist: its rough distance, good enough for N² (it is
     // never N¹, and the places nearest D are the ones measured).

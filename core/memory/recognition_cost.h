@@ -85,8 +85,9 @@ struct RecognitionCostOptions {
   void Validate() const;
 };
 
-/// g_N over `candidates` (the children of N) for D with mean `mean`. Precondition: at least
-/// one candidate with a place; vd has at least one vote point.
+/// g_N over `candidates` (the children of N) for D with mean `mean`; vd has at least one vote
+/// point. With no candidate that may be N¹ and has a measured place, `best` is −1 and the
+/// cost infinite: nothing there is recognised.
 CostTerms RecognitionCost(const ViewDistances& vd, const Eigen::VectorXf& mean,
                           std::span<const CostCandidate> candidates,
                           const RecognitionCostOptions& options);

@@ -39,7 +39,8 @@ std::vector<int> AllPlaces(const PlaceMemory& memory) {
 // recognition (core/memory/recognition_cost.h) with p's member views as the vote points and
 // N*'s children as the candidates; only a terminal can absorb p, so an inner child of N*
 // only enters the ratio. Sets `best` to the nearest terminal place P¹ and `best_gamma` to
-// γ(p, P¹) between the means (the distance of the merged SLINK tree).
+// γ(p, P¹) between the means (the distance of the merged SLINK tree); −1, with an infinite
+// cost, when no terminal child of N* can take p.
 double RecognitionCost(const PlaceMemory& base, const HyperTerminal& h, const LearnedPlace& p,
                        int* best, double* best_gamma) {
   std::vector<const LearnedPlace*> places;
@@ -62,10 +63,7 @@ double RecognitionCost(const PlaceMemory& base, const HyperTerminal& h, const Le
   }
   const ViewDistances vd(p.samples, places, units);
   const CostTerms t = RecognitionCost(vd, p.mean, candidates, base.options().cost);
-  if (t.best < 0) {
-    // N* has no terminal child (every child is an inner node): nothing here can absorb p.
-    // Indexing the candidates with −1 read before the vector (found by BM_MergeMemories/10000:
-    // a segfault, earlier "SLINK insert: bad distance" on the memory it produced).
+  if (t.best < 0) {  // no terminal child of N* can absorb p (RecognitionCost)
     *best = -1;
     *best_gamma = std::numeric_limits<double>::infinity();
     return std::numeric_limits<double>::infinity();
@@ -484,11 +482,9 @@ MemoryMerge Merge(const PlaceMemory& ours, const PlaceMemory& peer, PlaceMemory*
           double gamma = 0.0;
           const double g = RecognitionCost(incoming, hi[match_of[a]],
                                            base.places()[static_cast<size_t>(b)], &match, &gamma);
+          if (match < 0 || g > options.tau_r || is_new[static_cast<size_t>(match)]) continue;
           const PlaceId match_id = incoming.places()[static_cast<size_t>(match)].id;
-          if (g > options.tau_r || is_new[static_cast<size_t>(match)] ||
-              match_id.robot == base.places()[static_cast<size_t>(b)].id.robot) {
-            continue;
-          }
+          if (match_id.robot == base.places()[static_cast<size_t>(b)].id.robot) continue;
           const int holder = known.at(match_id);
           // A robot's own places stay apart: the holder may be a place of b's robot that
           // absorbed the match in an earlier merge.
@@ -516,8 +512,9 @@ MemoryMerge Merge(const PlaceMemory& ours, const PlaceMemory& peer, PlaceMemory*
                               &nearest_gamma[static_cast<size_t>(p)]);
           nearest[static_cast<size_t>(p)] = match;
           // A robot's own places stay apart: its pipeline already judged them different.
-          if (g <= options.tau_r && base.places()[static_cast<size_t>(match)].id.robot !=
-                                        incoming.places()[static_cast<size_t>(p)].id.robot) {
+          if (match >= 0 && g <= options.tau_r &&
+              base.places()[static_cast<size_t>(match)].id.robot !=
+                  incoming.places()[static_cast<size_t>(p)].id.robot) {
             target[static_cast<size_t>(p)] = match;
             cost[static_cast<size_t>(p)] = g;
           }

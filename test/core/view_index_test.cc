@@ -112,6 +112,18 @@ TEST(PlaceMemoryShortlist, RecognisesWhatTheExhaustiveSearchRecognises) {
   EXPECT_GT(recognised, 30);  // of 60 revisits: the comparison is about real recognitions
   EXPECT_EQ(correct, recognised);
 
+  // Hybrid recognition starts beside the previous place, far from the revisit: no place under
+  // its first nodes is shortlisted (their cost is infinite, and the search climbs on).
+  int hybrid_recognised = 0;
+  for (int p = 0; p < 300; p += 5) {
+    const DetectedPlace revisit = places.Visit(p, 1, 6);
+    const int previous = (p + 150) % 300;
+    const Recognition fast = memory.Recognize(revisit, previous);
+    EXPECT_EQ(fast.place, exhaustive.Recognize(revisit, previous).place) << "place " << p;
+    hybrid_recognised += fast.place.has_value();
+  }
+  EXPECT_GT(hybrid_recognised, 30);
+
   // Only the shortlist is measured: the other places are infinitely far.
   const Eigen::MatrixXf votes = memory.VotePoints(places.Visit(7, 1));
   const ViewDistances vd = memory.DistancesOf(votes, memory.DistanceUnit());
