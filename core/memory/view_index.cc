@@ -56,10 +56,8 @@ void ViewIndex::Set(int place, const LearnedPlace& p) {
   if (place == size()) {
     // Grows by half, as the means cache does: appending one place is amortised O(1) copies.
     if (first + kKeysPerPlace > keys_.rows()) {
-      Eigen::MatrixXf grown(
+      keys_.conservativeResize(
           std::max<Eigen::Index>(64 * kKeysPerPlace, keys_.rows() + keys_.rows() / 2), kDimensions);
-      grown.topRows(keys_.rows()) = keys_;
-      keys_.swap(grown);
     }
     key_norms_.resize(static_cast<size_t>(first + kKeysPerPlace));
   }
@@ -67,11 +65,6 @@ void ViewIndex::Set(int place, const LearnedPlace& p) {
   for (int k = 0; k < kKeysPerPlace; ++k) {
     key_norms_[static_cast<size_t>(first + k)] = projected.col(k).squaredNorm();
   }
-}
-
-void ViewIndex::Clear() {
-  keys_.resize(0, kDimensions);
-  key_norms_.clear();
 }
 
 std::vector<float> ViewIndex::Estimate(const Eigen::MatrixXf& queries) const {
@@ -83,8 +76,7 @@ std::vector<float> ViewIndex::Estimate(const Eigen::MatrixXf& queries) const {
   const int places = size();
   const Eigen::MatrixXf q = Project(queries);
   const Eigen::RowVectorXf q_norms = q.colwise().squaredNorm();
-  // ‖k − q‖² = ‖k‖² + ‖q‖² − 2 kᵀq for every key and query in one product; the keys are rows,
-  // so the product streams them as they lie.
+  // ‖k − q‖² = ‖k‖² + ‖q‖² − 2 kᵀq; the key norms are kept, the rest is computed here.
   const Eigen::Index n = static_cast<Eigen::Index>(places) * kKeysPerPlace;
   // Query by query over blocks of keys that stay in cache, so the keys are read from memory
   // once: a column-major block times a vector streams each dimension's column and vectorises

@@ -27,7 +27,6 @@ class ViewIndex {
   /// Keys place `place` (re-keys it when already indexed; appends when place == size()).
   /// Precondition: place ≤ size(); p has a mean and at least one member view.
   void Set(int place, const LearnedPlace& p);
-  void Clear();
   int size() const { return static_cast<int>(key_norms_.size() / kKeysPerPlace); }
 
   /// For every place, an estimate of its squared distance to D: the smallest over its keys
@@ -41,9 +40,7 @@ class ViewIndex {
   // kDimensions x dim, entries ±1 from a fixed seed: a Johnson-Lindenstrauss map, the same
   // for every memory of that dimension, so no basis has to be learned or kept in step.
   Eigen::MatrixXf projection_;
-  // capacity x kDimensions; the first kKeysPerPlace · size() rows are keys. Starts 0 x
-  // kDimensions so that copying it into a grown block has matching shapes.
-  Eigen::MatrixXf keys_ = Eigen::MatrixXf(0, kDimensions);
+  Eigen::MatrixXf keys_;  // capacity x kDimensions; the first kKeysPerPlace · size() rows are keys
   std::vector<float> key_norms_;
 };
 
