@@ -933,10 +933,7 @@ void Daemon::MergePeer(const PeerSnapshot& snapshot) {
                                  a.cost > 0.0 ? fmt::format("g {:.2f}", a.cost) : "joined by ids");
     }
     TopologicalMap map = MergeMaps(pipeline_->map(), peer_map, merged.memory);
-    // Nothing new (no place, absorption or edge we did not hold): keep our memory exactly as
-    // it is, so an unchanged memory is not broadcast again and peers do not fetch it back and
-    // forth.
-    changed = merged.changed || map.edges().size() != pipeline_->map().edges().size();
+    changed = MergeChangesAnything(merged, map, pipeline_->map());
     if (changed) pipeline_->AdoptMerged(std::move(merged.memory), std::move(map));
     places_after = pipeline_->memory().places().size();
     counters_.places = static_cast<int32_t>(places_after);

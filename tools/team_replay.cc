@@ -133,8 +133,7 @@ bool MergePeer(ReplayedRobot& ours, const ReplayedRobot& peer, int portion_bytes
                                             portion_bytes, ours.memory.options());
   MemoryMerge merged = MergeMemories(ours.memory, peer_memory);
   TopologicalMap map = MergeMaps(ours.map, peer_map, merged.memory);
-  // As the daemon (MergePeer): a merge that brings nothing new is not adopted.
-  if (!merged.changed && map.edges().size() == ours.map.edges().size()) return false;
+  if (!MergeChangesAnything(merged, map, ours.map)) return false;  // as the daemon
   ours.absorbed += static_cast<int64_t>(merged.absorbed.size());
   ++ours.merges_adopted;
   ours.memory = std::move(merged.memory);

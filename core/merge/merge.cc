@@ -888,4 +888,14 @@ TopologicalMap MergeMaps(const TopologicalMap& ours, const TopologicalMap& peer,
   return out;
 }
 
+bool MergeChangesAnything(const MemoryMerge& merged, const TopologicalMap& merged_map,
+                          const TopologicalMap& ours_map) {
+  if (merged.changed) return true;
+  const auto& a = merged_map.edges();
+  const auto& b = ours_map.edges();
+  return !std::equal(a.begin(), a.end(), b.begin(), b.end(), [](const auto& x, const auto& y) {
+    return x.first == y.first && x.second.traversals == y.second.traversals;
+  });
+}
+
 }  // namespace tsc

@@ -124,4 +124,11 @@ MemoryMerge MergeMemories(PlaceMemory&& ours, PlaceMemory&& peer);
 TopologicalMap MergeMaps(const TopologicalMap& ours, const TopologicalMap& peer,
                          const PlaceMemory& merged);
 
+/// Whether adopting a merge changes what the robot holding `ours_map` holds: a place, an
+/// absorption, an edge, or a larger traversal count. A merge that changes nothing is not
+/// adopted, so an unchanged memory is not broadcast again and peers do not fetch it back and
+/// forth; one that only raises counts is, so every robot ends with the largest counts.
+bool MergeChangesAnything(const MemoryMerge& merged, const TopologicalMap& merged_map,
+                          const TopologicalMap& ours_map);
+
 }  // namespace tsc

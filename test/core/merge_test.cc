@@ -658,6 +658,21 @@ TEST(MergeMaps, MergingBackAndForthKeepsTraversalCounts) {
   EXPECT_EQ(mine.Find({1, 1}, {1, 2})->transitions.size(), 2u);
 }
 
+// A peer that has crossed an edge more often than we have brings something new: its count.
+TEST(MergeChangesAnything, ALargerTraversalCountIsAChange) {
+  const PlaceMemory a = MakeMemory(1, {At(0), At(1.5f), At(3)}, 10);
+  TopologicalMap ours;
+  ours.RecordTransition({1, 1}, {1, 2}, TransitionRegion{10, 12});
+  TopologicalMap peer = ours;
+  const MemoryMerge same = MergeMemories(a, a);
+  ASSERT_FALSE(same.changed);
+  EXPECT_FALSE(MergeChangesAnything(same, MergeMaps(ours, peer, same.memory), ours));
+  peer.RecordTransition({1, 2}, {1, 1}, TransitionRegion{20, 22});
+  EXPECT_TRUE(MergeChangesAnything(same, MergeMaps(ours, peer, same.memory), ours));
+  peer.RecordTransition({1, 2}, {1, 3}, TransitionRegion{30, 32});  // a new edge
+  EXPECT_TRUE(MergeChangesAnything(same, MergeMaps(ours, peer, same.memory), ours));
+}
+
 }  // namespace
 }  // namespace tsc
 
