@@ -266,31 +266,31 @@ std::vector<ConfigKey> BuildTable() {
       [](auto& o) -> auto& { return o.pipeline.detector.tau_p_m; }));
   // [memory] — sections 3.3, 3.5, 3.6
   t.push_back(Number(
-      "memory.tau_r", "tau_r, recognition threshold on the cost g_N of (3.8)", "", 0, 1000,
-      [](auto& o) -> auto& { return o.pipeline.memory.tau_r; },
-      /*min_open=*/true));
+      "memory.tau_r", "tau_r, recognition threshold on the cost g_N of (3.8)", "",
+      PlaceMemoryOptions::kTauRRange, [](auto& o) -> auto& { return o.pipeline.memory.tau_r; }));
   t.push_back(Number(
       "memory.vote_radius",
       "a base point of D votes for N1 when its squared distance to N1's nearest member view is "
       "at most this many distance units u",
-      "units u", 0, 1000, [](auto& o) -> auto& { return o.pipeline.memory.cost.vote_radius; },
-      /*min_open=*/true));
+      "units u", RecognitionCostOptions::kVoteRadiusRange,
+      [](auto& o) -> auto& { return o.pipeline.memory.cost.vote_radius; }));
   t.push_back(Number(
       "memory.distance_unit",
       "unit u of the distance term of g_N and of the vote radius; 0 = the memory's median view "
       "spacing, > 0 = a fixed unit for a camera kind",
-      "descriptor distance^2", 0, 1e6,
+      "descriptor distance^2", PlaceMemoryOptions::kDistanceUnitRange,
       [](auto& o) -> auto& { return o.pipeline.memory.distance_unit; }));
   t.push_back(Number(
       "memory.step_unit",
       "the unit u of the distance term is at least this multiple of D's median squared step "
       "between consecutive base points (0: distance_unit alone)",
-      "", 0, 1e6, [](auto& o) -> auto& { return o.pipeline.memory.step_unit; }));
+      "", PlaceMemoryOptions::kStepUnitRange,
+      [](auto& o) -> auto& { return o.pipeline.memory.step_unit; }));
   t.push_back(Number(
       "memory.mean_distance_unit",
       "unit of the squared distance between D's mean and N1's centroid when the distance term "
       "of g_N may come from the means (the smaller counts; a pan sweep's preset); 0 = views only",
-      "descriptor distance^2", 0, 1e6,
+      "descriptor distance^2", RecognitionCostOptions::kMeanUnitRange,
       [](auto& o) -> auto& { return o.pipeline.memory.cost.mean_unit; }));
   t.push_back(Bool(
       "memory.svm_vote",
@@ -298,39 +298,40 @@ std::vector<ConfigKey> BuildTable() {
       "member views",
       [](auto& o) -> auto& { return o.pipeline.memory.svm_vote; }));
   t.push_back(Number(
-      "memory.tau_l", "tau_l, levels the hybrid traversal climbs", "levels", 0, 1000,
-      [](auto& o) -> auto& { return o.pipeline.memory.tau_l; }));
+      "memory.tau_l", "tau_l, levels the hybrid traversal climbs", "levels",
+      PlaceMemoryOptions::kTauLRange, [](auto& o) -> auto& { return o.pipeline.memory.tau_l; }));
   t.push_back(Number(
       "memory.tau_h",
       "tau_h, relative merge-height gap under which the tree simplification folds "
       "a node into its parent",
-      "", 0, 1, [](auto& o) -> auto& { return o.pipeline.memory.tau_h; }, false,
-      /*max_open=*/true));
+      "", PlaceMemoryOptions::kTauHRange,
+      [](auto& o) -> auto& { return o.pipeline.memory.tau_h; }));
   t.push_back(Number(
       "memory.max_samples_per_place", "member views (descriptors) kept per learned place",
-      "descriptors", 1, 100000,
+      "descriptors", PlaceMemoryOptions::kMaxSamplesRange,
       [](auto& o) -> auto& { return o.pipeline.memory.max_samples_per_place; }));
   t.push_back(Number(
       "memory.max_vote_points",
       "base points of a detected place the recognition cost is measured on (evenly spaced)",
-      "base points", 1, 100000,
+      "base points", PlaceMemoryOptions::kMaxVotePointsRange,
       [](auto& o) -> auto& { return o.pipeline.memory.max_vote_points; }));
   t.push_back(Number(
       "memory.shortlist",
       "places measured exactly per recognition once the memory holds more: those whose keys "
       "in the view index come nearest the detected place; 0 = every place",
-      "places", 0, 1000000, [](auto& o) -> auto& { return o.pipeline.memory.shortlist; }));
+      "places", PlaceMemoryOptions::kShortlistRange,
+      [](auto& o) -> auto& { return o.pipeline.memory.shortlist; }));
   t.push_back(Number(
-      "memory.svm_nu", "nu of the one-class SVM discriminants d_N", "", 0, 1,
-      [](auto& o) -> auto& { return o.pipeline.memory.discriminant.nu; },
-      /*min_open=*/true));
+      "memory.svm_nu", "nu of the one-class SVM discriminants d_N", "",
+      DiscriminantOptions::kNuRange,
+      [](auto& o) -> auto& { return o.pipeline.memory.discriminant.nu; }));
   t.push_back(Number(
       "memory.svm_gamma", "RBF gamma of d_N; 0 = 1 / median squared distance of the training set",
-      "1/descriptor distance^2", 0, 1e9,
+      "1/descriptor distance^2", DiscriminantOptions::kGammaRange,
       [](auto& o) -> auto& { return o.pipeline.memory.discriminant.gamma; }));
   t.push_back(Number(
       "memory.svm_max_training", "cap of training vectors per node (deterministic subsample)",
-      "descriptors", 2, 10000000,
+      "descriptors", DiscriminantOptions::kMaxTrainingRange,
       [](auto& o) -> auto& { return o.pipeline.memory.discriminant.max_training; }));
   // [pipeline]
   t.push_back(Bool(

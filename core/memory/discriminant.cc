@@ -35,13 +35,9 @@ double MedianGamma(const Eigen::MatrixXf& x) {
 }  // namespace
 
 void DiscriminantOptions::Validate() const {
-  if (!(nu > 0 && nu <= 1))
-    throw std::invalid_argument("memory.svm_nu must be in (0,1], got " + std::to_string(nu));
-  if (!(gamma >= 0) || !std::isfinite(gamma))
-    throw std::invalid_argument("memory.svm_gamma must be >= 0, got " + std::to_string(gamma));
-  if (max_training < 2)
-    throw std::invalid_argument("memory.svm_max_training must be >= 2, got " +
-                                std::to_string(max_training));
+  kNuRange.Check("memory.svm_nu", nu);
+  kGammaRange.Check("memory.svm_gamma", gamma);
+  kMaxTrainingRange.Check("memory.svm_max_training", max_training);
 }
 
 OneClassDiscriminant::OneClassDiscriminant(Eigen::MatrixXf support, Eigen::VectorXf coef,

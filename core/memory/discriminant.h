@@ -6,12 +6,18 @@
 #include <memory>
 #include <vector>
 
+#include "core/range.h"
+
 namespace tsc {
 
 struct DiscriminantOptions {
   double nu = 0.1;         ///< ν of the one-class SVM, (0, 1]
   double gamma = 0.0;      ///< RBF γ; 0 → 1/(median squared distance) of the training set
   int max_training = 128;  ///< cap of training vectors per node (deterministic subsample)
+  // Valid ranges (also the configuration's, memory.svm_*).
+  static constexpr Range kNuRange{0, 1, /*min_open=*/true};
+  static constexpr Range kGammaRange{0, 1e9};
+  static constexpr Range kMaxTrainingRange{2, 10000000};
   void Validate() const;
 };
 

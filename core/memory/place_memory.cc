@@ -23,20 +23,14 @@ Eigen::VectorXf DetectedPlace::Mean() const {
 }
 
 void PlaceMemoryOptions::Validate() const {
-  auto fail = [](const std::string& key, const std::string& what) {
-    throw std::invalid_argument("memory." + key + " " + what);
-  };
-  if (!(tau_r > 0) || !std::isfinite(tau_r))
-    fail("tau_r", "must be > 0, got " + std::to_string(tau_r));
-  if (tau_l < 0) fail("tau_l", "must be >= 0, got " + std::to_string(tau_l));
-  if (!(tau_h >= 0 && tau_h < 1)) fail("tau_h", "must be in [0,1), got " + std::to_string(tau_h));
-  if (max_samples_per_place < 1) fail("max_samples_per_place", "must be >= 1");
-  if (max_vote_points < 1) fail("max_vote_points", "must be >= 1");
-  if (shortlist < 0) fail("shortlist", "must be >= 0, got " + std::to_string(shortlist));
-  if (!(step_unit >= 0) || !std::isfinite(step_unit))
-    fail("step_unit", "must be >= 0, got " + std::to_string(step_unit));
-  if (!(distance_unit >= 0) || !std::isfinite(distance_unit))
-    fail("distance_unit", "must be >= 0, got " + std::to_string(distance_unit));
+  kTauRRange.Check("memory.tau_r", tau_r);
+  kTauLRange.Check("memory.tau_l", tau_l);
+  kTauHRange.Check("memory.tau_h", tau_h);
+  kMaxSamplesRange.Check("memory.max_samples_per_place", max_samples_per_place);
+  kMaxVotePointsRange.Check("memory.max_vote_points", max_vote_points);
+  kShortlistRange.Check("memory.shortlist", shortlist);
+  kStepUnitRange.Check("memory.step_unit", step_unit);
+  kDistanceUnitRange.Check("memory.distance_unit", distance_unit);
   cost.Validate();
   discriminant.Validate();
 }

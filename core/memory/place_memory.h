@@ -18,6 +18,7 @@
 #include "core/memory/recognition_cost.h"
 #include "core/memory/slink.h"
 #include "core/memory/view_index.h"
+#include "core/range.h"
 
 namespace tsc {
 
@@ -62,6 +63,15 @@ struct PlaceMemoryOptions {
   int shortlist = 32;
   RecognitionCostOptions cost;
   DiscriminantOptions discriminant;  ///< d_N, used with svm_vote
+  // Valid ranges (also the configuration's, memory.*).
+  static constexpr Range kTauRRange{0, 1000, /*min_open=*/true};
+  static constexpr Range kTauLRange{0, 1000};
+  static constexpr Range kTauHRange{0, 1, false, /*max_open=*/true};
+  static constexpr Range kMaxSamplesRange{1, 100000};
+  static constexpr Range kMaxVotePointsRange{1, 100000};
+  static constexpr Range kDistanceUnitRange{0, 1e6};  ///< squared descriptor distance
+  static constexpr Range kStepUnitRange{0, 1e6};
+  static constexpr Range kShortlistRange{0, 1000000};
   void Validate() const;
 };
 

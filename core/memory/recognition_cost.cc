@@ -108,14 +108,8 @@ ViewDistances::ViewDistances(const Eigen::MatrixXf& votes,
 }
 
 void RecognitionCostOptions::Validate() const {
-  if (!(vote_radius > 0.0) || !std::isfinite(vote_radius)) {
-    throw std::invalid_argument("memory.vote_radius must be > 0, got " +
-                                std::to_string(vote_radius));
-  }
-  if (!(mean_unit >= 0.0) || !std::isfinite(mean_unit)) {
-    throw std::invalid_argument("memory.mean_distance_unit must be >= 0, got " +
-                                std::to_string(mean_unit));
-  }
+  kVoteRadiusRange.Check("memory.vote_radius", vote_radius);
+  kMeanUnitRange.Check("memory.mean_distance_unit", mean_unit);
 }
 
 CostTerms RecognitionCost(const ViewDistances& vd, const Eigen::VectorXf& mean,

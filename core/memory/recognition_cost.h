@@ -24,6 +24,7 @@
 #include <vector>
 
 #include "core/memory/learned_place.h"
+#include "core/range.h"
 
 namespace tsc {
 
@@ -82,6 +83,9 @@ struct RecognitionCostOptions {
   double vote_radius = 2.0;  ///< V counts x_j with δ_j(N¹) ≤ vote_radius · u_j
   /// Unit of ‖Ī_D − c(N¹)‖² when the distance term may also come from the means; 0: views only.
   double mean_unit = 0.0;
+  // Valid ranges (also the configuration's, memory.vote_radius and memory.mean_distance_unit).
+  static constexpr Range kVoteRadiusRange{0, 1000, /*min_open=*/true};
+  static constexpr Range kMeanUnitRange{0, 1e6};
   void Validate() const;
 };
 
