@@ -21,6 +21,7 @@
 #include "store/store.h"
 #include "test/daemon/bus_listener.h"
 #include "test/support/child_process.h"
+#include "test/support/json_number.h"
 #include "test/support/temp_dir.h"
 #include "test/support/tsc_command.h"
 
@@ -32,6 +33,7 @@ using std::chrono::milliseconds;
 using std::chrono::seconds;
 using testing_support::BusListener;
 using testing_support::ChildProcess;
+using testing_support::JsonNumberAt;
 
 const std::string kBin = TSCD_BIN_DIR;
 
@@ -42,13 +44,6 @@ class TeamTest : public ::testing::Test {
   testing_support::TempDir temp_{"team_test"};
   fs::path dir_ = temp_.path();
 };
-
-// The number after "key": in a summary.json (the first occurrence); NaN when absent.
-double JsonNumberAt(const std::string& json, const std::string& key) {
-  const size_t at = json.find("\"" + key + "\":");
-  if (at == std::string::npos) return std::nan("");
-  return std::stod(json.substr(at + key.size() + 3));
-}
 
 // Every place every robot learned itself, from the robots' stores.
 std::set<PlaceId> OwnPlacesOfTheTeam(const fs::path& team, int robots) {

@@ -13,6 +13,7 @@
 #include <utility>
 #include <vector>
 
+#include "test/support/json_number.h"
 #include "test/support/temp_dir.h"
 #include "test/support/tsc_command.h"
 
@@ -20,14 +21,8 @@ namespace tsc {
 namespace {
 namespace fs = std::filesystem;
 
+using testing_support::JsonNumberAt;
 using testing_support::ReadFile;
-
-// The number after "key": at or after `from` in a summary.json; NaN when absent.
-double NumberAt(const std::string& json, const std::string& key, size_t from = 0) {
-  const size_t at = json.find("\"" + key + "\":", from);
-  if (at == std::string::npos) return std::nan("");
-  return std::stod(json.substr(at + key.size() + 3));
-}
 
 // The text of the JSON array after "key": ("[1,2,3]"); "" when absent.
 std::string ArrayAt(const std::string& json, const std::string& key) {
@@ -78,9 +73,10 @@ TEST_F(TeamOfflineTest, TwoRunsWriteTheSameSummaryAndTheFiguresAreSane) {
   for (int r = 1; r <= 3; ++r) {
     at = json.find("{\"robot\":" + std::to_string(r), at);
     ASSERT_NE(at, std::string::npos) << "robot " << r;
-    EXPECT_GT(NumberAt(json, "frames", at), 0) << "robot " << r;
-    EXPECT_GT(NumberAt(json, "own_places", at), 0) << "robot " << r;
-    EXPECT_GT(NumberAt(json, "places_from_peers", at) + NumberAt(json, "peer_places_absorbed", at),
+    EXPECT_GT(JsonNumberAt(json, "frames", at), 0) << "robot " << r;
+    EXPECT_GT(JsonNumberAt(json, "own_places", at), 0) << "robot " << r;
+    EXPECT_GT(JsonNumberAt(json, "places_from_peers", at) +
+                  JsonNumberAt(json, "peer_places_absorbed", at),
               0)
         << "robot " << r;
   }
@@ -92,15 +88,15 @@ TEST_F(TeamOfflineTest, TwoRunsWriteTheSameSummaryAndTheFiguresAreSane) {
   const std::string k = known.substr(1, comma - 1);
   EXPECT_EQ(known, "[" + k + "," + k + "," + k + "]");
   // Scores within their ranges, and their parts agree.
-  const double merges = NumberAt(json, "merges"), correct = NumberAt(json, "correct");
+  const double merges = JsonNumberAt(json, "merges"), correct = JsonNumberAt(json, "correct");
   EXPECT_GT(merges, 0);  // three tours of one office share rooms
   EXPECT_LE(correct, merges);
-  EXPECT_DOUBLE_EQ(NumberAt(json, "precision", json.find("\"merge\":")), correct / merges);
-  const double with = NumberAt(json, "places_with_namesake");
-  const double merged = NumberAt(json, "places_merged_with_namesake");
+  EXPECT_DOUBLE_EQ(JsonNumberAt(json, "precision", json.find("\"merge\":")), correct / merges);
+  const double with = JsonNumberAt(json, "places_with_namesake");
+  const double merged = JsonNumberAt(json, "places_merged_with_namesake");
   EXPECT_GT(with, 0);
   EXPECT_LE(merged, with);
-  EXPECT_DOUBLE_EQ(NumberAt(json, "place_recall"), merged / with);
+  EXPECT_DOUBLE_EQ(JsonNumberAt(json, "place_recall"), merged / with);
   const std::string ppl = ArrayAt(json, "places_per_label");
   ASSERT_FALSE(ppl.empty());
   for (size_t p = 1; p < ppl.size();) {
@@ -132,8 +128,8 @@ TEST_F(TeamOfflineTest, MergeBarsWithPanSweepsOnThreeWorlds) {
     const std::string json = Summary(out);
     std::cout << out << ": " << json;
     SCOPED_TRACE(out);
-    EXPECT_GE(NumberAt(json, "place_recall"), 0.8);
-    EXPECT_GE(NumberAt(json, "precision", json.find("\"merge\":")), 0.95);
+    EXPECT_GE(JsonNumberAt(json, "place_recall"), 0.8);
+    EXPECT_GE(JsonNumberAt(json, "precision", json.find("\"merge\":")), 0.95);
     EXPECT_NE(json.find("\"consistent\":true"), std::string::npos);
     const std::string ppl = ArrayAt(json, "places_per_label");
     for (size_t p = 1; p < ppl.size();) {
