@@ -871,6 +871,9 @@ void Daemon::MaintainStore() {
   next_maintenance_ = Clock::now() + std::chrono::seconds(1);
   try {
     const MaintenanceStep step = store_->Maintain(settings_.daemon.store);
+    // Behind (a database opened over its budget, frames faster than a step a second frees):
+    // five steps a second, each bounded (~40 ms for 1024 pages here), until it has caught up.
+    if (step.more) next_maintenance_ = Clock::now() + std::chrono::milliseconds(200);
     if (step.base_points_deleted > 0 && base_points_thinned_ == 0) {
       spdlog::info(
           "store {} reached store.budget_mb = {}: the oldest base point records are deleted "

@@ -155,8 +155,8 @@ class Daemon {
   /// Opens the store again (after it failed to open, or was closed after a file system
   /// failure); true when it is open.
   bool ReopenStore();
-  /// One bounded retention step (Store::Maintain with store.*) at most once a second, while
-  /// the store works and holds every result.
+  /// One bounded retention step (Store::Maintain with store.*) once a second (five a second
+  /// while it is behind), while the store works and holds every result.
   void MaintainStore();
   /// At stop, after the worker: waits up to daemon.stop_store_wait_s for the store, then
   /// spills; the exit code.

@@ -391,7 +391,8 @@ std::vector<ConfigKey> BuildTable() {
   t.push_back(Number(
       "store.maintenance_pages",
       "at most this many base point records deleted and pages (4 KiB) handed back to the file "
-      "system per maintenance step (one a second): bounds how long the pipeline waits",
+      "system per maintenance step (one a second, five while behind): bounds how long the "
+      "pipeline waits (~40 ms for 1024)",
       "pages", StoreOptions::kMaintenancePagesRange,
       [](auto& o) -> auto& { return o.daemon.store.maintenance_pages; }));
   // [camera] — drivers/camera

@@ -20,7 +20,8 @@ struct StoreOptions {
   /// nothing else does.
   int64_t budget_mb = 4096;
   /// Pages (4 KiB each) one maintenance step deletes and hands back to the file system at
-  /// most: bounds how long the pipeline waits for a step (one a second, ~1 ms per 100 pages).
+  /// most: bounds how long the pipeline waits for a step (tscd runs one a second, five a
+  /// second while behind; 1024 pages took 25-40 ms on the development machine).
   int maintenance_pages = 1024;
   static constexpr Range kBudgetMbRange{0, 1e9};
   static constexpr Range kMaintenancePagesRange{1, 1e6};
