@@ -242,7 +242,7 @@ Daemon::Daemon(Settings settings, SettingsSource source, std::unique_ptr<CameraS
     for (const auto& [robot, peer] : store.LoadPeers()) {
       exchange_.MarkMerged(static_cast<int32_t>(robot), {peer.version, peer.digest});
     }
-    if (settings_.daemon.store.budget_mb > 0 && !store.reclaims_space()) {
+    if (!store.EnableIncrementalVacuum() && settings_.daemon.store.budget_mb > 0) {
       spdlog::warn(
           "{} predates incremental vacuum and is too large to convert at start: base point "
           "records beyond store.budget_mb free pages that are reused, so the file stops "

@@ -105,9 +105,10 @@ static_assert(static_cast<int>(kMigrations.size()) == Store::kSchemaVersion);
 
 constexpr int kBusyTimeoutMs = 5000;
 
-// An older database without incremental vacuum is converted at Open() when its pages in use
-// are at most this many bytes (a VACUUM rewrites the file: well under a second here); a larger
-// one keeps auto_vacuum NONE and reuses its free pages (StoreOptions, docs/reliability.md).
+// An older database without incremental vacuum is converted (EnableIncrementalVacuum) when its
+// pages in use are at most this many bytes (a VACUUM rewrites the file: well under a second here);
+// a larger one keeps auto_vacuum NONE and reuses its free pages (StoreOptions,
+// docs/reliability.md).
 constexpr int64_t kConvertMaxBytes = int64_t{64} << 20;
 // A base point record beyond its descriptor: the row header, idx, status, two doubles and the
 // cell pointer (Store::Maintain's estimate of what deleting one record frees).
@@ -550,14 +551,6 @@ int64_t PragmaInt(const Db& db, const char* sql) {
 int64_t BytesUsed(const Db& db) {
   return (PragmaInt(db, "PRAGMA page_count") - PragmaInt(db, "PRAGMA freelist_count")) *
          PragmaInt(db, "PRAGMA page_size");
-}
-
-/// Gives an older database (auto_vacuum NONE, created before issue 23) incremental vacuum when
-/// it is small enough to be rewritten now; the pragma set at Open() applies at this VACUUM.
-void ConvertToIncrementalVacuum(const Db& db) {
-  if (PragmaInt(db, "PRAGMA auto_vacuum") != kAutoVacuumNone) return;
-  if (BytesUsed(db) > kConvertMaxBytes) return;
-  Exec(db, "PRAGMA auto_vacuum=INCREMENTAL; VACUUM;");
 }
 
 // ---------------------------------------------------------------------------------------
@@ -1090,7 +1083,8 @@ Store Store::Open(const std::filesystem::path& path, bool create) {
     FailSqlite(db, "cannot set the busy timeout");
   }
   // Freed pages go back to the file system in bounded steps (Maintain). SQLite applies this
-  // to a database that has no table yet; an older one is converted after the migration.
+  // to a database that has no table yet; an older one keeps auto_vacuum NONE until
+  // EnableIncrementalVacuum() converts it (Open() itself never rewrites a file).
   Exec(db, "PRAGMA auto_vacuum=INCREMENTAL");
   {
     Statement wal(db, "PRAGMA journal_mode=WAL");
@@ -1102,7 +1096,6 @@ Store Store::Open(const std::filesystem::path& path, bool create) {
   }
   Exec(db, "PRAGMA synchronous=NORMAL; PRAGMA foreign_keys=ON;");
   Migrate(db);
-  ConvertToIncrementalVacuum(db);
   return store;
 }
 
@@ -1185,6 +1178,15 @@ MaintenanceStep Store::Maintain(const StoreOptions& options) {
   step.more = (budget > 0 && step.bytes_used > budget && records_left) ||
               (reclaims && PragmaInt(db, "PRAGMA freelist_count") > 0);
   return step;
+}
+
+bool Store::EnableIncrementalVacuum() {
+  const Db db{db_, path_};
+  if (PragmaInt(db, "PRAGMA auto_vacuum") == kAutoVacuumNone && BytesUsed(db) <= kConvertMaxBytes) {
+    // The pragma applies at a VACUUM (one transaction: a crash leaves the old file whole).
+    Exec(db, "PRAGMA auto_vacuum=INCREMENTAL; VACUUM;");
+  }
+  return reclaims_space();
 }
 
 bool Store::reclaims_space() const {

@@ -124,10 +124,15 @@ class Store {
   /// deletion rolled back).
   MaintenanceStep Maintain(const StoreOptions& options);
   /// True when freed pages can be handed back (auto_vacuum = INCREMENTAL): every database this
-  /// code creates, and an older one small enough to be converted at Open(). A larger older
+  /// code creates, and an older one EnableIncrementalVacuum() converted. A larger older
   /// database reuses its free pages, so it stops growing but does not shrink until converted
   /// offline (docs/reliability.md). Throws StoreError.
   bool reclaims_space() const;
+  /// Converts a database created before incremental vacuum (issue 23) when it uses at most
+  /// 64 MiB (a VACUUM, one transaction, well under a second); a larger one is left as it is.
+  /// Returns reclaims_space(). Called by tscd at start, not by readers such as `tsc inspect`.
+  /// Throws StoreError.
+  bool EnableIncrementalVacuum();
 
   /// The robot id recorded in the database, if any. Throws StoreError.
   std::optional<uint32_t> robot() const;

@@ -15,9 +15,9 @@ namespace tsc {
 struct StoreOptions {
   /// Size the database may use (MiB) before the oldest base point records are deleted; 0 =
   /// unlimited (everything is kept, as before issue 23). A size, not an age, because what a
-  /// robot runs out of is disk: the default keeps ~18 hours of base points at 10 fps on a
-  /// small card. When the kept knowledge alone is larger, every base point record goes and
-  /// nothing else does.
+  /// robot runs out of is disk (an age limit would not bound it for a faster camera): the
+  /// default keeps about a day of base points at 10 fps (~4 KiB each: ~29 h). When the kept
+  /// knowledge alone is larger, every base point record goes and nothing else does.
   int64_t budget_mb = 4096;
   /// Pages (4 KiB each) one maintenance step deletes and hands back to the file system at
   /// most: bounds how long the pipeline waits for a step (tscd runs one a second, five a

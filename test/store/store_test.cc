@@ -595,7 +595,7 @@ TEST_F(StoreTest, MaintainWithoutABudgetKeepsEveryBasePoint) {
   EXPECT_THROW(dut.Maintain(bad), std::invalid_argument);
 }
 
-TEST_F(StoreTest, OpenGivesASmallOlderDatabaseIncrementalVacuum) {
+TEST_F(StoreTest, EnableIncrementalVacuumConvertsASmallOlderDatabase) {
   Committed committed;
   const testing_support::Knowledge before = FillBeyondABudget(path_, 100, committed);
   // What a store written before issue 23 is: auto_vacuum NONE.
@@ -609,6 +609,9 @@ TEST_F(StoreTest, OpenGivesASmallOlderDatabaseIncrementalVacuum) {
   }
   ASSERT_EQ(Sql(path_, "PRAGMA auto_vacuum"), 0);
   Store dut = Store::Open(path_);
+  EXPECT_FALSE(dut.reclaims_space());  // Open() rewrites nothing
+  EXPECT_EQ(Sql(path_, "PRAGMA auto_vacuum"), 0);
+  EXPECT_TRUE(dut.EnableIncrementalVacuum());
   EXPECT_TRUE(dut.reclaims_space());
   EXPECT_EQ(Sql(path_, "PRAGMA auto_vacuum"), 2);
   const testing_support::Knowledge after = testing_support::LoadKnowledge(path_, kRobot);
