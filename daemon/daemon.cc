@@ -242,6 +242,13 @@ Daemon::Daemon(Settings settings, SettingsSource source, std::unique_ptr<CameraS
     for (const auto& [robot, peer] : store.LoadPeers()) {
       exchange_.MarkMerged(static_cast<int32_t>(robot), {peer.version, peer.digest});
     }
+    if (!store.EnableIncrementalVacuum() && settings_.daemon.store.budget_mb > 0) {
+      spdlog::warn(
+          "{} predates incremental vacuum and is too large to convert at start: base point "
+          "records beyond store.budget_mb free pages that are reused, so the file stops "
+          "growing but does not shrink; convert it with tscd stopped (docs/reliability.md)",
+          db_path_.string());
+    }
     store_ = std::move(store);
     committed_next_base_ = state.next_base;
     spdlog::info("memory loaded from {}: {} places, {} map edges, continuing at base point {}",
@@ -842,6 +849,7 @@ void Daemon::WorkerLoop() {
     if (!item) {
       if (queue_.closed()) return;
       RetryStore();
+      MaintainStore();
       continue;
     }
     try {
@@ -851,6 +859,39 @@ void Daemon::WorkerLoop() {
       const int64_t n = ++counters_.camera_errors;
       if (ShouldLog(n)) spdlog::error("pipeline: frame skipped: {}", e.what());
     }
+    MaintainStore();
+  }
+}
+
+void Daemon::MaintainStore() {
+  if (!store_ || degraded_store_ || !pending_.empty() || unsaved_merge_ ||
+      Clock::now() < next_maintenance_) {
+    return;
+  }
+  next_maintenance_ = Clock::now() + std::chrono::seconds(1);
+  try {
+    const MaintenanceStep step = store_->Maintain(settings_.daemon.store);
+    // Behind (a database opened over its budget, frames faster than a step a second frees):
+    // five steps a second, each bounded (~40 ms for 1024 pages here), until it has caught up.
+    if (step.more) next_maintenance_ = Clock::now() + std::chrono::milliseconds(200);
+    if (step.base_points_deleted > 0 && base_points_thinned_ == 0) {
+      spdlog::info(
+          "store {} reached store.budget_mb = {}: the oldest base point records are deleted "
+          "from now on (learned places, map and peers are kept)",
+          db_path_.string(), settings_.daemon.store.budget_mb);
+    }
+    base_points_thinned_ += step.base_points_deleted;
+    if (step.base_points_deleted > 0 || step.pages_released > 0) {
+      spdlog::debug(
+          "store maintenance: {} base point records deleted ({} in all), {} pages "
+          "released, {:.1f} MiB in use",
+          step.base_points_deleted, base_points_thinned_, step.pages_released,
+          static_cast<double>(step.bytes_used) / (1 << 20));
+    }
+  } catch (const std::exception& e) {
+    // Not a lost commit (the step rolled back): the next commit shows whether the store works.
+    spdlog::warn("store maintenance failed, tried again in {} s: {}", kStoreRetrySeconds, e.what());
+    next_maintenance_ = Clock::now() + std::chrono::seconds(kStoreRetrySeconds);
   }
 }
 

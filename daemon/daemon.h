@@ -155,6 +155,9 @@ class Daemon {
   /// Opens the store again (after it failed to open, or was closed after a file system
   /// failure); true when it is open.
   bool ReopenStore();
+  /// One bounded retention step (Store::Maintain with store.*) once a second (five a second
+  /// while it is behind), while the store works and holds every result.
+  void MaintainStore();
   /// At stop, after the worker: waits up to daemon.stop_store_wait_s for the store, then
   /// spills; the exit code.
   int SaveBeforeExit();
@@ -190,6 +193,8 @@ class Daemon {
   std::vector<PeerSnapshot> merge_inbox_;  // complete peer memories waiting for the worker
   std::string store_problem_;              // "" when the store works
   std::chrono::steady_clock::time_point next_store_retry_{};
+  std::chrono::steady_clock::time_point next_maintenance_{};  // Maintain at most once a second
+  int64_t base_points_thinned_ = 0;                           // by Maintain since the start
 
   FrameQueue<CameraFrame> queue_;
   std::atomic<bool> stopping_{false};

@@ -11,6 +11,7 @@ void DaemonOptions::Validate() const {
   if (state_dir.empty()) throw std::invalid_argument("daemon.state_dir: a folder is required");
   kQueueFramesRange.Check("daemon.queue_frames", queue_frames);
   kMaxPendingResultsRange.Check("daemon.max_pending_results", max_pending_results);
+  store.Validate();
   if (camera.source == "none") {
     throw std::invalid_argument(
         "camera.source = none: no camera chosen yet. Set camera.source to device (a V4L2/USB "

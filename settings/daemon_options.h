@@ -8,6 +8,7 @@
 #include "core/range.h"
 #include "drivers/camera/camera_options.h"
 #include "drivers/motor/motor_options.h"
+#include "store/store_options.h"
 
 namespace tsc {
 
@@ -40,6 +41,7 @@ struct DaemonOptions {
   /// (seconds; below the unit's TimeoutStopSec).
   double stop_store_wait_s = 10.0;
   std::string log_level = "info";  ///< trace | debug | info | warn | error
+  StoreOptions store;              ///< retention of memory.db (store.*)
   CameraOptions camera;
   SimOptions sim;
   BusOptions bus;

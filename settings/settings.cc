@@ -381,6 +381,21 @@ std::vector<ConfigKey> BuildTable() {
       "daemon.log_level", "least severe log level written", "trace|debug|info|warn|error",
       [](auto& o) -> auto& { return o.daemon.log_level; },
       OneOf({"trace", "debug", "info", "warn", "error"})));
+  // [store] — retention of memory.db (store/store_options.h)
+  t.push_back(Number(
+      "store.budget_mb",
+      "size memory.db may use before the oldest base point records (the raw descriptor stream, "
+      "~4 KiB each) are deleted and their space handed back, in small steps; learned places, "
+      "the map, detected places and peers' versions are always kept; 0 = keep everything",
+      "MiB", StoreOptions::kBudgetMbRange,
+      [](auto& o) -> auto& { return o.daemon.store.budget_mb; }));
+  t.push_back(Number(
+      "store.maintenance_pages",
+      "at most this many base point records deleted and pages (4 KiB) handed back to the file "
+      "system per maintenance step (one a second, five while behind): bounds how long the "
+      "pipeline waits (~40 ms for 1024)",
+      "pages", StoreOptions::kMaintenancePagesRange,
+      [](auto& o) -> auto& { return o.daemon.store.maintenance_pages; }));
   // [camera] — drivers/camera
   t.push_back(Text(
       "camera.source",

@@ -105,6 +105,18 @@ static_assert(static_cast<int>(kMigrations.size()) == Store::kSchemaVersion);
 
 constexpr int kBusyTimeoutMs = 5000;
 
+// An older database without incremental vacuum is converted (EnableIncrementalVacuum) when its
+// pages in use are at most this many bytes (a VACUUM rewrites the file: well under a second here);
+// a larger one keeps auto_vacuum NONE and reuses its free pages (StoreOptions,
+// docs/reliability.md).
+constexpr int64_t kConvertMaxBytes = int64_t{64} << 20;
+// A base point record beyond its descriptor: the row header, idx, status, two doubles and the
+// cell pointer (Store::Maintain's estimate of what deleting one record frees).
+constexpr int64_t kBaseRecordOverheadBytes = 40;
+// PRAGMA auto_vacuum values.
+constexpr int64_t kAutoVacuumNone = 0;
+constexpr int64_t kAutoVacuumIncremental = 2;
+
 // Keys of the meta table.
 constexpr const char* kMetaRobot = "robot";
 constexpr const char* kMetaNextBase = "next_base";
@@ -527,6 +539,19 @@ class Row {
   std::string table_;
   std::string row_;
 };
+
+/// The integer a pragma (or any one-value query) returns.
+int64_t PragmaInt(const Db& db, const char* sql) {
+  Statement s(db, sql);
+  if (!s.Step()) Fail(db, std::string("`") + sql + "` returned nothing");
+  return sqlite3_column_int64(s.get(), 0);
+}
+
+/// Pages in use (not on the free list) x page size.
+int64_t BytesUsed(const Db& db) {
+  return (PragmaInt(db, "PRAGMA page_count") - PragmaInt(db, "PRAGMA freelist_count")) *
+         PragmaInt(db, "PRAGMA page_size");
+}
 
 // ---------------------------------------------------------------------------------------
 // Meta table.
@@ -1057,6 +1082,10 @@ Store Store::Open(const std::filesystem::path& path, bool create) {
   if (sqlite3_busy_timeout(handle, kBusyTimeoutMs) != SQLITE_OK) {
     FailSqlite(db, "cannot set the busy timeout");
   }
+  // Freed pages go back to the file system in bounded steps (Maintain). SQLite applies this
+  // to a database that has no table yet; an older one keeps auto_vacuum NONE until
+  // EnableIncrementalVacuum() converts it (Open() itself never rewrites a file).
+  Exec(db, "PRAGMA auto_vacuum=INCREMENTAL");
   {
     Statement wal(db, "PRAGMA journal_mode=WAL");
     const bool row = wal.Step();
@@ -1102,6 +1131,67 @@ StoredState Store::Load(uint32_t robot, const PlaceMemoryOptions& options) {
   } catch (const std::exception& e) {
     Fail(db, std::string("cannot load: ") + e.what());
   }
+}
+
+MaintenanceStep Store::Maintain(const StoreOptions& options) {
+  options.Validate();  // a configuration error, not a store error: std::invalid_argument
+  const Db db{db_, path_};
+  MaintenanceStep step;
+  const int64_t budget = options.budget_mb * (int64_t{1} << 20);
+  const int64_t pages = options.maintenance_pages;
+  bool records_left = false;
+  if (budget > 0 && BytesUsed(db) > budget) {
+    Transaction tx(db);
+    const int64_t excess = BytesUsed(db) - budget;
+    // What deleting one record frees: its share of a page, from the newest one's size (all
+    // descriptors have one dimension; a 2.8 KB record fills a 4 KiB page alone).
+    const int64_t page_size = PragmaInt(db, "PRAGMA page_size");
+    const int64_t record =
+        PragmaInt(db,
+                  "SELECT COALESCE(MAX(length(descriptor)), 0) FROM base_points WHERE idx = "
+                  "(SELECT MAX(idx) FROM base_points)") +
+        kBaseRecordOverheadBytes;
+    const int64_t per_page = std::max<int64_t>(1, page_size / record);
+    const int64_t freed = page_size / per_page;
+    const int64_t count = std::min(pages, (excess + freed - 1) / freed);
+    Statement(db,
+              "DELETE FROM base_points WHERE idx IN "
+              "(SELECT idx FROM base_points ORDER BY idx LIMIT ?1)")
+        .Int(1, count)
+        .Run();
+    step.base_points_deleted = sqlite3_changes(db_);
+    records_left = PragmaInt(db, "SELECT EXISTS(SELECT 1 FROM base_points)") != 0;
+    tx.Commit();
+  }
+  const bool reclaims = reclaims_space();
+  if (reclaims) {
+    const int64_t free_before = PragmaInt(db, "PRAGMA freelist_count");
+    if (free_before > 0) {
+      // Its own transaction; the file shrinks when the WAL is checkpointed (at once if no
+      // reader holds an older snapshot, else at a later checkpoint).
+      Exec(db, ("PRAGMA incremental_vacuum(" + std::to_string(pages) + ")").c_str());
+      step.pages_released = free_before - PragmaInt(db, "PRAGMA freelist_count");
+      Exec(db, "PRAGMA wal_checkpoint(PASSIVE)");
+    }
+  }
+  step.bytes_used = BytesUsed(db);
+  step.more = (budget > 0 && step.bytes_used > budget && records_left) ||
+              (reclaims && PragmaInt(db, "PRAGMA freelist_count") > 0);
+  return step;
+}
+
+bool Store::EnableIncrementalVacuum() {
+  const Db db{db_, path_};
+  if (PragmaInt(db, "PRAGMA auto_vacuum") == kAutoVacuumNone && BytesUsed(db) <= kConvertMaxBytes) {
+    // The pragma applies at a VACUUM (one transaction: a crash leaves the old file whole).
+    Exec(db, "PRAGMA auto_vacuum=INCREMENTAL; VACUUM;");
+  }
+  return reclaims_space();
+}
+
+bool Store::reclaims_space() const {
+  const Db db{db_, path_};
+  return PragmaInt(db, "PRAGMA auto_vacuum") == kAutoVacuumIncremental;
 }
 
 std::optional<uint32_t> Store::robot() const {

@@ -13,6 +13,7 @@
 #include <string>
 
 #include "core/pipeline/pipeline.h"
+#include "store/store_options.h"
 
 struct sqlite3;  // <sqlite3.h>, included by store.cc only
 
@@ -52,6 +53,14 @@ struct SpillReplay {
   BaseIndex next_base = 0;  ///< where the pipeline continues now
   size_t places = 0;        ///< learned places of the memory now
   size_t edges = 0;         ///< map edges now
+};
+
+/// What one Store::Maintain step did.
+struct MaintenanceStep {
+  int64_t base_points_deleted = 0;  ///< oldest base point records deleted (one transaction)
+  int64_t pages_released = 0;       ///< free pages handed back to the file system
+  int64_t bytes_used = 0;           ///< pages in use after the step x page size
+  bool more = false;                ///< another step has work to do now
 };
 
 class Store {
@@ -105,6 +114,25 @@ class Store {
   /// `robot` must own both.
   SpillReplay ReplaySpill(const std::filesystem::path& spill, uint32_t robot,
                           const PlaceMemoryOptions& options);
+
+  /// One bounded step of retention (issue 23): while the pages in use exceed
+  /// `options.budget_mb`, deletes the oldest base point records (at most
+  /// `options.maintenance_pages` of them, in one transaction), then hands at most that many
+  /// free pages back to the file system (incremental vacuum, its own transaction) when the
+  /// database reclaims space (reclaims_space()). Nothing else is ever deleted: learned places
+  /// carry the member views recognition, merging and Load() use. Throws StoreError (the
+  /// deletion rolled back).
+  MaintenanceStep Maintain(const StoreOptions& options);
+  /// True when freed pages can be handed back (auto_vacuum = INCREMENTAL): every database this
+  /// code creates, and an older one EnableIncrementalVacuum() converted. A larger older
+  /// database reuses its free pages, so it stops growing but does not shrink until converted
+  /// offline (docs/reliability.md). Throws StoreError.
+  bool reclaims_space() const;
+  /// Converts a database created before incremental vacuum (issue 23) when it uses at most
+  /// 64 MiB (a VACUUM, one transaction, well under a second); a larger one is left as it is.
+  /// Returns reclaims_space(). Called by tscd at start, not by readers such as `tsc inspect`.
+  /// Throws StoreError.
+  bool EnableIncrementalVacuum();
 
   /// The robot id recorded in the database, if any. Throws StoreError.
   std::optional<uint32_t> robot() const;

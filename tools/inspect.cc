@@ -146,6 +146,7 @@ InspectedStore InspectStore(const fs::path& db, const PlaceMemoryOptions& option
   for (const LearnedPlace& p : state.memory.places()) {
     s.learned_places.push_back({p.id, p.member_count, static_cast<int64_t>(p.detected.size())});
   }
+  s.base_points_seen = state.pipeline.next_base;
   s.tree_depth = state.memory.empty() ? 0 : state.memory.Depth();
   s.tree_nodes = static_cast<int64_t>(state.memory.nodes().size());
   s.map_nodes = static_cast<int64_t>(state.map.places().size());
@@ -156,8 +157,12 @@ InspectedStore InspectStore(const fs::path& db, const PlaceMemoryOptions& option
 void PrintSummary(std::ostream& out, const StoreSummary& s) {
   out << "store            " << s.db << " (schema " << s.schema_version << ")\n"
       << "robot            " << s.robot << "\n"
-      << "base points      " << s.base_points << " (good " << s.good << ", uninformative "
-      << s.uninformative << ", incoherent " << s.incoherent << ")\n"
+      << "base points      " << s.base_points
+      << (s.base_points != s.base_points_seen
+              ? " kept of " + std::to_string(s.base_points_seen) + " seen"
+              : std::string())
+      << " (good " << s.good << ", uninformative " << s.uninformative << ", incoherent "
+      << s.incoherent << ")\n"
       << "detected places  " << s.detected_places << "\n"
       << "learned places   " << s.learned_places.size() << "\n";
   for (const LearnedPlaceSummary& p : s.learned_places) {
@@ -170,7 +175,8 @@ void PrintSummary(std::ostream& out, const StoreSummary& s) {
 
 void PrintSummaryJson(std::ostream& out, const StoreSummary& s) {
   out << "{\"db\":" << JsonString(s.db) << ",\"schema_version\":" << s.schema_version
-      << ",\"robot\":" << s.robot << ",\"base_points\":" << s.base_points << ",\"good\":" << s.good
+      << ",\"robot\":" << s.robot << ",\"base_points\":" << s.base_points
+      << ",\"base_points_seen\":" << s.base_points_seen << ",\"good\":" << s.good
       << ",\"uninformative\":" << s.uninformative << ",\"incoherent\":" << s.incoherent
       << ",\"detected_places\":" << s.detected_places
       << ",\"learned_places\":" << s.learned_places.size() << ",\"places\":[";

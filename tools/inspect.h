@@ -31,7 +31,8 @@ struct StoreSummary {
   std::string db;
   int schema_version = 0;
   uint32_t robot = 0;
-  int64_t base_points = 0;
+  int64_t base_points = 0;       ///< base point records kept (store.budget_mb thins the oldest)
+  int64_t base_points_seen = 0;  ///< base points the robot has processed (meta next_base)
   int64_t good = 0;
   int64_t uninformative = 0;
   int64_t incoherent = 0;

@@ -9,6 +9,7 @@
 // learning, 2/5 during a merge. TSCD_KILL_INSTANTS=1000 is the long opt-in run.
 
 #include <gtest/gtest.h>
+#include <sqlite3.h>
 
 #include <algorithm>
 #include <cstdio>
@@ -94,6 +95,23 @@ bool WaitNewAnnounce(BusListener& bus, int robot, size_t before, seconds timeout
         return n > before;
       },
       timeout);
+}
+
+/// MIN(idx) and COUNT(*) of the base point records in `db` (a crash image nothing writes).
+std::pair<int64_t, int64_t> BasePointRecords(const fs::path& db) {
+  sqlite3* handle = nullptr;
+  std::pair<int64_t, int64_t> out{-1, -1};
+  if (sqlite3_open_v2(db.c_str(), &handle, SQLITE_OPEN_READONLY, nullptr) == SQLITE_OK) {
+    sqlite3_stmt* stmt = nullptr;
+    if (sqlite3_prepare_v2(handle, "SELECT MIN(idx), COUNT(*) FROM base_points", -1, &stmt,
+                           nullptr) == SQLITE_OK &&
+        sqlite3_step(stmt) == SQLITE_ROW) {
+      out = {sqlite3_column_int64(stmt, 0), sqlite3_column_int64(stmt, 1)};
+    }
+    sqlite3_finalize(stmt);
+  }
+  sqlite3_close(handle);
+  return out;
 }
 
 bool WaitLog(ChildProcess& p, const std::string& text, milliseconds timeout) {
@@ -217,7 +235,8 @@ class CrashTest : public ::testing::Test {
 // tscd announced (it publishes only after its commit) is in the crash image; every fourth
 // instant (and the last) tscd restarts on the crash image, and the memory it holds equals the
 // crash image structurally (the other instants restart learning from it, which the next
-// instants check).
+// instants check). The store's budget is 1 MiB, so once the database outgrows it the kills
+// also meet retention steps (deleting base point records, incremental vacuum) under way.
 TEST_F(CrashTest, KillNineWhileLearningLosesNothingAndRestartsFromTheLastCommit) {
   TSCD_REQUIRE_PRIVATE_NETNS();
   BusListener bus("TSC_ANNOUNCE|TSC_EVENT_.*");
@@ -237,7 +256,9 @@ TEST_F(CrashTest, KillNineWhileLearningLosesNothingAndRestartsFromTheLastCommit)
   for (int instant = 0; instant < instants; ++instant) {
     {
       const size_t before = Announces(bus, 1);
-      ChildProcess dut(FastSimRobot(state), dir_ / "tscd.log");
+      ChildProcess dut(FastSimRobot(state, {"--set", "store.budget_mb=1", "--set",
+                                            "store.maintenance_pages=256"}),
+                       dir_ / "tscd.log");
       ASSERT_TRUE(WaitNewAnnounce(bus, 1, before, seconds(60))) << dut.Log();
       std::this_thread::sleep_for(milliseconds(delay_ms(rng)));
       dut.Signal(SIGKILL);
@@ -285,11 +306,15 @@ TEST_F(CrashTest, KillNineWhileLearningLosesNothingAndRestartsFromTheLastCommit)
     base_points_last = committed.state.pipeline.next_base;
   }
   const double s = std::chrono::duration<double>(Clock::now() - start).count();
+  const auto [first_kept, kept] = BasePointRecords(crash);
   std::printf(
       "[ figures  ] learning: %d kill -9 instants, %zu restarts compared, %zu places announced, "
-      "%zu edges announced, 0 lost; %zu -> %zu places, %lld base points; %.1f s\n",
+      "%zu edges announced, 0 lost; %zu -> %zu places, %lld base points (records of %lld kept "
+      "from %lld on, store.budget_mb = 1, crash image %ju bytes); %.1f s\n",
       instants, restarts, announced_places.size(), announced_edges.size(), places_first,
-      places_last, static_cast<long long>(base_points_last), s);
+      places_last, static_cast<long long>(base_points_last), static_cast<long long>(kept),
+      static_cast<long long>(first_kept), fs::file_size(crash), s);
+  EXPECT_GT(first_kept, 0);  // retention deleted the oldest records while the kills went on
   EXPECT_GT(places_last, places_first);    // learning went on across the restarts
   EXPECT_GE(announced_places.size(), 3u);  // the test saw learning, so the check had teeth
 }

@@ -148,6 +148,10 @@ TEST_F(ConfigTest, ValidatedRangesAreTheOptionsOwn) {
        [](Settings& s, double v) { s.daemon.bus.portion_bytes = static_cast<int>(v); }},
       {"camera.fps", CameraOptions::kFpsRange,
        [](Settings& s, double v) { s.daemon.camera.fps = v; }},
+      {"store.budget_mb", StoreOptions::kBudgetMbRange,
+       [](Settings& s, double v) { s.daemon.store.budget_mb = static_cast<int64_t>(v); }},
+      {"store.maintenance_pages", StoreOptions::kMaintenancePagesRange,
+       [](Settings& s, double v) { s.daemon.store.maintenance_pages = static_cast<int>(v); }},
   };
   for (const Case& c : cases) {
     const ConfigKey* k = FindConfigKey(c.key);

@@ -6,6 +6,7 @@
 #include <unistd.h>
 
 #include <algorithm>
+#include <array>
 #include <chrono>
 #include <filesystem>
 #include <random>
@@ -491,6 +492,131 @@ TEST_F(StoreTest, ReplaceKnowledgeRoundTripsMergedPlacesAndMap) {
   const StoredState loaded = other.Load(kRobot, Options().memory);
   ExpectSameMemory(merged, loaded.memory);
   ExpectSameMap(map, loaded.map);
+}
+
+/// A memory with learned places, recognitions, map edges and a peer's version, and base point
+/// records far beyond `frames_at_least` x ~4 KiB. Returns the knowledge as Load() gives it.
+testing_support::Knowledge FillBeyondABudget(const fs::path& path, int frames_at_least,
+                                             Committed& committed) {
+  Stream stream(41);
+  for (int c = 0; c < 4; ++c) stream.AddCluster();
+  {
+    Store store = Store::Open(path);
+    StoredState s = store.Load(kRobot, Options().memory);
+    Pipeline pipeline(Camera(), Options(), std::move(s.memory), std::move(s.map), s.pipeline);
+    const std::array<int, 6> route = {0, 1, 2, 0, 3, 1};
+    for (size_t i = 0; committed.frames < frames_at_least; ++i) {
+      Feed(pipeline, store, stream.Visit(route[i % route.size()], 14), committed);
+    }
+    Finish(pipeline, store, committed);
+    store.ReplaceKnowledge(pipeline.memory(), pipeline.map(), PeerMerge{7, 5, -42, 1000});
+  }
+  return testing_support::LoadKnowledge(path, kRobot);
+}
+
+TEST_F(StoreTest, MaintainThinsOldBasePointsUnderTheBudgetAndKeepsTheKnowledge) {
+  Committed committed;
+  const testing_support::Knowledge before = FillBeyondABudget(path_, 1500, committed);
+  ASSERT_GE(before.state.memory.places().size(), 3u);
+  ASSERT_GE(before.state.map.edges().size(), 2u);
+  ASSERT_EQ(before.peers.size(), 1u);
+  const auto assignments = Store::Open(path_).LoadAssignments();
+  const int64_t records = Sql(path_, "SELECT COUNT(*) FROM base_points");
+  ASSERT_EQ(records, committed.frames);
+  const uintmax_t bytes_before = fs::file_size(path_);  // closed: the WAL is folded in
+  constexpr int64_t kBudgetMb = 2;
+  constexpr uintmax_t kBudget = uintmax_t{kBudgetMb} << 20;
+  ASSERT_GT(bytes_before, 2 * kBudget) << "the test needs a database well over the budget";
+
+  StoreOptions options;
+  options.budget_mb = kBudgetMb;
+  options.maintenance_pages = 64;
+  int steps = 0;
+  {
+    Store dut = Store::Open(path_);
+    EXPECT_TRUE(dut.reclaims_space());
+    for (MaintenanceStep step; steps == 0 || step.more; ++steps) {
+      ASSERT_LT(steps, 1000) << "maintenance does not converge";
+      step = dut.Maintain(options);
+      // Bounded steps: neither part does more than maintenance_pages at once.
+      EXPECT_LE(step.base_points_deleted, options.maintenance_pages);
+      EXPECT_LE(step.pages_released, options.maintenance_pages);
+    }
+    EXPECT_GT(steps, 10);  // the work was spread over many small steps
+    const MaintenanceStep idle = dut.Maintain(options);  // nothing left to do
+    EXPECT_EQ(idle.base_points_deleted, 0);
+    EXPECT_EQ(idle.pages_released, 0);
+    EXPECT_FALSE(idle.more);
+    EXPECT_LE(idle.bytes_used, static_cast<int64_t>(kBudget));
+  }
+  // The file itself shrank under the budget, with its newest base points kept, oldest gone.
+  const uintmax_t bytes_after = fs::file_size(path_);
+  EXPECT_LE(bytes_after, kBudget);
+  EXPECT_LT(bytes_after, bytes_before / 2);
+  const int64_t kept = Sql(path_, "SELECT COUNT(*) FROM base_points");
+  EXPECT_GT(kept, 0);
+  EXPECT_LT(kept, records / 2);
+  EXPECT_EQ(Sql(path_, "SELECT MAX(idx) FROM base_points"), committed.frames - 1);
+  EXPECT_EQ(Sql(path_, "SELECT MIN(idx) FROM base_points"), committed.frames - kept);
+  EXPECT_EQ(Sql(path_, "PRAGMA freelist_count"), 0);
+  EXPECT_EQ(SqlText(path_, "PRAGMA integrity_check"), "ok");
+
+  // Every learned place (members, member views), the tree, every map edge, the pipeline's
+  // position and the peer's version load back exactly; so do the detected places.
+  const testing_support::Knowledge after = testing_support::LoadKnowledge(path_, kRobot);
+  EXPECT_TRUE(testing_support::Differences(before, after).empty())
+      << testing_support::DescribeDifferences(before, after);
+  ExpectSameState(before.state.pipeline, after.state.pipeline);
+  Store dut = Store::Open(path_);
+  EXPECT_EQ(dut.LoadAssignments(), assignments);
+
+  // Learning continues where it stopped, recognising the places it kept.
+  Pipeline pipeline = Continue(dut);
+  Stream stream(41);
+  for (int c = 0; c < 4; ++c) stream.AddCluster();
+  Committed more;
+  Feed(pipeline, dut, stream.Visit(2, 14), more);
+  EXPECT_EQ(more.learned, 0);
+  EXPECT_EQ(Sql(path_, "SELECT MAX(idx) FROM base_points"), committed.frames - 1 + more.frames);
+}
+
+TEST_F(StoreTest, MaintainWithoutABudgetKeepsEveryBasePoint) {
+  Committed committed;
+  FillBeyondABudget(path_, 300, committed);
+  StoreOptions unlimited;
+  unlimited.budget_mb = 0;
+  Store dut = Store::Open(path_);
+  const MaintenanceStep step = dut.Maintain(unlimited);
+  EXPECT_EQ(step.base_points_deleted, 0);
+  EXPECT_FALSE(step.more);
+  EXPECT_EQ(Sql(path_, "SELECT COUNT(*) FROM base_points"), committed.frames);
+  StoreOptions bad;
+  bad.budget_mb = -1;
+  EXPECT_THROW(dut.Maintain(bad), std::invalid_argument);
+}
+
+TEST_F(StoreTest, EnableIncrementalVacuumConvertsASmallOlderDatabase) {
+  Committed committed;
+  const testing_support::Knowledge before = FillBeyondABudget(path_, 100, committed);
+  // What a store written before issue 23 is: auto_vacuum NONE.
+  {
+    sqlite3* db = nullptr;
+    ASSERT_EQ(sqlite3_open(path_.c_str(), &db), SQLITE_OK);
+    EXPECT_EQ(sqlite3_exec(db, "PRAGMA auto_vacuum=NONE; VACUUM", nullptr, nullptr, nullptr),
+              SQLITE_OK)
+        << sqlite3_errmsg(db);
+    sqlite3_close(db);
+  }
+  ASSERT_EQ(Sql(path_, "PRAGMA auto_vacuum"), 0);
+  Store dut = Store::Open(path_);
+  EXPECT_FALSE(dut.reclaims_space());  // Open() rewrites nothing
+  EXPECT_EQ(Sql(path_, "PRAGMA auto_vacuum"), 0);
+  EXPECT_TRUE(dut.EnableIncrementalVacuum());
+  EXPECT_TRUE(dut.reclaims_space());
+  EXPECT_EQ(Sql(path_, "PRAGMA auto_vacuum"), 2);
+  const testing_support::Knowledge after = testing_support::LoadKnowledge(path_, kRobot);
+  EXPECT_TRUE(testing_support::Differences(before, after).empty())
+      << testing_support::DescribeDifferences(before, after);
 }
 
 TEST_F(StoreTest, OpenRefusesAFileThatIsNotADatabase) {

@@ -205,6 +205,7 @@ TEST_F(TscCliTest, RunThenInspect) {
   ASSERT_NE(at, std::string::npos) << json;
   EXPECT_GE(std::atoi(json.c_str() + at + 17), 1) << json;
   EXPECT_NE(json.find("\"base_points\":12"), std::string::npos) << json;
+  EXPECT_NE(json.find("\"base_points_seen\":12"), std::string::npos) << json;
 
   const fs::path dot = dir_ / "memory.dot";
   const Outcome text = Tsc("inspect --db " + Quote(db.string()) + " --dot " + Quote(dot.string()));
