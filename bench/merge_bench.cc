@@ -5,6 +5,7 @@
 
 #include <benchmark/benchmark.h>
 
+#include <algorithm>
 #include <chrono>
 #include <map>
 #include <memory>
@@ -72,7 +73,8 @@ PlaceMemory BuildMemory(uint32_t robot, const World& world, int first, int n) {
     lp.id = PlaceId{robot, static_cast<uint32_t>(p + 1)};
     lp.mean = d.Mean();
     lp.member_count = d.descriptors.cols();
-    lp.samples = d.descriptors.leftCols(options.max_samples_per_place);
+    lp.samples = d.descriptors.leftCols(
+        std::min<Eigen::Index>(options.max_samples_per_place, d.descriptors.cols()));
     lp.detected = {d.index};
     lp.members = d.members;
     distances.resize(places.size());
