@@ -183,6 +183,41 @@ void WriteTeamMapOf(const std::vector<ReplayedRobot>& robots, const ReplayedRobo
 }
 
 // "2,1,3": a permutation of 1..n (UsageError otherwise).
+// One robot's row of summary.json and of the printed table; both modes write the same fields
+// (the offline replay has no process: no exit status, CPU, RSS, store or log).
+struct RobotRow {
+  uint32_t robot = 0;
+  int exit_status = 0;
+  int64_t frames = 0, frames_dropped = 0, detected_places = 0, places = 0, recognitions = 0,
+          edges = 0;
+  // Merging (chapter 4): places the robot learned itself, places it took from peers, and
+  // peers' places absorbed into one of its places.
+  int64_t own = 0, from_peers = 0, absorbed = 0;
+  int64_t merged_events = 0;
+  double cpu_percent = std::nan(""), peak_rss_mb = std::nan("");
+  std::optional<fs::path> dir;  ///< the robot's state directory (memory.db, tscd.log)
+
+  void CountOrigins(const PlaceMemory& memory) {
+    for (const LearnedPlace& p : memory.places()) {
+      (p.id.robot == robot ? own : from_peers) += 1;
+      absorbed += static_cast<int64_t>(p.sources.size());
+    }
+  }
+  std::string Json() const {
+    std::ostringstream json;
+    json << "{\"robot\":" << robot << ",\"exit_status\":" << exit_status << ",\"frames\":" << frames
+         << ",\"frames_dropped\":" << frames_dropped << ",\"detected_places\":" << detected_places
+         << ",\"places\":" << places << ",\"recognitions\":" << recognitions
+         << ",\"edges\":" << edges << ",\"own_places\":" << own
+         << ",\"places_from_peers\":" << from_peers << ",\"peer_places_absorbed\":" << absorbed
+         << ",\"merged_events\":" << merged_events << ",\"cpu_percent\":" << JsonNumber(cpu_percent)
+         << ",\"peak_rss_mb\":" << JsonNumber(peak_rss_mb)
+         << ",\"db\":" << (dir ? JsonString((*dir / "memory.db").string()) : "null")
+         << ",\"log\":" << (dir ? JsonString((*dir / "tscd.log").string()) : "null") << "}";
+    return json.str();
+  }
+};
+
 std::vector<uint32_t> ParseOrder(const std::string& text, int n) {
   std::vector<uint32_t> order;
   std::stringstream in(text);
@@ -238,25 +273,20 @@ int TeamOffline(const std::vector<Settings>& robot_settings, const std::vector<u
   for (size_t i = 0; i < robots.size(); ++i) {
     const ReplayedRobot& r = robots[i];
     scoring.push_back(ForMergeScoring(r.id, r.assignments, r.labels, r.memory));
-    int64_t own = 0, from_peers = 0, absorbed = 0;
-    for (const LearnedPlace& p : r.memory.places()) {
-      (p.id.robot == r.id ? own : from_peers) += 1;
-      absorbed += static_cast<int64_t>(p.sources.size());
-    }
-    const size_t places = r.memory.places().size(), edges = r.map.edges().size();
-    std::cout << std::setw(5) << r.id << std::setw(8) << r.frames << std::setw(10)
-              << r.detected_places << std::setw(8) << places << std::setw(12) << r.recognitions
-              << std::setw(7) << edges << std::setw(5) << own << std::setw(11) << from_peers
-              << std::setw(10) << absorbed << "\n";
-    const double none = std::nan("");
-    json << (i ? "," : "") << "{\"robot\":" << r.id << ",\"exit_status\":0"
-         << ",\"frames\":" << r.frames << ",\"frames_dropped\":0"
-         << ",\"detected_places\":" << r.detected_places << ",\"places\":" << places
-         << ",\"recognitions\":" << r.recognitions << ",\"edges\":" << edges
-         << ",\"own_places\":" << own << ",\"places_from_peers\":" << from_peers
-         << ",\"peer_places_absorbed\":" << absorbed << ",\"merged_events\":" << r.absorbed
-         << ",\"cpu_percent\":" << JsonNumber(none) << ",\"peak_rss_mb\":" << JsonNumber(none)
-         << ",\"db\":null,\"log\":null}";
+    RobotRow row;
+    row.robot = r.id;
+    row.frames = r.frames;
+    row.detected_places = r.detected_places;
+    row.places = static_cast<int64_t>(r.memory.places().size());
+    row.recognitions = r.recognitions;
+    row.edges = static_cast<int64_t>(r.map.edges().size());
+    row.merged_events = r.absorbed;
+    row.CountOrigins(r.memory);
+    std::cout << std::setw(5) << row.robot << std::setw(8) << row.frames << std::setw(10)
+              << row.detected_places << std::setw(8) << row.places << std::setw(12)
+              << row.recognitions << std::setw(7) << row.edges << std::setw(5) << row.own
+              << std::setw(11) << row.from_peers << std::setw(10) << row.absorbed << "\n";
+    json << (i ? "," : "") << row.Json();
   }
   const TeamVerdict verdict = JudgeTeam(scoring);
   PrintTeamVerdict(std::cout, verdict);
@@ -491,18 +521,23 @@ int Team(const std::vector<std::string>& args) {
   for (size_t i = 0; i < robots.size(); ++i) {
     RobotStats& r = robots[i];
     ok &= r.exit_status == 0;
-    int64_t base_points = 0, places = 0, edges = 0, detected = 0;
-    std::string problem;
-    int64_t own = 0, from_peers = 0, absorbed = 0;
+    RobotRow row;
+    row.robot = static_cast<uint32_t>(r.id);
+    row.exit_status = r.exit_status;
+    row.frames_dropped = r.dropped;
+    row.recognitions = r.recognitions;
+    row.merged_events = r.merged;
+    row.cpu_percent = r.cpu_percent;
+    row.peak_rss_mb = r.peak_rss_mb;
+    row.dir = r.dir;
     try {
       const InspectedStore s =
           InspectStore(r.dir / "memory.db", PlaceMemoryOptions{}, static_cast<uint32_t>(r.id));
-      base_points = s.summary.base_points;
-      places = static_cast<int64_t>(s.summary.learned_places.size());
-      edges = s.summary.map_edges;
-      detected = s.summary.detected_places;
-      // Merging (chapter 4): places this robot learned itself, places it took from peers,
-      // and peers' places absorbed into one of its places.
+      row.frames = s.summary.base_points;
+      row.places = static_cast<int64_t>(s.summary.learned_places.size());
+      row.edges = s.summary.map_edges;
+      row.detected_places = s.summary.detected_places;
+      row.CountOrigins(s.memory);
       // The route's labels by base point: frame k of the route is base point k as long as no
       // frame was dropped (and the robot did not restart).
       any_dropped |= r.dropped > 0;
@@ -511,40 +546,23 @@ int Team(const std::vector<std::string>& args) {
       route.memory = s.memory;
       route.map = s.map;
       scoring[i] = ForMergeScoring(route.id, route.assignments, route.labels, s.memory);
-      for (const LearnedPlace& p : s.memory.places()) {
-        if (p.id.robot == static_cast<uint32_t>(r.id)) {
-          ++own;
-        } else {
-          ++from_peers;
-        }
-        absorbed += static_cast<int64_t>(p.sources.size());
-      }
       try {
         RenderPng(ToDot(s.memory, s.map), r.dir / "memory.png");
       } catch (const std::exception& e) {
         std::cerr << "tsc: robot " << r.id << ": no picture: " << e.what() << "\n";
       }
     } catch (const std::exception& e) {
-      problem = e.what();
       ok = false;
-      std::cerr << "tsc: robot " << r.id << ": cannot read its memory: " << problem << "\n";
+      std::cerr << "tsc: robot " << r.id << ": cannot read its memory: " << e.what() << "\n";
     }
-    std::cout << std::setw(5) << r.id << std::setw(6) << r.exit_status << std::setw(8)
-              << base_points << std::setw(9) << r.dropped << std::setw(10) << detected
-              << std::setw(8) << places << std::setw(12) << r.recognitions << std::setw(7) << edges
-              << std::setw(5) << own << std::setw(11) << from_peers << std::setw(10) << absorbed
-              << std::fixed << std::setprecision(1) << std::setw(6) << r.cpu_percent << std::setw(8)
+    std::cout << std::setw(5) << row.robot << std::setw(6) << row.exit_status << std::setw(8)
+              << row.frames << std::setw(9) << row.frames_dropped << std::setw(10)
+              << row.detected_places << std::setw(8) << row.places << std::setw(12)
+              << row.recognitions << std::setw(7) << row.edges << std::setw(5) << row.own
+              << std::setw(11) << row.from_peers << std::setw(10) << row.absorbed << std::fixed
+              << std::setprecision(1) << std::setw(6) << r.cpu_percent << std::setw(8)
               << r.peak_rss_mb << std::defaultfloat << "\n";
-    json << (i ? "," : "") << "{\"robot\":" << r.id << ",\"exit_status\":" << r.exit_status
-         << ",\"frames\":" << base_points << ",\"frames_dropped\":" << r.dropped
-         << ",\"detected_places\":" << detected << ",\"places\":" << places
-         << ",\"recognitions\":" << r.recognitions << ",\"edges\":" << edges
-         << ",\"own_places\":" << own << ",\"places_from_peers\":" << from_peers
-         << ",\"peer_places_absorbed\":" << absorbed << ",\"merged_events\":" << r.merged
-         << ",\"cpu_percent\":" << JsonNumber(r.cpu_percent)
-         << ",\"peak_rss_mb\":" << JsonNumber(r.peak_rss_mb)
-         << ",\"db\":" << JsonString((r.dir / "memory.db").string())
-         << ",\"log\":" << JsonString((r.dir / "tscd.log").string()) << "}";
+    json << (i ? "," : "") << row.Json();
   }
   const TeamVerdict verdict = JudgeTeam(scoring);
   PrintTeamVerdict(std::cout, verdict);
