@@ -60,6 +60,14 @@ cv::Size TextSize(const std::string& s, double scale = 0.45, int thickness = 1) 
   return cv::getTextSize(s, kFont, scale, thickness, &baseline);
 }
 
+// A place's name beside its marker, on white so that it reads over edges and walls.
+void PlaceLabel(cv::Mat& img, const std::string& s, cv::Point corner) {
+  const cv::Size t = TextSize(s, 0.42);
+  cv::rectangle(img, cv::Rect(corner.x - 2, corner.y - t.height - 3, t.width + 4, t.height + 7),
+                kWhite, cv::FILLED);
+  Text(img, s, corner, 0.42);
+}
+
 // Text centred in `box` when it fits.
 void CentredText(cv::Mat& img, const std::string& s, const cv::Rect& box, const cv::Scalar& bg,
                  double scale = 0.4) {
@@ -688,11 +696,7 @@ cv::Mat DrawFloorPlan(const EvalResult& r, const Dataset& dataset, const WorldPl
     std::string label = id.ToString();
     const std::string truth = MajorityLabel(r.truth, r.main.frames_of.at(id));
     if (!truth.empty()) label += " " + truth;
-    const cv::Size t = TextSize(label, 0.42);
-    const cv::Point corner = at + cv::Point(15, 5);
-    cv::rectangle(img, cv::Rect(corner.x - 2, corner.y - t.height - 3, t.width + 4, t.height + 7),
-                  kWhite, cv::FILLED);
-    Text(img, label, corner, 0.42);
+    PlaceLabel(img, label, at + cv::Point(15, 5));
   }
 
   const int bar_y = layout.legend_top() + 28;
@@ -776,11 +780,7 @@ cv::Mat DrawTeamMap(const TeamMapPicture& team, const WorldPlan* world) {
     std::string name = p.id.ToString();
     for (const PlaceId& s : p.sources) name += "+" + s.ToString();
     if (!p.label.empty()) name += " " + p.label;
-    const cv::Size t = TextSize(name, 0.42);
-    const cv::Point corner = at + cv::Point(13 + 5 * static_cast<int>(others.size()), 5);
-    cv::rectangle(img, cv::Rect(corner.x - 2, corner.y - t.height - 3, t.width + 4, t.height + 7),
-                  kWhite, cv::FILLED);
-    Text(img, name, corner, 0.42);
+    PlaceLabel(img, name, at + cv::Point(13 + 5 * static_cast<int>(others.size()), 5));
   }
 
   const int bar_y = layout.legend_top() + 28;
