@@ -133,8 +133,6 @@ const cv::Scalar kBox(205, 205, 205), kWall(70, 70, 70), kDoor(150, 205, 240);
 const cv::Scalar kRoomLabel(160, 160, 160);
 const cv::Scalar kMapEdgeOverWorld(150, 70, 130);
 
-// The floor plan of `world`: room floors, boxes, doors, walls and room labels. `px` maps
-// metres to pixels, `rect_px` a rectangle; `scale` is pixels per metre.
 // The drawing area of a floor plan: the extent of what is drawn (points, then the world's
 // rooms and walls), one scale along x and y, y up, the plan centred horizontally.
 class PlanLayout {
@@ -182,9 +180,11 @@ class PlanLayout {
   int x_off_ = 0, top_ = 0, plan_h_ = 0;
 };
 
-template <typename Px, typename RectPx>
-void DrawWorldPlan(cv::Mat& img, const WorldPlan& world, const Px& px, const RectPx& rect_px,
-                   double scale) {
+// The floor plan of `world`: room floors, boxes, doors, walls and room labels, where `layout`
+// puts them.
+void DrawWorldPlan(cv::Mat& img, const WorldPlan& world, const PlanLayout& layout) {
+  const auto px = [&](double x, double y) { return layout.Px(x, y); };
+  const auto rect_px = [&](const WorldPlan::Rect& rc) { return layout.RectPx(rc); };
   for (const WorldPlan::Room& room : world.rooms) {
     cv::rectangle(img, rect_px(room.rect), room.outdoor ? kOutdoorFloor : kRoomFloor, cv::FILLED);
   }
@@ -194,7 +194,7 @@ void DrawWorldPlan(cv::Mat& img, const WorldPlan& world, const Px& px, const Rec
       cv::rectangle(img, rect_px(b), cv::Scalar(175, 175, 175), 1);
     }
   }
-  const int wall_px = std::clamp(static_cast<int>(std::lround(0.12 * scale)), 3, 6);
+  const int wall_px = std::clamp(static_cast<int>(std::lround(0.12 * layout.scale())), 3, 6);
   for (const WorldPlan::Rect& d : world.doors) {
     cv::line(img, px(d.x0, d.y0), px(d.x1, d.y1), kDoor, 2, cv::LINE_AA);
   }
@@ -647,7 +647,6 @@ cv::Mat DrawFloorPlan(const EvalResult& r, const Dataset& dataset, const WorldPl
   cv::Mat img = layout.Canvas(world, 760, 70, 110, 680);
   const double scale = layout.scale();
   const auto px = [&](double x, double y) { return layout.Px(x, y); };
-  const auto rect_px = [&](const WorldPlan::Rect& rc) { return layout.RectPx(rc); };
 
   const std::string name = fs::path(r.dataset).filename().string();
   Text(img,
@@ -663,7 +662,7 @@ cv::Mat DrawFloorPlan(const EvalResult& r, const Dataset& dataset, const WorldPl
   const cv::Scalar kTrajectory(225, 185, 140);
   // Map edges in purple over a world, so that they do not look like walls.
   const cv::Scalar kEdge = world ? kMapEdgeOverWorld : kAxis;
-  if (world) DrawWorldPlan(img, *world, px, rect_px, scale);
+  if (world) DrawWorldPlan(img, *world, layout);
 
   // Trajectory.
   std::vector<cv::Point> path;
@@ -726,10 +725,9 @@ cv::Mat DrawTeamMap(const TeamMapPicture& team, const WorldPlan* world) {
   cv::Mat img = layout.Canvas(world, 900, 70, 130, 860);
   const double scale = layout.scale();
   const auto px = [&](double x, double y) { return layout.Px(x, y); };
-  const auto rect_px = [&](const WorldPlan::Rect& rc) { return layout.RectPx(rc); };
   Text(img, team.title, {20, 28}, 0.6);
   Text(img, team.subtitle, {20, 52}, 0.45);
-  if (world) DrawWorldPlan(img, *world, px, rect_px, scale);
+  if (world) DrawWorldPlan(img, *world, layout);
 
   // Trajectories, light, in each robot's colour.
   const auto robot_colour = [](uint32_t id) { return Palette(id > 0 ? id - 1 : 0); };
@@ -761,7 +759,7 @@ cv::Mat DrawTeamMap(const TeamMapPicture& team, const WorldPlan* world) {
     for (const PlaceId& s : p.sources) {
       if (s.robot != p.id.robot) others.insert(s.robot);
     }
-    int radius = 11;
+    constexpr int radius = 11;
     if (!p.sources.empty()) {
       ++merged;
       int ring = 11 + 5 * static_cast<int>(others.size());
@@ -773,7 +771,6 @@ cv::Mat DrawTeamMap(const TeamMapPicture& team, const WorldPlan* world) {
       if (others.empty()) {  // joined with its own robot's places only
         cv::circle(img, at, 15, kText, 2, cv::LINE_AA);
       }
-      radius = 11;
     }
     cv::circle(img, at, radius, robot_colour(p.id.robot), cv::FILLED, cv::LINE_AA);
     cv::circle(img, at, radius, kText, 1, cv::LINE_AA);
