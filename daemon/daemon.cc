@@ -21,6 +21,7 @@
 #include <system_error>
 
 #include "core/merge/merge.h"
+#include "core/merge/merge_maps.h"
 #include "jaguar/motor_command_t.hpp"
 #include "jaguar/motor_state_t.hpp"
 #include "tsc/announce_t.hpp"

@@ -8,6 +8,7 @@
 #include <stdexcept>
 
 #include "core/merge/merge.h"
+#include "core/merge/merge_maps.h"
 #include "settings/settings.h"
 #include "store/store.h"
 #include "tools/command_line.h"

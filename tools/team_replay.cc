@@ -9,6 +9,7 @@
 #include <stdexcept>
 
 #include "core/merge/merge.h"
+#include "core/merge/merge_maps.h"
 #include "core/pipeline/pipeline.h"
 #include "daemon/memory_snapshot.h"
 #include "daemon/snapshot_assembler.h"

@@ -13,6 +13,7 @@
 #include "core/map/topological_map.h"
 #include "core/memory/place_id.h"
 #include "core/memory/place_memory.h"
+#include "core/memory/single_linkage.h"
 
 namespace tsc {
 
@@ -82,21 +83,6 @@ struct MemoryMerge {
   bool changed = false;
 };
 
-/// An edge of a spanning graph for single linkage: places a and b at squared distance γ.
-struct Link {
-  double gamma = 0.0;  ///< γ of (3.12), ≥ 0 and finite
-  int a = 0;
-  int b = 0;
-};
-/// The pointer representation (π, λ) of the single-linkage dendrogram of the graph on places
-/// 0..n−1 with edges `links` (Kruskal: λ(i) is the height at which i stops being the last
-/// place of its cluster, π(i) the last place of the cluster it joins). Over all pairs it equals
-/// SLINK's state; over a spanning subset it is single linkage of the minimax path distances of
-/// that graph. Components the links leave apart are joined at the largest γ. Deterministic
-/// (ties by place indices). Throws std::invalid_argument on an index outside [0, n) or a
-/// negative or non-finite γ.
-Slink SingleLinkage(int n, std::vector<Link> links);
-
 /// Whether MergeMemories(ours, peer) merges the peer into ours (ours is the base, so a merge
 /// that brings nothing new returns ours unchanged): the smaller memory by place count goes
 /// into the larger; on a tie the memory of the lower robot id is the larger (§4.5.2).
@@ -115,20 +101,5 @@ MemoryMerge MergeMemories(const PlaceMemory& ours, const PlaceMemory& peer);
 /// (at 10⁴ + 10⁴ places the copies were about a third of the merge). Same result as the
 /// copying form; the inputs are left valid but unspecified (their places moved out).
 MemoryMerge MergeMemories(PlaceMemory&& ours, PlaceMemory&& peer);
-
-/// G^m + G^n of §4.6 over the merged memory: every place id (own or absorbed) is replaced by
-/// the merged place that holds it, edges are the union, an edge's traversal count the largest
-/// count among the edges of both maps that collapse onto it (so the result does not depend on
-/// the order of merges), and self-loops are dropped. Transition regions are kept only from `ours`
-/// (they index our own base point stream).
-TopologicalMap MergeMaps(const TopologicalMap& ours, const TopologicalMap& peer,
-                         const PlaceMemory& merged);
-
-/// Whether adopting a merge changes what the robot holding `ours_map` holds: a place, an
-/// absorption, an edge, or a larger traversal count. A merge that changes nothing is not
-/// adopted, so an unchanged memory is not broadcast again and peers do not fetch it back and
-/// forth; one that only raises counts is, so every robot ends with the largest counts.
-bool MergeChangesAnything(const MemoryMerge& merged, const TopologicalMap& merged_map,
-                          const TopologicalMap& ours_map);
 
 }  // namespace tsc

@@ -11,6 +11,8 @@
 #include <utility>
 #include <vector>
 
+#include "core/merge/merge_maps.h"
+
 namespace tsc {
 namespace {
 

@@ -9,6 +9,7 @@
 #include <stdexcept>
 
 #include "core/merge/merge.h"
+#include "core/merge/merge_maps.h"
 #include "test/support/random_memory.h"
 
 namespace tsc {
@@ -271,7 +272,7 @@ TEST_F(PipelineTest, AKnownPlaceEnteredWithoutATransitionIsSplitOffAndRecognised
     }
     for (int j = 0; j < 15; ++j) frame(centres_[0]);
     ASSERT_EQ(incoherent, 1);  // no transition into A
-    Visit(pipeline, 1, 15);  // a transition closes the open place, then B again
+    Visit(pipeline, 1, 15);    // a transition closes the open place, then B again
     pipeline.Finish();
     const LearnedPlace& a = pipeline.memory().places().at(0);
     if (split) {
