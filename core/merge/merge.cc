@@ -350,6 +350,101 @@ std::vector<LearnedPlace> PlacesOf(const PlaceMemory& memory, PlaceMemory* owned
 
 // MergeMemories. `ours_owned` / `peer_owned` point at `ours` / `peer` when the caller gave
 // them up: their places are then moved into the result instead of copied.
+// Figure 4.4's case for the root spheres `sb` of the base and `si` of the incoming memory.
+MergeCase RootSphereCase(const PlaceMemory& base, const PlaceMemory& incoming,
+                         const NodeStatistics& sb, const NodeStatistics& si, double tau_r) {
+  const double d = (sb.centroid - si.centroid).norm();
+  // The spheres reach a recognition radius further: views nearer than sqrt(τ_r·u) may be
+  // one place's (term 1 of g is δ/u), so spheres closer than that must not count as apart.
+  // Without it two small memories (a single place has radius 0) are always disjoint, and a
+  // team exchanging memories as it learns would never recognise a place (docs/decisions.md,
+  // "Merging": recognition reach).
+  const double reach = std::sqrt(tau_r * std::max(base.DistanceUnit(), incoming.DistanceUnit()));
+  // (4.5), decided on the spheres that hold every member view: ρ of (4.4) is a root mean
+  // square, and a place outside it may coincide with one of the other memory.
+  if (d > ViewBound(base, sb.centroid) + ViewBound(incoming, si.centroid) + reach) {
+    return MergeCase::kDisjoint;
+  }
+  const bool base_large = sb.radius >= si.radius;
+  const NodeStatistics& small = base_large ? si : sb;
+  const NodeStatistics& large = base_large ? sb : si;
+  if (d + small.radius > large.radius) return MergeCase::kIntersecting;
+  for (const HyperTerminal& h : HyperTerminals(base_large ? base : incoming)) {
+    if ((h.sphere.centroid - small.centroid).norm() <= h.sphere.radius + small.radius + reach) {
+      return MergeCase::kContainedIntersecting;
+    }
+  }
+  return MergeCase::kContained;
+}
+
+// Repeated exchanges: the base may hold places the incoming memory never saw (a peer's places
+// learned since it last merged ours, or ours the peer has not merged yet). Nobody compares them
+// with the places both memories hold (those are known on both sides), so they are recognised
+// here the other way round, against the incoming memory's places the base knows; a match joins
+// the two base places in `join` and its g goes to `fold_cost` (docs/decisions.md, "Merging":
+// recognition both ways).
+void RecogniseFreshBasePlaces(const PlaceMemory& base, const PlaceMemory& incoming,
+                              const std::vector<HyperTerminal>& hb,
+                              const std::vector<HyperTerminal>& hi, const std::vector<int>& fresh,
+                              const std::vector<char>& is_new,
+                              const std::unordered_map<PlaceId, int, PlaceIdHash>& known,
+                              double tau_r, IdJoin& join, std::vector<double>& fold_cost) {
+  const std::vector<size_t> match_of = MatchHyperTerminals(incoming, hi, hb);
+  std::vector<char> is_fresh(base.places().size(), 0);
+  for (int b : fresh) is_fresh[static_cast<size_t>(b)] = 1;
+  for (size_t a = 0; a < hb.size(); ++a) {
+    for (int b : hb[a].places) {
+      if (!is_fresh[static_cast<size_t>(b)]) continue;
+      int match = -1;
+      double gamma = 0.0;
+      const double g = RecognitionCost(incoming, hi[match_of[a]],
+                                       base.places()[static_cast<size_t>(b)], &match, &gamma);
+      if (match < 0 || g > tau_r || is_new[static_cast<size_t>(match)]) continue;
+      const PlaceId match_id = incoming.places()[static_cast<size_t>(match)].id;
+      if (match_id.robot == base.places()[static_cast<size_t>(b)].id.robot) continue;
+      const int holder = known.at(match_id);
+      // A robot's own places stay apart: the holder may be a place of b's robot that
+      // absorbed the match in an earlier merge.
+      if (holder != b && base.places()[static_cast<size_t>(holder)].id.robot !=
+                             base.places()[static_cast<size_t>(b)].id.robot) {
+        join.places.Unite(b, holder);
+        fold_cost[static_cast<size_t>(b)] = g;
+      }
+    }
+  }
+}
+
+// (4.6)-(4.7): match each incoming hyper-terminal N' to the base hyper-terminal N* of largest
+// overlap (ties: nearer centre, then lower node index), then recognise its places new to the
+// base against N*'s places with g ≤ τ_r: `target` and `cost` of the absorbed ones, `nearest` and
+// `nearest_gamma` of every one measured (−1: none). With no intersecting N*, the largest overlap
+// is the smallest gap: the nearest sphere, so recognition still decides.
+void RecogniseNewIncomingPlaces(const PlaceMemory& base, const PlaceMemory& incoming,
+                                const std::vector<HyperTerminal>& hb,
+                                const std::vector<HyperTerminal>& hi,
+                                const std::vector<char>& is_new, double tau_r,
+                                std::vector<int>& target, std::vector<double>& cost,
+                                std::vector<int>& nearest, std::vector<double>& nearest_gamma) {
+  const std::vector<size_t> match_of = MatchHyperTerminals(base, hb, hi);
+  for (size_t a = 0; a < hi.size(); ++a) {
+    const size_t star = match_of[a];
+    for (int p : hi[a].places) {
+      if (!is_new[static_cast<size_t>(p)] || target[static_cast<size_t>(p)] >= 0) continue;
+      int match = -1;
+      const double g = RecognitionCost(base, hb[star], incoming.places()[static_cast<size_t>(p)],
+                                       &match, &nearest_gamma[static_cast<size_t>(p)]);
+      nearest[static_cast<size_t>(p)] = match;
+      // A robot's own places stay apart: its pipeline already judged them different.
+      if (match >= 0 && g <= tau_r &&
+          base.places()[static_cast<size_t>(match)].id.robot !=
+              incoming.places()[static_cast<size_t>(p)].id.robot) {
+        target[static_cast<size_t>(p)] = match;
+        cost[static_cast<size_t>(p)] = g;
+      }
+    }
+  }
+}
+
 MemoryMerge Merge(const PlaceMemory& ours, const PlaceMemory& peer, PlaceMemory* ours_owned,
                   PlaceMemory* peer_owned) {
   if (!ours.empty() && !peer.empty() &&
@@ -418,45 +513,18 @@ MemoryMerge Merge(const PlaceMemory& ours, const PlaceMemory& peer, PlaceMemory*
                                      [&seen](PlaceId id) { return seen.contains(id); });
     }
   }
-  // Case analysis on the root spheres (figure 4.4).
   std::vector<int> target = join.linked;  // base place absorbing it, −1: none (yet)
   std::vector<double> cost(incoming.places().size(), 0.0);
   // The base place nearest to each new incoming place among N*'s, and its γ (cross links of
   // the merged tree); −1 where no recognition ran.
   std::vector<int> nearest(incoming.places().size(), -1);
   std::vector<double> nearest_gamma(incoming.places().size(), 0.0);
+  // Case analysis on the root spheres (figure 4.4), then recognition where they meet.
   NodeStatistics sb, si;
   if ((anything_new || !fresh.empty()) && !base.empty() && !incoming.empty()) {
     sb = StatisticsOf(base, AllPlaces(base));
     si = StatisticsOf(incoming, AllPlaces(incoming));
-    const double d = (sb.centroid - si.centroid).norm();
-    // The spheres reach a recognition radius further: views nearer than sqrt(τ_r·u) may be
-    // one place's (term 1 of g is δ/u), so spheres closer than that must not count as apart.
-    // Without it two small memories (a single place has radius 0) are always disjoint, and a
-    // team exchanging memories as it learns would never recognise a place (docs/decisions.md,
-    // "Merging": recognition reach).
-    const double reach =
-        std::sqrt(options.tau_r * std::max(base.DistanceUnit(), incoming.DistanceUnit()));
-    MergeCase sphere_case = MergeCase::kDisjoint;
-    // (4.5), decided on the spheres that hold every member view: ρ of (4.4) is a root mean
-    // square, and a place outside it may coincide with one of the other memory.
-    if (d > ViewBound(base, sb.centroid) + ViewBound(incoming, si.centroid) + reach) {
-      sphere_case = MergeCase::kDisjoint;
-    } else {
-      const bool base_large = sb.radius >= si.radius;
-      const NodeStatistics& small = base_large ? si : sb;
-      const NodeStatistics& large = base_large ? sb : si;
-      if (d + small.radius <= large.radius) {
-        bool intersects = false;
-        for (const HyperTerminal& h : HyperTerminals(base_large ? base : incoming)) {
-          intersects = intersects || (h.sphere.centroid - small.centroid).norm() <=
-                                         h.sphere.radius + small.radius + reach;
-        }
-        sphere_case = intersects ? MergeCase::kContainedIntersecting : MergeCase::kContained;
-      } else {
-        sphere_case = MergeCase::kIntersecting;
-      }
-    }
+    const MergeCase sphere_case = RootSphereCase(base, incoming, sb, si, options.tau_r);
     if (anything_new) result.merge_case = sphere_case;
     const bool recognise =
         sphere_case == MergeCase::kContainedIntersecting || sphere_case == MergeCase::kIntersecting;
@@ -466,60 +534,12 @@ MemoryMerge Merge(const PlaceMemory& ours, const PlaceMemory& peer, PlaceMemory*
                                                     : std::vector<HyperTerminal>{};
     // (Only a place the base knows can be matched: none known, nothing to do.)
     if (recognise && !fresh.empty() && !result.known.empty()) {
-      // Repeated exchanges: the base may hold places the incoming memory never saw (a peer's
-      // places learned since it last merged ours, or ours the peer has not merged yet). Nobody
-      // compares them with the places both memories hold (those are known on both sides), so
-      // they are recognised here the other way round, against the incoming memory's places
-      // the base knows; a match joins the two base places (docs/decisions.md, "Merging":
-      // recognition both ways).
-      const std::vector<size_t> match_of = MatchHyperTerminals(incoming, hi, hb);
-      std::vector<char> is_fresh(base.places().size(), 0);
-      for (int b : fresh) is_fresh[static_cast<size_t>(b)] = 1;
-      for (size_t a = 0; a < hb.size(); ++a) {
-        for (int b : hb[a].places) {
-          if (!is_fresh[static_cast<size_t>(b)]) continue;
-          int match = -1;
-          double gamma = 0.0;
-          const double g = RecognitionCost(incoming, hi[match_of[a]],
-                                           base.places()[static_cast<size_t>(b)], &match, &gamma);
-          if (match < 0 || g > options.tau_r || is_new[static_cast<size_t>(match)]) continue;
-          const PlaceId match_id = incoming.places()[static_cast<size_t>(match)].id;
-          if (match_id.robot == base.places()[static_cast<size_t>(b)].id.robot) continue;
-          const int holder = known.at(match_id);
-          // A robot's own places stay apart: the holder may be a place of b's robot that
-          // absorbed the match in an earlier merge.
-          if (holder != b && base.places()[static_cast<size_t>(holder)].id.robot !=
-                                 base.places()[static_cast<size_t>(b)].id.robot) {
-            join.places.Unite(b, holder);
-            fold_cost[static_cast<size_t>(b)] = g;
-          }
-        }
-      }
+      RecogniseFreshBasePlaces(base, incoming, hb, hi, fresh, is_new, known, options.tau_r, join,
+                               fold_cost);
     }
     if (recognise) {
-      // (4.6)-(4.7): match each incoming hyper-terminal N' to the base hyper-terminal N* of
-      // largest overlap (ties: nearer centre, then lower node index), then recognise its
-      // places against N*'s places with g ≤ τ_r. With no intersecting N*, the largest
-      // overlap is the smallest gap: the nearest sphere, so recognition still decides.
-      const std::vector<size_t> match_of = MatchHyperTerminals(base, hb, hi);
-      for (size_t a = 0; a < hi.size(); ++a) {
-        const size_t star = match_of[a];
-        for (int p : hi[a].places) {
-          if (!is_new[static_cast<size_t>(p)] || target[static_cast<size_t>(p)] >= 0) continue;
-          int match = -1;
-          const double g =
-              RecognitionCost(base, hb[star], incoming.places()[static_cast<size_t>(p)], &match,
-                              &nearest_gamma[static_cast<size_t>(p)]);
-          nearest[static_cast<size_t>(p)] = match;
-          // A robot's own places stay apart: its pipeline already judged them different.
-          if (match >= 0 && g <= options.tau_r &&
-              base.places()[static_cast<size_t>(match)].id.robot !=
-                  incoming.places()[static_cast<size_t>(p)].id.robot) {
-            target[static_cast<size_t>(p)] = match;
-            cost[static_cast<size_t>(p)] = g;
-          }
-        }
-      }
+      RecogniseNewIncomingPlaces(base, incoming, hb, hi, is_new, options.tau_r, target, cost,
+                                 nearest, nearest_gamma);
     }
   } else if (anything_new) {
     result.merge_case = MergeCase::kDisjoint;  // an empty base: everything is added
