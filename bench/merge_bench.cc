@@ -10,12 +10,12 @@
 #include <map>
 #include <memory>
 #include <optional>
-#include <random>
 #include <utility>
 
 #include "core/merge/merge.h"
 #include "daemon/memory_snapshot.h"
 #include "settings/daemon_options.h"
+#include "test/support/synthetic_places.h"
 
 namespace tsc {
 namespace {
@@ -24,40 +24,18 @@ constexpr int kDim = 700;
 constexpr int kMembers = 12;
 constexpr int kRelearnSample = 64;
 
-// Places of a world of 64 sites; place p of world w is its site's centre perturbed by 20 %,
-// members by another 2 %. A robot sees place (w, p) with its own member noise (`seed`).
+// Places of a world of 64 sites (test/support/synthetic_places.h): place p of world w is its
+// site's centre perturbed by 20 %, members by another 2 %. A robot sees place (w, p) with its
+// own member noise (its id is the visit).
 class World {
  public:
-  explicit World(uint32_t world) : world_(world) {
-    std::mt19937 rng(world);
-    std::uniform_real_distribution<float> u(0.0f, 1.0f);
-    for (int s = 0; s < 64; ++s) {
-      Eigen::VectorXf c(kDim);
-      for (int i = 0; i < kDim; ++i) c[i] = u(rng);
-      sites_.push_back(c / c.sum());
-    }
-  }
-  DetectedPlace Place(int p, uint32_t seed) const {
-    std::mt19937 local(world_ * 1000003u + static_cast<uint32_t>(p) * 7919u + 1u);
-    std::mt19937 members(seed * 104729u + static_cast<uint32_t>(p));
-    std::normal_distribution<float> place_noise(0.0f, 0.2f), member_noise(0.0f, 0.02f);
-    Eigen::VectorXf centre = sites_[static_cast<size_t>(p) % sites_.size()];
-    for (int i = 0; i < kDim; ++i) centre[i] *= std::max(0.0f, 1.0f + place_noise(local));
-    DetectedPlace d;
-    d.index = p + 1;
-    d.descriptors.resize(kDim, kMembers);
-    for (int j = 0; j < kMembers; ++j) {
-      d.members.push_back(static_cast<BaseIndex>(p) * kMembers + j);
-      for (int i = 0; i < kDim; ++i) {
-        d.descriptors(i, j) = std::max(0.0f, centre[i] * (1.0f + member_noise(members)));
-      }
-    }
-    return d;
+  explicit World(uint32_t world) : places_(world, kDim, 64, 0.02f, world) {}
+  DetectedPlace Place(int p, uint32_t robot) const {
+    return places_.Visit(p, robot, kMembers, kMembers);
   }
 
  private:
-  uint32_t world_;
-  std::vector<Eigen::VectorXf> sites_;
+  testing_support::SyntheticPlaces places_;
 };
 
 // Robot `robot`'s memory of `n` places: places [first, first + n) of `world`. Built directly

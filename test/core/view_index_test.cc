@@ -4,49 +4,26 @@
 
 #include <algorithm>
 #include <cmath>
-#include <random>
 #include <vector>
 
 #include "core/memory/place_memory.h"
+#include "test/support/synthetic_places.h"
 
 namespace tsc {
 namespace {
 
 constexpr int kDim = 200;
 
-// Places on the descriptor scale, grouped in sites as a robot's rooms are (positive,
-// sum-normalised sites; each place its site perturbed by 20 %, its views by another 3 %).
+// Places grouped in 16 sites, views 3 % apart (test/support/synthetic_places.h).
 class Places {
  public:
-  explicit Places(uint32_t seed) : rng_(seed) {
-    std::uniform_real_distribution<float> u(0.0f, 1.0f);
-    for (int s = 0; s < 16; ++s) {
-      Eigen::VectorXf c(kDim);
-      for (int i = 0; i < kDim; ++i) c[i] = u(rng_);
-      sites_.push_back(c / c.sum());
-    }
-  }
-  // Visit `visit` of place p: `views` base points (the same place every visit, fresh noise).
-  DetectedPlace Visit(int p, int visit, int views = 10) {
-    std::mt19937 place_rng(static_cast<uint32_t>(p) * 7919u + 1u);
-    std::mt19937 view_rng(static_cast<uint32_t>(p) * 104729u + static_cast<uint32_t>(visit));
-    std::normal_distribution<float> place_noise(0.0f, 0.2f), view_noise(0.0f, 0.03f);
-    Eigen::VectorXf centre = sites_[static_cast<size_t>(p) % sites_.size()];
-    for (int i = 0; i < kDim; ++i) centre[i] *= std::max(0.0f, 1.0f + place_noise(place_rng));
-    DetectedPlace d;
-    d.index = p + 1;
-    d.descriptors.resize(kDim, views);
-    for (int j = 0; j < views; ++j) {
-      d.members.push_back(static_cast<BaseIndex>(p) * 100 + j);
-      for (int i = 0; i < kDim; ++i)
-        d.descriptors(i, j) = std::max(0.0f, centre[i] * (1.0f + view_noise(view_rng)));
-    }
-    return d;
+  explicit Places(uint32_t seed) : places_(seed, kDim, 16, 0.03f) {}
+  DetectedPlace Visit(int p, int visit, int views = 10) const {
+    return places_.Visit(p, static_cast<uint32_t>(visit), views);
   }
 
  private:
-  std::mt19937 rng_;
-  std::vector<Eigen::VectorXf> sites_;
+  testing_support::SyntheticPlaces places_;
 };
 
 LearnedPlace AsLearned(const DetectedPlace& d) {
