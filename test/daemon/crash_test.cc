@@ -314,7 +314,11 @@ TEST_F(CrashTest, KillNineWhileLearningLosesNothingAndRestartsFromTheLastCommit)
       instants, restarts, announced_places.size(), announced_edges.size(), places_first,
       places_last, static_cast<long long>(base_points_last), static_cast<long long>(kept),
       static_cast<long long>(first_kept), fs::file_size(crash), s);
-  EXPECT_GT(first_kept, 0);  // retention deleted the oldest records while the kills went on
+  // Retention deleted records while the kills went on: the oldest (first_kept > 0), or all of
+  // them once the learned places alone outgrew the budget (under ASan, 25 places of 32 member
+  // views filled 1.27 MB: no record was left, and first_kept was 0).
+  EXPECT_LT(kept, base_points_last);
+  EXPECT_TRUE(kept == 0 || first_kept > 0) << "records kept from " << first_kept;
   EXPECT_GT(places_last, places_first);    // learning went on across the restarts
   EXPECT_GE(announced_places.size(), 3u);  // the test saw learning, so the check had teeth
 }
