@@ -10,6 +10,7 @@
 #include <filesystem>
 #include <lcm/lcm-cpp.hpp>
 #include <map>
+#include <optional>
 #include <set>
 #include <string>
 #include <thread>
@@ -82,23 +83,72 @@ std::set<PlaceId> IdsOf(const BusListener& b, const std::string& channel, int ro
   return ids;
 }
 
-// The newest version of a memory seen on `channel` and the indices of its portions not seen.
-std::pair<int64_t, std::vector<int32_t>> MissingOfNewest(const BusListener& b,
-                                                         const std::string& channel) {
-  if (!b.portions.count(channel)) return {0, {}};
-  const auto& all = b.portions.at(channel);
-  const auto newest = std::max_element(
-      all.begin(), all.end(),
-      [](const memory_portion_t& x, const memory_portion_t& y) { return x.version < y.version; });
+// The memory version robot `robot` last announced (0: none heard).
+int64_t AnnouncedVersion(const BusListener& b, int robot) {
+  if (!b.announces.count("TSC_ANNOUNCE")) return 0;
+  const auto& all = b.announces.at("TSC_ANNOUNCE");
+  for (auto a = all.rbegin(); a != all.rend(); ++a) {
+    if (a->robot == robot) return a->memory_version;
+  }
+  return 0;
+}
+
+// Whether robot `robot` has stopped changing its own places: its last two announces say its
+// camera ended and name the same memory version (the last place closes just after the camera
+// ends; a later change can only be a merge, which adds no place of its own).
+bool Settled(const BusListener& b, int robot) {
+  if (!b.announces.count("TSC_ANNOUNCE")) return false;
+  const auto& all = b.announces.at("TSC_ANNOUNCE");
+  std::vector<const announce_t*> last;
+  for (auto a = all.rbegin(); a != all.rend() && last.size() < 2; ++a) {
+    if (a->robot == robot) last.push_back(&*a);
+  }
+  return last.size() == 2 && last[0]->memory_version == last[1]->memory_version &&
+         last[0]->status.find("camera ended") != std::string::npos &&
+         last[1]->status.find("camera ended") != std::string::npos;
+}
+
+// The portions of `version` on `channel` not seen yet: every index when none was seen (its
+// count is then unknown: empty, which asks for the whole), else the indices below its count.
+std::vector<int32_t> MissingOf(const BusListener& b, const std::string& channel, int64_t version) {
   std::set<int32_t> have;
-  for (const memory_portion_t& m : all) {
-    if (m.version == newest->version) have.insert(m.index);
+  int32_t count = 0;
+  if (b.portions.count(channel)) {
+    for (const memory_portion_t& m : b.portions.at(channel)) {
+      if (m.version == version) have.insert(m.index), count = m.count;
+    }
   }
   std::vector<int32_t> missing;
-  for (int32_t i = 0; i < newest->count; ++i) {
+  for (int32_t i = 0; i < count; ++i) {
     if (!have.contains(i)) missing.push_back(i);
   }
-  return {newest->version, missing};
+  return missing;
+}
+
+// Robot `robot`'s ids (places and sources) in version `version` on `channel`, when every
+// portion of it has been seen.
+std::optional<std::set<PlaceId>> IdsOfVersion(const BusListener& b, const std::string& channel,
+                                              int64_t version, int robot) {
+  if (!b.portions.count(channel)) return std::nullopt;
+  std::set<int32_t> have;
+  int32_t count = -1;
+  std::set<PlaceId> ids;
+  auto add = [&](const place_ref_t& r) {
+    if (r.robot == robot) {
+      ids.insert(PlaceId{static_cast<uint32_t>(r.robot), static_cast<uint32_t>(r.local)});
+    }
+  };
+  for (const memory_portion_t& m : b.portions.at(channel)) {
+    if (m.version != version) continue;
+    have.insert(m.index);
+    count = m.count;
+    for (const learned_place_t& p : m.places) {
+      add(p.id);
+      for (const place_ref_t& s : p.sources) add(s);
+    }
+  }
+  if (count < 0 || static_cast<int32_t>(have.size()) != count) return std::nullopt;
+  return ids;
 }
 
 // "version v: k of n portions" for every version seen on `channel`, for failure messages.
@@ -128,36 +178,50 @@ TEST(RejoinTest, AWipedRobotTakesItsPlacesBackFromTheTeamAndNumbersOnAfterThem) 
   ASSERT_TRUE(bus.WaitFor(
       [](const BusListener& b) { return CameraEnded(b, 1) && CameraEnded(b, 2); }, seconds(180)))
       << robot1.Log() << robot2.Log();
-  // Robot 2 holds every place robot 1 has broadcast (as a place or a source) before robot 1
-  // stops. The test asks robot 2 for its memory the way a peer does: the newest version, then
-  // the portions of it still missing. Asking for the whole memory again and again is not
-  // enough on a loaded machine: the answer is a burst of portions, and when the listener
-  // drains its socket slowly the same tail of the burst is lost every time (CI, once: 30 asks,
-  // robot 1's places never all seen).
+  // Robot 2 holds every place robot 1 holds (as a place or a source) before robot 1 stops.
+  // The test asks both robots for their memories the way a peer does: the newest version, then
+  // the portions of it still missing. What they broadcast on their own is not enough on a
+  // loaded machine: a memory is a burst of portions, and the listener may miss any of them
+  // (CI, once: robot 1's ids seen were 1:6 alone, so the check could not hold).
   lcm::LCM asker(testing_support::kTestLcmUrl);
   ASSERT_TRUE(asker.good());
+  auto ask = [&](int robot) {
+    const std::string channel = "TSC_MEMORY_" + std::to_string(robot);
+    memory_request_t request{};
+    request.requester = 99;
+    request.robot = robot;
+    bus.Inspect([&](const BusListener& b) {
+      request.version = AnnouncedVersion(b, robot);
+      request.missing = MissingOf(b, channel, request.version);
+      request.num_missing = static_cast<int32_t>(request.missing.size());
+    });
+    asker.publish("TSC_REQUEST_" + std::to_string(robot), &request);
+  };
+  // Robot 1 done learning, both memories whole at the versions last announced, and robot 1's
+  // ids all held by robot 2.
+  auto team_holds_robot_1 = [](const BusListener& b) {
+    const auto own = IdsOfVersion(b, "TSC_MEMORY_1", AnnouncedVersion(b, 1), 1);
+    const auto held = IdsOfVersion(b, "TSC_MEMORY_2", AnnouncedVersion(b, 2), 1);
+    return Settled(b, 1) && own && held && own->size() >= 2 &&
+           std::includes(held->begin(), held->end(), own->begin(), own->end());
+  };
   bool holds = false;
   for (int attempt = 0; attempt < 30 && !holds; ++attempt) {
-    memory_request_t ask{};
-    ask.requester = 99;
-    ask.robot = 2;
-    bus.Inspect([&](const BusListener& b) {
-      const auto [version, missing] = MissingOfNewest(b, "TSC_MEMORY_2");
-      ask.version = version;  // 0 (nothing yet): the newest, whole
-      ask.missing = missing;
-      ask.num_missing = static_cast<int32_t>(missing.size());
-    });
-    asker.publish("TSC_REQUEST_2", &ask);
-    holds = bus.WaitFor(
-        [&](const BusListener& b) {
-          const std::set<PlaceId> own = IdsOf(b, "TSC_MEMORY_1", 1);
-          const std::set<PlaceId> held = IdsOf(b, "TSC_MEMORY_2", 1);
-          return own.size() >= 2 && std::includes(held.begin(), held.end(), own.begin(), own.end());
-        },
-        seconds(3));
+    ask(1);
+    ask(2);
+    holds = bus.WaitFor(team_holds_robot_1, seconds(3));
   }
   std::string seen;
-  bus.Inspect([&](const BusListener& b) { seen = PortionsSeen(b, "TSC_MEMORY_2"); });
+  bus.Inspect([&](const BusListener& b) {
+    seen = PortionsSeen(b, "TSC_MEMORY_1") + PortionsSeen(b, "TSC_MEMORY_2");
+    for (const auto& [name, ids] :
+         {std::pair{"robot 1's ids broadcast by robot 1:", IdsOf(b, "TSC_MEMORY_1", 1)},
+          std::pair{"robot 1's ids broadcast by robot 2:", IdsOf(b, "TSC_MEMORY_2", 1)}}) {
+      seen += name;
+      for (const PlaceId& id : ids) seen += " " + id.ToString();
+      seen += "\n";
+    }
+  });
   ASSERT_TRUE(holds) << seen << robot1.Log() << robot2.Log();
   robot1.Signal(SIGTERM);
   ASSERT_EQ(robot1.Wait(seconds(30)), 0) << robot1.Log();
