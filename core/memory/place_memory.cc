@@ -15,6 +15,16 @@ namespace {
 
 uint64_t PlaceKey(PlaceId id) { return SplitMix64((uint64_t{id.robot} << 32) | id.local); }
 
+// What D asks the view index with: the index keys each place by its mean and spread views, so
+// D asks by its mean and two of its vote points, and a revisit along part of a place still
+// finds it.
+Eigen::MatrixXf IndexQueries(const Eigen::MatrixXf& votes) {
+  Eigen::MatrixXf queries(votes.rows(), 1 + std::min<Eigen::Index>(2, votes.cols()));
+  queries.col(0) = votes.rowwise().mean();
+  queries.rightCols(queries.cols() - 1) = EvenlySpaced(votes, 2);
+  return queries;
+}
+
 }  // namespace
 
 Eigen::VectorXf DetectedPlace::Mean() const {
@@ -101,12 +111,7 @@ ViewDistances PlaceMemory::DistancesOf(const Eigen::MatrixXf& votes, double unit
   std::vector<float> estimates;
   const int n = static_cast<int>(places_.size());
   if (options_.shortlist > 0 && n > options_.shortlist) {
-    // The index keys each place by its mean and spread views; D is asked by its mean and a
-    // few of its vote points, so a revisit along part of a place still finds it.
-    Eigen::MatrixXf queries(votes.rows(), 1 + std::min<Eigen::Index>(2, votes.cols()));
-    queries.col(0) = votes.rowwise().mean();
-    queries.rightCols(queries.cols() - 1) = EvenlySpaced(votes, 2);
-    estimates = view_index_.Estimate(queries);
+    estimates = view_index_.Estimate(IndexQueries(votes));
     for (int p : Shortlist(estimates, options_.shortlist)) {
       all[static_cast<size_t>(p)] = &places_[static_cast<size_t>(p)];
     }
@@ -116,6 +121,11 @@ ViewDistances PlaceMemory::DistancesOf(const Eigen::MatrixXf& votes, double unit
   // One unit for every place (docs/decisions.md "Recognition cost": a place's own spacing let
   // large, varied places absorb strangers).
   return ViewDistances(votes, all, std::vector<double>(all.size(), unit), estimates);
+}
+
+std::vector<float> PlaceMemory::EstimatedDistances(const Eigen::MatrixXf& votes,
+                                                   std::span<const int> places) const {
+  return view_index_.Estimate(IndexQueries(votes), places);
 }
 
 CostTerms PlaceMemory::Cost(const ViewDistances& vd, const Eigen::MatrixXf& votes, int node) const {
@@ -223,7 +233,12 @@ int PlaceMemory::Learn(const DetectedPlace& d) {
   }
   for (size_t i = 0; i < distances_.size(); ++i) {
     if (!std::isfinite(distances_[i]) || distances_[i] < 0) {
-      fprintf(stderr, "DEBUG bad distance i=%zu of %zu d=%g mean_i finite=%d p.mean finite=%d means_ %ldx%ld dim %ld place norm %g\n", i, distances_.size(), distances_[i], (int)places_[i].mean.allFinite(), (int)p.mean.allFinite(), (long)means_.rows(), (long)means_.cols(), (long)dim, (double)places_[i].mean.norm());
+      fprintf(stderr,
+              "DEBUG bad distance i=%zu of %zu d=%g mean_i finite=%d p.mean finite=%d means_ "
+              "%ldx%ld dim %ld place norm %g\n",
+              i, distances_.size(), distances_[i], (int)places_[i].mean.allFinite(),
+              (int)p.mean.allFinite(), (long)means_.rows(), (long)means_.cols(), (long)dim,
+              (double)places_[i].mean.norm());
       break;
     }
   }

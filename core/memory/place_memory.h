@@ -101,6 +101,11 @@ class PlaceMemory {
   /// The nearest member views of every place to D's vote points (only of the shortlist's
   /// places once the memory holds more than options().shortlist; the others infinitely far).
   ViewDistances DistancesOf(const Eigen::MatrixXf& votes, double unit) const;
+  /// The view index's rough squared distances from `votes` (its mean and two spread points)
+  /// to the places `places`: for a caller that needs only an order of magnitude, as the
+  /// merge's ratio term for a large subtree (core/merge/merge.cc).
+  std::vector<float> EstimatedDistances(const Eigen::MatrixXf& votes,
+                                        std::span<const int> places) const;
   /// u for D: the larger of DistanceUnit() and step_unit x D's median consecutive squared
   /// step (DistanceUnit() alone when D has one point or step_unit is 0).
   double UnitFor(const DetectedPlace& d) const;

@@ -106,6 +106,30 @@ std::vector<float> ViewIndex::Estimate(const Eigen::MatrixXf& queries) const {
   return out;
 }
 
+std::vector<float> ViewIndex::Estimate(const Eigen::MatrixXf& queries,
+                                       std::span<const int> places) const {
+  if (queries.cols() == 0 || queries.rows() != projection_.cols()) {
+    throw std::invalid_argument("view index: queries of dimension " +
+                                std::to_string(queries.rows()) + " for an index of " +
+                                std::to_string(projection_.cols()));
+  }
+  const Eigen::MatrixXf q = Project(queries);
+  const Eigen::RowVectorXf q_norms = q.colwise().squaredNorm();
+  std::vector<float> out;
+  out.reserve(places.size());
+  for (int p : places) {
+    if (p < 0 || p >= size()) throw std::out_of_range("view index: no place " + std::to_string(p));
+    const Eigen::Index first = static_cast<Eigen::Index>(p) * kKeysPerPlace;
+    // kKeysPerPlace x m squared distances in the projection.
+    Eigen::MatrixXf d = -2.0f * (keys_.middleRows(first, kKeysPerPlace) * q);
+    d.rowwise() += q_norms;
+    for (int k = 0; k < kKeysPerPlace; ++k)
+      d.row(k).array() += key_norms_[static_cast<size_t>(first + k)];
+    out.push_back(std::max(0.0f, d.minCoeff() / static_cast<float>(kDimensions)));
+  }
+  return out;
+}
+
 std::vector<int> Shortlist(const std::vector<float>& estimates, int count) {
   std::vector<int> out(estimates.size());
   std::iota(out.begin(), out.end(), 0);

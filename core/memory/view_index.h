@@ -8,6 +8,7 @@
 // before, with the places left out of the shortlist infinitely far.
 
 #include <Eigen/Core>
+#include <span>
 #include <vector>
 
 #include "core/memory/learned_place.h"
@@ -33,6 +34,8 @@ class ViewIndex {
   /// and the columns of `queries` (dim x m, m ≥ 1) in the projection, scaled back to the
   /// descriptor's units (about ±25 % of the true key distance at 32 dimensions).
   std::vector<float> Estimate(const Eigen::MatrixXf& queries) const;
+  /// The same estimate for the places `places` only (indices below size()), in their order.
+  std::vector<float> Estimate(const Eigen::MatrixXf& queries, std::span<const int> places) const;
 
  private:
   Eigen::MatrixXf Project(const Eigen::MatrixXf& x) const;

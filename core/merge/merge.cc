@@ -47,6 +47,10 @@ double RecognitionCost(const PlaceMemory& base, const HyperTerminal& h, const Le
   std::vector<double> units;
   std::vector<int> index;  // base place index of each column
   std::vector<CostCandidate> candidates;
+  // Past `shortlist` places under N*'s children, only the nearest by the view index are
+  // measured, as recognition does (core/memory/view_index.h): the others enter the ratio's N²
+  // by their estimate and cannot be P¹. Measuring every one made the merge quadratic (10⁴ +
+  // 10⁴ synthetic places: N* of ~156 terminals, 1.6·10⁶ place measurements, 19 s).
   for (int c : base.nodes()[static_cast<size_t>(h.node)].children) {
     const MemoryNode& child = base.nodes()[static_cast<size_t>(c)];
     CostCandidate candidate;
@@ -61,7 +65,17 @@ double RecognitionCost(const PlaceMemory& base, const HyperTerminal& h, const Le
     }
     candidates.push_back(std::move(candidate));
   }
-  const ViewDistances vd(p.samples, places, units);
+  std::vector<float> estimates;
+  const int shortlist = base.options().shortlist;
+  if (shortlist > 0 && static_cast<int>(places.size()) > shortlist) {
+    estimates = base.EstimatedDistances(p.samples, index);
+    std::vector<char> measured(places.size(), 0);
+    for (int column : Shortlist(estimates, shortlist)) measured[static_cast<size_t>(column)] = 1;
+    for (size_t column = 0; column < places.size(); ++column) {
+      if (!measured[column]) places[column] = nullptr;
+    }
+  }
+  const ViewDistances vd(p.samples, places, units, estimates);
   const CostTerms t = RecognitionCost(vd, p.mean, candidates, base.options().cost);
   if (t.best < 0) {  // no terminal child of N* can absorb p (RecognitionCost)
     *best = -1;

@@ -12,6 +12,7 @@
 #include <vector>
 
 #include "core/merge/merge_maps.h"
+#include "test/support/synthetic_places.h"
 
 namespace tsc {
 namespace {
@@ -886,6 +887,45 @@ TEST(MergeMemories, RepeatedExchangesInAnyOrderEndWithTheSamePlaces) {
     // Robots do recognise each other's rooms: fewer places than were learned.
     EXPECT_LT(groups.size(), learned.size());
   }
+}
+
+}  // namespace
+}  // namespace tsc
+
+namespace tsc {
+namespace {
+
+// The merge's recognition measures only the `shortlist` places under N*'s children that the
+// view index puts nearest (the rest enter the ratio by their estimate): on memories whose
+// hyper-terminals hold more places than that, it absorbs and adds what measuring every place
+// does.
+TEST(MergeMemories, ShortlistedRecognitionMergesAsTheExhaustiveOne) {
+  const testing_support::SyntheticPlaces world(21, 200, 16, 0.03f);
+  auto memory = [&world](uint32_t robot, int first, int shortlist) {
+    PlaceMemoryOptions options;
+    options.shortlist = shortlist;
+    PlaceMemory m(robot, options);
+    for (int p = first; p < first + 200; ++p) m.Learn(world.Visit(p, robot, 10));
+    return m;
+  };
+  const MemoryMerge fast = MergeMemories(memory(1, 0, 4), memory(2, 100, 4));
+  const MemoryMerge full = MergeMemories(memory(1, 0, 0), memory(2, 100, 0));
+  // The shortlist is used: some N* has more places under its children than it measures.
+  const PlaceMemory base = memory(1, 0, 4);
+  int largest = 0;
+  for (const HyperTerminal& h : HyperTerminals(base)) {
+    largest = std::max(largest, base.nodes()[static_cast<size_t>(h.node)].num_places());
+  }
+  ASSERT_GT(largest, 4);
+  auto pairs = [](const MemoryMerge& m) {
+    std::vector<std::pair<PlaceId, PlaceId>> out;
+    for (const Absorption& a : m.absorbed) out.emplace_back(a.source, a.target);
+    std::sort(out.begin(), out.end());
+    return out;
+  };
+  EXPECT_GT(full.absorbed.size(), 50u);  // of 100 shared places: real recognitions to compare
+  EXPECT_EQ(pairs(fast), pairs(full));
+  EXPECT_EQ(fast.added, full.added);
 }
 
 }  // namespace
