@@ -231,17 +231,6 @@ int PlaceMemory::Learn(const DetectedPlace& d) {
         means_.data() + static_cast<Eigen::Index>(i) * stride, dim);
     distances_[i] = (m - p.mean).squaredNorm();
   }
-  for (size_t i = 0; i < distances_.size(); ++i) {
-    if (!std::isfinite(distances_[i]) || distances_[i] < 0) {
-      fprintf(stderr,
-              "DEBUG bad distance i=%zu of %zu d=%g mean_i finite=%d p.mean finite=%d means_ "
-              "%ldx%ld dim %ld place norm %g\n",
-              i, distances_.size(), distances_[i], (int)places_[i].mean.allFinite(),
-              (int)p.mean.allFinite(), (long)means_.rows(), (long)means_.cols(), (long)dim,
-              (double)places_[i].mean.norm());
-      break;
-    }
-  }
   slink_.Insert(distances_);
   spacings_.push_back(ViewSpacing(p.samples));
   places_.push_back(std::move(p));
