@@ -28,6 +28,20 @@ Eigen::MatrixXf RademacherProjection(Eigen::Index dim) {
 
 Eigen::MatrixXf ViewIndex::Project(const Eigen::MatrixXf& x) const { return projection_ * x; }
 
+Eigen::MatrixXf ViewIndex::ProjectQueries(const Eigen::MatrixXf& queries) const {
+  if (queries.cols() == 0 || queries.rows() != projection_.cols()) {
+    throw std::invalid_argument("view index: queries of dimension " +
+                                std::to_string(queries.rows()) + " for an index of " +
+                                std::to_string(projection_.cols()));
+  }
+  return Project(queries);
+}
+
+float ViewIndex::Unprojected(float projected) {
+  // ±1 entries multiply squared distances by the projection's dimension on average.
+  return std::max(0.0f, projected / static_cast<float>(kDimensions));
+}
+
 void ViewIndex::Set(int place, const LearnedPlace& p) {
   if (place < 0 || place > size()) {
     throw std::out_of_range("view index: place " + std::to_string(place) + " of " +
@@ -68,13 +82,8 @@ void ViewIndex::Set(int place, const LearnedPlace& p) {
 }
 
 std::vector<float> ViewIndex::Estimate(const Eigen::MatrixXf& queries) const {
-  if (queries.cols() == 0 || queries.rows() != projection_.cols()) {
-    throw std::invalid_argument("view index: queries of dimension " +
-                                std::to_string(queries.rows()) + " for an index of " +
-                                std::to_string(projection_.cols()));
-  }
   const int places = size();
-  const Eigen::MatrixXf q = Project(queries);
+  const Eigen::MatrixXf q = ProjectQueries(queries);
   const Eigen::RowVectorXf q_norms = q.colwise().squaredNorm();
   // ‖k − q‖² = ‖k‖² + ‖q‖² − 2 kᵀq; the key norms are kept, the rest is computed here.
   const Eigen::Index n = static_cast<Eigen::Index>(places) * kKeysPerPlace;
@@ -101,19 +110,13 @@ std::vector<float> ViewIndex::Estimate(const Eigen::MatrixXf& queries) const {
       e = std::min(e, key_norms_[static_cast<size_t>(i + k)] + nearest[i + k]);
     out[static_cast<size_t>(p)] = e;
   }
-  // ±1 entries multiply squared distances by the projection's dimension on average.
-  for (float& e : out) e = std::max(0.0f, e / static_cast<float>(kDimensions));
+  for (float& e : out) e = Unprojected(e);
   return out;
 }
 
 std::vector<float> ViewIndex::Estimate(const Eigen::MatrixXf& queries,
                                        std::span<const int> places) const {
-  if (queries.cols() == 0 || queries.rows() != projection_.cols()) {
-    throw std::invalid_argument("view index: queries of dimension " +
-                                std::to_string(queries.rows()) + " for an index of " +
-                                std::to_string(projection_.cols()));
-  }
-  const Eigen::MatrixXf q = Project(queries);
+  const Eigen::MatrixXf q = ProjectQueries(queries);
   const Eigen::RowVectorXf q_norms = q.colwise().squaredNorm();
   std::vector<float> out;
   out.reserve(places.size());
@@ -125,7 +128,7 @@ std::vector<float> ViewIndex::Estimate(const Eigen::MatrixXf& queries,
     d.rowwise() += q_norms;
     for (int k = 0; k < kKeysPerPlace; ++k)
       d.row(k).array() += key_norms_[static_cast<size_t>(first + k)];
-    out.push_back(std::max(0.0f, d.minCoeff() / static_cast<float>(kDimensions)));
+    out.push_back(Unprojected(d.minCoeff()));
   }
   return out;
 }

@@ -39,6 +39,10 @@ class ViewIndex {
 
  private:
   Eigen::MatrixXf Project(const Eigen::MatrixXf& x) const;
+  // Project(queries) after checking them (dim x m, m ≥ 1, the index's dimension).
+  Eigen::MatrixXf ProjectQueries(const Eigen::MatrixXf& queries) const;
+  // A squared distance in the projection back in the descriptor's units (≥ 0).
+  static float Unprojected(float projected);
 
   // kDimensions x dim, entries ±1 from a fixed seed: a Johnson-Lindenstrauss map, the same
   // for every memory of that dimension, so no basis has to be learned or kept in step.
