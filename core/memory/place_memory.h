@@ -102,8 +102,8 @@ class PlaceMemory {
   /// places once the memory holds more than options().shortlist; the others infinitely far).
   ViewDistances DistancesOf(const Eigen::MatrixXf& votes, double unit) const;
   /// The view index's rough squared distances from `votes` (its mean and two spread points)
-  /// to the places `places`: for a caller that needs only an order of magnitude, as the
-  /// merge's ratio term for a large subtree (core/merge/merge.cc).
+  /// to the places `places`: what the merge shortlists a hyper-terminal's places by, and the
+  /// ratio term's distance to the places it does not measure (core/merge/merge.cc).
   std::vector<float> EstimatedDistances(const Eigen::MatrixXf& votes,
                                         std::span<const int> places) const;
   /// u for D: the larger of DistanceUnit() and step_unit x D's median consecutive squared

@@ -362,8 +362,6 @@ std::vector<LearnedPlace> PlacesOf(const PlaceMemory& memory, PlaceMemory* owned
   return memory.places();
 }
 
-// MergeMemories. `ours_owned` / `peer_owned` point at `ours` / `peer` when the caller gave
-// them up: their places are then moved into the result instead of copied.
 // Figure 4.4's case for the root spheres `sb` of the base and `si` of the incoming memory.
 MergeCase RootSphereCase(const PlaceMemory& base, const PlaceMemory& incoming,
                          const NodeStatistics& sb, const NodeStatistics& si, double tau_r) {
@@ -459,6 +457,8 @@ void RecogniseNewIncomingPlaces(const PlaceMemory& base, const PlaceMemory& inco
   }
 }
 
+// MergeMemories. `ours_owned` / `peer_owned` point at `ours` / `peer` when the caller gave
+// them up: their places are then moved into the result instead of copied.
 MemoryMerge Merge(const PlaceMemory& ours, const PlaceMemory& peer, PlaceMemory* ours_owned,
                   PlaceMemory* peer_owned) {
   if (!ours.empty() && !peer.empty() &&
