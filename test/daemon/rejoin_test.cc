@@ -64,22 +64,25 @@ std::set<PlaceId> OwnIds(const fs::path& db, uint32_t owner, uint32_t robot) {
   return ids;
 }
 
-// Ids of robot `robot` in every memory portion seen on `channel`: places and sources. Ids are
-// never dropped from a memory, so the union over time is what the sender holds now.
-std::set<PlaceId> IdsOf(const BusListener& b, const std::string& channel, int robot) {
-  std::set<PlaceId> ids;
-  if (!b.portions.count(channel)) return ids;
+// Adds robot `robot`'s ids in portion `m` (its places and their sources) to `ids`.
+void AddIds(const memory_portion_t& m, int robot, std::set<PlaceId>& ids) {
   auto add = [&](const place_ref_t& r) {
     if (r.robot == robot) {
       ids.insert(PlaceId{static_cast<uint32_t>(r.robot), static_cast<uint32_t>(r.local)});
     }
   };
-  for (const memory_portion_t& m : b.portions.at(channel)) {
-    for (const learned_place_t& p : m.places) {
-      add(p.id);
-      for (const place_ref_t& s : p.sources) add(s);
-    }
+  for (const learned_place_t& p : m.places) {
+    add(p.id);
+    for (const place_ref_t& s : p.sources) add(s);
   }
+}
+
+// Ids of robot `robot` in every memory portion seen on `channel`: places and sources. Ids are
+// never dropped from a memory, so the union over time is what the sender holds now.
+std::set<PlaceId> IdsOf(const BusListener& b, const std::string& channel, int robot) {
+  std::set<PlaceId> ids;
+  if (!b.portions.count(channel)) return ids;
+  for (const memory_portion_t& m : b.portions.at(channel)) AddIds(m, robot, ids);
   return ids;
 }
 
@@ -133,19 +136,11 @@ std::optional<std::set<PlaceId>> IdsOfVersion(const BusListener& b, const std::s
   std::set<int32_t> have;
   int32_t count = -1;
   std::set<PlaceId> ids;
-  auto add = [&](const place_ref_t& r) {
-    if (r.robot == robot) {
-      ids.insert(PlaceId{static_cast<uint32_t>(r.robot), static_cast<uint32_t>(r.local)});
-    }
-  };
   for (const memory_portion_t& m : b.portions.at(channel)) {
     if (m.version != version) continue;
     have.insert(m.index);
     count = m.count;
-    for (const learned_place_t& p : m.places) {
-      add(p.id);
-      for (const place_ref_t& s : p.sources) add(s);
-    }
+    AddIds(m, robot, ids);
   }
   if (count < 0 || static_cast<int32_t>(have.size()) != count) return std::nullopt;
   return ids;
