@@ -624,6 +624,8 @@ TEST_F(TscdTest, AFullQueueDropsWholeSweepsAndCountsEachOnce) {
   // the camera delivers a sweep every 40 ms.
   sqlite3* lock = nullptr;
   ASSERT_EQ(sqlite3_open(db_path.c_str(), &lock), SQLITE_OK);
+  // The worker may be inside a commit of its own right now: wait for it as it waits for us.
+  sqlite3_busy_timeout(lock, 30000);
   ASSERT_EQ(sqlite3_exec(lock, "BEGIN IMMEDIATE", nullptr, nullptr, nullptr), SQLITE_OK)
       << sqlite3_errmsg(lock);
   const bool dropped = announced([](const announce_t& a) { return a.frames_dropped >= 3; });
