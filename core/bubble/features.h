@@ -18,8 +18,19 @@ enum class Feature {
   kConcentric,  ///< response to a concentric (radial) grating (non-Cartesian)
   kIntensity,   ///< mean grey level of the patch in [0,1]; used for informativeness (app. C)
   kDepth,       ///< mean range of the patch divided by the sensor's maximum range
+  // Hue as a pair (DESIGN §3.1 amended): 0.5 + 0.5·mean(saturation·cos hue), likewise sin.
+  // Red does not wrap and grey (0.5, 0.5) is no colour, unlike kHue where grey is red.
+  kHueCos,
+  kHueSin,
+  // Contrast-normalised gradient orientation: the share of the patch's gradient energy along
+  // 0°, 45°, 90° and 135° (image x axis; the four sum to 1, 0 on a flat patch). A gain or an
+  // offset of the light leaves them unchanged, where a grating's response scales with it.
+  kOrient0,
+  kOrient45,
+  kOrient90,
+  kOrient135,
 };
-inline constexpr int kNumFeatureKinds = 8;
+inline constexpr int kNumFeatureKinds = 14;
 
 const char* FeatureName(Feature f);
 
@@ -31,7 +42,11 @@ class FeatureSet {
   /// Thesis sets: L1 hue+Cartesian, L2 L1+non-Cartesian, L3 depth, L4 L1+depth, L5 L2+depth.
   /// `with_intensity` appends intensity (the thesis' 7th feature, needed by place detection).
   static FeatureSet Thesis(int l, bool with_intensity = true);
-  /// Parses "L2", "L5", "L2+I" (with intensity, the default) or "L2-I" (without).
+  /// The default (docs/decisions.md "Features that survive lighting"): hue as a (cos, sin)
+  /// pair, the L2 gratings, the four orientation shares and intensity.
+  static FeatureSet Recognition();
+  /// Parses "L2", "L5", "L2+I" (with intensity, the default) or "L2-I" (without), or a
+  /// comma-separated list of feature names ("hue_cos,hue_sin,orient_0,...,intensity").
   static FeatureSet Parse(const std::string& name);
 
   const std::vector<Feature>& features() const { return features_; }
@@ -40,11 +55,30 @@ class FeatureSet {
   int IndexOf(Feature f) const;
   bool Contains(Feature f) const { return IndexOf(f) >= 0; }
   bool NeedsDepth() const { return Contains(Feature::kDepth); }
+  bool NeedsHue() const;
+  bool NeedsOrientation() const;
+  /// Whether a feature of the set is computed from the grey image.
+  bool NeedsGrey() const;
+  /// The thesis name ("L2+I") or the comma-separated list Parse reads back.
   std::string ToString() const;
 
  private:
   std::vector<Feature> features_;
 };
+
+/// The per-frame images the features are computed from, all of one size (the resized frame);
+/// an image no feature of the set needs stays empty.
+struct FeatureImages {
+  cv::Mat grey;                    ///< CV_32F in [0,1]
+  cv::Mat hue_cos, hue_sin;        ///< CV_32F per-pixel cos/sin of hue weighted by saturation
+  cv::Mat depth;                   ///< CV_32F in [0,1], 0 = no reading
+  std::array<cv::Mat, 4> orient;   ///< CV_32F gradient energy along 0°, 45°, 90°, 135°
+};
+
+/// Fills `out.orient` from `grey`: per pixel, with (gx, gy) the central-difference gradient
+/// and m its magnitude, the doubled-angle vector m·(cos 2θ, sin 2θ) = ((gx²−gy²), 2gx·gy)/m
+/// split into its four half-wave parts (0°: cos 2θ > 0, 90°: < 0; 45°: sin 2θ > 0, 135°: < 0).
+void ComputeOrientationImages(const cv::Mat& grey, FeatureImages& out);
 
 /// Computes feature values on square patches of side `patch_px` of a prepared image.
 /// The grating kernels are zero-mean and unit-norm; a response is the magnitude of the
@@ -58,11 +92,9 @@ class PatchFeatureExtractor {
  public:
   explicit PatchFeatureExtractor(int patch_px = 12);
   int patch_px() const { return patch_px_; }
-  /// `grey`: CV_32F in [0,1]; `hue_cos`, `hue_sin`: CV_32F per-pixel cos/sin of hue weighted
-  /// by saturation; `depth`: CV_32F in [0,1] or empty. (x0, y0) is the patch's top-left corner,
-  /// fully inside the images. Writes one value per feature of `set` into `out`.
-  void Compute(const FeatureSet& set, const cv::Mat& grey, const cv::Mat& hue_cos,
-               const cv::Mat& hue_sin, const cv::Mat& depth, int x0, int y0,
+  /// (x0, y0) is the patch's top-left corner, fully inside the images. Writes one value per
+  /// feature of `set` into `out`.
+  void Compute(const FeatureSet& set, const FeatureImages& images, int x0, int y0,
                float* out) const;
 
  private:

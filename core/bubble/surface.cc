@@ -193,26 +193,27 @@ void BubbleSurface::Observe(const Observation& obs) {
                                   std::to_string(obs.bgr.rows));
     }
   }
-  bool need_grey = false;
-  for (Feature f : features_.features()) need_grey |= f != Feature::kHue && f != Feature::kDepth;
-  const bool need_hue = features_.Contains(Feature::kHue);
+  const bool need_grey = features_.NeedsGrey();
+  const bool need_hue = features_.NeedsHue();
+  FeatureImages& images = scratch_.images;
 
   // One resize so that every d_phi x d_phi patch is patch_px x patch_px pixels.
   Resize(obs.bgr, scratch_.small_bgr);
   if (need_grey) {
     cv::cvtColor(scratch_.small_bgr, scratch_.grey8, cv::COLOR_BGR2GRAY);
-    scratch_.grey8.convertTo(scratch_.grey, CV_32F, 1.0 / 255.0);
+    scratch_.grey8.convertTo(images.grey, CV_32F, 1.0 / 255.0);
+    if (features_.NeedsOrientation()) ComputeOrientationImages(images.grey, images);
   }
   if (need_hue) {
     // Unit hue vectors weighted by saturation, averaged per patch (circular mean).
     static const HueTable kHue;
     cv::cvtColor(scratch_.small_bgr, scratch_.hsv, cv::COLOR_BGR2HSV);
-    scratch_.hue_cos.create(scratch_.hsv.size(), CV_32F);
-    scratch_.hue_sin.create(scratch_.hsv.size(), CV_32F);
+    images.hue_cos.create(scratch_.hsv.size(), CV_32F);
+    images.hue_sin.create(scratch_.hsv.size(), CV_32F);
     for (int y = 0; y < scratch_.hsv.rows; ++y) {
       const uint8_t* p = scratch_.hsv.ptr<uint8_t>(y);
-      float* c = scratch_.hue_cos.ptr<float>(y);
-      float* s = scratch_.hue_sin.ptr<float>(y);
+      float* c = images.hue_cos.ptr<float>(y);
+      float* s = images.hue_sin.ptr<float>(y);
       for (int x = 0; x < scratch_.hsv.cols; ++x) {
         const float sat = p[3 * x + 1] * (1.0f / 255.0f);
         c[x] = kHue.cos_h[p[3 * x]] * sat;
@@ -239,12 +240,12 @@ void BubbleSurface::Observe(const Observation& obs) {
     cv::Mat sum, weight;
     Resize(scratch_.depth_norm, sum);
     Resize(scratch_.depth_valid, weight);
-    scratch_.depth.create(resized_size_, CV_32F);
-    for (int y = 0; y < scratch_.depth.rows; ++y) {
+    images.depth.create(resized_size_, CV_32F);
+    for (int y = 0; y < images.depth.rows; ++y) {
       const float* s = sum.ptr<float>(y);
       const float* w = weight.ptr<float>(y);
-      float* out = scratch_.depth.ptr<float>(y);
-      for (int x = 0; x < scratch_.depth.cols; ++x) {
+      float* out = images.depth.ptr<float>(y);
+      for (int x = 0; x < images.depth.cols; ++x) {
         // Mean of the valid readings under the pixel; 0 marks "no reading".
         out[x] = w[x] > 1e-6f ? std::clamp(s[x] / w[x], 1e-6f, 1.0f) : 0.0f;
       }
@@ -252,13 +253,10 @@ void BubbleSurface::Observe(const Observation& obs) {
   }
 
   // (A.2): each observed direction takes the new feature values.
-  const cv::Mat empty;
   const int nv = features_.size();
   std::array<float, kNumFeatureKinds> q{};
   for (const PatchSite& site : Sites(obs.pan_tilt)) {
-    extractor_.Compute(features_, need_grey ? scratch_.grey : empty,
-                       need_hue ? scratch_.hue_cos : empty, need_hue ? scratch_.hue_sin : empty,
-                       need_depth ? scratch_.depth : empty, site.x0, site.y0, q.data());
+    extractor_.Compute(features_, images, site.x0, site.y0, q.data());
     for (int k = 0; k < nv; ++k) rho_[k](site.cell) = q[k];
     observed_(site.cell) = 1;
   }

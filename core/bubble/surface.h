@@ -108,7 +108,8 @@ class BubbleSurface {
   // Per-frame images, reused from frame to frame to avoid allocations. A copy of the surface
   // starts with its own, empty ones (copied cv::Mats would share their pixels).
   struct Scratch {
-    cv::Mat shrunk, small_bgr, grey8, grey, hsv, hue_cos, hue_sin, depth_norm, depth_valid, depth;
+    cv::Mat shrunk, small_bgr, grey8, hsv, depth_norm, depth_valid;
+    FeatureImages images;
     Scratch() = default;
     Scratch(const Scratch&) {}
     Scratch& operator=(const Scratch&) { return *this; }

@@ -2,10 +2,13 @@
 
 #include <gtest/gtest.h>
 
+#include <array>
 #include <cmath>
 #include <functional>
 #include <numbers>
 #include <stdexcept>
+#include <string>
+#include <vector>
 
 #include "core/bubble/surface.h"
 
@@ -53,7 +56,7 @@ TEST(FeatureSet, RejectsDuplicatesAndEmptyLists) {
   EXPECT_THROW(FeatureSet({}), std::invalid_argument);
   const FeatureSet custom({Feature::kIntensity, Feature::kPolar});
   EXPECT_EQ(custom.IndexOf(Feature::kPolar), 1);
-  EXPECT_EQ(custom.ToString(), "[intensity,polar]");
+  EXPECT_EQ(custom.ToString(), "intensity,polar");
 }
 
 // A 24 x 24 image whose 12 x 12 patch at (kX0, kY0) is value(u, v), (u, v) in [-1, 1].
@@ -80,7 +83,11 @@ class PatchFeatureExtractorTest : public ::testing::Test {
   // Feature values in the order of set_.
   std::vector<float> Values() {
     std::vector<float> out(set_.size());
-    dut_.Compute(set_, grey_, hue_cos_, hue_sin_, cv::Mat(), kX0, kY0, out.data());
+    FeatureImages images;
+    images.grey = grey_;
+    images.hue_cos = hue_cos_;
+    images.hue_sin = hue_sin_;
+    dut_.Compute(set_, images, kX0, kY0, out.data());
     return out;
   }
 
@@ -161,6 +168,109 @@ TEST_F(PatchFeatureExtractorTest, HueIsTheCircularMeanScaledToUnitRange) {
   EXPECT_TRUE(red < 1e-4f || red > 1.0f - 1e-4f) << red;
 }
 
+double MeanOverObservedIn(const FeatureSet& set, const cv::Scalar& bgr, Feature f);
+
+// The orientation shares of one patch painted with `value(u, v)` under light `gain·q + offset`.
+std::array<float, 4> OrientationShares(const std::function<double(double, double)>& value,
+                                       double gain = 1.0, double offset = 0.0) {
+  const int n = 12, x0 = 5, y0 = 7;
+  cv::Mat grey(24, 24, CV_32F, cv::Scalar(offset));
+  for (int y = 0; y < 24; ++y) {
+    for (int x = 0; x < 24; ++x) {
+      // The whole image, so the patch's border gradients see the pattern go on.
+      const double u = (2.0 * (x - x0) + 1.0) / n - 1.0, v = (2.0 * (y - y0) + 1.0) / n - 1.0;
+      grey.at<float>(y, x) = static_cast<float>(gain * value(u, v) + offset);
+    }
+  }
+  FeatureImages images;
+  images.grey = grey;
+  ComputeOrientationImages(grey, images);
+  const FeatureSet set({Feature::kOrient0, Feature::kOrient45, Feature::kOrient90,
+                        Feature::kOrient135});
+  std::array<float, 4> out{};
+  PatchFeatureExtractor(n).Compute(set, images, x0, y0, out.data());
+  return out;
+}
+
+TEST(OrientationShares, EachEdgeDirectionFillsItsOwnShare) {
+  const auto stripes = [](double angle) {
+    return [angle](double u, double v) {
+      return 0.5 + 0.5 * std::cos(kTwoPi * 2.0 * (u * std::cos(angle) + v * std::sin(angle)));
+    };
+  };
+  // Stripes whose intensity changes along direction k·45° put their gradient energy there.
+  for (int k = 0; k < 4; ++k) {
+    const std::array<float, 4> q = OrientationShares(stripes(k * std::numbers::pi / 4.0));
+    for (int b = 0; b < 4; ++b) {
+      if (b == k) {
+        EXPECT_GT(q[static_cast<size_t>(b)], 0.6f) << "stripes along " << 45 * k << "°";
+      } else {
+        EXPECT_LT(q[static_cast<size_t>(b)], q[static_cast<size_t>(k)] / 2) << "bin " << b;
+      }
+    }
+  }
+  // A flat patch has no orientation, however bright.
+  for (float v : OrientationShares([](double, double) { return 0.7; })) EXPECT_EQ(v, 0.0f);
+}
+
+TEST(OrientationShares, DimmerLightKeepsTheRatiosBetweenShares) {
+  // A patch with two edge directions: night light (gain 0.27, black lifted by 0.09, the
+  // simulator's dim) scales every share alike, where a grating's response falls with the gain.
+  const auto pattern = [](double u, double v) {
+    return 0.5 + 0.3 * std::cos(kTwoPi * 2.0 * u) + 0.2 * std::cos(kTwoPi * 1.5 * v);
+  };
+  const std::array<float, 4> day = OrientationShares(pattern);
+  const std::array<float, 4> night = OrientationShares(pattern, 0.27, 0.09);
+  ASSERT_GT(day[2], 0.05f);
+  ASSERT_GT(night[2], 0.0f);
+  // One factor for every share (the flat-patch floor of features.cc), and most of each kept.
+  const float factor = night[0] / day[0];
+  for (size_t k = 0; k < 4; ++k) {
+    if (day[k] > 0.01f) {
+      EXPECT_NEAR(night[k] / day[k], factor, 1e-3f) << "bin " << k;
+    }
+  }
+  EXPECT_GT(factor, 0.7f);
+}
+
+TEST(HuePair, RedDoesNotWrapAndGreyIsNoColour) {
+  const FeatureSet set({Feature::kHueCos, Feature::kHueSin, Feature::kIntensity});
+  const auto pair = [&set](const cv::Scalar& bgr) {
+    return std::array<double, 2>{MeanOverObservedIn(set, bgr, Feature::kHueCos),
+                                 MeanOverObservedIn(set, bgr, Feature::kHueSin)};
+  };
+  const auto red = pair(cv::Scalar(0, 0, 255));
+  EXPECT_NEAR(red[0], 1.0, 0.01);
+  EXPECT_NEAR(red[1], 0.5, 0.01);
+  const auto grey = pair(cv::Scalar(128, 128, 128));
+  EXPECT_NEAR(grey[0], 0.5, 1e-3);
+  EXPECT_NEAR(grey[1], 0.5, 1e-3);
+  // Reds 9° either side of 0° are as near as their hue angles (chord 0.16); the scalar hue
+  // puts them at 0.03 and 0.97.
+  const auto warm = pair(cv::Scalar(0, 40, 255)), cool = pair(cv::Scalar(40, 0, 255));
+  EXPECT_LT(std::hypot(warm[0] - cool[0], warm[1] - cool[1]), 0.2);
+  const FeatureSet scalar = FeatureSet::Thesis(1, true);
+  EXPECT_GT(MeanOverObservedIn(scalar, cv::Scalar(40, 0, 255), Feature::kHue) -
+                MeanOverObservedIn(scalar, cv::Scalar(0, 40, 255), Feature::kHue),
+            0.9);
+}
+
+TEST(FeatureSet, ParsesFeatureListsAndNamesTheUnknownOne) {
+  const FeatureSet set = FeatureSet::Recognition();
+  EXPECT_EQ(FeatureSet::Parse(set.ToString()).features(), set.features());
+  EXPECT_TRUE(set.Contains(Feature::kIntensity));  // place detection needs it
+  EXPECT_TRUE(set.NeedsOrientation() && set.NeedsHue() && set.NeedsGrey());
+  EXPECT_EQ(FeatureSet::Parse("orient_90").features(), std::vector<Feature>{Feature::kOrient90});
+  try {
+    FeatureSet::Parse("hue_cos,orient_7,intensity");
+    ADD_FAILURE() << "no exception";
+  } catch (const std::invalid_argument& e) {
+    EXPECT_NE(std::string(e.what()).find("'orient_7'"), std::string::npos) << e.what();
+  }
+  EXPECT_THROW(FeatureSet::Parse("hue_cos,,intensity"), std::invalid_argument);
+  EXPECT_THROW(FeatureSet::Parse("hue_cos,hue_cos"), std::invalid_argument);
+}
+
 TEST(PatchFeatureExtractor, RejectsPatchesTooSmallForTheGratings) {
   EXPECT_THROW(PatchFeatureExtractor(4), std::invalid_argument);
   EXPECT_NO_THROW(PatchFeatureExtractor(6));
@@ -175,6 +285,10 @@ double MeanOverObserved(const FeatureSet& set, const cv::Scalar& bgr, const cv::
   double sum = 0.0;
   for (Eigen::Index k = 0; k < rho.size(); ++k) sum += surface.observed()(k) ? rho(k) : 0.0;
   return sum / surface.ObservedCount();
+}
+
+double MeanOverObservedIn(const FeatureSet& set, const cv::Scalar& bgr, Feature f) {
+  return MeanOverObserved(set, bgr, cv::Mat(), f);
 }
 
 TEST(BubbleSurfaceFeatures, HueOfRedAndGreenFramesDiffer) {
