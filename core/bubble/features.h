@@ -42,8 +42,8 @@ class FeatureSet {
   /// Thesis sets: L1 hue+Cartesian, L2 L1+non-Cartesian, L3 depth, L4 L1+depth, L5 L2+depth.
   /// `with_intensity` appends intensity (the thesis' 7th feature, needed by place detection).
   static FeatureSet Thesis(int l, bool with_intensity = true);
-  /// The default (docs/decisions.md "Features that survive lighting"): hue as a (cos, sin)
-  /// pair, the L2 gratings, the four orientation shares and intensity.
+  /// Hue as a (cos, sin) pair, the L2 gratings, the four orientation shares and intensity:
+  /// the set measured in docs/decisions.md "Features that survive lighting" (not the default).
   static FeatureSet Recognition();
   /// Parses "L2", "L5", "L2+I" (with intensity, the default) or "L2-I" (without), or a
   /// comma-separated list of feature names ("hue_cos,hue_sin,orient_0,...,intensity").
