@@ -188,9 +188,9 @@ FeatureSet FeatureSet::Thesis(int l, bool with_intensity) {
 
 FeatureSet FeatureSet::Recognition() {
   return FeatureSet({Feature::kHueCos, Feature::kHueSin, Feature::kVertical, Feature::kHorizontal,
-                     Feature::kHyperbolic, Feature::kPolar, Feature::kConcentric,
-                     Feature::kOrient0, Feature::kOrient45, Feature::kOrient90,
-                     Feature::kOrient135, Feature::kIntensity});
+                     Feature::kHyperbolic, Feature::kPolar, Feature::kConcentric, Feature::kOrient0,
+                     Feature::kOrient45, Feature::kOrient90, Feature::kOrient135,
+                     Feature::kIntensity});
 }
 
 FeatureSet FeatureSet::Parse(const std::string& name) {
@@ -209,8 +209,8 @@ FeatureSet FeatureSet::Parse(const std::string& name) {
       const std::string item = name.substr(start, end - start);
       const int kind = FeatureByName(item);
       if (kind < 0) {
-        throw std::invalid_argument("feature set '" + name + "' names an unknown feature '" +
-                                    item + "'");
+        throw std::invalid_argument("feature set '" + name + "' names an unknown feature '" + item +
+                                    "'");
       }
       list.push_back(static_cast<Feature>(kind));
       start = end + 1;
@@ -276,7 +276,8 @@ void ComputeOrientationImages(const cv::Mat& grey, FeatureImages& out) {
     const float* down = grey.ptr<float>(std::min(y + 1, rows - 1));
     const float dy_scale = (y == 0 || y == rows - 1) ? 1.0f : 0.5f;
     std::array<float*, 4> o;
-    for (int b = 0; b < 4; ++b) o[static_cast<size_t>(b)] = out.orient[static_cast<size_t>(b)].ptr<float>(y);
+    for (int b = 0; b < 4; ++b)
+      o[static_cast<size_t>(b)] = out.orient[static_cast<size_t>(b)].ptr<float>(y);
     for (int x = 0; x < cols; ++x) {
       const int xl = std::max(x - 1, 0);
       const int xr = std::min(x + 1, cols - 1);
@@ -287,7 +288,7 @@ void ComputeOrientationImages(const cv::Mat& grey, FeatureImages& out) {
       if (m2 > 0.0f) {
         const float inv_m = 1.0f / std::sqrt(m2);
         c = (gx * gx - gy * gy) * inv_m;  // m·cos 2θ
-        s = 2.0f * gx * gy * inv_m;      // m·sin 2θ
+        s = 2.0f * gx * gy * inv_m;       // m·sin 2θ
       }
       o[0][x] = std::max(c, 0.0f);
       o[1][x] = std::max(s, 0.0f);

@@ -23,8 +23,9 @@ enum class Feature {
   kHueCos,
   kHueSin,
   // Contrast-normalised gradient orientation: the share of the patch's gradient energy along
-  // 0°, 45°, 90° and 135° (image x axis; the four sum to 1, 0 on a flat patch). A gain or an
-  // offset of the light leaves them unchanged, where a grating's response scales with it.
+  // 0°, 45°, 90° and 135° (image x axis; the four sum to just under 1 on a textured patch, 0 on
+  // a flat one, through the flat-patch floor of features.cc). An offset of the light leaves
+  // them unchanged and a gain scales the four alike, where a grating's response scales with it.
   kOrient0,
   kOrient45,
   kOrient90,
@@ -69,10 +70,10 @@ class FeatureSet {
 /// The per-frame images the features are computed from, all of one size (the resized frame);
 /// an image no feature of the set needs stays empty.
 struct FeatureImages {
-  cv::Mat grey;                    ///< CV_32F in [0,1]
-  cv::Mat hue_cos, hue_sin;        ///< CV_32F per-pixel cos/sin of hue weighted by saturation
-  cv::Mat depth;                   ///< CV_32F in [0,1], 0 = no reading
-  std::array<cv::Mat, 4> orient;   ///< CV_32F gradient energy along 0°, 45°, 90°, 135°
+  cv::Mat grey;                   ///< CV_32F in [0,1]
+  cv::Mat hue_cos, hue_sin;       ///< CV_32F per-pixel cos/sin of hue weighted by saturation
+  cv::Mat depth;                  ///< CV_32F in [0,1], 0 = no reading
+  std::array<cv::Mat, 4> orient;  ///< CV_32F gradient energy along 0°, 45°, 90°, 135°
 };
 
 /// Fills `out.orient` from `grey`: per pixel, with (gx, gy) the central-difference gradient

@@ -185,8 +185,8 @@ std::array<float, 4> OrientationShares(const std::function<double(double, double
   FeatureImages images;
   images.grey = grey;
   ComputeOrientationImages(grey, images);
-  const FeatureSet set({Feature::kOrient0, Feature::kOrient45, Feature::kOrient90,
-                        Feature::kOrient135});
+  const FeatureSet set(
+      {Feature::kOrient0, Feature::kOrient45, Feature::kOrient90, Feature::kOrient135});
   std::array<float, 4> out{};
   PatchFeatureExtractor(n).Compute(set, images, x0, y0, out.data());
   return out;
