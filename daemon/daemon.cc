@@ -816,7 +816,7 @@ void Daemon::CameraLoop() {
         return;
       }
       const bool ends = frame->ends_base_point;
-      queue_.Push(std::move(*frame), ends);
+      queue_.Push(std::move(*frame), ends, camera_->replays_every_frame());
     } catch (const CameraError& e) {
       if (stopping_) return;  // a read cut short by the stop
       const int64_t n = ++counters_.camera_errors;

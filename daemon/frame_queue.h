@@ -1,7 +1,8 @@
 #pragma once
-// The bounded queue between the camera thread and the pipeline worker, in base points. The
+// The bounded queue between the camera thread and the pipeline worker, in base points. A live
 // camera never blocks: when the queue is full the oldest base point is dropped and counted (a
-// robot would rather see now than catch up on the past). A pan sweep delivers a base point as
+// robot would rather see now than catch up on the past). A replay (a recording read unpaced)
+// waits for room instead, so it processes every frame whatever the machine's speed. A pan sweep delivers a base point as
 // several views, the last one ending it; the queue gathers them and queues, hands out and
 // drops only whole sweeps, so the pipeline never builds a base point from part of one (whose
 // first view, which judges coherence, might be the part missing).
@@ -29,14 +30,19 @@ class FrameQueue {
   explicit FrameQueue(size_t capacity) : capacity_(capacity) {}
 
   /// Adds a view to the base point being gathered. The view that ends it queues the whole
-  /// base point, dropping the oldest waiting one (every view of it, counted once) when full.
-  /// Returns false once closed.
-  bool Push(View view, bool ends_base_point) {
+  /// base point; when the queue is full it drops the oldest waiting one (every view of it,
+  /// counted once), or with `wait_for_room` waits until the worker takes one. Returns false
+  /// once closed (a base point still waiting for room then is discarded, not counted).
+  bool Push(View view, bool ends_base_point, bool wait_for_room = false) {
     {
-      std::lock_guard lock(mutex_);
+      std::unique_lock lock(mutex_);
       if (closed_) return false;
       gathering_.push_back(std::move(view));
       if (!ends_base_point) return true;
+      if (wait_for_room) {
+        room_.wait(lock, [&] { return closed_ || Waiting() < capacity_; });
+        if (closed_) return false;
+      }
       Enqueue(std::exchange(gathering_, {}));
     }
     ready_.notify_one();
@@ -65,6 +71,8 @@ class FrameQueue {
     if (waiting_.empty()) return std::nullopt;
     BasePoint b = std::move(waiting_.front());
     waiting_.pop_front();
+    lock.unlock();
+    room_.notify_one();
     return b;
   }
 
@@ -76,6 +84,7 @@ class FrameQueue {
       closed_ = true;
     }
     ready_.notify_all();
+    room_.notify_all();
   }
 
   bool closed() const {
@@ -118,6 +127,7 @@ class FrameQueue {
   const size_t capacity_;
   mutable std::mutex mutex_;
   std::condition_variable ready_;
+  std::condition_variable room_;  // a waiting push: the worker took a base point
   std::deque<BasePoint> waiting_;
   BasePoint gathering_;  // views of the base point under way
   bool closed_ = false;

@@ -408,7 +408,10 @@ std::vector<ConfigKey> BuildTable() {
       "camera.path", "folder or video file; for a device /dev/videoN or its number N", "a path",
       [](auto& o) -> auto& { return o.daemon.camera.path; }));
   t.push_back(Number(
-      "camera.fps", "frames per second delivered to the pipeline; 0 = as fast as the source", "1/s",
+      "camera.fps",
+      "frames per second delivered to the pipeline; 0 = as fast as the source, and a folder, "
+      "video or sim route then waits for the pipeline (every frame processed, none dropped)",
+      "1/s",
       CameraOptions::kFpsRange, [](auto& o) -> auto& { return o.daemon.camera.fps; }));
   t.push_back(Bool(
       "camera.loop", "folder and video: start again at the end instead of stopping",

@@ -57,6 +57,11 @@ class CameraSource {
   /// folder's declaration); nullopt for a live camera, whose spacing follows its frame rate
   /// (docs/decisions.md, "Frame rate").
   virtual std::optional<BasePointSpacing> spacing() const { return std::nullopt; }
+  /// True for a recording read unpaced (a folder, video or simulated route at fps 0): its
+  /// frames wait for the pipeline rather than being dropped, so a replay processes every frame
+  /// whatever the machine's speed. A live or paced source is false: the robot would rather see
+  /// now than catch up on the past.
+  virtual bool replays_every_frame() const { return false; }
 
  protected:
   /// Raised by Interrupt(); sources wait on it (Clock::WaitUntil(us, interrupted_)).

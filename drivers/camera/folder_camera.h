@@ -40,6 +40,7 @@ class FolderCamera : public CameraSource {
   /// naming the file; the following call continues with the frame after it. nullopt after
   /// the last frame unless looping.
   std::optional<CameraFrame> Next() override;
+  bool replays_every_frame() const override { return options_.fps == 0.0; }
   const CameraIntrinsics& intrinsics() const override { return intrinsics_; }
   std::string name() const override { return "folder:" + options_.folder.string(); }
   std::optional<BasePointSpacing> spacing() const override { return dataset_.spacing(); }

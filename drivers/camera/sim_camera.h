@@ -50,6 +50,7 @@ class SimCamera : public CameraSource {
   /// pan sweep (scene.sweep) the views of one pose, the last one ending the base point.
   /// Scripted route: nullopt after its last frame unless looping.
   std::optional<CameraFrame> Next() override;
+  bool replays_every_frame() const override { return options_.fps == 0.0; }
   const CameraIntrinsics& intrinsics() const override { return intrinsics_; }
   /// "sim:office/7/route 2" or "sim:office/7/base".
   std::string name() const override;

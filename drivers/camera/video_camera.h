@@ -37,6 +37,7 @@ class VideoCamera : public CameraSource {
   /// The next decoded frame (CV_8UC3), at most fps per second; nullopt at the end of the file
   /// unless looping (a file that yields no frame at all ends even when looping).
   std::optional<CameraFrame> Next() override;
+  bool replays_every_frame() const override { return options_.fps == 0.0; }
   const CameraIntrinsics& intrinsics() const override { return intrinsics_; }
   std::string name() const override { return "video:" + options_.file.string(); }
 

@@ -132,5 +132,36 @@ TEST(FrameQueue, ProducerNeverBlocksOnASlowConsumer) {
   EXPECT_EQ(dut.Pop(milliseconds(0)), BasePoint{9996});
 }
 
+// A replay waits for room: a slow consumer gets every base point in order, none dropped. (A
+// dropping queue fails this: the producer runs thousands of pushes ahead of the pops.)
+TEST(FrameQueue, AReplayWaitsForRoomAndLosesNothing) {
+  FrameQueue<int> dut(2);
+  constexpr int kFrames = 2000;
+  std::thread producer([&] {
+    for (int i = 0; i < kFrames; ++i) ASSERT_TRUE(dut.Push(i, true, /*wait_for_room=*/true));
+  });
+  for (int i = 0; i < kFrames; ++i) {
+    ASSERT_EQ(dut.Pop(milliseconds(60000)), BasePoint{i});
+    EXPECT_LE(dut.size(), 2u);
+  }
+  producer.join();
+  EXPECT_EQ(dut.dropped(), 0);
+}
+
+// Stopping a replay: a push waiting for room returns false at Close, and what was queued
+// before stays (the worker drains it).
+TEST(FrameQueue, CloseReleasesAPushWaitingForRoom) {
+  FrameQueue<int> dut(1);
+  ASSERT_TRUE(dut.Push(1, true, /*wait_for_room=*/true));
+  bool pushed = true;
+  std::thread producer([&] { pushed = dut.Push(2, true, /*wait_for_room=*/true); });
+  dut.Close();
+  producer.join();  // returns although nobody pops
+  EXPECT_FALSE(pushed);
+  EXPECT_EQ(dut.dropped(), 0);
+  EXPECT_EQ(dut.Pop(milliseconds(0)), BasePoint{1});
+  EXPECT_FALSE(dut.Pop(milliseconds(0)).has_value());
+}
+
 }  // namespace
 }  // namespace tsc
