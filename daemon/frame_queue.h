@@ -2,10 +2,10 @@
 // The bounded queue between the camera thread and the pipeline worker, in base points. A live
 // camera never blocks: when the queue is full the oldest base point is dropped and counted (a
 // robot would rather see now than catch up on the past). A replay (a recording read unpaced)
-// waits for room instead, so it processes every frame whatever the machine's speed. A pan sweep delivers a base point as
-// several views, the last one ending it; the queue gathers them and queues, hands out and
-// drops only whole sweeps, so the pipeline never builds a base point from part of one (whose
-// first view, which judges coherence, might be the part missing).
+// waits for room instead, so it processes every frame whatever the machine's speed. A pan sweep
+// delivers a base point as several views, the last one ending it; the queue gathers them and
+// queues, hands out and drops only whole sweeps, so the pipeline never builds a base point from
+// part of one (whose first view, which judges coherence, might be the part missing).
 
 #include <algorithm>
 #include <chrono>

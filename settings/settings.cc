@@ -411,8 +411,7 @@ std::vector<ConfigKey> BuildTable() {
       "camera.fps",
       "frames per second delivered to the pipeline; 0 = as fast as the source, and a folder, "
       "video or sim route then waits for the pipeline (every frame processed, none dropped)",
-      "1/s",
-      CameraOptions::kFpsRange, [](auto& o) -> auto& { return o.daemon.camera.fps; }));
+      "1/s", CameraOptions::kFpsRange, [](auto& o) -> auto& { return o.daemon.camera.fps; }));
   t.push_back(Bool(
       "camera.loop", "folder and video: start again at the end instead of stopping",
       [](auto& o) -> auto& { return o.daemon.camera.loop; }));
