@@ -4,6 +4,7 @@
 #include <algorithm>
 #include <cctype>
 #include <cmath>
+#include <limits>
 #include <numbers>
 #include <stdexcept>
 
@@ -266,36 +267,49 @@ bool FeatureSet::NeedsGrey() const {
 
 void ComputeOrientationImages(const cv::Mat& grey, FeatureImages& out) {
   CV_Assert(grey.type() == CV_32F);
-  for (cv::Mat& m : out.orient) m.create(grey.size(), CV_32F);
   const int rows = grey.rows;
   const int cols = grey.cols;
-  for (int y = 0; y < rows; ++y) {
-    // Central differences inside, one-sided at the border.
-    const float* up = grey.ptr<float>(std::max(y - 1, 0));
-    const float* row = grey.ptr<float>(y);
-    const float* down = grey.ptr<float>(std::min(y + 1, rows - 1));
-    const float dy_scale = (y == 0 || y == rows - 1) ? 1.0f : 0.5f;
-    std::array<float*, 4> o;
-    for (int b = 0; b < 4; ++b)
-      o[static_cast<size_t>(b)] = out.orient[static_cast<size_t>(b)].ptr<float>(y);
-    for (int x = 0; x < cols; ++x) {
-      const int xl = std::max(x - 1, 0);
-      const int xr = std::min(x + 1, cols - 1);
-      const float gx = (row[xr] - row[xl]) / static_cast<float>(std::max(xr - xl, 1));
-      const float gy = (down[x] - up[x]) * dy_scale;
-      const float m2 = gx * gx + gy * gy;
-      float c = 0.0f, s = 0.0f;
-      if (m2 > 0.0f) {
-        const float inv_m = 1.0f / std::sqrt(m2);
-        c = (gx * gx - gy * gy) * inv_m;  // m·cos 2θ
-        s = 2.0f * gx * gy * inv_m;       // m·sin 2θ
-      }
-      o[0][x] = std::max(c, 0.0f);
-      o[1][x] = std::max(s, 0.0f);
-      o[2][x] = std::max(-c, 0.0f);
-      o[3][x] = std::max(-s, 0.0f);
-    }
+  // Whole-image OpenCV operations (vectorised) instead of a per-pixel loop: this was a third
+  // of a frame's time at 160x120. Central differences inside, one-sided at the border.
+  auto& [gx, gy, m, c, s, squared] = out.gradient_scratch;
+  gx.create(grey.size(), CV_32F);
+  gy.create(grey.size(), CV_32F);
+  if (cols > 2) {
+    cv::subtract(grey.colRange(2, cols), grey.colRange(0, cols - 2), gx.colRange(1, cols - 1));
+    gx.colRange(1, cols - 1) *= 0.5;
   }
+  if (cols > 1) {
+    cv::subtract(grey.col(1), grey.col(0), gx.col(0));
+    cv::subtract(grey.col(cols - 1), grey.col(cols - 2), gx.col(cols - 1));
+  } else {
+    gx.setTo(0);
+  }
+  if (rows > 2) {
+    cv::subtract(grey.rowRange(2, rows), grey.rowRange(0, rows - 2), gy.rowRange(1, rows - 1));
+    gy.rowRange(1, rows - 1) *= 0.5;
+  }
+  if (rows > 1) {
+    cv::subtract(grey.row(1), grey.row(0), gy.row(0));
+    cv::subtract(grey.row(rows - 1), grey.row(rows - 2), gy.row(rows - 1));
+  } else {
+    gy.setTo(0);
+  }
+  // m·cos 2θ = (gx² − gy²)/m and m·sin 2θ = 2gx·gy/m; where m = 0 both numerators are 0, and
+  // the floor on m keeps them 0 instead of 0/0.
+  cv::magnitude(gx, gy, m);
+  cv::max(m, std::numeric_limits<float>::min(), m);
+  cv::multiply(gx, gx, c);
+  cv::multiply(gy, gy, squared);
+  cv::subtract(c, squared, c);
+  cv::divide(c, m, c);
+  cv::multiply(gx, gy, s, 2.0);
+  cv::divide(s, m, s);
+  cv::max(c, 0.0, out.orient[0]);
+  cv::max(s, 0.0, out.orient[1]);
+  cv::min(c, 0.0, out.orient[2]);
+  out.orient[2] *= -1.0;
+  cv::min(s, 0.0, out.orient[3]);
+  out.orient[3] *= -1.0;
 }
 
 PatchFeatureExtractor::PatchFeatureExtractor(int patch_px) : patch_px_(patch_px) {
