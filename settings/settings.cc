@@ -169,11 +169,13 @@ std::vector<ConfigKey> BuildTable() {
     ConfigKey k;
     k.key = "bubble.features";
     k.description =
-        "feature set (section 2.3): L1 hue + Cartesian gratings, L2 = L1 + non-Cartesian "
-        "gratings, L3 depth, L4 = L1 + depth, L5 = L2 + depth; +I appends intensity (the "
-        "default, place detection needs it), -I leaves it out";
+        "feature set, in descriptor block order: a list of hue, hue_cos, hue_sin, vertical, "
+        "horizontal, hyperbolic, polar, concentric, orient_0, orient_45, orient_90, "
+        "orient_135, intensity, depth (place detection needs intensity); or a thesis set "
+        "(section 2.3): L1 hue + Cartesian gratings, L2 = L1 + non-Cartesian gratings, L3 "
+        "depth, L4 = L1 + depth, L5 = L2 + depth, +I appends intensity, -I leaves it out";
     k.kind = ConfigKey::Kind::kText;
-    k.text_range = "L1..L5, optionally followed by +I or -I";
+    k.text_range = "L1..L5 with optional +I or -I, or a comma-separated feature list";
     k.get = [](const Settings& o) { return o.pipeline.features.ToString(); };
     k.set = [](Settings& o, const std::string& v) {
       o.pipeline.features = FeatureSet::Parse(Trim(v));

@@ -27,9 +27,10 @@ namespace tsc {
 struct EvalOptions {
   /// τ_r values of the PR sweep: from, from + step, ... up to `sweep_to` (inclusive, within
   /// step/1000). An empty sweep (sweep_step = 0) uses only the configured τ_r.
-  double sweep_from = 1.0;
-  double sweep_to = 2.0;
-  double sweep_step = 0.05;
+  // Around the default τ_r (2.7): where precision breaks on the calibration worlds.
+  double sweep_from = 1.5;
+  double sweep_to = 3.5;
+  double sweep_step = 0.1;
   /// Throws std::invalid_argument naming the bad field (negative values, from > to, a step
   /// that gives more than 10⁴ points).
   void Validate() const;

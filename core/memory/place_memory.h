@@ -39,7 +39,7 @@ struct MemoryNode {
 struct PlaceMemoryOptions {
   /// τ_r recognition cost threshold (3.11). Calibrated with the terms of
   /// core/memory/recognition_cost.h (docs/calibration.md).
-  double tau_r = 1.6;
+  double tau_r = 2.7;
   int tau_l = 1;        ///< τ_l levels climbed by the hybrid traversal
   double tau_h = 0.25;  ///< τ_h relative merge-height gap folded by simplification, [0, 1)
   /// Member views kept per place (core/memory/member_views.h).
@@ -52,7 +52,7 @@ struct PlaceMemoryOptions {
   /// The unit u of the distance term and the vote radius, a squared descriptor distance: 0
   /// takes the memory's median view spacing (adapts to any camera); > 0 fixes it for a
   /// camera kind (a preset, docs/decisions.md "Recognition cost").
-  double distance_unit = 1.5e-5;
+  double distance_unit = 0.45e-5;
   /// u is at least this multiple of D's own step, the median squared distance between D's
   /// consecutive base points: a revisit is not expected nearer the memory's views than D's
   /// frames are to each other (real keyframes a metre apart; docs/decisions.md "Recognition

@@ -78,7 +78,7 @@ BasePointView DescribeBasePoint(std::span<const Observation> views, BubbleSurfac
 
 struct PipelineOptions {
   uint32_t robot = 1;
-  FeatureSet features = FeatureSet::Thesis(2, true);
+  FeatureSet features = FeatureSet::Recognition();
   BubbleSurfaceOptions surface;
   DescriptorOptions descriptor;
   ReliabilityOptions reliability;

@@ -904,6 +904,7 @@ TEST(MergeMemories, ShortlistedRecognitionMergesAsTheExhaustiveOne) {
   auto memory = [&world](uint32_t robot, int first, int shortlist) {
     PlaceMemoryOptions options;
     options.shortlist = shortlist;
+    options.distance_unit = 0.0;  // the synthetic places' own view spacing, not a camera's
     PlaceMemory m(robot, options);
     for (int p = first; p < first + 200; ++p) m.Learn(world.Visit(p, robot, 10));
     return m;

@@ -94,7 +94,8 @@ TEST_F(SimBarsTest, TourVisitsEveryRoomAndRevisitsAtLeastHalf) {
 }
 
 // Met with the defaults (the recognition cost from member views, docs/calibration.md, seventh
-// pass; tau_p = 25): no wrong recognition, and the map's edges join the same or adjacent rooms.
+// pass; the default features and τ_r 2.7 of docs/decisions.md "Features that survive
+// lighting"): no wrong recognition, and the map's edges join the same or adjacent rooms.
 // Last measured: precision 1.0 / 1.0 / 1.0 (office 101, corridors 102, outdoor 103), edge
 // precision 0.95 / 1.0 / 1.0.
 TEST_F(SimBarsTest, RecognitionPrecisionAndMapBarsOnThreeWorlds) {
@@ -108,8 +109,10 @@ TEST_F(SimBarsTest, RecognitionPrecisionAndMapBarsOnThreeWorlds) {
   }
 }
 
-// NOT met yet. Last measured (160x120, defaults): boundary F1 0.91 / 0.94 / 0.75, recall 0.13 /
-// 0.23 / 0.75 at the default τ_r (0.60 / 0.46 / 0.75 at full precision over the sweep). Most recall
+// NOT met yet. Last measured (160x120, defaults): boundary F1 0.86 / 0.86 / 0.75, recall 0.29 /
+// 0.25 / 0.75 at the default τ_r (0.50 / 0.42 / 0.75 at full precision over the sweep; with
+// the L2+I features and τ_r 1.6 before session 21: F1 0.91 / 0.94 / 0.75, recall 0.13 / 0.23 /
+// 0.75). Most recall
 // misses are corridor stretches revisited in the opposite direction (a 60° camera sees other walls)
 // and room walk-outs; see docs/results.md. Outdoor F1 misses the four street <-> square crossings,
 // which the descriptor does not see (docs/calibration.md, fifth pass).
@@ -143,9 +146,10 @@ TEST_F(SimBarsTest, PanSweepCameraMeetsPrecisionAndRecallBarsOnThreeWorlds) {
 
 // Day first visits, dim revisits: recall may fall, precision must stay >= 0.95. Precision is 1
 // when nothing is recognised, so the test also asks for recognitions: at least one over the
-// three worlds (issue 19 asks for one on every world; outdoor 103 has none yet). Last measured
-// (160x120, defaults): precision 1.0 / 1.0 / 1.0, recall 0.57 / 0.63 / 0.0 (the thesis' cost of
-// main 7257111: 0.0 / 0.38 / 0.0).
+// three worlds (issue 19 asks for one on every world; outdoor 103 has none yet: ς marks its
+// dim base points uninformative, so its revisits form no place). Last measured (160x120,
+// defaults): precision 1.0 / 1.0 / 1.0, recall 0.57 / 0.63 / 0.0 (the thesis' cost of main
+// 7257111: 0.0 / 0.38 / 0.0).
 TEST_F(SimBarsTest, DimRevisitsKeepPrecision) {
   int recognitions = 0;
   for (const TestWorld& w : kWorlds) {
