@@ -45,6 +45,13 @@ std::string JsonNumber(double v) {
   return std::string(buf, r.ptr);
 }
 
+// The three terms of g_N (3.8), when one was evaluated (a first place is learned without).
+std::string TermsJson(const CostTerms& t) {
+  if (t.best < 0) return "";
+  return ",\"terms\":{\"distance\":" + JsonNumber(t.distance) +
+         ",\"ratio\":" + JsonNumber(t.ratio) + ",\"vote\":" + JsonNumber(t.vote) + "}";
+}
+
 std::string EventToJson(const PlaceEvent& e) {
   std::string s = "{\"frame\":" + std::to_string(e.frame) +
                   ",\"event\":" + JsonString(EventKindName(e.kind)) +
@@ -56,12 +63,12 @@ std::string EventToJson(const PlaceEvent& e) {
       s += ",\"members\":" + std::to_string(e.members);
       break;
     case EventKind::kRecognized:
-      s += ",\"cost\":" + JsonNumber(e.cost);
+      s += ",\"cost\":" + JsonNumber(e.cost) + TermsJson(e.terms);
       s += std::string(",\"partial\":") + (e.partial ? "true" : "false");
       s += std::string(",\"hybrid\":") + (e.hybrid ? "true" : "false");
       break;
     case EventKind::kLearned:
-      s += ",\"cost\":" + JsonNumber(e.cost);
+      s += ",\"cost\":" + JsonNumber(e.cost) + TermsJson(e.terms);
       break;
     case EventKind::kMapped:
       if (e.from) s += ",\"from\":" + JsonString(e.from->ToString());

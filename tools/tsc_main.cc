@@ -80,7 +80,8 @@ depth/ (16-bit PNG, mm), camera.json ({"width","height","hfov_deg"} or fx,fy,cx,
 Events are written as JSON lines, one per event:
   {"frame":k,"event":"detected|recognized|learned|mapped|pruned","detected_place":m,
    "place":"<robot>:<id>", ...}
-where k is the base point index (0-based).
+where k is the base point index (0-based). Recognized and learned events carry the cost g_N
+and its terms ("terms":{"distance","ratio","vote"}): why a place was recognised or learned.
 
 Options)";
 

@@ -197,6 +197,7 @@ void Pipeline::HandleDetection(const std::vector<DetectionEvent>& events, BaseIn
       PlaceEvent e = MakeEvent(EventKind::kRecognized, k, opened->place);
       e.place = memory_.places()[*r.place].id;
       e.cost = r.cost;
+      e.terms = r.terms;
       e.partial = true;
       e.hybrid = r.hybrid;
       out.events.push_back(e);
@@ -214,13 +215,13 @@ void Pipeline::HandleDetection(const std::vector<DetectionEvent>& events, BaseIn
         place = *r.place;
         memory_.Update(place, d);
         e.kind = EventKind::kRecognized;
-        e.cost = r.cost;
         e.hybrid = r.hybrid;
       } else {
         place = memory_.Learn(d);
         e.kind = EventKind::kLearned;
-        e.cost = r.cost;
       }
+      e.cost = r.cost;
+      e.terms = r.terms;
       const PlaceId id = memory_.places()[place].id;
       e.place = id;
       out.events.push_back(e);

@@ -29,11 +29,12 @@ struct PlaceEvent {
   DetectedPlaceIndex detected_place = 0;
   std::optional<PlaceId> place;  ///< recognised / learned / mapped-to place
   std::optional<PlaceId> from;   ///< mapped: the previous place β(D_{m−1})
-  double cost = 0.0;             ///< recognised: g_N of the final decision
-  bool partial = false;          ///< recognised on an opened, not yet closed place
-  bool hybrid = false;           ///< recognised by the hybrid traversal
-  TransitionRegion transition;   ///< mapped: the region crossed
-  int64_t members = 0;           ///< detected / pruned: number of base points
+  double cost = 0.0;     ///< recognised: g_N of the final decision; learned: the last g_N tried
+  CostTerms terms;       ///< recognised, learned: the terms of `cost` (why it was or was not)
+  bool partial = false;  ///< recognised on an opened, not yet closed place
+  bool hybrid = false;   ///< recognised by the hybrid traversal
+  TransitionRegion transition;  ///< mapped: the region crossed
+  int64_t members = 0;          ///< detected / pruned: number of base points
 };
 
 struct BasePointRecord {
