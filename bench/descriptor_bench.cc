@@ -1,6 +1,7 @@
 // Descriptor time against its bar (DESIGN §8): one 640x480 BGR frame, the default feature set
-// (FeatureSet::Recognition), Observe + Compute on one core, and the same figure as a ratio to OpenCV ORB
-// extraction of 500 keypoints on that frame (bar: ratio <= 0.5). Holds the main() of tsc_bench.
+// (FeatureSet::Recognition), Observe + Compute on one core, and the same figure as a ratio to
+// OpenCV ORB extraction of 500 keypoints on that frame (bar: ratio <= 0.5). Holds the main() of
+// tsc_bench.
 
 #include <benchmark/benchmark.h>
 
@@ -135,8 +136,10 @@ void PrintReferenceRatio(int n) {
     o_ms.push_back(std::chrono::duration<double, std::milli>(t2 - t1).count());
   }
   const double d = Median(d_ms), o = Median(o_ms);
-  std::printf("descriptor 640x480, default features: %.3f ms (bar <= 2 ms), ORB 500: %.3f ms (median of %d)\n",
-              d, o, n);
+  std::printf(
+      "descriptor 640x480, default features: %.3f ms (bar <= 2 ms), ORB 500: %.3f ms (median of "
+      "%d)\n",
+      d, o, n);
   std::printf("descriptor/orb ratio: %.3f (bar <= 0.5)\n", d / o);
 }
 

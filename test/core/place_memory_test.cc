@@ -78,9 +78,9 @@ TEST_F(PlaceMemoryTest, BuildsTreeWithOneTerminalPerPlace) {
 TEST_F(PlaceMemoryTest, TopDownReachesTheRightTerminal) {
   for (int p = 0; p < 5; ++p) {
     const Recognition r = dut_.Recognize(MakePlace(50 + p, centres_[p], rng_));
-    ASSERT_TRUE(r.place.has_value()) << "place " << p << " cost " << r.cost << " distance "
-                                     << r.terms.distance << " ratio " << r.terms.ratio << " vote "
-                                     << r.terms.vote << " visited " << r.visited.size();
+    ASSERT_TRUE(r.place.has_value())
+        << "place " << p << " cost " << r.cost << " distance " << r.terms.distance << " ratio "
+        << r.terms.ratio << " vote " << r.terms.vote << " visited " << r.visited.size();
     EXPECT_EQ(*r.place, p);
     EXPECT_FALSE(r.hybrid);
     EXPECT_EQ(r.start_nodes, (std::vector<int>{dut_.root()}));
@@ -317,7 +317,8 @@ DetectedPlace Visit(const Room& room, DetectedPlaceIndex m, std::mt19937& rng, i
   for (int j = 0; j < n; ++j) {
     d.members.push_back(m * 1000 + j);
     const Eigen::VectorXf& v = room.path[static_cast<size_t>(first + j * stride)];
-    for (int i = 0; i < kDescriptorDim; ++i) d.descriptors(i, j) = std::max(0.0f, v[i] + noise(rng));
+    for (int i = 0; i < kDescriptorDim; ++i)
+      d.descriptors(i, j) = std::max(0.0f, v[i] + noise(rng));
   }
   return d;
 }
@@ -343,7 +344,8 @@ TEST(PlaceMemoryViews, HeldOutViewsOfAPlaceAreAcceptedByItsVote) {
   }
   ASSERT_EQ(dut.places().front().samples.cols(), dut.options().max_samples_per_place);
   for (int r = 0; r < 5; ++r) {
-    const Recognition got = dut.Recognize(views::Visit(rooms[static_cast<size_t>(r)], 50 + r, rng, 1, -1, 2));
+    const Recognition got =
+        dut.Recognize(views::Visit(rooms[static_cast<size_t>(r)], 50 + r, rng, 1, -1, 2));
     ASSERT_TRUE(got.place.has_value()) << "room " << r << " cost " << got.cost;
     EXPECT_EQ(*got.place, r);
     EXPECT_GE(got.terms.vote, 0.9) << "room " << r;
@@ -365,8 +367,10 @@ TEST(PlaceMemoryViews, UpdateKeepsViewsOfEveryVisit) {
   ASSERT_EQ(kept.cols(), dut.options().max_samples_per_place);
   int from_first = 0;
   for (Eigen::Index j = 0; j < kept.cols(); ++j) {
-    const float to_first = (first.descriptors.colwise() - kept.col(j)).colwise().squaredNorm().minCoeff();
-    const float to_second = (second.descriptors.colwise() - kept.col(j)).colwise().squaredNorm().minCoeff();
+    const float to_first =
+        (first.descriptors.colwise() - kept.col(j)).colwise().squaredNorm().minCoeff();
+    const float to_second =
+        (second.descriptors.colwise() - kept.col(j)).colwise().squaredNorm().minCoeff();
     from_first += to_first < to_second ? 1 : 0;
   }
   EXPECT_GE(from_first, kept.cols() / 4);
