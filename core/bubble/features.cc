@@ -265,35 +265,38 @@ bool FeatureSet::NeedsGrey() const {
   return false;
 }
 
+namespace {
+
+// The derivative of `grey` along its columns (x) or rows (y) into `out`: central differences
+// inside, one-sided at the border, 0 across a single pixel.
+void Difference(const cv::Mat& grey, bool along_columns, cv::Mat& out) {
+  out.create(grey.size(), CV_32F);
+  const int n = along_columns ? grey.cols : grey.rows;
+  const auto range = [along_columns](const cv::Mat& x, int first, int end) {
+    return along_columns ? x.colRange(first, end) : x.rowRange(first, end);
+  };
+  if (n < 2) {
+    out.setTo(0);
+    return;
+  }
+  if (n > 2) {
+    cv::Mat inside = range(out, 1, n - 1);
+    cv::subtract(range(grey, 2, n), range(grey, 0, n - 2), inside);
+    inside *= 0.5;
+  }
+  cv::subtract(range(grey, 1, 2), range(grey, 0, 1), range(out, 0, 1));
+  cv::subtract(range(grey, n - 1, n), range(grey, n - 2, n - 1), range(out, n - 1, n));
+}
+
+}  // namespace
+
 void ComputeOrientationImages(const cv::Mat& grey, FeatureImages& out) {
   CV_Assert(grey.type() == CV_32F);
-  const int rows = grey.rows;
-  const int cols = grey.cols;
   // Whole-image OpenCV operations (vectorised) instead of a per-pixel loop: this was a third
   // of a frame's time at 160x120. Central differences inside, one-sided at the border.
   auto& [gx, gy, m, c, s, squared] = out.gradient_scratch;
-  gx.create(grey.size(), CV_32F);
-  gy.create(grey.size(), CV_32F);
-  if (cols > 2) {
-    cv::subtract(grey.colRange(2, cols), grey.colRange(0, cols - 2), gx.colRange(1, cols - 1));
-    gx.colRange(1, cols - 1) *= 0.5;
-  }
-  if (cols > 1) {
-    cv::subtract(grey.col(1), grey.col(0), gx.col(0));
-    cv::subtract(grey.col(cols - 1), grey.col(cols - 2), gx.col(cols - 1));
-  } else {
-    gx.setTo(0);
-  }
-  if (rows > 2) {
-    cv::subtract(grey.rowRange(2, rows), grey.rowRange(0, rows - 2), gy.rowRange(1, rows - 1));
-    gy.rowRange(1, rows - 1) *= 0.5;
-  }
-  if (rows > 1) {
-    cv::subtract(grey.row(1), grey.row(0), gy.row(0));
-    cv::subtract(grey.row(rows - 1), grey.row(rows - 2), gy.row(rows - 1));
-  } else {
-    gy.setTo(0);
-  }
+  Difference(grey, /*along_columns=*/true, gx);
+  Difference(grey, /*along_columns=*/false, gy);
   // m·cos 2θ = (gx² − gy²)/m and m·sin 2θ = 2gx·gy/m; where m = 0 both numerators are 0, and
   // the floor on m keeps them 0 instead of 0/0.
   cv::magnitude(gx, gy, m);
