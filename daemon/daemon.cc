@@ -805,6 +805,7 @@ std::string Daemon::StatusLine() const {
 
 void Daemon::CameraLoop() {
   join_->Wait();
+  const bool replay = camera_->replays_every_frame();  // fixed for the source's life
   while (!stopping_) {
     try {
       std::optional<CameraFrame> frame = camera_->Next();
@@ -816,7 +817,7 @@ void Daemon::CameraLoop() {
         return;
       }
       const bool ends = frame->ends_base_point;
-      queue_.Push(std::move(*frame), ends, camera_->replays_every_frame());
+      queue_.Push(std::move(*frame), ends, replay);
     } catch (const CameraError& e) {
       if (stopping_) return;  // a read cut short by the stop
       const int64_t n = ++counters_.camera_errors;
