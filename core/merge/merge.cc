@@ -698,20 +698,14 @@ MemoryMerge Merge(const PlaceMemory& ours, const PlaceMemory& peer, PlaceMemory*
   // would need γ to every earlier place, |added|·|places|·dim operations.
   Slink slink = base_slink;
   if (places.size() > base_count || folds) {
-    std::vector<Link> links;
+    std::vector<Link> links = LinksOf(base_slink);
     links.reserve(places.size() * 2);
-    const Slink& bs = base_slink;
-    for (int i = 0; i + 1 < bs.size(); ++i) {
-      links.push_back({bs.lambda()[static_cast<size_t>(i)], i, bs.pi()[static_cast<size_t>(i)]});
-    }
     // Between two base places the base's own links rule: the incoming tree links added ones.
     const int base_end = static_cast<int>(base_count);
-    for (int i = 0; i + 1 < incoming_slink.size(); ++i) {
-      const int a = merged_index[static_cast<size_t>(i)];
-      const int b = merged_index[static_cast<size_t>(incoming_slink.pi()[static_cast<size_t>(i)])];
-      if (a != b && (a >= base_end || b >= base_end)) {
-        links.push_back({incoming_slink.lambda()[static_cast<size_t>(i)], a, b});
-      }
+    for (const Link& l : LinksOf(incoming_slink)) {
+      const int a = merged_index[static_cast<size_t>(l.a)];
+      const int b = merged_index[static_cast<size_t>(l.b)];
+      if (a != b && (a >= base_end || b >= base_end)) links.push_back({l.gamma, a, b});
     }
     bool crossed = false;
     for (size_t i = 0; i < in.size(); ++i) {
