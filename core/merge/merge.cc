@@ -19,22 +19,6 @@
 namespace tsc {
 namespace {
 
-// The radius around `centre` of the ball that holds every member view of `memory`.
-double ViewBound(const PlaceMemory& memory, const Eigen::VectorXf& centre) {
-  double bound = 0.0;
-  for (const LearnedPlace& p : memory.places()) {
-    const double spread = (p.samples.colwise() - p.mean).colwise().norm().maxCoeff();
-    bound = std::max(bound, (p.mean - centre).norm() + spread);
-  }
-  return bound;
-}
-
-std::vector<int> AllPlaces(const PlaceMemory& memory) {
-  std::vector<int> all(memory.places().size());
-  for (size_t i = 0; i < all.size(); ++i) all[i] = static_cast<int>(i);
-  return all;
-}
-
 // g of (4.1) for the incoming place `p` against hyper-terminal `h` of `base`: the g_N of
 // recognition (core/memory/recognition_cost.h) with p's member views as the vote points and
 // N*'s children as the candidates; only a terminal can absorb p, so an inner child of N*
@@ -206,187 +190,11 @@ IdJoin JoinByIds(const PlaceMemory& base, const PlaceMemory& incoming,
   return j;
 }
 
-}  // namespace
-
-NodeStatistics StatisticsOf(const PlaceMemory& memory, std::span<const int> places) {
-  if (places.empty()) throw std::invalid_argument("node statistics of no places");
-  NodeStatistics s;
-  s.num_places = static_cast<int>(places.size());
-  s.centroid = Eigen::VectorXf::Zero(memory.places()[static_cast<size_t>(places[0])].mean.size());
-  for (int p : places) s.centroid += memory.places()[static_cast<size_t>(p)].mean;  // (4.3)
-  s.centroid /= static_cast<float>(places.size());
-  double sum = 0.0;
-  for (int p : places) {
-    sum += (memory.places()[static_cast<size_t>(p)].mean - s.centroid).squaredNorm();
-  }
-  s.radius = std::sqrt(sum / static_cast<double>(places.size()));  // (4.4), DESIGN §3.6
-  return s;
-}
-
-NodeStatistics NodeStatisticsOf(const PlaceMemory& memory, int node) {
-  const MemoryNode& nd = memory.nodes().at(static_cast<size_t>(node));
-  const std::vector<int>& order = memory.leaf_order();
-  return StatisticsOf(memory, std::span<const int>(order.data() + nd.first_leaf,
-                                                   static_cast<size_t>(nd.num_places())));
-}
-
-std::vector<HyperTerminal> HyperTerminals(const PlaceMemory& memory) {
-  std::vector<HyperTerminal> out;
-  for (size_t i = 0; i < memory.nodes().size(); ++i) {
-    const MemoryNode& nd = memory.nodes()[i];
-    if (nd.terminal()) continue;
-    HyperTerminal h;
-    h.node = static_cast<int>(i);
-    for (int c : nd.children) {
-      const MemoryNode& child = memory.nodes()[static_cast<size_t>(c)];
-      if (child.terminal()) h.places.push_back(child.place);
-    }
-    if (h.places.empty()) continue;
-    h.sphere = StatisticsOf(memory, h.places);
-    out.push_back(std::move(h));
-  }
-  return out;
-}
-
-double Overlap(const NodeStatistics& a, const NodeStatistics& b) {
-  const double d = (a.centroid - b.centroid).norm();
-  return std::min({a.radius + b.radius - d, 2.0 * a.radius, 2.0 * b.radius});
-}
-
-std::vector<size_t> MatchHyperTerminals(const PlaceMemory& base,
-                                        const std::vector<HyperTerminal>& hb,
-                                        const std::vector<HyperTerminal>& hi) {
-  if (hb.empty()) throw std::invalid_argument("matching hyper-terminals against none");
-  const size_t nodes = base.nodes().size();
-  std::vector<int> ht_of(nodes, -1);
-  for (size_t k = 0; k < hb.size(); ++k)
-    ht_of[static_cast<size_t>(hb[k].node)] = static_cast<int>(k);
-  // Each inner node's ball: centre c(N), reach R(N) ≥ ‖c_b − c(N)‖ + ρ_b for every
-  // hyper-terminal b under N (−1: none), bottom-up (children precede parents), widened by a
-  // relative 1e-5 against float rounding. Then for an incoming sphere a at distance d from
-  // c(N), Overlap(a, b) ≤ min(2ρ_a, ρ_a + R(N) − d) for every b under N.
-  std::vector<Eigen::VectorXf> centre(nodes);
-  std::vector<double> reach(nodes, -1.0);
-  for (size_t i = 0; i < nodes; ++i) {
-    const MemoryNode& nd = base.nodes()[i];
-    if (nd.terminal()) continue;
-    centre[i] = base.Centroid(static_cast<int>(i));
-    double r = -1.0;
-    if (ht_of[i] >= 0) {
-      const NodeStatistics& s = hb[static_cast<size_t>(ht_of[i])].sphere;
-      r = (s.centroid - centre[i]).norm() + s.radius;
-    }
-    for (int c : nd.children) {
-      const auto ci = static_cast<size_t>(c);
-      if (reach[ci] >= 0) r = std::max(r, (centre[ci] - centre[i]).norm() + reach[ci]);
-    }
-    reach[i] = r < 0 ? r : r * (1.0 + 1e-5) + 1e-12;
-  }
-  std::vector<size_t> out(hi.size(), 0);
-  std::vector<std::pair<double, int>> heap;  // (bound, node), largest bound first
-  for (size_t a = 0; a < hi.size(); ++a) {
-    const NodeStatistics& sa = hi[a].sphere;
-    const double ra = sa.radius;
-    double best = -std::numeric_limits<double>::infinity(),
-           best_d = std::numeric_limits<double>::infinity();
-    size_t star = hb.size();
-    auto bound = [&](size_t node, double* gap) {
-      const double d = (sa.centroid - centre[node]).norm();
-      *gap = d - reach[node];  // no hyper-terminal under the node is nearer than this
-      return std::min(2.0 * ra, ra + reach[node] - d);
-    };
-    // Worth a visit: a bound above the best, or equal to it with a centre possibly nearer.
-    auto promising = [&](double b, double gap) { return b > best || (b == best && gap <= best_d); };
-    heap.clear();
-    const auto root = static_cast<size_t>(base.root());
-    double gap = 0.0;
-    if (reach[root] >= 0) heap.push_back({bound(root, &gap), base.root()});
-    while (!heap.empty()) {
-      std::pop_heap(heap.begin(), heap.end());
-      const auto node = static_cast<size_t>(heap.back().second);
-      heap.pop_back();
-      if (const int k = ht_of[node]; k >= 0) {
-        const NodeStatistics& sb = hb[static_cast<size_t>(k)].sphere;
-        const double d = (sa.centroid - sb.centroid).norm();
-        const double overlap = std::min({ra + sb.radius - d, 2.0 * ra, 2.0 * sb.radius});
-        if (overlap > best ||
-            (overlap == best && (d < best_d || (d == best_d && static_cast<size_t>(k) < star)))) {
-          best = overlap;
-          best_d = d;
-          star = static_cast<size_t>(k);
-        }
-      }
-      for (int c : base.nodes()[node].children) {
-        const auto ci = static_cast<size_t>(c);
-        if (reach[ci] < 0) continue;
-        const double b = bound(ci, &gap);
-        if (!promising(b, gap)) continue;
-        heap.push_back({b, c});
-        std::push_heap(heap.begin(), heap.end());
-      }
-      // The largest bound queued fell below the best: nothing left can win.
-      if (!heap.empty() && heap.front().first < best) heap.clear();
-    }
-    out[a] = star;
-  }
-  return out;
-}
-
-std::string_view ToString(MergeCase c) {
-  switch (c) {
-    case MergeCase::kNothingNew:
-      return "nothing-new";
-    case MergeCase::kDisjoint:
-      return "disjoint";
-    case MergeCase::kContained:
-      return "contained";
-    case MergeCase::kContainedIntersecting:
-      return "contained-intersecting";
-    case MergeCase::kIntersecting:
-      return "intersecting";
-  }
-  return "?";
-}
-
-bool PeerGoesIntoOurs(const PlaceMemory& ours, const PlaceMemory& peer) {
-  return peer.places().size() < ours.places().size() ||
-         (peer.places().size() == ours.places().size() && ours.robot() <= peer.robot());
-}
-
-namespace {
-
 // The places of `memory`: moved out of `owned` (the same memory, given up by the caller) when
 // there is one, copied otherwise.
 std::vector<LearnedPlace> PlacesOf(const PlaceMemory& memory, PlaceMemory* owned) {
   if (owned != nullptr) return std::move(*owned).TakePlaces();
   return memory.places();
-}
-
-// Figure 4.4's case for the root spheres `sb` of the base and `si` of the incoming memory.
-MergeCase RootSphereCase(const PlaceMemory& base, const PlaceMemory& incoming,
-                         const NodeStatistics& sb, const NodeStatistics& si, double tau_r) {
-  const double d = (sb.centroid - si.centroid).norm();
-  // The spheres reach a recognition radius further: views nearer than sqrt(τ_r·u) may be
-  // one place's (term 1 of g is δ/u), so spheres closer than that must not count as apart.
-  // Without it two small memories (a single place has radius 0) are always disjoint, and a
-  // team exchanging memories as it learns would never recognise a place (docs/decisions.md,
-  // "Merging": recognition reach).
-  const double reach = std::sqrt(tau_r * std::max(base.DistanceUnit(), incoming.DistanceUnit()));
-  // (4.5), decided on the spheres that hold every member view: ρ of (4.4) is a root mean
-  // square, and a place outside it may coincide with one of the other memory.
-  if (d > ViewBound(base, sb.centroid) + ViewBound(incoming, si.centroid) + reach) {
-    return MergeCase::kDisjoint;
-  }
-  const bool base_large = sb.radius >= si.radius;
-  const NodeStatistics& small = base_large ? si : sb;
-  const NodeStatistics& large = base_large ? sb : si;
-  if (d + small.radius > large.radius) return MergeCase::kIntersecting;
-  for (const HyperTerminal& h : HyperTerminals(base_large ? base : incoming)) {
-    if ((h.sphere.centroid - small.centroid).norm() <= h.sphere.radius + small.radius + reach) {
-      return MergeCase::kContainedIntersecting;
-    }
-  }
-  return MergeCase::kContained;
 }
 
 // Repeated exchanges: the base may hold places the incoming memory never saw (a peer's places
@@ -534,14 +342,11 @@ MemoryMerge Merge(const PlaceMemory& ours, const PlaceMemory& peer, PlaceMemory*
   std::vector<int> nearest(incoming.places().size(), -1);
   std::vector<double> nearest_gamma(incoming.places().size(), 0.0);
   // Case analysis on the root spheres (figure 4.4), then recognition where they meet.
-  NodeStatistics sb, si;
+  RootSpheres spheres;
   if ((anything_new || !fresh.empty()) && !base.empty() && !incoming.empty()) {
-    sb = StatisticsOf(base, AllPlaces(base));
-    si = StatisticsOf(incoming, AllPlaces(incoming));
-    const MergeCase sphere_case = RootSphereCase(base, incoming, sb, si, options.tau_r);
-    if (anything_new) result.merge_case = sphere_case;
-    const bool recognise =
-        sphere_case == MergeCase::kContainedIntersecting || sphere_case == MergeCase::kIntersecting;
+    spheres = CaseOfRootSpheres(base, incoming, options.tau_r);
+    if (anything_new) result.merge_case = spheres.merge_case;
+    const bool recognise = RecognitionDecides(spheres.merge_case);
     const std::vector<HyperTerminal> hb = recognise ? HyperTerminals(base)
                                                     : std::vector<HyperTerminal>{},
                                      hi = recognise ? HyperTerminals(incoming)
@@ -730,8 +535,8 @@ MemoryMerge Merge(const PlaceMemory& ours, const PlaceMemory& peer, PlaceMemory*
         }
         return best;
       };
-      const size_t a = nearest_to(si.centroid, 0, base_count);
-      const size_t b = nearest_to(sb.centroid, base_count, places.size());
+      const size_t a = nearest_to(spheres.incoming.centroid, 0, base_count);
+      const size_t b = nearest_to(spheres.base.centroid, base_count, places.size());
       auto top = [](const Slink& tree) {
         return tree.order().empty() ? 0.0 : tree.order().back().first;
       };
