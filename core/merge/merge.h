@@ -4,6 +4,11 @@
 // incoming places against the best-overlapping hyper-terminal, and the map union of §4.6.
 // The merged tree is single linkage over both memories' SLINK trees and the cross links the
 // merge finds (docs/decisions.md, "Merging").
+//
+// MergeMemories runs the steps in order, each in a file of its own: the cases of the merge
+// (merge_cases.h), the join by ids (id_join.h), recognition against hyper-terminals
+// (recognition.h, hyper_terminals.h), the merged place list (merged_places.h), the
+// discriminants kept (discriminant_reuse.h) and the merged tree (merged_tree.h).
 
 #include <vector>
 
