@@ -67,4 +67,13 @@ Slink SingleLinkage(int n, std::vector<Link> links) {
   return Slink(std::move(pi), std::move(lambda));
 }
 
+std::vector<Link> LinksOf(const Slink& s) {
+  std::vector<Link> links;
+  links.reserve(static_cast<size_t>(std::max(s.size() - 1, 0)));
+  for (int i = 0; i + 1 < s.size(); ++i) {
+    links.push_back({s.lambda()[static_cast<size_t>(i)], i, s.pi()[static_cast<size_t>(i)]});
+  }
+  return links;
+}
+
 }  // namespace tsc

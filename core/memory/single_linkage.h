@@ -23,5 +23,8 @@ struct Link {
 /// (ties by place indices). Throws std::invalid_argument on an index outside [0, n) or a
 /// negative or non-finite γ.
 Slink SingleLinkage(int n, std::vector<Link> links);
+/// The edges of a pointer representation: i–π(i) at λ(i) for every place i but the last, in
+/// order of i. They span its places, so SingleLinkage(s.size(), LinksOf(s)) gives s back.
+std::vector<Link> LinksOf(const Slink& s);
 
 }  // namespace tsc

@@ -561,6 +561,34 @@ TEST(SingleLinkage, OverAllPairsEqualsIncrementalSlink) {
   EXPECT_EQ(dut.lambda(), expected.lambda());
 }
 
+// The links of a pointer representation span its places: single linkage over them alone gives
+// it back (the merge builds its tree from the two memories' links).
+TEST(SingleLinkage, OverTheLinksOfAPointerRepresentationGivesItBack) {
+  std::mt19937 rng(11);
+  std::normal_distribution<double> normal;
+  for (const bool on_a_grid : {false, true}) {  // a grid: many equal heights
+    std::vector<Eigen::VectorXd> points;
+    Slink expected;
+    for (int n = 0; n < 60; ++n) {
+      Eigen::VectorXd p(3);
+      for (int d = 0; d < 3; ++d) {
+        p[d] = on_a_grid ? std::round(normal(rng) * 2.0) : normal(rng) + (n % 3) * 4.0;
+      }
+      std::vector<double> dist;
+      for (const Eigen::VectorXd& q : points) dist.push_back((q - p).squaredNorm());
+      expected.Insert(dist);
+      points.push_back(p);
+    }
+    SCOPED_TRACE(on_a_grid ? "grid" : "normal");
+    const std::vector<Link> links = LinksOf(expected);
+    ASSERT_EQ(links.size(), 59u);
+    const Slink dut = SingleLinkage(60, links);
+    EXPECT_EQ(dut.pi(), expected.pi());
+    EXPECT_EQ(dut.lambda(), expected.lambda());
+  }
+  EXPECT_TRUE(LinksOf(Slink()).empty());
+}
+
 TEST(SingleLinkage, JoinsComponentsTheLinksLeaveApartAtTheLargestGamma) {
   const Slink dut = SingleLinkage(5, {{2.0, 3, 4}, {1.0, 0, 2}});
   const std::vector<DendrogramMerge> merges = ToDendrogram(dut);

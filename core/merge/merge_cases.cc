@@ -1,0 +1,88 @@
+#include "core/merge/merge_cases.h"
+
+#include <algorithm>
+#include <cmath>
+#include <vector>
+
+namespace tsc {
+namespace {
+
+// The radius around `centre` of the ball that holds every member view of `memory`.
+double ViewBound(const PlaceMemory& memory, const Eigen::VectorXf& centre) {
+  double bound = 0.0;
+  for (const LearnedPlace& p : memory.places()) {
+    const double spread = (p.samples.colwise() - p.mean).colwise().norm().maxCoeff();
+    bound = std::max(bound, (p.mean - centre).norm() + spread);
+  }
+  return bound;
+}
+
+std::vector<int> AllPlaces(const PlaceMemory& memory) {
+  std::vector<int> all(memory.places().size());
+  for (size_t i = 0; i < all.size(); ++i) all[i] = static_cast<int>(i);
+  return all;
+}
+
+// Figure 4.4's case for the root spheres `sb` of the base and `si` of the incoming memory.
+MergeCase RootSphereCase(const PlaceMemory& base, const PlaceMemory& incoming,
+                         const NodeStatistics& sb, const NodeStatistics& si, double tau_r) {
+  const double d = (sb.centroid - si.centroid).norm();
+  // The spheres reach a recognition radius further: views nearer than sqrt(τ_r·u) may be
+  // one place's (term 1 of g is δ/u), so spheres closer than that must not count as apart.
+  // Without it two small memories (a single place has radius 0) are always disjoint, and a
+  // team exchanging memories as it learns would never recognise a place (docs/decisions.md,
+  // "Merging": recognition reach).
+  const double reach = std::sqrt(tau_r * std::max(base.DistanceUnit(), incoming.DistanceUnit()));
+  // (4.5), decided on the spheres that hold every member view: ρ of (4.4) is a root mean
+  // square, and a place outside it may coincide with one of the other memory.
+  if (d > ViewBound(base, sb.centroid) + ViewBound(incoming, si.centroid) + reach) {
+    return MergeCase::kDisjoint;
+  }
+  const bool base_large = sb.radius >= si.radius;
+  const NodeStatistics& small = base_large ? si : sb;
+  const NodeStatistics& large = base_large ? sb : si;
+  if (d + small.radius > large.radius) return MergeCase::kIntersecting;
+  for (const HyperTerminal& h : HyperTerminals(base_large ? base : incoming)) {
+    if ((h.sphere.centroid - small.centroid).norm() <= h.sphere.radius + small.radius + reach) {
+      return MergeCase::kContainedIntersecting;
+    }
+  }
+  return MergeCase::kContained;
+}
+
+}  // namespace
+
+std::string_view ToString(MergeCase c) {
+  switch (c) {
+    case MergeCase::kNothingNew:
+      return "nothing-new";
+    case MergeCase::kDisjoint:
+      return "disjoint";
+    case MergeCase::kContained:
+      return "contained";
+    case MergeCase::kContainedIntersecting:
+      return "contained-intersecting";
+    case MergeCase::kIntersecting:
+      return "intersecting";
+  }
+  return "?";
+}
+
+bool PeerGoesIntoOurs(const PlaceMemory& ours, const PlaceMemory& peer) {
+  return peer.places().size() < ours.places().size() ||
+         (peer.places().size() == ours.places().size() && ours.robot() <= peer.robot());
+}
+
+RootSpheres CaseOfRootSpheres(const PlaceMemory& base, const PlaceMemory& incoming, double tau_r) {
+  RootSpheres s;
+  s.base = StatisticsOf(base, AllPlaces(base));
+  s.incoming = StatisticsOf(incoming, AllPlaces(incoming));
+  s.merge_case = RootSphereCase(base, incoming, s.base, s.incoming, tau_r);
+  return s;
+}
+
+bool RecognitionDecides(MergeCase c) {
+  return c == MergeCase::kContainedIntersecting || c == MergeCase::kIntersecting;
+}
+
+}  // namespace tsc

@@ -1,0 +1,99 @@
+#include "core/merge/merged_places.h"
+
+#include <algorithm>
+#include <unordered_map>
+
+namespace tsc {
+
+Placement PlaceIncoming(const PlaceMemory& base, const PlaceMemory& incoming, const KnownIds& known,
+                        const std::vector<int>& targets, const std::vector<int>& holder) {
+  const size_t base_count = base.places().size();
+  Placement out{
+      std::vector<int>(incoming.places().size(), -1), std::vector<char>(base_count, 0), {}};
+  for (size_t i = 0; i < incoming.places().size(); ++i) {
+    if (!known.is_new[i]) {
+      out.merged_index[i] = holder[static_cast<size_t>(known.holder.at(incoming.places()[i].id))];
+    } else if (targets[i] >= 0) {
+      out.merged_index[i] = targets[i];
+      out.updated[static_cast<size_t>(targets[i])] = 1;
+    } else {
+      out.merged_index[i] = static_cast<int>(base_count + out.added.size());
+      out.added.push_back(incoming.places()[i].id);
+    }
+  }
+  for (size_t b = 0; b < base_count; ++b) {
+    if (holder[b] == static_cast<int>(b)) continue;
+    out.updated[b] = 1;
+    out.updated[static_cast<size_t>(holder[b])] = 1;
+  }
+  return out;
+}
+
+std::vector<LearnedPlace> PlacesOf(const PlaceMemory& memory, PlaceMemory* owned) {
+  if (owned != nullptr) return std::move(*owned).TakePlaces();
+  return memory.places();
+}
+
+IncomingPlaces::IncomingPlaces(const PlaceMemory& memory, PlaceMemory* owned)
+    : memory_(memory), owned_(owned != nullptr) {
+  if (owned_) taken_ = std::move(*owned).TakePlaces();
+}
+
+LearnedPlace IncomingPlaces::Take(size_t i) {
+  if (owned_) return std::move(taken_[i]);
+  return memory_.places()[i];
+}
+
+void PreferOurFresherCopies(std::vector<LearnedPlace>& places, IncomingPlaces& in) {
+  std::unordered_map<PlaceId, size_t, PlaceIdHash> mine;
+  for (size_t i = 0; i < in.size(); ++i) mine.emplace(in[i].id, i);
+  for (LearnedPlace& b : places) {
+    const auto it = mine.find(b.id);
+    if (it == mine.end()) continue;
+    const LearnedPlace& m = in[it->second];
+    const bool peer_added_nothing =
+        std::includes(m.sources.begin(), m.sources.end(), b.sources.begin(), b.sources.end());
+    if (peer_added_nothing && m.member_count >= b.member_count) {
+      b = in.Take(it->second);  // a known place: never added below
+    } else if (b.members.empty()) {
+      b.members = m.members;
+      b.detected = m.detected;
+    }
+  }
+}
+
+void AbsorbRecognised(std::vector<LearnedPlace>& places, const IncomingPlaces& in,
+                      const std::vector<char>& is_new, const Recognitions& found, int max_samples,
+                      std::vector<Absorption>& absorbed) {
+  for (size_t i = 0; i < in.size(); ++i) {
+    if (!is_new[i] || found.target[i] < 0) continue;
+    const LearnedPlace& p = in[i];
+    LearnedPlace& target = places[static_cast<size_t>(found.target[i])];
+    Absorb(target, p, max_samples);
+    absorbed.push_back({p.id, target.id, found.cost[i]});
+  }
+}
+
+void FoldJoined(std::vector<LearnedPlace>& places, const std::vector<int>& holder,
+                const std::vector<double>& fold_cost,
+                const std::vector<std::pair<int, PlaceId>>& learned, int max_samples,
+                std::vector<Absorption>& absorbed) {
+  for (size_t b = 0; b < holder.size(); ++b) {
+    const auto h = static_cast<size_t>(holder[b]);
+    if (h == b) continue;
+    absorbed.push_back({places[b].id, places[h].id, fold_cost[b]});
+    Fold(places[h], places[b], max_samples);
+  }
+  for (const auto& [b, id] : learned) AddSource(places[static_cast<size_t>(b)], id);
+}
+
+void AddNewPlaces(std::vector<LearnedPlace>& places, IncomingPlaces& in,
+                  const Placement& placement) {
+  const size_t base_count = placement.updated.size();
+  places.reserve(base_count + placement.added.size());
+  for (size_t i = 0; i < in.size(); ++i) {
+    if (placement.merged_index[i] >= static_cast<int>(base_count)) places.push_back(in.Take(i));
+  }
+}
+
+}  // namespace tsc

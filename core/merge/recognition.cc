@@ -1,0 +1,151 @@
+#include "core/merge/recognition.h"
+
+#include <limits>
+#include <utility>
+
+#include "core/memory/recognition_cost.h"
+#include "core/merge/hyper_terminals.h"
+
+namespace tsc {
+namespace {
+
+// g of (4.1) for the incoming place `p` against hyper-terminal `h` of `base`: the g_N of
+// recognition (core/memory/recognition_cost.h) with p's member views as the vote points and
+// N*'s children as the candidates; only a terminal can absorb p, so an inner child of N*
+// only enters the ratio. Sets `best` to the nearest terminal place P¹ and `best_gamma` to
+// γ(p, P¹) between the means (the distance of the merged SLINK tree); −1, with an infinite
+// cost, when no terminal child of N* can take p.
+double RecognitionCost(const PlaceMemory& base, const HyperTerminal& h, const LearnedPlace& p,
+                       int* best, double* best_gamma) {
+  std::vector<const LearnedPlace*> places;
+  std::vector<double> units;
+  std::vector<int> index;  // base place index of each column
+  std::vector<CostCandidate> candidates;
+  // Past `shortlist` places under N*'s children, only the nearest by the view index are
+  // measured, as recognition does (core/memory/view_index.h): the others enter the ratio's N²
+  // by their estimate and cannot be P¹. Measuring every one made the merge quadratic (10⁴ +
+  // 10⁴ synthetic places: N* of ~156 terminals, 1.6·10⁶ place measurements, 19 s).
+  for (int c : base.nodes()[static_cast<size_t>(h.node)].children) {
+    const MemoryNode& child = base.nodes()[static_cast<size_t>(c)];
+    CostCandidate candidate;
+    candidate.may_be_best = child.terminal();
+    candidate.centroid = base.Centroid(c);
+    for (int l = child.first_leaf; l < child.end_leaf; ++l) {
+      const int place = base.leaf_order()[static_cast<size_t>(l)];
+      candidate.places.push_back(static_cast<int>(places.size()));
+      places.push_back(&base.places()[static_cast<size_t>(place)]);
+      units.push_back(base.DistanceUnit());
+      index.push_back(place);
+    }
+    candidates.push_back(std::move(candidate));
+  }
+  std::vector<float> estimates;
+  const int shortlist = base.options().shortlist;
+  if (shortlist > 0 && static_cast<int>(places.size()) > shortlist) {
+    estimates = base.EstimatedDistances(p.samples, index);
+    std::vector<char> measured(places.size(), 0);
+    for (int column : Shortlist(estimates, shortlist)) measured[static_cast<size_t>(column)] = 1;
+    for (size_t column = 0; column < places.size(); ++column) {
+      if (!measured[column]) places[column] = nullptr;
+    }
+  }
+  const ViewDistances vd(p.samples, places, units, estimates);
+  const CostTerms t = RecognitionCost(vd, p.mean, candidates, base.options().cost);
+  if (t.best < 0) {  // no terminal child of N* can absorb p (RecognitionCost)
+    *best = -1;
+    *best_gamma = std::numeric_limits<double>::infinity();
+    return std::numeric_limits<double>::infinity();
+  }
+  *best = index[static_cast<size_t>(candidates[static_cast<size_t>(t.best)].places.front())];
+  *best_gamma = (p.mean - base.places()[static_cast<size_t>(*best)].mean).squaredNorm();
+  return t.cost;
+}
+
+// Repeated exchanges: the base may hold places the incoming memory never saw (a peer's places
+// learned since it last merged ours, or ours the peer has not merged yet). Nobody compares them
+// with the places both memories hold (those are known on both sides), so they are recognised
+// here the other way round, against the incoming memory's places the base knows; a match joins
+// the two base places in `join` and its g goes to `fold_cost` (docs/decisions.md, "Merging":
+// recognition both ways).
+void RecogniseFreshBasePlaces(const PlaceMemory& base, const PlaceMemory& incoming,
+                              const std::vector<HyperTerminal>& hb,
+                              const std::vector<HyperTerminal>& hi, const std::vector<int>& fresh,
+                              const std::vector<char>& is_new,
+                              const std::unordered_map<PlaceId, int, PlaceIdHash>& known,
+                              double tau_r, IdJoin& join, std::vector<double>& fold_cost) {
+  const std::vector<size_t> match_of = MatchHyperTerminals(incoming, hi, hb);
+  std::vector<char> is_fresh(base.places().size(), 0);
+  for (int b : fresh) is_fresh[static_cast<size_t>(b)] = 1;
+  for (size_t a = 0; a < hb.size(); ++a) {
+    for (int b : hb[a].places) {
+      if (!is_fresh[static_cast<size_t>(b)]) continue;
+      int match = -1;
+      double gamma = 0.0;
+      const double g = RecognitionCost(incoming, hi[match_of[a]],
+                                       base.places()[static_cast<size_t>(b)], &match, &gamma);
+      if (match < 0 || g > tau_r || is_new[static_cast<size_t>(match)]) continue;
+      const PlaceId match_id = incoming.places()[static_cast<size_t>(match)].id;
+      if (match_id.robot == base.places()[static_cast<size_t>(b)].id.robot) continue;
+      const int holder = known.at(match_id);
+      // A robot's own places stay apart: the holder may be a place of b's robot that
+      // absorbed the match in an earlier merge.
+      if (holder != b && base.places()[static_cast<size_t>(holder)].id.robot !=
+                             base.places()[static_cast<size_t>(b)].id.robot) {
+        join.places.Unite(b, holder);
+        fold_cost[static_cast<size_t>(b)] = g;
+      }
+    }
+  }
+}
+
+// (4.6)-(4.7): match each incoming hyper-terminal N' to the base hyper-terminal N* of largest
+// overlap (ties: nearer centre, then lower node index), then recognise its places new to the
+// base against N*'s places with g ≤ τ_r: `target` and `cost` of the absorbed ones, `nearest` and
+// `nearest_gamma` of every one measured (−1: none). With no intersecting N*, the largest overlap
+// is the smallest gap: the nearest sphere, so recognition still decides.
+void RecogniseNewIncomingPlaces(const PlaceMemory& base, const PlaceMemory& incoming,
+                                const std::vector<HyperTerminal>& hb,
+                                const std::vector<HyperTerminal>& hi,
+                                const std::vector<char>& is_new, double tau_r,
+                                Recognitions& found) {
+  const std::vector<size_t> match_of = MatchHyperTerminals(base, hb, hi);
+  for (size_t a = 0; a < hi.size(); ++a) {
+    const size_t star = match_of[a];
+    for (int p : hi[a].places) {
+      const auto i = static_cast<size_t>(p);
+      if (!is_new[i] || found.target[i] >= 0) continue;
+      int match = -1;
+      const double g =
+          RecognitionCost(base, hb[star], incoming.places()[i], &match, &found.nearest_gamma[i]);
+      found.nearest[i] = match;
+      // A robot's own places stay apart: its pipeline already judged them different.
+      if (match >= 0 && g <= tau_r &&
+          base.places()[static_cast<size_t>(match)].id.robot != incoming.places()[i].id.robot) {
+        found.target[i] = match;
+        found.cost[i] = g;
+      }
+    }
+  }
+}
+
+}  // namespace
+
+Recognitions::Recognitions(std::vector<int> linked, size_t base_count)
+    : target(std::move(linked)),
+      cost(target.size(), 0.0),
+      nearest(target.size(), -1),
+      nearest_gamma(target.size(), 0.0),
+      fold_cost(base_count, 0.0) {}
+
+void Recognise(const PlaceMemory& base, const PlaceMemory& incoming, const KnownIds& known,
+               const std::vector<int>& fresh, double tau_r, IdJoin& join, Recognitions& found) {
+  const std::vector<HyperTerminal> hb = HyperTerminals(base), hi = HyperTerminals(incoming);
+  // (Only a place the base knows can be matched: none known, nothing to do.)
+  if (!fresh.empty() && !known.known.empty()) {
+    RecogniseFreshBasePlaces(base, incoming, hb, hi, fresh, known.is_new, known.holder, tau_r, join,
+                             found.fold_cost);
+  }
+  RecogniseNewIncomingPlaces(base, incoming, hb, hi, known.is_new, tau_r, found);
+}
+
+}  // namespace tsc
