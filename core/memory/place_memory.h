@@ -103,7 +103,7 @@ class PlaceMemory {
   ViewDistances DistancesOf(const Eigen::MatrixXf& votes, double unit) const;
   /// The view index's rough squared distances from `votes` (its mean and two spread points)
   /// to the places `places`: what the merge shortlists a hyper-terminal's places by, and the
-  /// ratio term's distance to the places it does not measure (core/merge/merge.cc).
+  /// ratio term's distance to the places it does not measure (core/merge/recognition.cc).
   std::vector<float> EstimatedDistances(const Eigen::MatrixXf& votes,
                                         std::span<const int> places) const;
   /// u for D: the larger of DistanceUnit() and step_unit x D's median consecutive squared
