@@ -60,23 +60,16 @@ bool Coincides(const ViewDistances& vd, const Nearest& best, const Nearest& othe
 ViewDistances::ViewDistances(const Eigen::MatrixXf& votes,
                              std::span<const LearnedPlace* const> places,
                              std::span<const double> units, std::span<const float> estimates)
-    : distance_(votes.cols(), static_cast<Eigen::Index>(places.size())),
-      view_(votes.cols(), static_cast<Eigen::Index>(places.size())),
-      places_(places.begin(), places.end()),
+    : places_(places.begin(), places.end()),
+      column_(places.size(), -1),
       units_(units.begin(), units.end()),
       estimates_(estimates.begin(), estimates.end()) {
   if (votes.cols() == 0) throw std::invalid_argument("view distances of no vote points");
   if (units.size() != places.size()) throw std::invalid_argument("one unit per place needed");
   if (!estimates.empty() && estimates.size() != places.size())
     throw std::invalid_argument("one estimate per place needed");
-  const Eigen::RowVectorXf vote_sq = votes.colwise().squaredNorm();
   for (size_t p = 0; p < places_.size(); ++p) {
-    if (places_[p] == nullptr) {
-      distance_.col(static_cast<Eigen::Index>(p))
-          .setConstant(std::numeric_limits<float>::infinity());
-      view_.col(static_cast<Eigen::Index>(p)).setConstant(-1);
-      continue;
-    }
+    if (places_[p] == nullptr) continue;
     const Eigen::MatrixXf& s = places_[p]->samples;
     if (s.rows() != votes.rows() || s.cols() == 0) {
       throw std::invalid_argument("place " + places_[p]->id.ToString() + " has " +
@@ -84,14 +77,22 @@ ViewDistances::ViewDistances(const Eigen::MatrixXf& votes,
                                   std::to_string(s.rows()) + " for vote points of dimension " +
                                   std::to_string(votes.rows()));
     }
+    column_[p] = static_cast<int>(measured_.size());
+    measured_.push_back(static_cast<int>(p));
+  }
+  distance_.resize(votes.cols(), static_cast<Eigen::Index>(measured_.size()));
+  view_.resize(votes.cols(), static_cast<Eigen::Index>(measured_.size()));
+  const Eigen::RowVectorXf vote_sq = votes.colwise().squaredNorm();
+  for (size_t c = 0; c < measured_.size(); ++c) {
+    const Eigen::MatrixXf& s = places_[static_cast<size_t>(measured_[c])]->samples;
     // ‖s − x‖² = ‖s‖² + ‖x‖² − 2 sᵀx for every view s and vote point x at once.
     Eigen::MatrixXf d = -2.0f * (s.transpose() * votes);
     d.colwise() += s.colwise().squaredNorm().transpose();
     d.rowwise() += vote_sq;
     for (Eigen::Index j = 0; j < votes.cols(); ++j) {
       Eigen::Index row = 0;
-      distance_(j, static_cast<Eigen::Index>(p)) = std::max(0.0f, d.col(j).minCoeff(&row));
-      view_(j, static_cast<Eigen::Index>(p)) = static_cast<int>(row);
+      distance_(j, static_cast<Eigen::Index>(c)) = std::max(0.0f, d.col(j).minCoeff(&row));
+      view_(j, static_cast<Eigen::Index>(c)) = static_cast<int>(row);
     }
   }
   // Units for places of one view (docs/decisions.md "Recognition cost").
