@@ -28,6 +28,7 @@ Nearest NearestIn(const ViewDistances& vd, const CostCandidate& c) {
   Nearest out{std::vector<double>(static_cast<size_t>(n), std::numeric_limits<double>::infinity()),
               std::vector<int>(static_cast<size_t>(n), -1)};
   for (int p : c.places) {
+    if (!vd.measured(p)) continue;  // infinitely far: never nearer
     for (int j = 0; j < n; ++j) {
       const double d = vd.distance(j, p);
       if (d < out.distance[static_cast<size_t>(j)]) {
