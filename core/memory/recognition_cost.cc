@@ -83,17 +83,34 @@ ViewDistances::ViewDistances(const Eigen::MatrixXf& votes,
   }
   distance_.resize(votes.cols(), static_cast<Eigen::Index>(measured_.size()));
   view_.resize(votes.cols(), static_cast<Eigen::Index>(measured_.size()));
-  const Eigen::RowVectorXf vote_sq = votes.colwise().squaredNorm();
+  const Eigen::Index n = votes.cols();
+  const Eigen::VectorXf vote_sq = votes.colwise().squaredNorm().transpose();
+  // The vote points as rows, column-major: the products' left side in the layout Eigen packs
+  // fastest (sᵀ·votes packed a row-major sᵀ for every place).
+  const Eigen::MatrixXf votes_t = votes.transpose();
+  Eigen::Index most = 0;
+  for (int p : measured_) most = std::max(most, places_[static_cast<size_t>(p)]->samples.cols());
+  Eigen::MatrixXf dots(n, most);  // votes x views of one place, reused for every place
+  Eigen::RowVectorXf view_sq(most);
   for (size_t c = 0; c < measured_.size(); ++c) {
     const Eigen::MatrixXf& s = places_[static_cast<size_t>(measured_[c])]->samples;
-    // ‖s − x‖² = ‖s‖² + ‖x‖² − 2 sᵀx for every view s and vote point x at once.
-    Eigen::MatrixXf d = -2.0f * (s.transpose() * votes);
-    d.colwise() += s.colwise().squaredNorm().transpose();
-    d.rowwise() += vote_sq;
-    for (Eigen::Index j = 0; j < votes.cols(); ++j) {
-      Eigen::Index row = 0;
-      distance_(j, static_cast<Eigen::Index>(c)) = std::max(0.0f, d.col(j).minCoeff(&row));
-      view_(j, static_cast<Eigen::Index>(c)) = static_cast<int>(row);
+    const Eigen::Index k = s.cols();
+    view_sq.head(k) = s.colwise().squaredNorm();
+    auto xs = dots.leftCols(k);
+    xs.noalias() = votes_t * s;
+    // ‖s − x‖² = ‖s‖² + ‖x‖² − 2 sᵀx; the first nearest view on ties.
+    for (Eigen::Index j = 0; j < n; ++j) {
+      float nearest = (-2.0f * xs(j, 0) + view_sq[0]) + vote_sq[j];
+      int at = 0;
+      for (Eigen::Index v = 1; v < k; ++v) {
+        const float d = (-2.0f * xs(j, v) + view_sq[v]) + vote_sq[j];
+        if (d < nearest) {
+          nearest = d;
+          at = static_cast<int>(v);
+        }
+      }
+      distance_(j, static_cast<Eigen::Index>(c)) = std::max(0.0f, nearest);
+      view_(j, static_cast<Eigen::Index>(c)) = at;
     }
   }
   // Units for places of one view (docs/decisions.md "Recognition cost").
