@@ -7,6 +7,7 @@
 #include <string>
 
 #include "core/memory/member_views.h"
+#include "core/memory/simd.h"
 
 namespace tsc {
 namespace {
@@ -60,7 +61,8 @@ bool Coincides(const ViewDistances& vd, const Nearest& best, const Nearest& othe
 
 ViewDistances::ViewDistances(const Eigen::MatrixXf& votes,
                              std::span<const LearnedPlace* const> places,
-                             std::span<const double> units, std::span<const float> estimates)
+                             std::span<const double> units, std::span<const float> estimates,
+                             Simd simd)
     : places_(places.begin(), places.end()),
       column_(places.size(), -1),
       units_(units.begin(), units.end()),
@@ -86,18 +88,31 @@ ViewDistances::ViewDistances(const Eigen::MatrixXf& votes,
   const Eigen::Index n = votes.cols();
   const Eigen::VectorXf vote_sq = votes.colwise().squaredNorm().transpose();
   // The vote points as rows, column-major: the products' left side in the layout Eigen packs
-  // fastest (sᵀ·votes packed a row-major sᵀ for every place).
-  const Eigen::MatrixXf votes_t = votes.transpose();
+  // fastest (sᵀ·votes packed a row-major sᵀ for every place). The AVX2 kernel reads votes.
+  const Eigen::MatrixXf votes_t =
+      simd == Simd::kPortable ? Eigen::MatrixXf(votes.transpose()) : Eigen::MatrixXf();
+  auto samples_of = [this](size_t c) -> const Eigen::MatrixXf& {
+    return places_[static_cast<size_t>(measured_[c])]->samples;
+  };
   Eigen::Index most = 0;
-  for (int p : measured_) most = std::max(most, places_[static_cast<size_t>(p)]->samples.cols());
+  for (size_t c = 0; c < measured_.size(); ++c) most = std::max(most, samples_of(c).cols());
   Eigen::MatrixXf dots(n, most);  // votes x views of one place, reused for every place
   Eigen::RowVectorXf view_sq(most);
   for (size_t c = 0; c < measured_.size(); ++c) {
-    const Eigen::MatrixXf& s = places_[static_cast<size_t>(measured_[c])]->samples;
+    const Eigen::MatrixXf& s = samples_of(c);
     const Eigen::Index k = s.cols();
-    view_sq.head(k) = s.colwise().squaredNorm();
     auto xs = dots.leftCols(k);
-    xs.noalias() = votes_t * s;
+    if (simd == Simd::kAvx2Fma) {
+      // The next place's views are fetched from memory while this one's products run.
+      const Eigen::MatrixXf* next = c + 1 < measured_.size() ? &samples_of(c + 1) : nullptr;
+      avx2::ColumnDots(votes.data(), static_cast<int>(n), s.data(), static_cast<int>(k),
+                       static_cast<int>(votes.rows()), xs.data(), view_sq.data(),
+                       next != nullptr ? next->data() : nullptr,
+                       next != nullptr ? next->size() : 0);
+    } else {
+      view_sq.head(k) = s.colwise().squaredNorm();
+      xs.noalias() = votes_t * s;
+    }
     // ‖s − x‖² = ‖s‖² + ‖x‖² − 2 sᵀx; the first nearest view on ties.
     for (Eigen::Index j = 0; j < n; ++j) {
       float nearest = (-2.0f * xs(j, 0) + view_sq[0]) + vote_sq[j];

@@ -24,6 +24,7 @@
 #include <vector>
 
 #include "core/memory/learned_place.h"
+#include "core/memory/simd.h"
 #include "core/range.h"
 
 namespace tsc {
@@ -38,9 +39,11 @@ class ViewDistances {
   /// Brute force over every view of every place given; a null place is not measured (left
   /// out of a shortlist, core/memory/view_index.h): infinitely far, with no nearest view.
   /// `estimates` (empty, or one per place) stand in for a place that is not measured where
-  /// only a rough distance is needed: the ratio's N² (RecognitionCost).
+  /// only a rough distance is needed: the ratio's N² (RecognitionCost). `simd`: the
+  /// instructions the products run on (the same distances up to rounding; tests compare them).
   ViewDistances(const Eigen::MatrixXf& votes, std::span<const LearnedPlace* const> places,
-                std::span<const double> units, std::span<const float> estimates = {});
+                std::span<const double> units, std::span<const float> estimates = {},
+                Simd simd = FastestSimd());
   int num_votes() const { return static_cast<int>(distance_.rows()); }
   int num_places() const { return static_cast<int>(places_.size()); }
   /// Infinite for a place that is not measured.
