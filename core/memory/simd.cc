@@ -103,6 +103,55 @@ TSC_AVX2 void DotRow(int ka, const float* a, const float* b, int dim, float* out
   }
 }
 
+// RowDots for kQ columns of q: 32 rows (4 x 8 lanes) at a time, then 8 with a masked tail.
+// Each row's sum runs over k in order, one FMA per term, wherever the row falls.
+template <int kQ>
+TSC_AVX2 void RowDotsOf(const float* a, std::ptrdiff_t lda, int rows, int dim, const float* q,
+                        float* out, std::ptrdiff_t ldo) {
+  int r = 0;
+  for (; r + 32 <= rows; r += 32) {
+    __m256 acc[4][kQ];
+#pragma GCC unroll 4
+    for (int i = 0; i < 4; ++i) {
+#pragma GCC unroll 3
+      for (int j = 0; j < kQ; ++j) acc[i][j] = _mm256_setzero_ps();
+    }
+    for (int k = 0; k < dim; ++k) {
+      const float* ak = a + k * lda + r;
+      __m256 va[4];
+#pragma GCC unroll 4
+      for (int i = 0; i < 4; ++i) va[i] = _mm256_loadu_ps(ak + 8 * i);
+#pragma GCC unroll 3
+      for (int j = 0; j < kQ; ++j) {
+        const __m256 vq = _mm256_broadcast_ss(q + k + j * static_cast<std::ptrdiff_t>(dim));
+#pragma GCC unroll 4
+        for (int i = 0; i < 4; ++i) acc[i][j] = _mm256_fmadd_ps(va[i], vq, acc[i][j]);
+      }
+    }
+#pragma GCC unroll 4
+    for (int i = 0; i < 4; ++i) {
+#pragma GCC unroll 3
+      for (int j = 0; j < kQ; ++j) _mm256_storeu_ps(out + j * ldo + r + 8 * i, acc[i][j]);
+    }
+  }
+  for (; r < rows; r += 8) {
+    const __m256i mask = FirstLanes(std::min(8, rows - r));
+    __m256 acc[kQ];
+#pragma GCC unroll 3
+    for (int j = 0; j < kQ; ++j) acc[j] = _mm256_setzero_ps();
+    for (int k = 0; k < dim; ++k) {
+      const __m256 va = _mm256_maskload_ps(a + k * lda + r, mask);
+#pragma GCC unroll 3
+      for (int j = 0; j < kQ; ++j) {
+        const __m256 vq = _mm256_broadcast_ss(q + k + j * static_cast<std::ptrdiff_t>(dim));
+        acc[j] = _mm256_fmadd_ps(va, vq, acc[j]);
+      }
+    }
+#pragma GCC unroll 3
+    for (int j = 0; j < kQ; ++j) _mm256_maskstore_ps(out + j * ldo + r, mask, acc[j]);
+  }
+}
+
 // ‖b_j‖² of column j < kB (stride dim), 8 lanes at a time with a masked tail.
 template <int kB>
 TSC_AVX2 void SquaredNorms(const float* b, int dim, float* out) {
@@ -176,6 +225,25 @@ TSC_AVX2 void ColumnDots(const float* a, int na, const float* b, int nb, int dim
   }
 }
 
+TSC_AVX2 void RowDots(const float* a, std::ptrdiff_t lda, int rows, int dim, const float* q, int nq,
+                      float* out) {
+  const std::ptrdiff_t ldo = rows;
+  for (int j = 0; j < nq; j += 3) {
+    const float* qj = q + j * static_cast<std::ptrdiff_t>(dim);
+    float* o = out + j * ldo;
+    switch (std::min(3, nq - j)) {
+      case 1:
+        RowDotsOf<1>(a, lda, rows, dim, qj, o, ldo);
+        break;
+      case 2:
+        RowDotsOf<2>(a, lda, rows, dim, qj, o, ldo);
+        break;
+      default:
+        RowDotsOf<3>(a, lda, rows, dim, qj, o, ldo);
+    }
+  }
+}
+
 #undef TSC_AVX2
 
 #else  // no AVX2 kernels in this build: FastestSimd() never names them
@@ -183,6 +251,10 @@ TSC_AVX2 void ColumnDots(const float* a, int na, const float* b, int nb, int dim
 void ColumnDots(const float*, int, const float*, int, int, float*, float*, const float*,
                 std::ptrdiff_t) {
   throw std::logic_error("avx2::ColumnDots: not in this build");
+}
+
+void RowDots(const float*, std::ptrdiff_t, int, int, const float*, int, float*) {
+  throw std::logic_error("avx2::RowDots: not in this build");
 }
 
 #endif

@@ -1,7 +1,7 @@
 #pragma once
 // Vector kernels of the memory's distances (issue 19: recognition ≤ 1 ms at 10⁴ places). The
 // build targets any CPU (baseline x86-64: SSE2); on an x86-64 CPU with AVX2 and FMA the
-// products of ViewDistances run the kernels below instead, chosen at run
+// products of ViewDistances and the view index run the kernels below instead, chosen at run
 // time. They take raw column-major arrays, so no Eigen code is compiled for two instruction
 // sets (Eigen's inline templates would then differ between translation units).
 
@@ -30,6 +30,11 @@ namespace avx2 {
 /// order for every column, so results do not depend on na, nb or a column's position.
 void ColumnDots(const float* a, int na, const float* b, int nb, int dim, float* out, float* b_norms,
                 const float* next = nullptr, std::ptrdiff_t next_floats = 0);
+
+/// out[r + j·rows] = Σ_k a[r + k·lda] · q[k + j·dim]: the rows x dim block `a` (leading
+/// dimension lda ≥ rows) times the dim x nq matrix `q`; out is rows x nq.
+void RowDots(const float* a, std::ptrdiff_t lda, int rows, int dim, const float* q, int nq,
+             float* out);
 
 }  // namespace avx2
 }  // namespace tsc

@@ -88,5 +88,28 @@ TEST_F(AvxKernels, ColumnDotsOfAColumnAreTheSameInEveryBlock) {
   }
 }
 
+TEST_F(AvxKernels, RowDotsEqualTheEigenProductOnRandomData) {
+  for (int dim : {1, 5, 32}) {
+    for (int rows : {1, 7, 8, 9, 31, 32, 33, 100, 1024}) {
+      for (int nq : {1, 2, 3, 4, 7}) {
+        // A block of a taller matrix: the leading dimension exceeds the rows.
+        const Eigen::MatrixXf tall = Random(rng_, rows + 13, dim);
+        const Eigen::MatrixXf q = Random(rng_, dim, nq);
+        Eigen::MatrixXf out(rows, nq);
+        avx2::RowDots(tall.data() + 5, tall.rows(), rows, dim, q.data(), nq, out.data());
+        const Eigen::MatrixXf a = tall.middleRows(5, rows);
+        const Eigen::MatrixXd want = a.cast<double>() * q.cast<double>();
+        for (int j = 0; j < nq; ++j) {
+          for (int r = 0; r < rows; ++r) {
+            // RowDots sums each row over the dimensions in order.
+            ASSERT_NEAR(out(r, j), want(r, j), Tolerance(a.row(r).transpose(), q.col(j), dim))
+                << "dim " << dim << ", " << rows << " rows x " << nq << " at " << r << ", " << j;
+          }
+        }
+      }
+    }
+  }
+}
+
 }  // namespace
 }  // namespace tsc

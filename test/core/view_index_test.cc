@@ -65,6 +65,27 @@ TEST(ViewIndex, RekeysAPlaceItAlreadyHolds) {
   EXPECT_THROW(index.Set(52, AsLearned(places.Visit(1, 0))), std::out_of_range);
 }
 
+// The AVX2 kernel and the portable product give the same estimates up to rounding, over more
+// keys than one block of the scan and any number of queries.
+TEST(ViewIndex, EstimatesAreTheSameWithEitherSimd) {
+  Places places(14);
+  ViewIndex portable(Simd::kPortable), fastest(FastestSimd());
+  for (int p = 0; p < 400; ++p) {  // 1200 keys
+    const LearnedPlace learned = AsLearned(places.Visit(p, 0));
+    portable.Set(p, learned);
+    fastest.Set(p, learned);
+  }
+  for (int count : {1, 3, 5}) {
+    const Eigen::MatrixXf queries = places.Visit(17, 1).descriptors.leftCols(count);
+    const std::vector<float> a = portable.Estimate(queries), b = fastest.Estimate(queries);
+    ASSERT_EQ(a.size(), b.size());
+    // ‖k‖² + ‖q‖² − 2 kᵀq rounds at the scale of the norms (estimates are on it).
+    const float tolerance = 1e-5f * 2.0f * queries.colwise().squaredNorm().maxCoeff();
+    for (size_t p = 0; p < a.size(); ++p) EXPECT_NEAR(a[p], b[p], tolerance) << p;
+    EXPECT_EQ(Shortlist(a, 8), Shortlist(b, 8));
+  }
+}
+
 // The shortlist changes how much is measured, not what is recognised: a memory of 300 places
 // measuring 16 of them per recognition names the same place as one measuring all of them.
 TEST(PlaceMemoryShortlist, RecognisesWhatTheExhaustiveSearchRecognises) {
