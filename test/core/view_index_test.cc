@@ -4,6 +4,9 @@
 
 #include <algorithm>
 #include <cmath>
+#include <numeric>
+#include <random>
+#include <utility>
 #include <vector>
 
 #include "core/memory/place_memory.h"
@@ -63,6 +66,27 @@ TEST(ViewIndex, RekeysAPlaceItAlreadyHolds) {
   EXPECT_EQ(near, (std::vector<int>{3, 49}));
   EXPECT_EQ(index.size(), 50);
   EXPECT_THROW(index.Set(52, AsLearned(places.Visit(1, 0))), std::out_of_range);
+}
+
+// The definition by brute force: the `count` smallest (estimate, index) pairs, by index.
+TEST(Shortlist, TakesTheSmallestEstimatesAndTheLowerIndexOnTies) {
+  std::mt19937 rng(15);
+  std::uniform_int_distribution<int> level(0, 9);  // few values: many ties
+  for (int size : {1, 5, 40, 1000}) {
+    std::vector<float> estimates(static_cast<size_t>(size));
+    for (float& e : estimates) e = 0.5f * static_cast<float>(level(rng));
+    for (int count : {0, 1, 3, 7, 39, 40, 999, 2000}) {
+      std::vector<int> order(estimates.size());
+      std::iota(order.begin(), order.end(), 0);
+      std::sort(order.begin(), order.end(), [&](int a, int b) {
+        return std::pair(estimates[static_cast<size_t>(a)], a) <
+               std::pair(estimates[static_cast<size_t>(b)], b);
+      });
+      order.resize(static_cast<size_t>(std::min(count, size)));
+      std::sort(order.begin(), order.end());
+      EXPECT_EQ(Shortlist(estimates, count), order) << size << " places, " << count;
+    }
+  }
 }
 
 // The AVX2 kernel and the portable product give the same estimates up to rounding, over more
