@@ -7,6 +7,7 @@
 #include <string>
 
 #include "core/memory/member_views.h"
+#include "core/memory/simd.h"
 
 namespace tsc {
 namespace {
@@ -28,6 +29,7 @@ Nearest NearestIn(const ViewDistances& vd, const CostCandidate& c) {
   Nearest out{std::vector<double>(static_cast<size_t>(n), std::numeric_limits<double>::infinity()),
               std::vector<int>(static_cast<size_t>(n), -1)};
   for (int p : c.places) {
+    if (!vd.measured(p)) continue;  // infinitely far: never nearer
     for (int j = 0; j < n; ++j) {
       const double d = vd.distance(j, p);
       if (d < out.distance[static_cast<size_t>(j)]) {
@@ -59,24 +61,18 @@ bool Coincides(const ViewDistances& vd, const Nearest& best, const Nearest& othe
 
 ViewDistances::ViewDistances(const Eigen::MatrixXf& votes,
                              std::span<const LearnedPlace* const> places,
-                             std::span<const double> units, std::span<const float> estimates)
-    : distance_(votes.cols(), static_cast<Eigen::Index>(places.size())),
-      view_(votes.cols(), static_cast<Eigen::Index>(places.size())),
-      places_(places.begin(), places.end()),
+                             std::span<const double> units, std::span<const float> estimates,
+                             Simd simd)
+    : places_(places.begin(), places.end()),
+      column_(places.size(), -1),
       units_(units.begin(), units.end()),
       estimates_(estimates.begin(), estimates.end()) {
   if (votes.cols() == 0) throw std::invalid_argument("view distances of no vote points");
   if (units.size() != places.size()) throw std::invalid_argument("one unit per place needed");
   if (!estimates.empty() && estimates.size() != places.size())
     throw std::invalid_argument("one estimate per place needed");
-  const Eigen::RowVectorXf vote_sq = votes.colwise().squaredNorm();
   for (size_t p = 0; p < places_.size(); ++p) {
-    if (places_[p] == nullptr) {
-      distance_.col(static_cast<Eigen::Index>(p))
-          .setConstant(std::numeric_limits<float>::infinity());
-      view_.col(static_cast<Eigen::Index>(p)).setConstant(-1);
-      continue;
-    }
+    if (places_[p] == nullptr) continue;
     const Eigen::MatrixXf& s = places_[p]->samples;
     if (s.rows() != votes.rows() || s.cols() == 0) {
       throw std::invalid_argument("place " + places_[p]->id.ToString() + " has " +
@@ -84,14 +80,52 @@ ViewDistances::ViewDistances(const Eigen::MatrixXf& votes,
                                   std::to_string(s.rows()) + " for vote points of dimension " +
                                   std::to_string(votes.rows()));
     }
-    // ‖s − x‖² = ‖s‖² + ‖x‖² − 2 sᵀx for every view s and vote point x at once.
-    Eigen::MatrixXf d = -2.0f * (s.transpose() * votes);
-    d.colwise() += s.colwise().squaredNorm().transpose();
-    d.rowwise() += vote_sq;
-    for (Eigen::Index j = 0; j < votes.cols(); ++j) {
-      Eigen::Index row = 0;
-      distance_(j, static_cast<Eigen::Index>(p)) = std::max(0.0f, d.col(j).minCoeff(&row));
-      view_(j, static_cast<Eigen::Index>(p)) = static_cast<int>(row);
+    column_[p] = static_cast<int>(measured_.size());
+    measured_.push_back(static_cast<int>(p));
+  }
+  distance_.resize(votes.cols(), static_cast<Eigen::Index>(measured_.size()));
+  view_.resize(votes.cols(), static_cast<Eigen::Index>(measured_.size()));
+  const Eigen::Index n = votes.cols();
+  const Eigen::VectorXf vote_sq = votes.colwise().squaredNorm().transpose();
+  // The vote points as rows, column-major: the products' left side in the layout Eigen packs
+  // fastest (sᵀ·votes packed a row-major sᵀ for every place). The AVX2 kernel reads votes.
+  const Eigen::MatrixXf votes_t =
+      simd == Simd::kPortable ? Eigen::MatrixXf(votes.transpose()) : Eigen::MatrixXf();
+  auto samples_of = [this](size_t c) -> const Eigen::MatrixXf& {
+    return places_[static_cast<size_t>(measured_[c])]->samples;
+  };
+  Eigen::Index most = 0;
+  for (size_t c = 0; c < measured_.size(); ++c) most = std::max(most, samples_of(c).cols());
+  Eigen::MatrixXf dots(n, most);  // votes x views of one place, reused for every place
+  Eigen::RowVectorXf view_sq(most);
+  for (size_t c = 0; c < measured_.size(); ++c) {
+    const Eigen::MatrixXf& s = samples_of(c);
+    const Eigen::Index k = s.cols();
+    auto xs = dots.leftCols(k);
+    if (simd == Simd::kAvx2Fma) {
+      // The next place's views are fetched from memory while this one's products run.
+      const Eigen::MatrixXf* next = c + 1 < measured_.size() ? &samples_of(c + 1) : nullptr;
+      avx2::ColumnDots(votes.data(), static_cast<int>(n), s.data(), static_cast<int>(k),
+                       static_cast<int>(votes.rows()), xs.data(), view_sq.data(),
+                       next != nullptr ? next->data() : nullptr,
+                       next != nullptr ? next->size() : 0);
+    } else {
+      view_sq.head(k) = s.colwise().squaredNorm();
+      xs.noalias() = votes_t * s;
+    }
+    // ‖s − x‖² = ‖s‖² + ‖x‖² − 2 sᵀx; the first nearest view on ties.
+    for (Eigen::Index j = 0; j < n; ++j) {
+      float nearest = (-2.0f * xs(j, 0) + view_sq[0]) + vote_sq[j];
+      int at = 0;
+      for (Eigen::Index v = 1; v < k; ++v) {
+        const float d = (-2.0f * xs(j, v) + view_sq[v]) + vote_sq[j];
+        if (d < nearest) {
+          nearest = d;
+          at = static_cast<int>(v);
+        }
+      }
+      distance_(j, static_cast<Eigen::Index>(c)) = std::max(0.0f, nearest);
+      view_(j, static_cast<Eigen::Index>(c)) = at;
     }
   }
   // Units for places of one view (docs/decisions.md "Recognition cost").

@@ -24,6 +24,7 @@
 #include <vector>
 
 #include "core/memory/learned_place.h"
+#include "core/memory/simd.h"
 #include "core/range.h"
 
 namespace tsc {
@@ -38,16 +39,28 @@ class ViewDistances {
   /// Brute force over every view of every place given; a null place is not measured (left
   /// out of a shortlist, core/memory/view_index.h): infinitely far, with no nearest view.
   /// `estimates` (empty, or one per place) stand in for a place that is not measured where
-  /// only a rough distance is needed: the ratio's N² (RecognitionCost).
+  /// only a rough distance is needed: the ratio's N² (RecognitionCost). `simd`: the
+  /// instructions the products run on (the same distances up to rounding; tests compare them).
   ViewDistances(const Eigen::MatrixXf& votes, std::span<const LearnedPlace* const> places,
-                std::span<const double> units, std::span<const float> estimates = {});
+                std::span<const double> units, std::span<const float> estimates = {},
+                Simd simd = FastestSimd());
   int num_votes() const { return static_cast<int>(distance_.rows()); }
-  int num_places() const { return static_cast<int>(distance_.cols()); }
-  float distance(int vote, int place) const { return distance_(vote, place); }
-  int view(int vote, int place) const { return view_(vote, place); }
+  int num_places() const { return static_cast<int>(places_.size()); }
+  /// Infinite for a place that is not measured.
+  float distance(int vote, int place) const {
+    const int c = column_[static_cast<size_t>(place)];
+    return c < 0 ? std::numeric_limits<float>::infinity() : distance_(vote, c);
+  }
+  /// −1 for a place that is not measured.
+  int view(int vote, int place) const {
+    const int c = column_[static_cast<size_t>(place)];
+    return c < 0 ? -1 : view_(vote, c);
+  }
   double unit(int place) const { return units_[static_cast<size_t>(place)]; }
   const LearnedPlace& place(int i) const { return *places_[static_cast<size_t>(i)]; }
-  bool measured(int place) const { return places_[static_cast<size_t>(place)] != nullptr; }
+  bool measured(int place) const { return column_[static_cast<size_t>(place)] >= 0; }
+  /// The places measured (given non-null), in increasing order.
+  std::span<const int> measured_places() const { return measured_; }
   /// A rough squared distance to a place that is not measured (infinite without estimates).
   float estimate(int place) const {
     return estimates_.empty() ? std::numeric_limits<float>::infinity()
@@ -55,9 +68,12 @@ class ViewDistances {
   }
 
  private:
-  Eigen::MatrixXf distance_;  // votes x places
+  // Only the measured places have a column (a shortlist measures a few of 10⁴ places).
+  Eigen::MatrixXf distance_;  // votes x measured places
   Eigen::MatrixXi view_;      // column of the nearest view in the place's samples
   std::vector<const LearnedPlace*> places_;
+  std::vector<int> column_;    // per place: its column in distance_, −1 when not measured
+  std::vector<int> measured_;  // the measured places, in increasing order
   std::vector<double> units_;
   std::vector<float> estimates_;
 };

@@ -12,6 +12,7 @@
 #include <vector>
 
 #include "core/memory/learned_place.h"
+#include "core/memory/simd.h"
 
 namespace tsc {
 
@@ -24,6 +25,9 @@ class ViewIndex {
   static constexpr int kKeysPerPlace = 3;  ///< the mean and two spread member views
   /// Of the projection: 10⁴ places' keys are 3.8 MB, read once per recognition.
   static constexpr int kDimensions = 32;
+
+  /// `simd`: the instructions Estimate runs on (the same estimates up to rounding).
+  explicit ViewIndex(Simd simd = FastestSimd()) : simd_(simd) {}
 
   /// Keys place `place` (re-keys it when already indexed; appends when place == size()).
   /// Precondition: place ≤ size(); p has a mean and at least one member view.
@@ -49,6 +53,7 @@ class ViewIndex {
   Eigen::MatrixXf projection_;
   Eigen::MatrixXf keys_;  // capacity x kDimensions; the first kKeysPerPlace · size() rows are keys
   std::vector<float> key_norms_;
+  Simd simd_;
 };
 
 }  // namespace tsc

@@ -4,6 +4,9 @@
 
 #include <algorithm>
 #include <cmath>
+#include <numeric>
+#include <random>
+#include <utility>
 #include <vector>
 
 #include "core/memory/place_memory.h"
@@ -63,6 +66,48 @@ TEST(ViewIndex, RekeysAPlaceItAlreadyHolds) {
   EXPECT_EQ(near, (std::vector<int>{3, 49}));
   EXPECT_EQ(index.size(), 50);
   EXPECT_THROW(index.Set(52, AsLearned(places.Visit(1, 0))), std::out_of_range);
+}
+
+// The definition by brute force: the `count` smallest (estimate, index) pairs, by index.
+TEST(Shortlist, TakesTheSmallestEstimatesAndTheLowerIndexOnTies) {
+  std::mt19937 rng(15);
+  std::uniform_int_distribution<int> level(0, 9);  // few values: many ties
+  for (int size : {1, 5, 40, 1000}) {
+    std::vector<float> estimates(static_cast<size_t>(size));
+    for (float& e : estimates) e = 0.5f * static_cast<float>(level(rng));
+    for (int count : {0, 1, 3, 7, 39, 40, 999, 2000}) {
+      std::vector<int> order(estimates.size());
+      std::iota(order.begin(), order.end(), 0);
+      std::sort(order.begin(), order.end(), [&](int a, int b) {
+        return std::pair(estimates[static_cast<size_t>(a)], a) <
+               std::pair(estimates[static_cast<size_t>(b)], b);
+      });
+      order.resize(static_cast<size_t>(std::min(count, size)));
+      std::sort(order.begin(), order.end());
+      EXPECT_EQ(Shortlist(estimates, count), order) << size << " places, " << count;
+    }
+  }
+}
+
+// The AVX2 kernel and the portable product give the same estimates up to rounding, over more
+// keys than one block of the scan and any number of queries.
+TEST(ViewIndex, EstimatesAreTheSameWithEitherSimd) {
+  Places places(14);
+  ViewIndex portable(Simd::kPortable), fastest(FastestSimd());
+  for (int p = 0; p < 400; ++p) {  // 1200 keys
+    const LearnedPlace learned = AsLearned(places.Visit(p, 0));
+    portable.Set(p, learned);
+    fastest.Set(p, learned);
+  }
+  for (int count : {1, 3, 5}) {
+    const Eigen::MatrixXf queries = places.Visit(17, 1).descriptors.leftCols(count);
+    const std::vector<float> a = portable.Estimate(queries), b = fastest.Estimate(queries);
+    ASSERT_EQ(a.size(), b.size());
+    // ‖k‖² + ‖q‖² − 2 kᵀq rounds at the scale of the norms (estimates are on it).
+    const float tolerance = 1e-5f * 2.0f * queries.colwise().squaredNorm().maxCoeff();
+    for (size_t p = 0; p < a.size(); ++p) EXPECT_NEAR(a[p], b[p], tolerance) << p;
+    EXPECT_EQ(Shortlist(a, 8), Shortlist(b, 8));
+  }
 }
 
 // The shortlist changes how much is measured, not what is recognised: a memory of 300 places

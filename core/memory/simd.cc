@@ -1,0 +1,263 @@
+#include "core/memory/simd.h"
+
+#include <algorithm>
+#include <stdexcept>
+
+#if defined(__x86_64__) && defined(__GNUC__)
+#include <immintrin.h>
+#define TSC_AVX2_KERNELS 1
+#endif
+
+// No Eigen here: this file's functions are compiled for AVX2 and FMA one by one (the target
+// attribute) while the file, like the rest of the build, targets the baseline.
+
+namespace tsc {
+
+Simd FastestSimd() {
+#ifdef TSC_AVX2_KERNELS
+  static const Simd fastest = [] {
+    __builtin_cpu_init();
+    // libgcc also checks that the OS saves the AVX registers (XGETBV) before it reports avx2.
+    return __builtin_cpu_supports("avx2") && __builtin_cpu_supports("fma") ? Simd::kAvx2Fma
+                                                                           : Simd::kPortable;
+  }();
+  return fastest;
+#else
+  return Simd::kPortable;
+#endif
+}
+
+namespace avx2 {
+
+#ifdef TSC_AVX2_KERNELS
+namespace {
+
+#define TSC_AVX2 __attribute__((target("avx2,fma")))
+
+TSC_AVX2 inline float Sum(__m256 v) {
+  __m128 s = _mm_add_ps(_mm256_castps256_ps128(v), _mm256_extractf128_ps(v, 1));
+  s = _mm_add_ps(s, _mm_movehl_ps(s, s));
+  s = _mm_add_ss(s, _mm_movehdup_ps(s));
+  return _mm_cvtss_f32(s);
+}
+
+// The first n lanes (0 ≤ n ≤ 8).
+TSC_AVX2 inline __m256i FirstLanes(int n) {
+  return _mm256_cmpgt_epi32(_mm256_set1_epi32(n), _mm256_setr_epi32(0, 1, 2, 3, 4, 5, 6, 7));
+}
+
+// A kA x kB block of ColumnDots: columns a_0..a_{kA−1} (stride dim) against b_0..b_{kB−1},
+// 8 lanes at a time with a masked tail; every product read straight from the columns (no
+// packing). 4 x 3 accumulators and 7 loads per 12 FMAs keep the FMA units busy.
+template <int kA, int kB>
+TSC_AVX2 void DotBlock(const float* a, const float* b, int dim, float* out, int ldo) {
+  __m256 acc[kA][kB];
+#pragma GCC unroll 4
+  for (int i = 0; i < kA; ++i) {
+#pragma GCC unroll 3
+    for (int j = 0; j < kB; ++j) acc[i][j] = _mm256_setzero_ps();
+  }
+  const std::ptrdiff_t stride = dim;
+  int d = 0;
+  for (; d + 8 <= dim; d += 8) {
+    __m256 va[kA];
+#pragma GCC unroll 4
+    for (int i = 0; i < kA; ++i) va[i] = _mm256_loadu_ps(a + i * stride + d);
+#pragma GCC unroll 3
+    for (int j = 0; j < kB; ++j) {
+      const __m256 vb = _mm256_loadu_ps(b + j * stride + d);
+#pragma GCC unroll 4
+      for (int i = 0; i < kA; ++i) acc[i][j] = _mm256_fmadd_ps(va[i], vb, acc[i][j]);
+    }
+  }
+  if (d < dim) {
+    const __m256i mask = FirstLanes(dim - d);
+    __m256 va[kA];
+#pragma GCC unroll 4
+    for (int i = 0; i < kA; ++i) va[i] = _mm256_maskload_ps(a + i * stride + d, mask);
+#pragma GCC unroll 3
+    for (int j = 0; j < kB; ++j) {
+      const __m256 vb = _mm256_maskload_ps(b + j * stride + d, mask);
+#pragma GCC unroll 4
+      for (int i = 0; i < kA; ++i) acc[i][j] = _mm256_fmadd_ps(va[i], vb, acc[i][j]);
+    }
+  }
+#pragma GCC unroll 4
+  for (int i = 0; i < kA; ++i) {
+#pragma GCC unroll 3
+    for (int j = 0; j < kB; ++j) out[i + j * ldo] = Sum(acc[i][j]);
+  }
+}
+
+template <int kB>
+TSC_AVX2 void DotRow(int ka, const float* a, const float* b, int dim, float* out, int ldo) {
+  switch (ka) {
+    case 1:
+      return DotBlock<1, kB>(a, b, dim, out, ldo);
+    case 2:
+      return DotBlock<2, kB>(a, b, dim, out, ldo);
+    case 3:
+      return DotBlock<3, kB>(a, b, dim, out, ldo);
+    default:
+      return DotBlock<4, kB>(a, b, dim, out, ldo);
+  }
+}
+
+// RowDots for kQ columns of q: 32 rows (4 x 8 lanes) at a time, then 8 with a masked tail.
+// Each row's sum runs over k in order, one FMA per term, wherever the row falls.
+template <int kQ>
+TSC_AVX2 void RowDotsOf(const float* a, std::ptrdiff_t lda, int rows, int dim, const float* q,
+                        float* out, std::ptrdiff_t ldo) {
+  int r = 0;
+  for (; r + 32 <= rows; r += 32) {
+    __m256 acc[4][kQ];
+#pragma GCC unroll 4
+    for (int i = 0; i < 4; ++i) {
+#pragma GCC unroll 3
+      for (int j = 0; j < kQ; ++j) acc[i][j] = _mm256_setzero_ps();
+    }
+    for (int k = 0; k < dim; ++k) {
+      const float* ak = a + k * lda + r;
+      __m256 va[4];
+#pragma GCC unroll 4
+      for (int i = 0; i < 4; ++i) va[i] = _mm256_loadu_ps(ak + 8 * i);
+#pragma GCC unroll 3
+      for (int j = 0; j < kQ; ++j) {
+        const __m256 vq = _mm256_broadcast_ss(q + k + j * static_cast<std::ptrdiff_t>(dim));
+#pragma GCC unroll 4
+        for (int i = 0; i < 4; ++i) acc[i][j] = _mm256_fmadd_ps(va[i], vq, acc[i][j]);
+      }
+    }
+#pragma GCC unroll 4
+    for (int i = 0; i < 4; ++i) {
+#pragma GCC unroll 3
+      for (int j = 0; j < kQ; ++j) _mm256_storeu_ps(out + j * ldo + r + 8 * i, acc[i][j]);
+    }
+  }
+  for (; r < rows; r += 8) {
+    const __m256i mask = FirstLanes(std::min(8, rows - r));
+    __m256 acc[kQ];
+#pragma GCC unroll 3
+    for (int j = 0; j < kQ; ++j) acc[j] = _mm256_setzero_ps();
+    for (int k = 0; k < dim; ++k) {
+      const __m256 va = _mm256_maskload_ps(a + k * lda + r, mask);
+#pragma GCC unroll 3
+      for (int j = 0; j < kQ; ++j) {
+        const __m256 vq = _mm256_broadcast_ss(q + k + j * static_cast<std::ptrdiff_t>(dim));
+        acc[j] = _mm256_fmadd_ps(va, vq, acc[j]);
+      }
+    }
+#pragma GCC unroll 3
+    for (int j = 0; j < kQ; ++j) _mm256_maskstore_ps(out + j * ldo + r, mask, acc[j]);
+  }
+}
+
+// ‖b_j‖² of column j < kB (stride dim), 8 lanes at a time with a masked tail.
+template <int kB>
+TSC_AVX2 void SquaredNorms(const float* b, int dim, float* out) {
+  __m256 acc[kB];
+#pragma GCC unroll 3
+  for (int j = 0; j < kB; ++j) acc[j] = _mm256_setzero_ps();
+  const std::ptrdiff_t stride = dim;
+  int d = 0;
+  for (; d + 8 <= dim; d += 8) {
+#pragma GCC unroll 3
+    for (int j = 0; j < kB; ++j) {
+      const __m256 vb = _mm256_loadu_ps(b + j * stride + d);
+      acc[j] = _mm256_fmadd_ps(vb, vb, acc[j]);
+    }
+  }
+  if (d < dim) {
+    const __m256i mask = FirstLanes(dim - d);
+#pragma GCC unroll 3
+    for (int j = 0; j < kB; ++j) {
+      const __m256 vb = _mm256_maskload_ps(b + j * stride + d, mask);
+      acc[j] = _mm256_fmadd_ps(vb, vb, acc[j]);
+    }
+  }
+#pragma GCC unroll 3
+  for (int j = 0; j < kB; ++j) out[j] = Sum(acc[j]);
+}
+
+}  // namespace
+
+TSC_AVX2 void ColumnDots(const float* a, int na, const float* b, int nb, int dim, float* out,
+                         float* b_norms, const float* next, std::ptrdiff_t next_floats) {
+  const std::ptrdiff_t stride = dim;
+  // The next call's b comes from memory while this one computes: its cache lines are spread
+  // over the blocks below.
+  const std::ptrdiff_t blocks = static_cast<std::ptrdiff_t>((nb + 2) / 3) * ((na + 3) / 4);
+  const std::ptrdiff_t lines = next == nullptr ? 0 : (next_floats + 15) / 16;
+  const std::ptrdiff_t per_block = (lines + blocks - 1) / blocks;
+  std::ptrdiff_t line = 0;
+  // Three columns of b at a time, each against every four of a: the three stay in L1.
+  for (int j = 0; j < nb; j += 3) {
+    if (b_norms != nullptr) {
+      switch (std::min(3, nb - j)) {
+        case 1:
+          SquaredNorms<1>(b + j * stride, dim, b_norms + j);
+          break;
+        case 2:
+          SquaredNorms<2>(b + j * stride, dim, b_norms + j);
+          break;
+        default:
+          SquaredNorms<3>(b + j * stride, dim, b_norms + j);
+      }
+    }
+    for (int i = 0; i < na; i += 4) {
+      const float* ai = a + i * stride;
+      const float* bj = b + j * stride;
+      float* o = out + i + static_cast<std::ptrdiff_t>(j) * na;
+      const int ka = std::min(4, na - i);
+      switch (std::min(3, nb - j)) {
+        case 1:
+          DotRow<1>(ka, ai, bj, dim, o, na);
+          break;
+        case 2:
+          DotRow<2>(ka, ai, bj, dim, o, na);
+          break;
+        default:
+          DotRow<3>(ka, ai, bj, dim, o, na);
+      }
+      for (std::ptrdiff_t l = 0; l < per_block && line < lines; ++l, ++line)
+        _mm_prefetch(reinterpret_cast<const char*>(next + 16 * line), _MM_HINT_T1);
+    }
+  }
+}
+
+TSC_AVX2 void RowDots(const float* a, std::ptrdiff_t lda, int rows, int dim, const float* q, int nq,
+                      float* out) {
+  const std::ptrdiff_t ldo = rows;
+  for (int j = 0; j < nq; j += 3) {
+    const float* qj = q + j * static_cast<std::ptrdiff_t>(dim);
+    float* o = out + j * ldo;
+    switch (std::min(3, nq - j)) {
+      case 1:
+        RowDotsOf<1>(a, lda, rows, dim, qj, o, ldo);
+        break;
+      case 2:
+        RowDotsOf<2>(a, lda, rows, dim, qj, o, ldo);
+        break;
+      default:
+        RowDotsOf<3>(a, lda, rows, dim, qj, o, ldo);
+    }
+  }
+}
+
+#undef TSC_AVX2
+
+#else  // no AVX2 kernels in this build: FastestSimd() never names them
+
+void ColumnDots(const float*, int, const float*, int, int, float*, float*, const float*,
+                std::ptrdiff_t) {
+  throw std::logic_error("avx2::ColumnDots: not in this build");
+}
+
+void RowDots(const float*, std::ptrdiff_t, int, int, const float*, int, float*) {
+  throw std::logic_error("avx2::RowDots: not in this build");
+}
+
+#endif
+
+}  // namespace avx2
+}  // namespace tsc

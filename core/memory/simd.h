@@ -1,0 +1,40 @@
+#pragma once
+// Vector kernels of the memory's distances (issue 19: recognition ≤ 1 ms at 10⁴ places). The
+// build targets any CPU (baseline x86-64: SSE2); on an x86-64 CPU with AVX2 and FMA the
+// products of ViewDistances and the view index run the kernels below instead, chosen at run
+// time. They take raw column-major arrays, so no Eigen code is compiled for two instruction
+// sets (Eigen's inline templates would then differ between translation units).
+
+#include <cstddef>
+
+namespace tsc {
+
+/// The instruction set a distance computation runs on.
+enum class Simd {
+  kPortable,  ///< the build's own (Eigen's products)
+  kAvx2Fma,   ///< the kernels of namespace avx2 (x86-64 CPUs with AVX2 and FMA)
+};
+
+/// kAvx2Fma where the CPU (and the OS) supports AVX2 and FMA, else kPortable.
+Simd FastestSimd();
+
+namespace avx2 {
+
+// Preconditions for every kernel: FastestSimd() == Simd::kAvx2Fma (they throw
+// std::logic_error in a build without them); arrays column-major, no alignment needed.
+
+/// out[i + j·na] = a_iᵀ b_j for the columns a_i (i < na) of `a` and b_j (j < nb) of `b`, all
+/// of length `dim`: out is na x nb. With b_norms (else null), b_norms[j] = ‖b_j‖² too.
+/// `next` (may be null): `next_floats` floats the caller reads next (the next place's views),
+/// fetched into cache while the products run. Each sum runs over the dimensions in the same
+/// order for every column, so results do not depend on na, nb or a column's position.
+void ColumnDots(const float* a, int na, const float* b, int nb, int dim, float* out, float* b_norms,
+                const float* next = nullptr, std::ptrdiff_t next_floats = 0);
+
+/// out[r + j·rows] = Σ_k a[r + k·lda] · q[k + j·dim]: the rows x dim block `a` (leading
+/// dimension lda ≥ rows) times the dim x nq matrix `q`; out is rows x nq.
+void RowDots(const float* a, std::ptrdiff_t lda, int rows, int dim, const float* q, int nq,
+             float* out);
+
+}  // namespace avx2
+}  // namespace tsc

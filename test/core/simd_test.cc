@@ -1,0 +1,115 @@
+#include "core/memory/simd.h"
+
+#include <gtest/gtest.h>
+
+#include <Eigen/Core>
+#include <cmath>
+#include <iostream>
+#include <limits>
+#include <random>
+#include <vector>
+
+namespace tsc {
+namespace {
+
+constexpr uint32_t kSeed = 20240611;
+
+// Descriptor-like data: positive entries on the scale of a sum-normalised descriptor.
+Eigen::MatrixXf Random(std::mt19937& rng, int rows, int cols) {
+  std::uniform_real_distribution<float> u(0.0f, 2.0f / 1200.0f);
+  Eigen::MatrixXf m(rows, cols);
+  for (Eigen::Index i = 0; i < m.size(); ++i) m.data()[i] = u(rng);
+  return m;
+}
+
+// The rounding bound of a float sum of products x_i·y_i accumulated `terms` deep (plus the
+// three additions that fold 8 lanes): (terms + 3)·ε·Σ|x_i y_i|.
+double Tolerance(const Eigen::VectorXf& x, const Eigen::VectorXf& y, int terms) {
+  const double magnitude =
+      (x.cwiseAbs().cast<double>().array() * y.cwiseAbs().cast<double>().array()).sum();
+  return (terms + 3) * static_cast<double>(std::numeric_limits<float>::epsilon()) * magnitude;
+}
+
+// ColumnDots sums each of 8 lanes over every 8th dimension.
+int LaneTerms(int dim) { return (dim + 7) / 8; }
+
+class AvxKernels : public ::testing::Test {
+ protected:
+  void SetUp() override {
+    if (FastestSimd() != Simd::kAvx2Fma) GTEST_SKIP() << "the CPU has no AVX2 and FMA";
+    std::cout << "seed " << kSeed << "\n";
+  }
+  std::mt19937 rng_{kSeed};
+};
+
+TEST(Simd, FastestIsPortableOrAvxAndStaysTheSame) {
+  const Simd first = FastestSimd();
+  EXPECT_TRUE(first == Simd::kPortable || first == Simd::kAvx2Fma);
+  EXPECT_EQ(FastestSimd(), first);
+}
+
+// Every block shape and tail: sizes around the kernel's 4 x 3 blocks and 8 lanes.
+TEST_F(AvxKernels, ColumnDotsEqualTheEigenProductOnRandomData) {
+  for (int dim : {1, 7, 8, 9, 17, 1200}) {
+    for (int na : {1, 2, 3, 4, 5, 9, 32}) {
+      for (int nb : {1, 2, 3, 4, 7, 32}) {
+        const Eigen::MatrixXf a = Random(rng_, dim, na), b = Random(rng_, dim, nb);
+        Eigen::MatrixXf out(na, nb);
+        Eigen::VectorXf norms(nb);
+        avx2::ColumnDots(a.data(), na, b.data(), nb, dim, out.data(), norms.data());
+        const Eigen::MatrixXd want = a.cast<double>().transpose() * b.cast<double>();
+        for (int j = 0; j < nb; ++j) {
+          EXPECT_NEAR(norms[j], b.col(j).cast<double>().squaredNorm(),
+                      Tolerance(b.col(j), b.col(j), LaneTerms(dim)))
+              << "dim " << dim << " column " << j;
+          for (int i = 0; i < na; ++i) {
+            ASSERT_NEAR(out(i, j), want(i, j), Tolerance(a.col(i), b.col(j), LaneTerms(dim)))
+                << "dim " << dim << ", " << na << " x " << nb << " at " << i << ", " << j;
+          }
+        }
+      }
+    }
+  }
+}
+
+// A product does not depend on where its columns fall in the blocks, and the memory to
+// prefetch does not change it.
+TEST_F(AvxKernels, ColumnDotsOfAColumnAreTheSameInEveryBlock) {
+  const int dim = 1200;
+  const Eigen::MatrixXf a = Random(rng_, dim, 11), b = Random(rng_, dim, 10);
+  Eigen::MatrixXf all(11, 10);
+  avx2::ColumnDots(a.data(), 11, b.data(), 10, dim, all.data(), nullptr, b.data(), b.size());
+  for (int i = 0; i < 11; ++i) {
+    for (int j = 0; j < 10; ++j) {
+      float one = 0.0f;
+      avx2::ColumnDots(a.col(i).data(), 1, b.col(j).data(), 1, dim, &one, nullptr);
+      EXPECT_EQ(one, all(i, j)) << i << ", " << j;
+    }
+  }
+}
+
+TEST_F(AvxKernels, RowDotsEqualTheEigenProductOnRandomData) {
+  for (int dim : {1, 5, 32}) {
+    for (int rows : {1, 7, 8, 9, 31, 32, 33, 100, 1024}) {
+      for (int nq : {1, 2, 3, 4, 7}) {
+        // A block of a taller matrix: the leading dimension exceeds the rows.
+        const Eigen::MatrixXf tall = Random(rng_, rows + 13, dim);
+        const Eigen::MatrixXf q = Random(rng_, dim, nq);
+        Eigen::MatrixXf out(rows, nq);
+        avx2::RowDots(tall.data() + 5, tall.rows(), rows, dim, q.data(), nq, out.data());
+        const Eigen::MatrixXf a = tall.middleRows(5, rows);
+        const Eigen::MatrixXd want = a.cast<double>() * q.cast<double>();
+        for (int j = 0; j < nq; ++j) {
+          for (int r = 0; r < rows; ++r) {
+            // RowDots sums each row over the dimensions in order.
+            ASSERT_NEAR(out(r, j), want(r, j), Tolerance(a.row(r).transpose(), q.col(j), dim))
+                << "dim " << dim << ", " << rows << " rows x " << nq << " at " << r << ", " << j;
+          }
+        }
+      }
+    }
+  }
+}
+
+}  // namespace
+}  // namespace tsc

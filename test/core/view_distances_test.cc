@@ -1,0 +1,129 @@
+#include <gtest/gtest.h>
+
+#include <Eigen/Core>
+#include <cmath>
+#include <iostream>
+#include <limits>
+#include <random>
+#include <stdexcept>
+#include <vector>
+
+#include "core/memory/recognition_cost.h"
+#include "core/memory/simd.h"
+
+namespace tsc {
+namespace {
+
+constexpr uint32_t kSeed = 7031;
+constexpr int kDim = 1200;
+
+// Descriptor-like views: positive entries on the scale of a sum-normalised descriptor.
+Eigen::MatrixXf Views(std::mt19937& rng, int count) {
+  std::uniform_real_distribution<float> u(0.0f, 2.0f / kDim);
+  Eigen::MatrixXf m(kDim, count);
+  for (Eigen::Index i = 0; i < m.size(); ++i) m.data()[i] = u(rng);
+  return m;
+}
+
+LearnedPlace PlaceOf(uint32_t local, Eigen::MatrixXf samples) {
+  LearnedPlace p;
+  p.id = PlaceId{1, local};
+  p.mean = samples.rowwise().mean();
+  p.member_count = samples.cols();
+  p.samples = std::move(samples);
+  return p;
+}
+
+// Places of 1 to 33 views and vote points near some of their views (1 % apart, so the nearest
+// distances are small against the norms, where the norm expansion loses most).
+class ViewDistancesTest : public ::testing::Test {
+ protected:
+  void SetUp() override {
+    std::cout << "seed " << kSeed << "\n";
+    std::mt19937 rng(kSeed);
+    uint32_t local = 1;
+    for (int count : {1, 2, 5, 12, 32, 33}) places_.push_back(PlaceOf(local++, Views(rng, count)));
+    std::normal_distribution<float> noise(0.0f, 0.01f);
+    votes_ = Views(rng, 13);
+    for (int j = 0; j < 13; j += 2) {
+      const Eigen::MatrixXf& s = places_[static_cast<size_t>(j) % places_.size()].samples;
+      votes_.col(j) = s.col(j % s.cols());
+      for (Eigen::Index i = 0; i < kDim; ++i) votes_(i, j) *= 1.0f + noise(rng);
+    }
+    for (const LearnedPlace& p : places_) pointers_.push_back(&p);
+    units_.assign(places_.size(), 1e-6);
+  }
+  std::vector<LearnedPlace> places_;
+  std::vector<const LearnedPlace*> pointers_;
+  std::vector<double> units_;
+  Eigen::MatrixXf votes_;
+};
+
+TEST_F(ViewDistancesTest, AnswersInfinityAndNoViewForPlacesNotMeasured) {
+  std::vector<const LearnedPlace*> some = pointers_;
+  some[1] = nullptr;
+  some[4] = nullptr;
+  const std::vector<float> estimates = {1, 2, 3, 4, 5, 6};
+  for (Simd simd : {Simd::kPortable, FastestSimd()}) {
+    const ViewDistances dut(votes_, some, units_, estimates, simd);
+    EXPECT_EQ(dut.num_places(), 6);
+    EXPECT_EQ(dut.num_votes(), 13);
+    EXPECT_EQ(std::vector<int>(dut.measured_places().begin(), dut.measured_places().end()),
+              (std::vector<int>{0, 2, 3, 5}));
+    for (int p = 0; p < dut.num_places(); ++p) {
+      EXPECT_EQ(dut.measured(p), some[static_cast<size_t>(p)] != nullptr) << p;
+      EXPECT_EQ(dut.estimate(p), estimates[static_cast<size_t>(p)]);
+      for (int j = 0; j < dut.num_votes(); ++j) {
+        if (dut.measured(p)) {
+          EXPECT_TRUE(std::isfinite(dut.distance(j, p))) << j << ", " << p;
+          EXPECT_GE(dut.view(j, p), 0);
+        } else {
+          EXPECT_EQ(dut.distance(j, p), std::numeric_limits<float>::infinity()) << j << ", " << p;
+          EXPECT_EQ(dut.view(j, p), -1);
+        }
+      }
+    }
+  }
+  // Nothing measured: every place is infinitely far, and there are still vote points.
+  const std::vector<const LearnedPlace*> none(places_.size(), nullptr);
+  const ViewDistances empty(votes_, none, units_);
+  EXPECT_TRUE(empty.measured_places().empty());
+  EXPECT_EQ(empty.num_votes(), 13);
+  EXPECT_EQ(empty.distance(0, 0), std::numeric_limits<float>::infinity());
+  EXPECT_EQ(empty.estimate(0), std::numeric_limits<float>::infinity());
+}
+
+// The portable products and the fastest kernels both find the nearest view by brute force:
+// the view is the same, the distance the same up to the rounding of ‖s‖² + ‖x‖² − 2 sᵀx.
+TEST_F(ViewDistancesTest, NearestViewsEqualBruteForceWithEitherSimd) {
+  const ViewDistances portable(votes_, pointers_, units_, {}, Simd::kPortable);
+  const ViewDistances fastest(votes_, pointers_, units_, {}, FastestSimd());
+  int near = 0;
+  for (int p = 0; p < static_cast<int>(places_.size()); ++p) {
+    const Eigen::MatrixXd s = places_[static_cast<size_t>(p)].samples.cast<double>();
+    for (int j = 0; j < votes_.cols(); ++j) {
+      const Eigen::VectorXd x = votes_.col(j).cast<double>();
+      const Eigen::RowVectorXd d = (s.colwise() - x).colwise().squaredNorm();
+      Eigen::Index view = 0;
+      const double want = d.minCoeff(&view);
+      // The expansion rounds at the scale of the squared norms, not of the distance.
+      const double tolerance = 4e-6 * (x.squaredNorm() + s.col(view).squaredNorm());
+      near += want < 0.01 * x.squaredNorm();
+      for (const ViewDistances* dut : {&portable, &fastest}) {
+        EXPECT_NEAR(dut->distance(j, p), want, tolerance) << "vote " << j << ", place " << p;
+        EXPECT_EQ(dut->view(j, p), view) << "vote " << j << ", place " << p;
+      }
+    }
+  }
+  EXPECT_GE(near, 7);  // the votes made from views are measured where precision matters
+}
+
+TEST_F(ViewDistancesTest, RejectsViewsOfAnotherDimension) {
+  places_[2].samples = Eigen::MatrixXf::Ones(kDim - 1, 3);
+  EXPECT_THROW(ViewDistances(votes_, pointers_, units_), std::invalid_argument);
+  EXPECT_THROW(ViewDistances(votes_, pointers_, units_, {}, Simd::kPortable),
+               std::invalid_argument);
+}
+
+}  // namespace
+}  // namespace tsc
