@@ -88,31 +88,28 @@ std::vector<float> ViewIndex::Estimate(const Eigen::MatrixXf& queries) const {
   const Eigen::RowVectorXf q_norms = q.colwise().squaredNorm();
   // ‖k − q‖² = ‖k‖² + ‖q‖² − 2 kᵀq; the key norms are kept, the rest is computed here.
   const Eigen::Index n = static_cast<Eigen::Index>(places) * kKeysPerPlace;
-  // Query by query over blocks of keys that stay in cache, so the keys are read from memory
-  // once: a column-major block times a vector streams each dimension's column and vectorises
-  // without reductions (a product of matrices repacked every key first; 10⁴ places, 3x). The
-  // AVX2 kernel takes every query in one pass over the block.
+  // Over blocks of keys that stay in cache, so the keys are read from memory once: portably
+  // query by query, a column-major block times a vector streams each dimension's column and
+  // vectorises without reductions (a product of matrices repacked every key first; 10⁴
+  // places, 3x); the AVX2 kernel takes every query in one pass over the block.
   constexpr Eigen::Index kBlock = 1024;
   Eigen::VectorXf nearest(n);
-  Eigen::VectorXf dot(kBlock);
-  Eigen::MatrixXf dots(simd_ == Simd::kAvx2Fma ? kBlock : 0, q.cols());
+  Eigen::MatrixXf dots(kBlock, q.cols());  // one block's kᵀq: len x queries, leading dim len
   for (Eigen::Index first = 0; first < n; first += kBlock) {
     const Eigen::Index len = std::min(kBlock, n - first);
-    auto block_nearest = nearest.segment(first, len);
-    block_nearest.setConstant(std::numeric_limits<float>::infinity());
+    Eigen::Map<Eigen::MatrixXf> block_dots(dots.data(), len, q.cols());
     if (simd_ == Simd::kAvx2Fma) {
       avx2::RowDots(keys_.data() + first, keys_.rows(), static_cast<int>(len), kDimensions,
-                    q.data(), static_cast<int>(q.cols()), dots.data());
-      const Eigen::Map<const Eigen::MatrixXf> block_dots(dots.data(), len, q.cols());
-      for (Eigen::Index j = 0; j < q.cols(); ++j) {
-        block_nearest =
-            block_nearest.cwiseMin((q_norms[j] - 2.0f * block_dots.col(j).array()).matrix());
-      }
-      continue;
+                    q.data(), static_cast<int>(q.cols()), block_dots.data());
+    } else {
+      for (Eigen::Index j = 0; j < q.cols(); ++j)
+        block_dots.col(j).noalias() = keys_.middleRows(first, len) * q.col(j);
     }
+    auto block_nearest = nearest.segment(first, len);
+    block_nearest.setConstant(std::numeric_limits<float>::infinity());
     for (Eigen::Index j = 0; j < q.cols(); ++j) {
-      dot.head(len).noalias() = keys_.middleRows(first, len) * q.col(j);
-      block_nearest = block_nearest.cwiseMin((q_norms[j] - 2.0f * dot.head(len).array()).matrix());
+      block_nearest =
+          block_nearest.cwiseMin((q_norms[j] - 2.0f * block_dots.col(j).array()).matrix());
     }
   }
   std::vector<float> out(static_cast<size_t>(places));
