@@ -71,6 +71,7 @@ ViewDistances::ViewDistances(const Eigen::MatrixXf& votes,
   if (units.size() != places.size()) throw std::invalid_argument("one unit per place needed");
   if (!estimates.empty() && estimates.size() != places.size())
     throw std::invalid_argument("one estimate per place needed");
+  std::vector<int> measured;  // the measured places, in increasing order: their columns
   for (size_t p = 0; p < places_.size(); ++p) {
     if (places_[p] == nullptr) continue;
     const Eigen::MatrixXf& s = places_[p]->samples;
@@ -80,31 +81,31 @@ ViewDistances::ViewDistances(const Eigen::MatrixXf& votes,
                                   std::to_string(s.rows()) + " for vote points of dimension " +
                                   std::to_string(votes.rows()));
     }
-    column_[p] = static_cast<int>(measured_.size());
-    measured_.push_back(static_cast<int>(p));
+    column_[p] = static_cast<int>(measured.size());
+    measured.push_back(static_cast<int>(p));
   }
-  distance_.resize(votes.cols(), static_cast<Eigen::Index>(measured_.size()));
-  view_.resize(votes.cols(), static_cast<Eigen::Index>(measured_.size()));
+  distance_.resize(votes.cols(), static_cast<Eigen::Index>(measured.size()));
+  view_.resize(votes.cols(), static_cast<Eigen::Index>(measured.size()));
   const Eigen::Index n = votes.cols();
   const Eigen::VectorXf vote_sq = votes.colwise().squaredNorm().transpose();
   // The vote points as rows, column-major: the products' left side in the layout Eigen packs
   // fastest (sᵀ·votes packed a row-major sᵀ for every place). The AVX2 kernel reads votes.
   const Eigen::MatrixXf votes_t =
       simd == Simd::kPortable ? Eigen::MatrixXf(votes.transpose()) : Eigen::MatrixXf();
-  auto samples_of = [this](size_t c) -> const Eigen::MatrixXf& {
-    return places_[static_cast<size_t>(measured_[c])]->samples;
+  auto samples_of = [this, &measured](size_t c) -> const Eigen::MatrixXf& {
+    return places_[static_cast<size_t>(measured[c])]->samples;
   };
   Eigen::Index most = 0;
-  for (size_t c = 0; c < measured_.size(); ++c) most = std::max(most, samples_of(c).cols());
+  for (size_t c = 0; c < measured.size(); ++c) most = std::max(most, samples_of(c).cols());
   Eigen::MatrixXf dots(n, most);  // votes x views of one place, reused for every place
   Eigen::RowVectorXf view_sq(most);
-  for (size_t c = 0; c < measured_.size(); ++c) {
+  for (size_t c = 0; c < measured.size(); ++c) {
     const Eigen::MatrixXf& s = samples_of(c);
     const Eigen::Index k = s.cols();
     auto xs = dots.leftCols(k);
     if (simd == Simd::kAvx2Fma) {
       // The next place's views are fetched from memory while this one's products run.
-      const Eigen::MatrixXf* next = c + 1 < measured_.size() ? &samples_of(c + 1) : nullptr;
+      const Eigen::MatrixXf* next = c + 1 < measured.size() ? &samples_of(c + 1) : nullptr;
       avx2::ColumnDots(votes.data(), static_cast<int>(n), s.data(), static_cast<int>(k),
                        static_cast<int>(votes.rows()), xs.data(), view_sq.data(),
                        next != nullptr ? next->data() : nullptr,

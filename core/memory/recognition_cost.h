@@ -59,8 +59,6 @@ class ViewDistances {
   double unit(int place) const { return units_[static_cast<size_t>(place)]; }
   const LearnedPlace& place(int i) const { return *places_[static_cast<size_t>(i)]; }
   bool measured(int place) const { return column_[static_cast<size_t>(place)] >= 0; }
-  /// The places measured (given non-null), in increasing order.
-  std::span<const int> measured_places() const { return measured_; }
   /// A rough squared distance to a place that is not measured (infinite without estimates).
   float estimate(int place) const {
     return estimates_.empty() ? std::numeric_limits<float>::infinity()
@@ -72,8 +70,7 @@ class ViewDistances {
   Eigen::MatrixXf distance_;  // votes x measured places
   Eigen::MatrixXi view_;      // column of the nearest view in the place's samples
   std::vector<const LearnedPlace*> places_;
-  std::vector<int> column_;    // per place: its column in distance_, −1 when not measured
-  std::vector<int> measured_;  // the measured places, in increasing order
+  std::vector<int> column_;  // per place: its column in distance_, −1 when not measured
   std::vector<double> units_;
   std::vector<float> estimates_;
 };
