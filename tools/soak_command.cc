@@ -193,7 +193,7 @@ std::string Shortest(double v) {
   return std::string(buf, r.ptr);
 }
 
-int Soak(const std::vector<std::string>& args) {
+po::options_description SoakOptions() {
   po::options_description desc(kSoakHelp);
   desc.add_options()("help,h", "show this help")(
       "robots", po::value<int>()->default_value(5)->value_name("N"), "robots, 2..16")(
@@ -227,122 +227,123 @@ int Soak(const std::vector<std::string>& args) {
       "bound on (RSS median of the last sixth) / (median of the middle third) - 1")(
       "replot", po::value<std::string>()->value_name("DIR"),
       "judge and draw DIR/soak.csv again; runs nothing");
-  const po::variables_map vm = ParseCommandLine(args, desc);
-  if (vm.count("help")) {
-    std::cout << desc << "\n";
-    return kExitOk;
-  }
-  if (vm.count("replot")) return Replot(vm);
-  const int n = vm["robots"].as<int>();
-  if (n < 2 || n > 16) throw UsageError("--robots must be in 2..16");
-  const double duration =
+  return desc;
+}
+
+// What a soak run was asked for, checked.
+struct SoakRequest {
+  int robots = 0;
+  double duration_s = 0.0;
+  int loss = 0;          ///< % of UDP datagrams dropped
+  double every_s = 0.0;  ///< between restarts, 0: none
+  double kill_fraction = 0.0;
+  unsigned seed = 0;  ///< of the restart schedule and the loss
+  std::string netns;  ///< new|current
+  fs::path out;
+  std::vector<std::string> overrides;  ///< every robot's tscd keys (its route comes on top)
+  SoakCheckOptions check;
+};
+
+SoakRequest ToSoakRequest(const po::variables_map& vm) {
+  SoakRequest req;
+  req.robots = vm["robots"].as<int>();
+  if (req.robots < 2 || req.robots > 16) throw UsageError("--robots must be in 2..16");
+  req.duration_s =
       vm.count("seconds") ? vm["seconds"].as<double>() : 60.0 * vm["minutes"].as<double>();
-  if (!(duration >= 10)) throw UsageError("the soak must last at least 10 seconds");
-  const int loss = vm["loss"].as<int>();
-  if (loss < 0 || loss > 90) throw UsageError("--loss must be in 0..90");
-  const double every = vm["restart-every"].as<double>();
-  if (every < 0 || (every > 0 && every < 5)) throw UsageError("--restart-every is 0 or ≥ 5 s");
-  const double kill_fraction = vm["kill-fraction"].as<double>();
-  if (!(kill_fraction >= 0 && kill_fraction <= 1)) throw UsageError("--kill-fraction is in [0, 1]");
-  const std::string netns = vm["netns"].as<std::string>();
-  if (netns != "new" && netns != "current") throw UsageError("--netns is new or current");
-  SoakCheckOptions check = CheckOptions(vm);
-
-  if (const auto failed = EnterPrivateNetwork("soak", args, netns, kNetnsEnv)) return *failed;
-
-  const fs::path out = vm["out"].as<std::string>();
-  fs::create_directories(out);
-  const fs::path tscd = TscdBesideThisTsc();
-
-  // Every robot's overrides; the soak's own first so --set can change them.
+  if (!(req.duration_s >= 10)) throw UsageError("the soak must last at least 10 seconds");
+  req.loss = vm["loss"].as<int>();
+  if (req.loss < 0 || req.loss > 90) throw UsageError("--loss must be in 0..90");
+  req.every_s = vm["restart-every"].as<double>();
+  if (req.every_s < 0 || (req.every_s > 0 && req.every_s < 5)) {
+    throw UsageError("--restart-every is 0 or ≥ 5 s");
+  }
+  req.kill_fraction = vm["kill-fraction"].as<double>();
+  if (!(req.kill_fraction >= 0 && req.kill_fraction <= 1)) {
+    throw UsageError("--kill-fraction is in [0, 1]");
+  }
+  req.netns = vm["netns"].as<std::string>();
+  if (req.netns != "new" && req.netns != "current") throw UsageError("--netns is new or current");
+  req.check = CheckOptions(vm);
+  req.seed = vm["seed"].as<unsigned>();
+  req.out = vm["out"].as<std::string>();
+  // The soak's own keys first, so --set can change them.
   std::ostringstream fps;
   fps << vm["fps"].as<double>();
-  std::vector<std::string> overrides = {
-      "camera.source=sim",
-      std::string("camera.loop=") + (vm.count("loop") ? "true" : "false"),
-      "lcm.url=" + std::string(kLcmUrl),
-      "sim.world_seed=" + std::to_string(vm["world"].as<long long>()),
-      "sim.world=" + vm["kind"].as<std::string>(),
-      "sim.team_size=" + std::to_string(n),
-      "sim.width=160",
-      "sim.height=120",
-      "camera.fps=" + fps.str()};
+  req.overrides = {"camera.source=sim",
+                   std::string("camera.loop=") + (vm.count("loop") ? "true" : "false"),
+                   "lcm.url=" + std::string(kLcmUrl),
+                   "sim.world_seed=" + std::to_string(vm["world"].as<long long>()),
+                   "sim.world=" + vm["kind"].as<std::string>(),
+                   "sim.team_size=" + std::to_string(req.robots),
+                   "sim.width=160",
+                   "sim.height=120",
+                   "camera.fps=" + fps.str()};
   if (vm.count("set")) {
-    for (const std::string& kv : vm["set"].as<std::vector<std::string>>()) overrides.push_back(kv);
-  }
-  for (int i = 0; i < n; ++i) {  // a bad key is one message here, not N robot logs
-    std::vector<std::string> o = overrides;
-    o.push_back("sim.route=" + std::to_string(i));
-    (void)LoadSettings(std::nullopt, o);
-  }
-  if (loss > 0) AddLossRule(loss, vm["seed"].as<unsigned>());
-  struct RemoveLoss {
-    bool added;
-    ~RemoveLoss() {
-      if (added) RunProgram({"nft", "delete", "table", "inet", kLossTable});
+    for (const std::string& kv : vm["set"].as<std::vector<std::string>>()) {
+      req.overrides.push_back(kv);
     }
-  } remove_loss{loss > 0 && netns == "current"};
-
-  std::vector<Robot> robots(static_cast<size_t>(n));
-  for (int i = 0; i < n; ++i) {
-    Robot& r = robots[static_cast<size_t>(i)];
-    r.id = i + 1;
-    r.dir = out / ("robot-" + std::to_string(r.id));
-    fs::remove_all(r.dir);  // a soak starts from empty memories
-    fs::create_directories(r.dir);
   }
-  auto spawn = [&](Robot& r) {
+  return req;
+}
+
+// The soak's robots through their process lives: started, watched, stopped on schedule and
+// started again; what happened to them is kept in restarts().
+class SoakTeam {
+ public:
+  SoakTeam(const SoakRequest& req, fs::path tscd) : req_(req), tscd_(std::move(tscd)) {
+    robots_.resize(static_cast<size_t>(req.robots));
+    for (int i = 0; i < req.robots; ++i) {
+      Robot& r = robots_[static_cast<size_t>(i)];
+      r.id = i + 1;
+      r.dir = req.out / ("robot-" + std::to_string(r.id));
+      fs::remove_all(r.dir);  // a soak starts from empty memories
+      fs::create_directories(r.dir);
+    }
+  }
+
+  std::vector<Robot>& robots() { return robots_; }
+  const std::vector<SoakRestart>& restarts() const { return restarts_; }
+
+  /// Keeps the stats of each robot's current process (late ones of earlier lives are ignored).
+  void Listen(LcmBus& bus) {
+    bus.Subscribe("TSC_STATS_.*", [this](const std::string&, const uint8_t* data, size_t size) {
+      const auto m = LcmBus::Decode<stats_t>(data, size);
+      if (!m || m->robot < 1 || static_cast<size_t>(m->robot) > robots_.size()) return;
+      Robot& r = robots_[static_cast<size_t>(m->robot - 1)];
+      if (r.state == RobotState::kDown || r.dead_boots.count(m->boot_id)) return;
+      if (r.stats && r.stats->boot_id != m->boot_id) r.dead_boots.insert(r.stats->boot_id);
+      r.stats = *m;
+      r.stats_at = Clock::now();
+    });
+  }
+
+  void Spawn(Robot& r) {
     std::vector<std::string> argv = {"tscd", "--robot", std::to_string(r.id), "--state-dir",
                                      r.dir.string()};
-    for (const std::string& kv : overrides) {
+    for (const std::string& kv : req_.overrides) {
       argv.push_back("--set");
       argv.push_back(kv);
     }
     argv.push_back("--set");
     argv.push_back("sim.route=" + std::to_string(r.id - 1));
-    r.pid = SpawnProcess(tscd, argv, r.dir / "tscd.log");
+    r.pid = SpawnProcess(tscd_, argv, r.dir / "tscd.log");
     r.state = RobotState::kRunning;
     r.started = r.state_since = Clock::now();
     r.last_cpu_s = r.last_sample_s = 0.0;
     if (r.stats) r.dead_boots.insert(r.stats->boot_id);
     r.stats.reset();
-  };
+  }
 
-  LcmBus bus(kLcmUrl);
-  bus.Subscribe("TSC_STATS_.*", [&](const std::string&, const uint8_t* data, size_t size) {
-    const auto m = LcmBus::Decode<stats_t>(data, size);
-    if (!m || m->robot < 1 || m->robot > n) return;
-    Robot& r = robots[static_cast<size_t>(m->robot - 1)];
-    if (r.state == RobotState::kDown || r.dead_boots.count(m->boot_id)) return;
-    if (r.stats && r.stats->boot_id != m->boot_id) r.dead_boots.insert(r.stats->boot_id);
-    r.stats = *m;
-    r.stats_at = Clock::now();
-  });
-
-  std::ofstream csv(out / "soak.csv");
-  if (!csv) throw std::runtime_error((out / "soak.csv").string() + ": cannot write");
-  csv << SoakCsvHeader() << "\n";
-  std::vector<SoakSample> samples;
-  std::vector<SoakRestart> restarts;
-  std::mt19937 rng(vm["seed"].as<unsigned>());
-
-  for (Robot& r : robots) spawn(r);
-  std::cout << "tsc soak: " << n << " robots, " << duration << " s, " << loss
-            << " % UDP loss, a restart every " << every << " s (seed " << vm["seed"].as<unsigned>()
-            << ": loss and restarts); output in " << out.string() << std::endl;
-  const auto start = Clock::now();
-  auto next_sample = start + std::chrono::seconds(1);
-  double next_restart = every > 0 ? every : duration + 1;
-  for (;;) {
-    bus.HandleTimeout(50);
-    const auto now = Clock::now();
-    const double t = Seconds(now - start);
-    for (Robot& r : robots) {
+  /// At `t` s into the run: starts again robots that have been down long enough (not after
+  /// the end), notes exits (an unasked one is a restart of its own) and kills a robot that
+  /// ignores SIGTERM.
+  void Supervise(double t, Clock::time_point now) {
+    for (Robot& r : robots_) {
       if (r.state == RobotState::kDown) {
-        if (Seconds(now - r.state_since) >= kDownS && t < duration) {
-          spawn(r);
+        if (Seconds(now - r.state_since) >= kDownS && t < req_.duration_s) {
+          Spawn(r);
           ++r.life;
-          if (r.restart) restarts[*r.restart].down_s = t - restarts[*r.restart].t_s;
+          if (r.restart) restarts_[*r.restart].down_s = t - restarts_[*r.restart].t_s;
           r.restart.reset();
         }
         continue;
@@ -352,10 +353,10 @@ int Soak(const std::vector<std::string>& args) {
         if (r.state == RobotState::kRunning) {  // nobody asked it to stop
           std::cerr << "tsc: robot " << r.id << " exited on its own (status " << e.status << ") at "
                     << t << " s; starting it again\n";
-          restarts.push_back({t, r.id, "none", e.status, 0.0});
-          r.restart = restarts.size() - 1;
+          restarts_.push_back({t, r.id, "none", e.status, 0.0});
+          r.restart = restarts_.size() - 1;
         } else if (r.restart) {
-          restarts[*r.restart].exit_status = e.status;
+          restarts_[*r.restart].exit_status = e.status;
         }
         r.state = RobotState::kDown;
         r.state_since = now;
@@ -367,74 +368,163 @@ int Soak(const std::vector<std::string>& args) {
         kill(r.pid, SIGKILL);
       }
     }
-    if (t >= next_restart && t < duration - every / 2) {
-      next_restart += every;
-      std::vector<Robot*> running;
-      for (Robot& r : robots) {
-        if (r.state == RobotState::kRunning) running.push_back(&r);
+  }
+
+  /// Stops a random running robot (SIGKILL with the request's probability, else SIGTERM).
+  void RestartOne(double t, Clock::time_point now, std::mt19937& rng) {
+    std::vector<Robot*> running;
+    for (Robot& r : robots_) {
+      if (r.state == RobotState::kRunning) running.push_back(&r);
+    }
+    if (running.empty()) return;
+    Robot& r = *running[std::uniform_int_distribution<size_t>(0, running.size() - 1)(rng)];
+    const bool kill9 = std::bernoulli_distribution(req_.kill_fraction)(rng);
+    kill(r.pid, kill9 ? SIGKILL : SIGTERM);
+    r.state = RobotState::kStopping;
+    r.state_since = now;
+    restarts_.push_back({t, r.id, kill9 ? "KILL" : "TERM", 0, 0.0});
+    r.restart = restarts_.size() - 1;
+    std::cout << "  " << static_cast<int>(t) << " s: restarting robot " << r.id << " (SIG"
+              << (kill9 ? "KILL" : "TERM") << ")" << std::endl;
+  }
+
+  /// Stops everyone at the end (a robot still down is not started again); the problems seen.
+  std::vector<std::string> StopAll() {
+    std::vector<std::string> problems;
+    for (Robot& r : robots_) {
+      if (r.state != RobotState::kDown) kill(r.pid, SIGTERM);
+    }
+    for (Robot& r : robots_) {
+      if (r.state == RobotState::kDown) continue;
+      const ChildExit e = WaitForExit(r.pid, kStopGraceS);
+      if (r.state == RobotState::kRunning && e.status != 0) {
+        problems.push_back("robot " + std::to_string(r.id) + " exited with status " +
+                           std::to_string(e.status) + " after the final SIGTERM");
       }
-      if (!running.empty()) {
-        Robot& r = *running[std::uniform_int_distribution<size_t>(0, running.size() - 1)(rng)];
-        const bool kill9 = std::bernoulli_distribution(kill_fraction)(rng);
-        kill(r.pid, kill9 ? SIGKILL : SIGTERM);
-        r.state = RobotState::kStopping;
-        r.state_since = now;
-        restarts.push_back({t, r.id, kill9 ? "KILL" : "TERM", 0, 0.0});
-        r.restart = restarts.size() - 1;
-        std::cout << "  " << static_cast<int>(t) << " s: restarting robot " << r.id << " (SIG"
-                  << (kill9 ? "KILL" : "TERM") << ")" << std::endl;
-      }
+    }
+    return problems;
+  }
+
+ private:
+  const SoakRequest& req_;
+  fs::path tscd_;
+  std::vector<Robot> robots_;
+  std::vector<SoakRestart> restarts_;
+};
+
+// soak.csv, written as the run goes (a killed soak keeps what it sampled), and the samples.
+class SoakSamples {
+ public:
+  explicit SoakSamples(const fs::path& path) : csv_(path) {
+    if (!csv_) throw std::runtime_error(path.string() + ": cannot write");
+    csv_ << SoakCsvHeader() << "\n";
+  }
+  /// One sample of every robot at `t` s; every 30 s a line of figures.
+  void Take(std::vector<Robot>& robots, double t, Clock::time_point now) {
+    for (Robot& r : robots) {
+      samples_.push_back(Sample(r, t, now));
+      csv_ << SoakCsvRow(samples_.back()) << "\n";
+    }
+    csv_.flush();
+    if (static_cast<int>(t) % 30 != 0) return;
+    std::ostringstream line;
+    line << "  " << static_cast<int>(t) << " s:";
+    for (size_t i = samples_.size() - robots.size(); i < samples_.size(); ++i) {
+      const SoakSample& s = samples_[i];
+      line << " r" << s.robot << " " << static_cast<int>(s.rss_mb) << " MB " << s.places
+           << " places " << s.merges_completed << " merges;";
+    }
+    std::cout << line.str() << std::endl;
+  }
+  const std::vector<SoakSample>& samples() const { return samples_; }
+  void Close() { csv_.close(); }
+
+ private:
+  std::ofstream csv_;
+  std::vector<SoakSample> samples_;
+};
+
+void WriteRestartsCsv(const std::vector<SoakRestart>& restarts, const fs::path& path) {
+  std::ofstream csv(path);
+  csv << RestartsCsvHeader() << "\n";
+  for (const SoakRestart& r : restarts) csv << RestartsCsvRow(r) << "\n";
+  csv.close();
+  if (!csv) throw std::runtime_error(path.string() + ": cannot write");
+}
+
+int RunSoak(const SoakRequest& req, const std::vector<std::string>& args) {
+  if (const auto failed = EnterPrivateNetwork("soak", args, req.netns, kNetnsEnv)) return *failed;
+  fs::create_directories(req.out);
+  const fs::path tscd = TscdBesideThisTsc();
+  for (int i = 0; i < req.robots; ++i) {  // a bad key is one message here, not N robot logs
+    std::vector<std::string> o = req.overrides;
+    o.push_back("sim.route=" + std::to_string(i));
+    (void)LoadSettings(std::nullopt, o);
+  }
+  if (req.loss > 0) AddLossRule(req.loss, req.seed);
+  struct RemoveLoss {
+    bool added;
+    ~RemoveLoss() {
+      if (added) RunProgram({"nft", "delete", "table", "inet", kLossTable});
+    }
+  } remove_loss{req.loss > 0 && req.netns == "current"};
+
+  SoakTeam team(req, tscd);
+  LcmBus bus(kLcmUrl);
+  team.Listen(bus);
+  SoakSamples samples(req.out / "soak.csv");
+  std::mt19937 rng(req.seed);
+
+  for (Robot& r : team.robots()) team.Spawn(r);
+  std::cout << "tsc soak: " << req.robots << " robots, " << req.duration_s << " s, " << req.loss
+            << " % UDP loss, a restart every " << req.every_s << " s (seed " << req.seed
+            << ": loss and restarts); output in " << req.out.string() << std::endl;
+  const auto start = Clock::now();
+  auto next_sample = start + std::chrono::seconds(1);
+  double next_restart = req.every_s > 0 ? req.every_s : req.duration_s + 1;
+  for (;;) {
+    bus.HandleTimeout(50);
+    const auto now = Clock::now();
+    const double t = Seconds(now - start);
+    team.Supervise(t, now);
+    if (t >= next_restart && t < req.duration_s - req.every_s / 2) {
+      next_restart += req.every_s;
+      team.RestartOne(t, now, rng);
     }
     if (now >= next_sample) {
       next_sample += std::chrono::seconds(1);
-      for (Robot& r : robots) {
-        samples.push_back(Sample(r, t, now));
-        csv << SoakCsvRow(samples.back()) << "\n";
-      }
-      csv.flush();
-      if (static_cast<int>(t) % 30 == 0) {
-        std::ostringstream line;
-        line << "  " << static_cast<int>(t) << " s:";
-        for (size_t i = samples.size() - robots.size(); i < samples.size(); ++i) {
-          const SoakSample& s = samples[i];
-          line << " r" << s.robot << " " << static_cast<int>(s.rss_mb) << " MB " << s.places
-               << " places " << s.merges_completed << " merges;";
-        }
-        std::cout << line.str() << std::endl;
-      }
+      samples.Take(team.robots(), t, now);
     }
-    if (t >= duration) break;
+    if (t >= req.duration_s) break;
   }
-  // Stop everyone; a robot still down is not started again.
-  std::vector<std::string> final_problems;
-  for (Robot& r : robots) {
-    if (r.state != RobotState::kDown) kill(r.pid, SIGTERM);
-  }
-  for (Robot& r : robots) {
-    if (r.state == RobotState::kDown) continue;
-    const ChildExit e = WaitForExit(r.pid, kStopGraceS);
-    if (r.state == RobotState::kRunning && e.status != 0) {
-      final_problems.push_back("robot " + std::to_string(r.id) + " exited with status " +
-                               std::to_string(e.status) + " after the final SIGTERM");
-    }
-  }
-  csv.close();
-  std::ofstream restart_csv(out / "restarts.csv");
-  restart_csv << RestartsCsvHeader() << "\n";
-  for (const SoakRestart& r : restarts) restart_csv << RestartsCsvRow(r) << "\n";
-  restart_csv.close();
-  if (!restart_csv) throw std::runtime_error((out / "restarts.csv").string() + ": cannot write");
+  const std::vector<std::string> final_problems = team.StopAll();
+  samples.Close();
+  WriteRestartsCsv(team.restarts(), req.out / "restarts.csv");
 
   // Restarts scheduled in the run's window, so a short run checks what it asked for.
+  SoakCheckOptions check = req.check;
   check.expected_restarts =
-      every > 0 ? static_cast<int>(std::ceil((duration - every / 2) / every)) - 1 : 0;
+      req.every_s > 0
+          ? static_cast<int>(std::ceil((req.duration_s - req.every_s / 2) / req.every_s)) - 1
+          : 0;
   check.expected_restarts = std::max(0, check.expected_restarts);
-  SoakVerdict v = AnalyseSoak(samples, restarts, n, check);
+  SoakVerdict v = AnalyseSoak(samples.samples(), team.restarts(), req.robots, check);
   for (const std::string& p : final_problems) {
     v.ok = false;
     v.problems.push_back(p);
   }
-  return Report(v, n, samples, restarts, out);
+  return Report(v, req.robots, samples.samples(), team.restarts(), req.out);
+}
+
+int Soak(const std::vector<std::string>& args) {
+  const po::options_description desc = SoakOptions();
+  const po::variables_map vm = ParseCommandLine(args, desc);
+  if (vm.count("help")) {
+    std::cout << desc << "\n";
+    return kExitOk;
+  }
+  if (vm.count("replot")) return Replot(vm);
+  return RunSoak(ToSoakRequest(vm), args);
 }
 
 }  // namespace
