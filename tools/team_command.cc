@@ -182,7 +182,6 @@ void WriteTeamMapOf(const std::vector<ReplayedRobot>& robots, const ReplayedRobo
   }
 }
 
-// "2,1,3": a permutation of 1..n (UsageError otherwise).
 // One robot's row of summary.json and of the printed table; both modes write the same fields
 // (the offline replay has no process: no exit status, CPU, RSS, store or log).
 struct RobotRow {
@@ -216,8 +215,46 @@ struct RobotRow {
          << ",\"log\":" << (dir ? JsonString((*dir / "tscd.log").string()) : "null") << "}";
     return json.str();
   }
+  /// One line of the printed table; a live run adds the process columns (exit, dropped, CPU,
+  /// RSS) under LiveHeader().
+  void Print(std::ostream& o, bool live) const {
+    o << std::setw(5) << robot;
+    if (live) o << std::setw(6) << exit_status;
+    o << std::setw(8) << frames;
+    if (live) o << std::setw(9) << frames_dropped;
+    o << std::setw(10) << detected_places << std::setw(8) << places << std::setw(12) << recognitions
+      << std::setw(7) << edges << std::setw(5) << own << std::setw(11) << from_peers
+      << std::setw(10) << absorbed;
+    if (live) {
+      o << std::fixed << std::setprecision(1) << std::setw(6) << cpu_percent << std::setw(8)
+        << peak_rss_mb << std::defaultfloat;
+    }
+    o << "\n";
+  }
+  static const char* Header(bool live) {
+    return live
+               ? "\nrobot  exit  frames  dropped  detected  places  recognised  edges  own  "
+                 "merged-in  absorbed  cpu%  rss MB\n"
+               : "\nrobot  frames  detected  places  recognised  edges  own  merged-in  absorbed\n";
+  }
 };
 
+// What `tsc team` was asked for, checked: the robots' settings as their tscd will read them.
+struct TeamRequest {
+  int robots = 0;
+  long long world = 0;
+  std::string kind;
+  double seconds = 0.0;  ///< 0: until the routes ended and the exchange settled
+  double settle = 0.0;   ///< with seconds 0: the longest wait for settling
+  double fps = 0.0;
+  std::string netns;  ///< new|current
+  fs::path out;
+  std::optional<std::vector<uint32_t>> offline_order;  ///< set: --offline, in this order
+  std::vector<std::string> common;                     ///< tscd arguments every robot gets
+  std::vector<Settings> settings;                      ///< robot i + 1's
+};
+
+// "2,1,3": a permutation of 1..n (UsageError otherwise).
 std::vector<uint32_t> ParseOrder(const std::string& text, int n) {
   std::vector<uint32_t> order;
   std::stringstream in(text);
@@ -244,63 +281,9 @@ std::vector<uint32_t> ParseOrder(const std::string& text, int n) {
   return order;
 }
 
-// `tsc team --offline`: every route replayed in this process, the memories exchanged in
-// `order` until nothing changes (tools/team_replay.h), scored and written as the live run
-// writes summary.json (process figures null), plus "mode", "order" and "settled".
-int TeamOffline(const std::vector<Settings>& robot_settings, const std::vector<uint32_t>& order,
-                const fs::path& out, long long world, const std::string& kind, double fps) {
-  fs::create_directories(out);
-  const size_t n = robot_settings.size();
-  std::cout << "tsc team --offline: " << n << " robots in world " << world << " (" << kind
-            << "), merge order";
-  for (uint32_t id : order) std::cout << " " << id;
-  std::cout << ", output in " << out.string() << "\n";
-  std::vector<ReplayedRobot> robots;
-  for (size_t i = 0; i < n; ++i) {
-    robots.push_back(ReplayRoute(robot_settings[i], static_cast<uint32_t>(i + 1)));
-    const ReplayedRobot& r = robots.back();
-    std::cout << "robot " << r.id << ": route replayed, " << r.frames << " base points, "
-              << r.memory.places().size() << " places, " << r.recognitions << " recognised\n";
-  }
-  const bool settled =
-      ExchangeMemories(robots, order, robot_settings.front().daemon.bus.portion_bytes);
-  std::cout << "memory exchange " << (settled ? "settled" : "did NOT settle (20 rounds)") << "\n";
-
-  std::vector<TeamMemoryForScoring> scoring;
-  std::ostringstream json;
-  json << "{\"robots\":[";
-  std::cout << "\nrobot  frames  detected  places  recognised  edges  own  merged-in  absorbed\n";
-  for (size_t i = 0; i < robots.size(); ++i) {
-    const ReplayedRobot& r = robots[i];
-    scoring.push_back(ForMergeScoring(r.id, r.assignments, r.labels, r.memory));
-    RobotRow row;
-    row.robot = r.id;
-    row.frames = r.frames;
-    row.detected_places = r.detected_places;
-    row.places = static_cast<int64_t>(r.memory.places().size());
-    row.recognitions = r.recognitions;
-    row.edges = static_cast<int64_t>(r.map.edges().size());
-    row.merged_events = r.absorbed;
-    row.CountOrigins(r.memory);
-    std::cout << std::setw(5) << row.robot << std::setw(8) << row.frames << std::setw(10)
-              << row.detected_places << std::setw(8) << row.places << std::setw(12)
-              << row.recognitions << std::setw(7) << row.edges << std::setw(5) << row.own
-              << std::setw(11) << row.from_peers << std::setw(10) << row.absorbed << "\n";
-    json << (i ? "," : "") << row.Json();
-  }
-  const TeamVerdict verdict = JudgeTeam(scoring);
-  PrintTeamVerdict(std::cout, verdict);
-  WriteTeamMapOf(robots, robots.front(), robot_settings.front(), world, kind, out);
-  json << "]" << TeamVerdictJson(verdict) << ",\"seconds\":null,\"fps\":" << JsonNumber(fps)
-       << ",\"mode\":\"offline\",\"order\":[";
-  for (size_t i = 0; i < order.size(); ++i) json << (i ? "," : "") << order[i];
-  json << "],\"settled\":" << (settled ? "true" : "false") << "}\n";
-  WriteTextFile(out / "summary.json", json.str());
-  std::cout << "summary: " << (out / "summary.json").string() << "\n";
-  return settled ? kExitOk : kExitFailure;
-}
-
-int Team(const std::vector<std::string>& args) {
+// The request, or nullopt when --help was answered. Every robot's settings are loaded here once,
+// so a bad key is one message, not N robot logs (ConfigError → exit 78).
+std::optional<TeamRequest> ParseTeam(const std::vector<std::string>& args) {
   po::options_description desc(kTeamHelp);
   desc.add_options()("help,h", "show this help")(
       "robots", po::value<int>()->required()->value_name("N"), "robots in the team, 1..16")(
@@ -328,135 +311,183 @@ int Team(const std::vector<std::string>& args) {
   const po::variables_map vm = ParseCommandLine(args, desc);
   if (vm.count("help")) {
     std::cout << desc << "\n";
-    return kExitOk;
+    return std::nullopt;
   }
-  const int n = vm["robots"].as<int>();
-  if (n < 1 || n > 16) throw UsageError("--robots must be in 1..16");
-  const double seconds = vm["seconds"].as<double>();
-  if (seconds < 0) throw UsageError("--seconds must not be negative");
-  const double settle_limit = vm["settle"].as<double>();
-  if (settle_limit < 0) throw UsageError("--settle must not be negative");
-  const std::string netns = vm["netns"].as<std::string>();
-  if (netns != "new" && netns != "current") throw UsageError("--netns is new or current");
-
+  TeamRequest req;
+  req.robots = vm["robots"].as<int>();
+  if (req.robots < 1 || req.robots > 16) throw UsageError("--robots must be in 1..16");
+  req.seconds = vm["seconds"].as<double>();
+  if (req.seconds < 0) throw UsageError("--seconds must not be negative");
+  req.settle = vm["settle"].as<double>();
+  if (req.settle < 0) throw UsageError("--settle must not be negative");
+  req.netns = vm["netns"].as<std::string>();
+  if (req.netns != "new" && req.netns != "current") throw UsageError("--netns is new or current");
   if (vm.count("order") && !vm.count("offline")) throw UsageError("--order needs --offline");
+  req.world = vm["world"].as<long long>();
+  req.kind = vm["kind"].as<std::string>();
+  req.fps = vm["fps"].as<double>();
+  req.out = vm["out"].as<std::string>();
 
-  std::vector<std::string> common;
-  if (vm.count("config")) common = {"--config", vm["config"].as<std::string>()};
+  if (vm.count("config")) req.common = {"--config", vm["config"].as<std::string>()};
+  std::vector<std::string> overrides;
   auto set = [&](const std::string& kv) {
-    common.push_back("--set");
-    common.push_back(kv);
+    req.common.push_back("--set");
+    req.common.push_back(kv);
+    overrides.push_back(kv);
   };
   set("camera.source=sim");
   set("lcm.url=" + std::string(kLcmUrl));
-  set("sim.world_seed=" + std::to_string(vm["world"].as<long long>()));
-  set("sim.world=" + vm["kind"].as<std::string>());
-  set("sim.team_size=" + std::to_string(n));
+  set("sim.world_seed=" + std::to_string(req.world));
+  set("sim.world=" + req.kind);
+  set("sim.team_size=" + std::to_string(req.robots));
   {
     std::ostringstream fps;
-    fps << vm["fps"].as<double>();
+    fps << req.fps;
     set("camera.fps=" + fps.str());
   }
   if (vm.count("set")) {
     for (const std::string& kv : vm["set"].as<std::vector<std::string>>()) set(kv);
   }
-  // Each robot's settings as its tscd reads them; checked here once, so a bad key is one
-  // message, not N robot logs (ConfigError → exit 78).
-  std::vector<Settings> robot_settings;
-  for (int i = 0; i < n; ++i) {
-    std::vector<std::string> overrides;
-    for (size_t k = 0; k + 1 < common.size(); ++k) {
-      if (common[k] == "--set") overrides.push_back(common[k + 1]);
-    }
-    overrides.push_back("sim.route=" + std::to_string(i));
-    std::optional<fs::path> file;
-    if (vm.count("config")) file = vm["config"].as<std::string>();
-    robot_settings.push_back(LoadSettings(file, overrides));
+  std::optional<fs::path> file;
+  if (vm.count("config")) file = vm["config"].as<std::string>();
+  for (int i = 0; i < req.robots; ++i) {
+    std::vector<std::string> own = overrides;
+    own.push_back("sim.route=" + std::to_string(i));
+    req.settings.push_back(LoadSettings(file, own));
   }
   if (vm.count("offline")) {
     std::vector<uint32_t> order;
-    for (int i = 1; i <= n; ++i) order.push_back(static_cast<uint32_t>(i));
-    if (vm.count("order")) order = ParseOrder(vm["order"].as<std::string>(), n);
-    return TeamOffline(robot_settings, order, vm["out"].as<std::string>(),
-                       vm["world"].as<long long>(), vm["kind"].as<std::string>(),
-                       vm["fps"].as<double>());
+    for (int i = 1; i <= req.robots; ++i) order.push_back(static_cast<uint32_t>(i));
+    if (vm.count("order")) order = ParseOrder(vm["order"].as<std::string>(), req.robots);
+    req.offline_order = std::move(order);
   }
+  return req;
+}
 
-  if (const auto failed = EnterPrivateNetwork("team", args, netns, kNetnsEnv)) return *failed;
-
-  const fs::path out = vm["out"].as<std::string>();
-  fs::create_directories(out);
-  const fs::path tscd = TscdBesideThisTsc();
-
-  LcmBus bus(kLcmUrl);
-  std::map<int, RobotStats*> by_id;
-  std::vector<RobotStats> robots(static_cast<size_t>(n));
-  for (int i = 0; i < n; ++i) {
-    RobotStats& r = robots[static_cast<size_t>(i)];
-    r.id = i + 1;
-    r.dir = out / ("robot-" + std::to_string(r.id));
-    fs::create_directories(r.dir);
-    by_id[r.id] = &r;
+// The verdict, the team map and OUT/summary.json (the rows, the verdict, then `tail`: the
+// fields of the mode), shared by both modes.
+void WriteTeamSummary(const TeamRequest& req, const std::vector<RobotRow>& rows,
+                      const TeamVerdict& verdict, const std::vector<ReplayedRobot>& robots,
+                      const std::string& tail, bool frames_dropped) {
+  PrintTeamVerdict(std::cout, verdict);
+  if (frames_dropped) {
+    std::cout << "  (frames were dropped: place labels from the route may be shifted)\n";
   }
-  bus.Subscribe("TSC_ANNOUNCE", [&](const std::string&, const uint8_t* data, size_t size) {
+  WriteTeamMapOf(robots, robots.front(), req.settings.front(), req.world, req.kind, req.out);
+  std::ostringstream json;
+  json << "{\"robots\":[";
+  for (size_t i = 0; i < rows.size(); ++i) json << (i ? "," : "") << rows[i].Json();
+  json << "]" << TeamVerdictJson(verdict) << tail << "}\n";
+  WriteTextFile(req.out / "summary.json", json.str());
+  std::cout << "summary: " << (req.out / "summary.json").string() << "\n";
+}
+
+// `tsc team --offline`: every route replayed in this process, the memories exchanged in
+// the request's order until nothing changes (tools/team_replay.h), scored and written as the
+// live run writes summary.json (process figures null), plus "mode", "order" and "settled".
+int TeamOffline(const TeamRequest& req) {
+  const std::vector<uint32_t>& order = *req.offline_order;
+  fs::create_directories(req.out);
+  std::cout << "tsc team --offline: " << req.robots << " robots in world " << req.world << " ("
+            << req.kind << "), merge order";
+  for (uint32_t id : order) std::cout << " " << id;
+  std::cout << ", output in " << req.out.string() << "\n";
+  std::vector<ReplayedRobot> robots;
+  for (size_t i = 0; i < req.settings.size(); ++i) {
+    robots.push_back(ReplayRoute(req.settings[i], static_cast<uint32_t>(i + 1)));
+    const ReplayedRobot& r = robots.back();
+    std::cout << "robot " << r.id << ": route replayed, " << r.frames << " base points, "
+              << r.memory.places().size() << " places, " << r.recognitions << " recognised\n";
+  }
+  const bool settled =
+      ExchangeMemories(robots, order, req.settings.front().daemon.bus.portion_bytes);
+  std::cout << "memory exchange " << (settled ? "settled" : "did NOT settle (20 rounds)") << "\n";
+
+  std::vector<TeamMemoryForScoring> scoring;
+  std::vector<RobotRow> rows;
+  std::cout << RobotRow::Header(false);
+  for (const ReplayedRobot& r : robots) {
+    scoring.push_back(ForMergeScoring(r.id, r.assignments, r.labels, r.memory));
+    RobotRow& row = rows.emplace_back();
+    row.robot = r.id;
+    row.frames = r.frames;
+    row.detected_places = r.detected_places;
+    row.places = static_cast<int64_t>(r.memory.places().size());
+    row.recognitions = r.recognitions;
+    row.edges = static_cast<int64_t>(r.map.edges().size());
+    row.merged_events = r.absorbed;
+    row.CountOrigins(r.memory);
+    row.Print(std::cout, false);
+  }
+  std::ostringstream tail;
+  tail << ",\"seconds\":null,\"fps\":" << JsonNumber(req.fps)
+       << ",\"mode\":\"offline\",\"order\":[";
+  for (size_t i = 0; i < order.size(); ++i) tail << (i ? "," : "") << order[i];
+  tail << "],\"settled\":" << (settled ? "true" : "false");
+  WriteTeamSummary(req, rows, JudgeTeam(scoring), robots, tail.str(), false);
+  return settled ? kExitOk : kExitFailure;
+}
+
+// Keeps each robot's figures from its announces, stats and events (robot i + 1 is robots[i]).
+void ListenToTeam(LcmBus& bus, std::vector<RobotStats>& robots) {
+  auto of = [&robots](int32_t robot) -> RobotStats* {
+    return robot >= 1 && static_cast<size_t>(robot) <= robots.size()
+               ? &robots[static_cast<size_t>(robot - 1)]
+               : nullptr;
+  };
+  bus.Subscribe("TSC_ANNOUNCE", [of](const std::string&, const uint8_t* data, size_t size) {
     const auto a = LcmBus::Decode<announce_t>(data, size);
-    if (!a || !by_id.count(a->robot)) return;
-    RobotStats& r = *by_id[a->robot];
-    r.frames = a->frames;
-    r.dropped = a->frames_dropped;
-    r.places = a->places;
-    r.edges = a->edges;
-    r.detected = a->detected_places;
-    r.status = a->status;
-    r.route_ended = a->status.find("camera ended") != std::string::npos;
-    if (a->memory_version != r.memory_version) {
-      r.memory_version = a->memory_version;
-      r.version_seen = Clock::now();
+    RobotStats* r = a ? of(a->robot) : nullptr;
+    if (r == nullptr) return;
+    r->frames = a->frames;
+    r->dropped = a->frames_dropped;
+    r->places = a->places;
+    r->edges = a->edges;
+    r->detected = a->detected_places;
+    r->status = a->status;
+    r->route_ended = a->status.find("camera ended") != std::string::npos;
+    if (a->memory_version != r->memory_version) {
+      r->memory_version = a->memory_version;
+      r->version_seen = Clock::now();
     }
   });
   // An exchange in progress (portions held, a memory waiting for its merge, or one received or
   // merged since the last stats) counts as a change for settling: under packet loss a fetch
   // can take longer than the quiet time, and stopping then leaves a peer's last places out.
-  bus.Subscribe("TSC_STATS_.*", [&](const std::string&, const uint8_t* data, size_t size) {
+  bus.Subscribe("TSC_STATS_.*", [of](const std::string&, const uint8_t* data, size_t size) {
     const auto s = LcmBus::Decode<stats_t>(data, size);
-    if (!s || !by_id.count(s->robot)) return;
-    RobotStats& r = *by_id[s->robot];
+    RobotStats* r = s ? of(s->robot) : nullptr;
+    if (r == nullptr) return;
     if (s->buffered_portions > 0 || s->merge_inbox > 0 ||
-        s->snapshots_received != r.snapshots_received ||
-        s->merges_completed != r.merges_completed) {
-      r.version_seen = Clock::now();
+        s->snapshots_received != r->snapshots_received ||
+        s->merges_completed != r->merges_completed) {
+      r->version_seen = Clock::now();
     }
-    r.snapshots_received = s->snapshots_received;
-    r.merges_completed = s->merges_completed;
+    r->snapshots_received = s->snapshots_received;
+    r->merges_completed = s->merges_completed;
   });
-  bus.Subscribe("TSC_EVENT_.*", [&](const std::string&, const uint8_t* data, size_t size) {
+  bus.Subscribe("TSC_EVENT_.*", [of](const std::string&, const uint8_t* data, size_t size) {
     const auto e = LcmBus::Decode<place_event_t>(data, size);
-    if (!e || !by_id.count(e->robot)) return;
-    RobotStats& r = *by_id[e->robot];
-    if (e->event == "recognized" && !e->partial) ++r.recognitions;
-    if (e->event == "learned") ++r.learned;
-    if (e->event == "merged") ++r.merged;
+    RobotStats* r = e ? of(e->robot) : nullptr;
+    if (r == nullptr) return;
+    if (e->event == "recognized" && !e->partial) ++r->recognitions;
+    if (e->event == "learned") ++r->learned;
+    if (e->event == "merged") ++r->merged;
   });
+}
 
-  for (RobotStats& r : robots) {
-    std::vector<std::string> argv = {"tscd", "--robot", std::to_string(r.id), "--state-dir",
-                                     r.dir.string()};
-    argv.insert(argv.end(), common.begin(), common.end());
-    argv.push_back("--set");
-    argv.push_back("sim.route=" + std::to_string(r.id - 1));
-    r.pid = SpawnProcess(tscd, argv, r.dir / "tscd.log");
-  }
-  std::cout << "tsc team: " << n << " robots in world " << vm["world"].as<long long>() << " ("
-            << vm["kind"].as<std::string>() << "), output in " << out.string() << "\n";
-
+// Shows progress until the robots are to stop: all exited, --seconds reached, or (--seconds 0)
+// every route ended and the memory exchange settled. Returns the seconds the team ran.
+double WatchTeam(LcmBus& bus, std::vector<RobotStats>& robots, const TeamRequest& req) {
   const bool tty = isatty(STDOUT_FILENO) != 0;
+  const char* clear = tty ? "\r\033[K" : "";
   const auto start = Clock::now();
   auto last_print = start;
   std::optional<Clock::time_point> settling;  // when every route had ended
   const auto quiet = std::chrono::duration_cast<Clock::duration>(
-      std::chrono::duration<double>(2 * robot_settings.front().daemon.bus.memory_period_s + 2.0));
+      std::chrono::duration<double>(2 * req.settings.front().daemon.bus.memory_period_s + 2.0));
   const auto settle_for =
-      std::chrono::duration_cast<Clock::duration>(std::chrono::duration<double>(settle_limit));
+      std::chrono::duration_cast<Clock::duration>(std::chrono::duration<double>(req.settle));
   for (;;) {
     bus.HandleTimeout(100);
     const double elapsed = std::chrono::duration<double>(Clock::now() - start).count();
@@ -468,60 +499,109 @@ int Team(const std::vector<std::string>& args) {
     }
     if (Clock::now() - last_print >= std::chrono::seconds(tty ? 1 : 5)) {
       last_print = Clock::now();
-      std::cout << (tty ? "\r\033[K" : "") << ProgressLine(robots, elapsed) << (tty ? "" : "\n")
-                << std::flush;
+      std::cout << clear << ProgressLine(robots, elapsed) << (tty ? "" : "\n") << std::flush;
     }
-    if (all_exited || (seconds > 0 && elapsed >= seconds)) break;
-    if (seconds == 0 && all_ended) {
-      // Settling: a changed memory is broadcast within one memory period and merged on
-      // arrival, which changes the receiver's version in turn; two quiet periods (and the
-      // merge) with no exchange in progress mean every robot has merged every other's last
-      // memory.
-      if (!settling) {
-        settling = Clock::now();
-        std::cout << (tty ? "\r\033[K" : "") << "tsc team: every route ended after "
-                  << Seconds(elapsed) << "; waiting for the memory exchange to settle (no "
-                  << "change for " << Seconds(std::chrono::duration<double>(quiet).count())
-                  << ", at most " << Seconds(settle_limit) << ")\n";
-      }
-      auto last_change = *settling;
-      for (const RobotStats& r : robots) last_change = std::max(last_change, r.version_seen);
-      if (Clock::now() - last_change >= quiet) {
-        std::cout << (tty ? "\r\033[K" : "") << "tsc team: memories settled "
-                  << Seconds(std::chrono::duration<double>(Clock::now() - *settling).count())
-                  << " after the routes ended; stopping the robots\n";
-        break;
-      }
-      if (Clock::now() - *settling >= settle_for) {
-        std::cout << (tty ? "\n" : "") << "tsc team: memories still changing " << settle_limit
-                  << " s after the routes ended; stopping anyway\n";
-        break;
-      }
+    if (all_exited || (req.seconds > 0 && elapsed >= req.seconds)) break;
+    if (req.seconds > 0 || !all_ended) continue;
+    // Settling: a changed memory is broadcast within one memory period and merged on arrival,
+    // which changes the receiver's version in turn; two quiet periods (and the merge) with no
+    // exchange in progress mean every robot has merged every other's last memory.
+    if (!settling) {
+      settling = Clock::now();
+      std::cout << clear << "tsc team: every route ended after " << Seconds(elapsed)
+                << "; waiting for the memory exchange to settle (no change for "
+                << Seconds(std::chrono::duration<double>(quiet).count()) << ", at most "
+                << Seconds(req.settle) << ")\n";
+    }
+    auto last_change = *settling;
+    for (const RobotStats& r : robots) last_change = std::max(last_change, r.version_seen);
+    if (Clock::now() - last_change >= quiet) {
+      std::cout << clear << "tsc team: memories settled "
+                << Seconds(std::chrono::duration<double>(Clock::now() - *settling).count())
+                << " after the routes ended; stopping the robots\n";
+      break;
+    }
+    if (Clock::now() - *settling >= settle_for) {
+      std::cout << (tty ? "\n" : "") << "tsc team: memories still changing " << req.settle
+                << " s after the routes ended; stopping anyway\n";
+      break;
     }
   }
-  // Let the last announces and events arrive, measure, then stop everyone.
+  // Let the last announces and events arrive.
   for (int i = 0; i < 5; ++i) bus.HandleTimeout(50);
-  const double run_s = std::chrono::duration<double>(Clock::now() - start).count();
+  return std::chrono::duration<double>(Clock::now() - start).count();
+}
+
+// Robot `r`'s row from its store (the truth: it survives the process), with `route` given the
+// store's assignments, memory and map for scoring. False when the store cannot be read.
+bool ReadRobotStore(const RobotStats& r, ReplayedRobot& route, RobotRow& row,
+                    TeamMemoryForScoring& scoring) {
+  try {
+    const InspectedStore s =
+        InspectStore(r.dir / "memory.db", PlaceMemoryOptions{}, static_cast<uint32_t>(r.id));
+    row.frames = s.summary.base_points;
+    row.places = static_cast<int64_t>(s.summary.learned_places.size());
+    row.edges = s.summary.map_edges;
+    row.detected_places = s.summary.detected_places;
+    row.CountOrigins(s.memory);
+    // The route's labels by base point: frame k of the route is base point k as long as no
+    // frame was dropped (and the robot did not restart).
+    route.assignments = Store::Open(r.dir / "memory.db").LoadAssignments();
+    route.memory = s.memory;
+    route.map = s.map;
+    scoring = ForMergeScoring(route.id, route.assignments, route.labels, s.memory);
+    try {
+      RenderPng(ToDot(s.memory, s.map), r.dir / "memory.png");
+    } catch (const std::exception& e) {
+      std::cerr << "tsc: robot " << r.id << ": no picture: " << e.what() << "\n";
+    }
+    return true;
+  } catch (const std::exception& e) {
+    std::cerr << "tsc: robot " << r.id << ": cannot read its memory: " << e.what() << "\n";
+    return false;
+  }
+}
+
+// The live run: N tscd processes in a private network, watched until they are to stop, then
+// scored from their stores.
+int TeamLive(const TeamRequest& req, const std::vector<std::string>& args) {
+  if (const auto failed = EnterPrivateNetwork("team", args, req.netns, kNetnsEnv)) return *failed;
+  fs::create_directories(req.out);
+  const fs::path tscd = TscdBesideThisTsc();
+  LcmBus bus(kLcmUrl);
+  std::vector<RobotStats> robots(static_cast<size_t>(req.robots));
+  for (int i = 0; i < req.robots; ++i) {
+    RobotStats& r = robots[static_cast<size_t>(i)];
+    r.id = i + 1;
+    r.dir = req.out / ("robot-" + std::to_string(r.id));
+    fs::create_directories(r.dir);
+  }
+  ListenToTeam(bus, robots);
+  for (RobotStats& r : robots) {
+    std::vector<std::string> argv = {"tscd", "--robot", std::to_string(r.id), "--state-dir",
+                                     r.dir.string()};
+    argv.insert(argv.end(), req.common.begin(), req.common.end());
+    argv.push_back("--set");
+    argv.push_back("sim.route=" + std::to_string(r.id - 1));
+    r.pid = SpawnProcess(tscd, argv, r.dir / "tscd.log");
+  }
+  std::cout << "tsc team: " << req.robots << " robots in world " << req.world << " (" << req.kind
+            << "), output in " << req.out.string() << "\n";
+  const double run_s = WatchTeam(bus, robots, req);
   for (RobotStats& r : robots) {
     if (!r.exited) MeasureProcess(r, run_s);
   }
   StopRobots(robots);
-  if (tty) std::cout << "\n";
+  if (isatty(STDOUT_FILENO) != 0) std::cout << "\n";
 
-  // Summary: the stores are the truth (they survive the processes).
-  bool ok = true;
+  bool ok = true, any_dropped = false;
   std::vector<TeamMemoryForScoring> scoring(robots.size());
-  // Each robot's route (labels, positions), then its store's assignments, memory and map.
-  std::vector<ReplayedRobot> routes = RoutesOf(robot_settings);
-  bool any_dropped = false;
-  std::ostringstream json;
-  json << "{\"robots\":[";
-  std::cout << "\nrobot  exit  frames  dropped  detected  places  recognised  edges  own  "
-               "merged-in  absorbed  cpu%  rss MB\n";
+  std::vector<ReplayedRobot> routes = RoutesOf(req.settings);  // labels and positions
+  std::vector<RobotRow> rows;
+  std::cout << RobotRow::Header(true);
   for (size_t i = 0; i < robots.size(); ++i) {
-    RobotStats& r = robots[i];
-    ok &= r.exit_status == 0;
-    RobotRow row;
+    const RobotStats& r = robots[i];
+    RobotRow& row = rows.emplace_back();
     row.robot = static_cast<uint32_t>(r.id);
     row.exit_status = r.exit_status;
     row.frames_dropped = r.dropped;
@@ -530,54 +610,25 @@ int Team(const std::vector<std::string>& args) {
     row.cpu_percent = r.cpu_percent;
     row.peak_rss_mb = r.peak_rss_mb;
     row.dir = r.dir;
-    try {
-      const InspectedStore s =
-          InspectStore(r.dir / "memory.db", PlaceMemoryOptions{}, static_cast<uint32_t>(r.id));
-      row.frames = s.summary.base_points;
-      row.places = static_cast<int64_t>(s.summary.learned_places.size());
-      row.edges = s.summary.map_edges;
-      row.detected_places = s.summary.detected_places;
-      row.CountOrigins(s.memory);
-      // The route's labels by base point: frame k of the route is base point k as long as no
-      // frame was dropped (and the robot did not restart).
+    ok &= r.exit_status == 0;
+    if (ReadRobotStore(r, routes[i], row, scoring[i])) {
       any_dropped |= r.dropped > 0;
-      ReplayedRobot& route = routes[i];
-      route.assignments = Store::Open(r.dir / "memory.db").LoadAssignments();
-      route.memory = s.memory;
-      route.map = s.map;
-      scoring[i] = ForMergeScoring(route.id, route.assignments, route.labels, s.memory);
-      try {
-        RenderPng(ToDot(s.memory, s.map), r.dir / "memory.png");
-      } catch (const std::exception& e) {
-        std::cerr << "tsc: robot " << r.id << ": no picture: " << e.what() << "\n";
-      }
-    } catch (const std::exception& e) {
+    } else {
       ok = false;
-      std::cerr << "tsc: robot " << r.id << ": cannot read its memory: " << e.what() << "\n";
     }
-    std::cout << std::setw(5) << row.robot << std::setw(6) << row.exit_status << std::setw(8)
-              << row.frames << std::setw(9) << row.frames_dropped << std::setw(10)
-              << row.detected_places << std::setw(8) << row.places << std::setw(12)
-              << row.recognitions << std::setw(7) << row.edges << std::setw(5) << row.own
-              << std::setw(11) << row.from_peers << std::setw(10) << row.absorbed << std::fixed
-              << std::setprecision(1) << std::setw(6) << r.cpu_percent << std::setw(8)
-              << r.peak_rss_mb << std::defaultfloat << "\n";
-    json << (i ? "," : "") << row.Json();
+    row.Print(std::cout, true);
   }
-  const TeamVerdict verdict = JudgeTeam(scoring);
-  PrintTeamVerdict(std::cout, verdict);
-  if (any_dropped) {
-    std::cout << "  (frames were dropped: place labels from the route may be shifted)\n";
-  }
-  WriteTeamMapOf(routes, routes.front(), robot_settings.front(), vm["world"].as<long long>(),
-                 vm["kind"].as<std::string>(), out);
-  json << "]" << TeamVerdictJson(verdict);
-  json << ",\"seconds\":" << JsonNumber(run_s) << ",\"fps\":" << JsonNumber(vm["fps"].as<double>())
-       << "}\n";
-  WriteTextFile(out / "summary.json", json.str());
-  std::cout << "summary: " << (out / "summary.json").string() << "\n";
+  std::ostringstream tail;
+  tail << ",\"seconds\":" << JsonNumber(run_s) << ",\"fps\":" << JsonNumber(req.fps);
+  WriteTeamSummary(req, rows, JudgeTeam(scoring), routes, tail.str(), any_dropped);
   if (!ok) std::cerr << "tsc: some robots failed; see their tscd.log\n";
   return ok ? kExitOk : kExitFailure;
+}
+
+int Team(const std::vector<std::string>& args) {
+  const std::optional<TeamRequest> req = ParseTeam(args);
+  if (!req) return kExitOk;
+  return req->offline_order ? TeamOffline(*req) : TeamLive(*req, args);
 }
 
 }  // namespace
