@@ -230,169 +230,205 @@ void SoakCheckOptions::Validate() const {
   if (max_pending_commits < 0) fail("pending commits bound must not be negative");
 }
 
+namespace {
+
+void AddProblem(SoakVerdict& v, const std::string& p) {
+  v.ok = false;
+  v.problems.push_back(p);
+}
+
+// Counts the restarts; an exit nobody asked for, a SIGTERM answered by a failure or fewer
+// restarts than scheduled are problems.
+void JudgeRestarts(const std::vector<SoakRestart>& restarts, const SoakCheckOptions& options,
+                   SoakVerdict& v) {
+  for (const SoakRestart& r : restarts) {
+    if (r.signal == "none") {
+      ++v.unexpected_exits;
+      AddProblem(v, "robot " + std::to_string(r.robot) + " exited on its own at " + Num(r.t_s, 1) +
+                        " s (status " + std::to_string(r.exit_status) + ")");
+      continue;
+    }
+    ++v.restarts;
+    if (r.signal == "KILL") ++v.kills;
+    if (r.signal == "TERM" && r.exit_status != 0) {
+      AddProblem(v, "robot " + std::to_string(r.robot) + " exited with status " +
+                        std::to_string(r.exit_status) + " after SIGTERM at " + Num(r.t_s, 1) +
+                        " s");
+    }
+  }
+  if (v.restarts < options.expected_restarts) {
+    AddProblem(v, std::to_string(v.restarts) + " restarts, expected at least " +
+                      std::to_string(options.expected_restarts));
+  }
+}
+
+// One robot's samples while alive, life by life (a life is one process).
+struct RobotSeries {
+  std::map<int, const SoakSample*> last_of_life;
+  std::map<int, std::pair<double, double>> life_span;  // first, last t while alive
+  std::map<int, int64_t> life_merges;
+  // After the run's and the process' warm-up: (t, RSS), (t, places), (places, RSS) per life.
+  std::map<int, std::vector<std::pair<double, double>>> rss_by_life, places_by_life, rss_by_places;
+  std::vector<double> middle, late;  // RSS in the middle third and the last sixth of the run
+};
+
+// The series of one robot's samples over a run of `d` seconds, and the figures read along.
+RobotSeries Collect(const std::vector<const SoakSample*>& rows, double d,
+                    const SoakCheckOptions& options, SoakRobotFigures& f) {
+  const double warm_end = options.warmup_fraction * d;
+  RobotSeries series;
+  double cpu_sum = 0.0;
+  int cpu_n = 0;
+  bool first_after_warmup = true;
+  for (const SoakSample* s : rows) {
+    if (!s->alive) continue;
+    series.last_of_life[s->life] = s;
+    auto [span, fresh] = series.life_span.try_emplace(s->life, s->t_s, s->t_s);
+    if (!fresh) span->second.second = s->t_s;
+    series.life_merges[s->life] = std::max(series.life_merges[s->life], s->merges_completed);
+    cpu_sum += s->cpu_percent;
+    ++cpu_n;
+    if (s->life_s >= 10.0) {
+      ++f.expected;
+      if (s->stats_age_s >= 0 && s->stats_age_s <= 5.0) ++f.samples;
+    }
+    if (s->t_s < warm_end) continue;
+    f.max_queue_frames = std::max(f.max_queue_frames, s->queue_frames);
+    f.max_merge_inbox = std::max(f.max_merge_inbox, s->merge_inbox);
+    f.max_pending_commits = std::max(f.max_pending_commits, s->pending_commits);
+    f.max_peers = std::max(f.max_peers, s->peers);
+    f.max_merged_peers = std::max(f.max_merged_peers, s->merged_peers);
+    f.max_buffered_portions = std::max(f.max_buffered_portions, s->buffered_portions);
+    if (s->life_s < options.life_warmup_s) continue;
+    if (first_after_warmup) {
+      f.rss_first_mb = s->rss_mb;
+      f.places_first = s->places;
+      first_after_warmup = false;
+    }
+    f.rss_last_mb = s->rss_mb;
+    f.places_last = s->places;
+    f.rss_max_mb = std::max(f.rss_max_mb, s->rss_mb);
+    f.places_max = std::max(f.places_max, s->places);
+    series.rss_by_life[s->life].emplace_back(s->t_s, s->rss_mb);
+    series.places_by_life[s->life].emplace_back(s->t_s, static_cast<double>(s->places));
+    series.rss_by_places[s->life].emplace_back(static_cast<double>(s->places), s->rss_mb);
+    if (s->t_s >= d / 3 && s->t_s <= 2 * d / 3) series.middle.push_back(s->rss_mb);
+    if (s->t_s >= d * 5 / 6) series.late.push_back(s->rss_mb);
+  }
+  f.lives = static_cast<int>(series.life_span.size());
+  f.cpu_percent_mean = cpu_n > 0 ? cpu_sum / cpu_n : 0.0;
+  f.rss_slope_mb_per_min = 60.0 * WithinGroupSlope(series.rss_by_life);
+  f.places_slope_per_min = 60.0 * WithinGroupSlope(series.places_by_life);
+  f.rss_mb_per_place = WithinGroupSlope(series.rss_by_places);
+  f.rss_middle_median_mb = Median(series.middle);
+  f.rss_late_median_mb = Median(series.late);
+  return series;
+}
+
+// Merges, frames and traffic: each life's last counters, summed, traffic per second of the run.
+void AddTotals(const RobotSeries& series, double d, SoakRobotFigures& f) {
+  double sent_bytes = 0, received_bytes = 0;
+  for (const auto& [life, s] : series.last_of_life) {
+    f.merges += s->merges_completed;
+    f.merges_changed += s->merges_changed;
+    f.merges_failed += s->merges_failed;
+    f.frames += s->frames;
+    for (size_t k = 0; k < kSoakFamilies.size(); ++k) {
+      f.sent_per_s[k] += static_cast<double>(s->traffic[k].sent);
+      f.received_per_s[k] += static_cast<double>(s->traffic[k].received);
+      sent_bytes += static_cast<double>(s->traffic[k].sent_bytes);
+      received_bytes += static_cast<double>(s->traffic[k].received_bytes);
+    }
+  }
+  if (d > 0) {
+    for (size_t k = 0; k < kSoakFamilies.size(); ++k) {
+      f.sent_per_s[k] /= d;
+      f.received_per_s[k] /= d;
+    }
+    f.sent_kb_per_s = sent_bytes / 1024.0 / d;
+    f.received_kb_per_s = received_bytes / 1024.0 / d;
+  }
+}
+
+// A life that began with a restart and lasted long enough to fetch a peer's memory must have
+// merged one, unless no peer had anything new for it: a robot fetches a memory only when its
+// digest differs from the one it merged last (kept in its store).
+void JudgeLivesAfterRestart(const std::vector<SoakSample>& samples, int robot,
+                            const RobotSeries& series, const SoakCheckOptions& options,
+                            SoakVerdict& v) {
+  for (const auto& [life, span] : series.life_span) {
+    if (life == 0 || span.second - span.first < 2 * options.life_warmup_s) continue;
+    ++v.lives_after_restart;
+    if (series.life_merges.at(life) > 0) {
+      ++v.lives_after_restart_merged;
+    } else if (!PeersChanged(samples, robot, span.first + options.life_warmup_s, span.second)) {
+      ++v.lives_after_restart_idle;
+    } else {
+      AddProblem(v, "robot " + std::to_string(robot) + ": no merge completed in its life " +
+                        std::to_string(life) + " (" + Num(span.first, 0) + "–" +
+                        Num(span.second, 0) + " s) after a restart");
+    }
+  }
+}
+
+// The bounds: counters seen, RSS slope and late growth, results waiting, peers.
+void JudgeBounds(const SoakRobotFigures& f, const RobotSeries& series,
+                 const SoakCheckOptions& options, int team_size, SoakVerdict& v) {
+  const std::string name = "robot " + std::to_string(f.robot);
+  if (f.expected == 0 || f.samples < options.min_sampled_fraction * f.expected) {
+    AddProblem(v, name + ": counters in " + std::to_string(f.samples) + " of " +
+                      std::to_string(f.expected) + " samples while up");
+  }
+  if (series.rss_by_life.empty()) {
+    AddProblem(v, name + ": no sample after the warm-up");
+  } else if (f.rss_slope_mb_per_min > options.max_rss_slope_mb_per_min) {
+    AddProblem(v, name + ": RSS grows " + Num(f.rss_slope_mb_per_min, 2) +
+                      " MB/min after the warm-up (bound " +
+                      Num(options.max_rss_slope_mb_per_min, 2) + ")");
+  }
+  if (!series.middle.empty() && !series.late.empty() &&
+      f.rss_late_median_mb > (1 + options.max_late_growth) * f.rss_middle_median_mb) {
+    AddProblem(v, name + ": RSS median of the last sixth " + Num(f.rss_late_median_mb, 1) +
+                      " MB is more than " + Num(100 * options.max_late_growth, 0) +
+                      " % above the middle third's " + Num(f.rss_middle_median_mb, 1) + " MB");
+  }
+  if (f.max_pending_commits > options.max_pending_commits) {
+    AddProblem(
+        v, name + ": " + std::to_string(f.max_pending_commits) + " results waiting for the store");
+  }
+  const int64_t others = team_size - 1;
+  if (f.max_peers > others || f.max_merged_peers > others || f.max_merge_inbox > others) {
+    AddProblem(v, name + ": more peers or waiting memories than robots in the team (peers " +
+                      std::to_string(f.max_peers) + ", merged " +
+                      std::to_string(f.max_merged_peers) + ", inbox " +
+                      std::to_string(f.max_merge_inbox) + ")");
+  }
+}
+
+}  // namespace
+
 SoakVerdict AnalyseSoak(const std::vector<SoakSample>& samples,
                         const std::vector<SoakRestart>& restarts, int team_size,
                         const SoakCheckOptions& options) {
   options.Validate();
   SoakVerdict v;
   for (const SoakSample& s : samples) v.duration_s = std::max(v.duration_s, s.t_s);
-  const double d = v.duration_s;
-  const double warm_end = options.warmup_fraction * d;
-  auto problem = [&](const std::string& p) {
-    v.ok = false;
-    v.problems.push_back(p);
-  };
-
-  for (const SoakRestart& r : restarts) {
-    if (r.signal == "none") {
-      ++v.unexpected_exits;
-      problem("robot " + std::to_string(r.robot) + " exited on its own at " + Num(r.t_s, 1) +
-              " s (status " + std::to_string(r.exit_status) + ")");
-      continue;
-    }
-    ++v.restarts;
-    if (r.signal == "KILL") ++v.kills;
-    if (r.signal == "TERM" && r.exit_status != 0) {
-      problem("robot " + std::to_string(r.robot) + " exited with status " +
-              std::to_string(r.exit_status) + " after SIGTERM at " + Num(r.t_s, 1) + " s");
-    }
-  }
-  if (v.restarts < options.expected_restarts) {
-    problem(std::to_string(v.restarts) + " restarts, expected at least " +
-            std::to_string(options.expected_restarts));
-  }
-
+  JudgeRestarts(restarts, options, v);
   std::map<int, std::vector<const SoakSample*>> by_robot;
   for (const SoakSample& s : samples) by_robot[s.robot].push_back(&s);
   for (int robot = 1; robot <= team_size; ++robot) {
-    const std::string name = "robot " + std::to_string(robot);
     SoakRobotFigures f;
     f.robot = robot;
     const auto it = by_robot.find(robot);
     if (it == by_robot.end()) {
-      problem(name + ": no sample");
+      AddProblem(v, "robot " + std::to_string(robot) + ": no sample");
       v.robots.push_back(f);
       continue;
     }
-    const std::vector<const SoakSample*>& rows = it->second;
-    std::map<int, const SoakSample*> last_of_life;
-    std::map<int, std::pair<double, double>> life_span;  // first, last t while alive
-    std::map<int, int64_t> life_merges;
-    std::map<int, std::vector<std::pair<double, double>>> rss_by_life, places_by_life,
-        rss_by_places;
-    std::vector<double> middle, late;
-    double cpu_sum = 0.0;
-    int cpu_n = 0;
-    bool first_after_warmup = true;
-    for (const SoakSample* s : rows) {
-      if (!s->alive) continue;
-      last_of_life[s->life] = s;
-      auto [span, fresh] = life_span.try_emplace(s->life, s->t_s, s->t_s);
-      if (!fresh) span->second.second = s->t_s;
-      life_merges[s->life] = std::max(life_merges[s->life], s->merges_completed);
-      cpu_sum += s->cpu_percent;
-      ++cpu_n;
-      if (s->life_s >= 10.0) {
-        ++f.expected;
-        if (s->stats_age_s >= 0 && s->stats_age_s <= 5.0) ++f.samples;
-      }
-      if (s->t_s < warm_end) continue;
-      f.max_queue_frames = std::max(f.max_queue_frames, s->queue_frames);
-      f.max_merge_inbox = std::max(f.max_merge_inbox, s->merge_inbox);
-      f.max_pending_commits = std::max(f.max_pending_commits, s->pending_commits);
-      f.max_peers = std::max(f.max_peers, s->peers);
-      f.max_merged_peers = std::max(f.max_merged_peers, s->merged_peers);
-      f.max_buffered_portions = std::max(f.max_buffered_portions, s->buffered_portions);
-      if (s->life_s < options.life_warmup_s) continue;
-      if (first_after_warmup) {
-        f.rss_first_mb = s->rss_mb;
-        f.places_first = s->places;
-        first_after_warmup = false;
-      }
-      f.rss_last_mb = s->rss_mb;
-      f.places_last = s->places;
-      f.rss_max_mb = std::max(f.rss_max_mb, s->rss_mb);
-      f.places_max = std::max(f.places_max, s->places);
-      rss_by_life[s->life].emplace_back(s->t_s, s->rss_mb);
-      places_by_life[s->life].emplace_back(s->t_s, static_cast<double>(s->places));
-      rss_by_places[s->life].emplace_back(static_cast<double>(s->places), s->rss_mb);
-      if (s->t_s >= d / 3 && s->t_s <= 2 * d / 3) middle.push_back(s->rss_mb);
-      if (s->t_s >= d * 5 / 6) late.push_back(s->rss_mb);
-    }
-    f.lives = static_cast<int>(life_span.size());
-    f.cpu_percent_mean = cpu_n > 0 ? cpu_sum / cpu_n : 0.0;
-    f.rss_slope_mb_per_min = 60.0 * WithinGroupSlope(rss_by_life);
-    f.places_slope_per_min = 60.0 * WithinGroupSlope(places_by_life);
-    f.rss_mb_per_place = WithinGroupSlope(rss_by_places);
-    f.rss_middle_median_mb = Median(middle);
-    f.rss_late_median_mb = Median(late);
-    double sent_bytes = 0, received_bytes = 0;
-    for (const auto& [life, s] : last_of_life) {
-      f.merges += s->merges_completed;
-      f.merges_changed += s->merges_changed;
-      f.merges_failed += s->merges_failed;
-      f.frames += s->frames;
-      for (size_t k = 0; k < kSoakFamilies.size(); ++k) {
-        f.sent_per_s[k] += static_cast<double>(s->traffic[k].sent);
-        f.received_per_s[k] += static_cast<double>(s->traffic[k].received);
-        sent_bytes += static_cast<double>(s->traffic[k].sent_bytes);
-        received_bytes += static_cast<double>(s->traffic[k].received_bytes);
-      }
-    }
-    if (d > 0) {
-      for (size_t k = 0; k < kSoakFamilies.size(); ++k) {
-        f.sent_per_s[k] /= d;
-        f.received_per_s[k] /= d;
-      }
-      f.sent_kb_per_s = sent_bytes / 1024.0 / d;
-      f.received_kb_per_s = received_bytes / 1024.0 / d;
-    }
-    // A life that began with a restart and lasted long enough to fetch a peer's memory must
-    // have merged one, unless no peer had anything new for it: a robot fetches a memory only
-    // when its digest differs from the one it merged last (kept in its store).
-    for (const auto& [life, span] : life_span) {
-      if (life == 0 || span.second - span.first < 2 * options.life_warmup_s) continue;
-      ++v.lives_after_restart;
-      if (life_merges[life] > 0) {
-        ++v.lives_after_restart_merged;
-      } else if (!PeersChanged(samples, robot, span.first + options.life_warmup_s, span.second)) {
-        ++v.lives_after_restart_idle;
-      } else {
-        problem(name + ": no merge completed in its life " + std::to_string(life) + " (" +
-                Num(span.first, 0) + "–" + Num(span.second, 0) + " s) after a restart");
-      }
-    }
-
-    if (f.expected == 0 || f.samples < options.min_sampled_fraction * f.expected) {
-      problem(name + ": counters in " + std::to_string(f.samples) + " of " +
-              std::to_string(f.expected) + " samples while up");
-    }
-    if (rss_by_life.empty()) {
-      problem(name + ": no sample after the warm-up");
-    } else if (f.rss_slope_mb_per_min > options.max_rss_slope_mb_per_min) {
-      problem(name + ": RSS grows " + Num(f.rss_slope_mb_per_min, 2) +
-              " MB/min after the warm-up"
-              " (bound " +
-              Num(options.max_rss_slope_mb_per_min, 2) + ")");
-    }
-    if (!middle.empty() && !late.empty() &&
-        f.rss_late_median_mb > (1 + options.max_late_growth) * f.rss_middle_median_mb) {
-      problem(name + ": RSS median of the last sixth " + Num(f.rss_late_median_mb, 1) +
-              " MB is more than " + Num(100 * options.max_late_growth, 0) +
-              " % above the middle "
-              "third's " +
-              Num(f.rss_middle_median_mb, 1) + " MB");
-    }
-    if (f.max_pending_commits > options.max_pending_commits) {
-      problem(name + ": " + std::to_string(f.max_pending_commits) +
-              " results waiting for the store");
-    }
-    const int64_t others = team_size - 1;
-    if (f.max_peers > others || f.max_merged_peers > others || f.max_merge_inbox > others) {
-      problem(name + ": more peers or waiting memories than robots in the team (peers " +
-              std::to_string(f.max_peers) + ", merged " + std::to_string(f.max_merged_peers) +
-              ", inbox " + std::to_string(f.max_merge_inbox) + ")");
-    }
+    const RobotSeries series = Collect(it->second, v.duration_s, options, f);
+    AddTotals(series, v.duration_s, f);
+    JudgeLivesAfterRestart(samples, robot, series, options, v);
+    JudgeBounds(f, series, options, team_size, v);
     v.robots.push_back(f);
   }
   return v;
