@@ -139,7 +139,7 @@ int main(int argc, char** argv) {
   }
 
   // Jaguar V2/V4 datagrams: the board's three sensor frames and ACK as `tsc jaguar-sim` sends
-  // them (tools/jaguar_sim.cc), the PC's PWM, ACK and ping as JaguarV2Base sends them.
+  // them (tools/simulators/jaguar_sim.cc), the PC's PWM, ACK and ping as JaguarV2Base sends them.
   namespace v2 = tsc::jaguar_v2;
   v2::MotorSensor ms;
   ms.output_pwm = {16384, 16384, 0, 17000, 15800, 0};
@@ -172,7 +172,7 @@ int main(int argc, char** argv) {
                                               {static_cast<uint8_t>(v2::SystemCommand::kPing)}}));
 
   // Jaguar 4x4/V6 TCP stream: the board's report lines as `tsc jaguar-sim` writes them
-  // (tools/jaguar_sim.cc), then the PC's command lines as JaguarAsciiBase sends them; in one
+  // (tools/simulators/jaguar_sim.cc), then the PC's command lines as JaguarAsciiBase sends them; in one
   // read and cut into small reads.
   namespace ascii = tsc::jaguar_ascii;
   const std::string replies =
@@ -188,7 +188,7 @@ int main(int argc, char** argv) {
   Write(ascii_dir / "commands", InOneRead(commands));
   Write(ascii_dir / "commands-cut", InReads(commands, {3, 0, 11}));
 
-  // An MJPEG stream as `tsc axis-sim` serves it (tools/axis_sim.cc): the Content-Type line,
+  // An MJPEG stream as `tsc axis-sim` serves it (tools/simulators/axis_sim.cc): the Content-Type line,
   // then parts with Content-Length, or without (its omit_content_length mode), closed.
   std::vector<uint8_t> jpeg;
   cv::imencode(".jpg", frame, jpeg);

@@ -9,8 +9,8 @@
 #include <stdexcept>
 
 #include "drivers/camera/axis_camera.h"
-#include "tools/axis_sim.h"
 #include "tools/command_line.h"
+#include "tools/simulators/axis_sim.h"
 
 namespace tsc {
 namespace {

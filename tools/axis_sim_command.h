@@ -1,5 +1,5 @@
 #pragma once
-// `tsc axis-sim`: the simulated Axis PTZ camera (tools/axis_sim.h) as a process.
+// `tsc axis-sim`: the simulated Axis PTZ camera (tools/simulators/axis_sim.h) as a process.
 
 #include <string>
 #include <vector>

@@ -19,7 +19,7 @@
 #include "jaguar/motor_command_t.hpp"
 #include "settings/daemon_options.h"
 #include "tools/command_line.h"
-#include "tools/jaguar_sim.h"
+#include "tools/simulators/jaguar_sim.h"
 
 namespace tsc {
 namespace {

@@ -1,5 +1,5 @@
 #pragma once
-// `tsc jaguar-sim` (the Jaguar board simulator, tools/jaguar_sim.h) and `tsc teleop`
+// `tsc jaguar-sim` (the Jaguar board simulator, tools/simulators/jaguar_sim.h) and `tsc teleop`
 // (keyboard → JAGUAR_CMD_<robot>, with a dead-man rule).
 
 #include <string>

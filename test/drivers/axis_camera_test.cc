@@ -1,5 +1,5 @@
-// The Axis camera driver against the simulated Axis camera (tools/axis_sim) over real TCP on
-// 127.0.0.1 with ephemeral ports: MJPEG frames decode and show the simulated world at the
+// The Axis camera driver against the simulated Axis camera (tools/simulators/axis_sim) over real
+// TCP on 127.0.0.1 with ephemeral ports: MJPEG frames decode and show the simulated world at the
 // camera's pan, PTZ moves and queries, 401 without credentials and success with Basic and
 // Digest, reconnection after the server drops the stream, and a 360° PTZ sweep that fills
 // the bubble surface with a heading-invariant descriptor.
@@ -25,7 +25,7 @@
 #include "drivers/camera/camera_options.h"
 #include "drivers/camera/make_camera.h"
 #include "test/support/temp_dir.h"
-#include "tools/axis_sim.h"
+#include "tools/simulators/axis_sim.h"
 
 namespace tsc {
 namespace {

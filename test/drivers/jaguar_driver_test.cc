@@ -17,7 +17,7 @@
 #include "drivers/clock.h"
 #include "drivers/motor/jaguar_ascii_base.h"
 #include "drivers/motor/jaguar_v2_base.h"
-#include "tools/jaguar_sim.h"
+#include "tools/simulators/jaguar_sim.h"
 
 namespace tsc {
 namespace {

@@ -61,6 +61,8 @@ base=(core/a.h='#include "core/b.h"'
       settings/x.h='#include "drivers/d.h"'
       daemon/m.cc='#include "tsc/announce_t.hpp"'
       tools/t.cc='#include "settings/x.h"'
+      tools/simulators/s.cc='#include "drivers/d.h"'
+      tools/u.cc='#include "tools/simulators/s.h"'
       test/u.cc='#include "tools/t.h"'
       bench/b.cc='#include "test/support/h.h"'
       fuzz/f.cc='#include "daemon/m.h"'
@@ -81,6 +83,10 @@ expect FAIL "$(fixture core_sqlite "${base[@]}" core/q.cc='  #  include <sqlite3
   'core/q.cc:1: core must not include <sqlite3.h>'
 expect FAIL "$(fixture tools_test "${base[@]}" tools/v.cc='#include "test/support/h.h"')" \
   'tools/v.cc:1: tools must not include "test/support/h.h"'
+expect FAIL "$(fixture simulators_daemon "${base[@]}" tools/simulators/v.cc='#include "daemon/m.h"')" \
+  'tools/simulators/v.cc:1: tools/simulators must not include "daemon/m.h"'
+expect FAIL "$(fixture simulators_cli "${base[@]}" tools/simulators/w.h='#include "tools/t.h"')" \
+  'tools/simulators/w.h:1: tools/simulators must not include "tools/t.h"'
 expect FAIL "$(fixture test_fuzz "${base[@]}" test/w.cc='#include "fuzz/f.h"')" \
   'test/w.cc:1: test must not include "fuzz/f.h"'
 expect FAIL "$(fixture new_folder "${base[@]}" extra/n.cc='#include "core/a.h"')" \

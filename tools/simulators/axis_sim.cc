@@ -1,4 +1,4 @@
-#include "tools/axis_sim.h"
+#include "tools/simulators/axis_sim.h"
 
 #include <sys/socket.h>
 

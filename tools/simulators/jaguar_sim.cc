@@ -1,4 +1,4 @@
-#include "tools/jaguar_sim.h"
+#include "tools/simulators/jaguar_sim.h"
 
 #include <arpa/inet.h>
 #include <poll.h>
