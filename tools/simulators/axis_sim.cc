@@ -264,6 +264,111 @@ sim::Pose2 AxisSim::CurrentPose() {
   return p;
 }
 
+bool AxisSim::Authorized(const std::string& authorization, const std::string& method,
+                         const std::string& target) const {
+  if (options_.auth == "none") return true;
+  // Basic or Digest, RFC 7617 / 2617.
+  const auto header = ParseAuthHeader(authorization);
+  if (header && options_.auth == "basic" && header->scheme == "basic") {
+    return Base64Decode(header->token68) == options_.user + ":" + options_.password;
+  }
+  if (header && options_.auth == "digest" && header->scheme == "digest") {
+    const auto p = [&](const char* k) {
+      const auto it = header->params.find(k);
+      return it == header->params.end() ? std::string() : it->second;
+    };
+    return p("username") == options_.user && p("realm") == kRealm && p("nonce") == nonce_ &&
+           p("uri") == target &&
+           p("response") == DigestResponse(options_.user, kRealm, options_.password, method, target,
+                                           nonce_, p("nc"), p("cnonce"), p("qop"));
+  }
+  return false;
+}
+
+std::string AxisSim::Challenge() const {
+  return options_.auth == "basic" ? std::string("Basic realm=\"") + kRealm + "\""
+                                  : std::string("Digest realm=\"") + kRealm + "\", nonce=\"" +
+                                        nonce_ + "\", qop=\"auth\", algorithm=MD5";
+}
+
+void AxisSim::StreamMjpeg(Connection& connection, const Query& query) {
+  const cv::Size size = Resolution(query);
+  const int fps = Integer(query, "fps", 1, 60, 10);
+  const int compression = Integer(query, "compression", 0, 100, 30);
+  const sim::Renderer& renderer = RendererFor(size.width, size.height);
+  beast::error_code ec;
+  // Axis answers MJPEG as HTTP/1.0 without a length: the stream ends when it closes.
+  const std::string head =
+      "HTTP/1.0 200 OK\r\nServer: tscd axis-sim\r\n"
+      "Cache-Control: no-cache\r\nPragma: no-cache\r\n"
+      "Content-Type: multipart/x-mixed-replace; boundary=" +
+      boundary_ + "\r\n\r\n";
+  asio::write(connection.socket, asio::buffer(head), ec);
+  ++streams_opened_;
+  const auto period = std::chrono::microseconds(1'000'000 / fps);
+  auto due = std::chrono::steady_clock::now();
+  for (int n = 0; !ec && !stopping_; ++n) {
+    if (options_.drop_after_frames > 0 && n >= options_.drop_after_frames) break;
+    cv::Mat bgr;
+    renderer.Render(CurrentPose(), &bgr, nullptr);
+    std::string jpeg = EncodeJpeg(bgr, compression);
+    const bool bomb =
+        n == options_.bomb_frame || (options_.bomb_every > 0 && (n + 1) % options_.bomb_every == 0);
+    if (bomb) {
+      const std::vector<uint8_t> forged = WithClaimedSize(
+          std::span(reinterpret_cast<const uint8_t*>(jpeg.data()), jpeg.size()), 20512, 35225);
+      jpeg.assign(forged.begin(), forged.end());
+    }
+    std::string part = "--" + boundary_ + "\r\nContent-Type: image/jpeg\r\n";
+    if (!options_.omit_content_length) {
+      part += "Content-Length: " + std::to_string(jpeg.size()) + "\r\n";
+    }
+    part += "\r\n" + jpeg + "\r\n";
+    asio::write(connection.socket, asio::buffer(part), ec);
+    if (!ec) ++(bomb ? bombs_served_ : frames_served_);
+    due += period;
+    std::this_thread::sleep_until(due);
+  }
+}
+
+std::string AxisSim::Snapshot(const Query& query) {
+  const cv::Size size = Resolution(query);
+  const int compression = Integer(query, "compression", 0, 100, 30);
+  cv::Mat bgr;
+  RendererFor(size.width, size.height).Render(CurrentPose(), &bgr, nullptr);
+  std::string jpeg = EncodeJpeg(bgr, compression);
+  ++frames_served_;
+  return jpeg;
+}
+
+std::string AxisSim::Ptz(const Query& query) {
+  std::lock_guard lock(mutex_);
+  std::string answer;
+  for (const auto& [key, value] : query) {
+    if (key == "query" && value == "position") {
+      char text[128];
+      std::snprintf(text, sizeof text, "pan=%.2f\r\ntilt=%.2f\r\nzoom=%.0f\r\n", pan_deg_,
+                    tilt_deg_, zoom_);
+      answer = text;
+    } else if (key == "pan") {
+      pan_deg_ = WrapDeg(Number(query, key));
+    } else if (key == "tilt") {
+      tilt_deg_ = std::clamp(Number(query, key), -90.0, 90.0);
+    } else if (key == "zoom") {
+      zoom_ = std::clamp(Number(query, key), 1.0, 9999.0);
+    } else if (key == "rpan") {
+      pan_deg_ = WrapDeg(pan_deg_ + Number(query, key));
+    } else if (key == "rtilt") {
+      tilt_deg_ = std::clamp(tilt_deg_ + Number(query, key), -90.0, 90.0);
+    } else if (key == "rzoom") {
+      zoom_ = std::clamp(zoom_ + Number(query, key), 1.0, 9999.0);
+    } else if (key != "camera") {
+      throw BadRequest{http::status::bad_request, "ptz.cgi: unsupported parameter '" + key + "'\n"};
+    }
+  }
+  return answer;
+}
+
 void AxisSim::Serve(std::shared_ptr<Connection> connection) {
   tcp::socket& socket = connection->socket;
   beast::flat_buffer buffer;
@@ -275,115 +380,32 @@ void AxisSim::Serve(std::shared_ptr<Connection> connection) {
     const std::string target(req.target());
     const size_t qmark = target.find('?');
     const std::string path = target.substr(0, qmark);
-    const auto query =
+    const Query query =
         ParseQuery(qmark == std::string::npos ? "" : std::string_view(target).substr(qmark + 1));
     http::response<http::string_body> res{http::status::ok, req.version()};
     res.set(http::field::server, "tscd axis-sim");
     res.keep_alive(req.keep_alive());
-
-    // Authentication (Basic or Digest, RFC 7617 / 2617).
-    bool authorized = options_.auth == "none";
-    if (!authorized) {
-      const auto header = ParseAuthHeader(std::string(req[http::field::authorization]));
-      if (header && options_.auth == "basic" && header->scheme == "basic") {
-        authorized = Base64Decode(header->token68) == options_.user + ":" + options_.password;
-      } else if (header && options_.auth == "digest" && header->scheme == "digest") {
-        const auto p = [&](const char* k) {
-          const auto it = header->params.find(k);
-          return it == header->params.end() ? std::string() : it->second;
-        };
-        authorized = p("username") == options_.user && p("realm") == kRealm &&
-                     p("nonce") == nonce_ && p("uri") == target &&
-                     p("response") == DigestResponse(options_.user, kRealm, options_.password,
-                                                     std::string(req.method_string()), target,
-                                                     nonce_, p("nc"), p("cnonce"), p("qop"));
-      }
-    }
     try {
-      if (!authorized) {
+      if (!Authorized(std::string(req[http::field::authorization]),
+                      std::string(req.method_string()), target)) {
         ++unauthorized_;
         res.result(http::status::unauthorized);
-        res.set(http::field::www_authenticate, options_.auth == "basic"
-                                                   ? std::string("Basic realm=\"") + kRealm + "\""
-                                                   : std::string("Digest realm=\"") + kRealm +
-                                                         "\", nonce=\"" + nonce_ +
-                                                         "\", qop=\"auth\", algorithm=MD5");
+        res.set(http::field::www_authenticate, Challenge());
         res.set(http::field::content_type, "text/plain");
         res.body() = "401 Unauthorized\n";
       } else if (path == "/axis-cgi/mjpg/video.cgi") {
-        const cv::Size size = Resolution(query);
-        const int fps = Integer(query, "fps", 1, 60, 10);
-        const int compression = Integer(query, "compression", 0, 100, 30);
-        const sim::Renderer& renderer = RendererFor(size.width, size.height);
-        // Axis answers MJPEG as HTTP/1.0 without a length: the stream ends when it closes.
-        const std::string head =
-            "HTTP/1.0 200 OK\r\nServer: tscd axis-sim\r\n"
-            "Cache-Control: no-cache\r\nPragma: no-cache\r\n"
-            "Content-Type: multipart/x-mixed-replace; boundary=" +
-            boundary_ + "\r\n\r\n";
-        asio::write(socket, asio::buffer(head), ec);
-        ++streams_opened_;
-        const auto period = std::chrono::microseconds(1'000'000 / fps);
-        auto due = std::chrono::steady_clock::now();
-        for (int n = 0; !ec && !stopping_; ++n) {
-          if (options_.drop_after_frames > 0 && n >= options_.drop_after_frames) break;
-          cv::Mat bgr;
-          renderer.Render(CurrentPose(), &bgr, nullptr);
-          std::string jpeg = EncodeJpeg(bgr, compression);
-          const bool bomb = n == options_.bomb_frame ||
-                            (options_.bomb_every > 0 && (n + 1) % options_.bomb_every == 0);
-          if (bomb) {
-            const std::vector<uint8_t> forged = WithClaimedSize(
-                std::span(reinterpret_cast<const uint8_t*>(jpeg.data()), jpeg.size()), 20512,
-                35225);
-            jpeg.assign(forged.begin(), forged.end());
-          }
-          std::string part = "--" + boundary_ + "\r\nContent-Type: image/jpeg\r\n";
-          if (!options_.omit_content_length) {
-            part += "Content-Length: " + std::to_string(jpeg.size()) + "\r\n";
-          }
-          part += "\r\n" + jpeg + "\r\n";
-          asio::write(socket, asio::buffer(part), ec);
-          if (!ec) ++(bomb ? bombs_served_ : frames_served_);
-          due += period;
-          std::this_thread::sleep_until(due);
-        }
+        StreamMjpeg(*connection, query);
         break;  // the stream's connection is done
       } else if (path == "/axis-cgi/jpg/image.cgi") {
-        const cv::Size size = Resolution(query);
-        const int compression = Integer(query, "compression", 0, 100, 30);
-        cv::Mat bgr;
-        RendererFor(size.width, size.height).Render(CurrentPose(), &bgr, nullptr);
+        res.body() = Snapshot(query);
         res.set(http::field::content_type, "image/jpeg");
-        res.body() = EncodeJpeg(bgr, compression);
-        ++frames_served_;
       } else if (path == "/axis-cgi/com/ptz.cgi") {
-        std::lock_guard lock(mutex_);
-        for (const auto& [key, value] : query) {
-          if (key == "query" && value == "position") {
-            char text[128];
-            std::snprintf(text, sizeof text, "pan=%.2f\r\ntilt=%.2f\r\nzoom=%.0f\r\n", pan_deg_,
-                          tilt_deg_, zoom_);
-            res.set(http::field::content_type, "text/plain");
-            res.body() = text;
-          } else if (key == "pan") {
-            pan_deg_ = WrapDeg(Number(query, key));
-          } else if (key == "tilt") {
-            tilt_deg_ = std::clamp(Number(query, key), -90.0, 90.0);
-          } else if (key == "zoom") {
-            zoom_ = std::clamp(Number(query, key), 1.0, 9999.0);
-          } else if (key == "rpan") {
-            pan_deg_ = WrapDeg(pan_deg_ + Number(query, key));
-          } else if (key == "rtilt") {
-            tilt_deg_ = std::clamp(tilt_deg_ + Number(query, key), -90.0, 90.0);
-          } else if (key == "rzoom") {
-            zoom_ = std::clamp(zoom_ + Number(query, key), 1.0, 9999.0);
-          } else if (key != "camera") {
-            throw BadRequest{http::status::bad_request,
-                             "ptz.cgi: unsupported parameter '" + key + "'\n"};
-          }
+        res.body() = Ptz(query);
+        if (res.body().empty()) {
+          res.result(http::status::no_content);
+        } else {
+          res.set(http::field::content_type, "text/plain");
         }
-        if (res.body().empty()) res.result(http::status::no_content);
       } else {
         throw BadRequest{http::status::not_found, path + ": not served by axis-sim\n"};
       }

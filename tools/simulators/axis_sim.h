@@ -8,6 +8,7 @@
 
 #include <atomic>
 #include <cstdint>
+#include <map>
 #include <memory>
 #include <mutex>
 #include <optional>
@@ -73,8 +74,21 @@ class AxisSim {
 
  private:
   struct Connection;
+  using Query = std::map<std::string, std::string>;
   void AcceptLoop();
+  /// Answers one connection's requests until it closes (or streams MJPEG until then).
   void Serve(std::shared_ptr<Connection> connection);
+  /// Whether a request's Authorization header answers the configured scheme.
+  bool Authorized(const std::string& authorization, const std::string& method,
+                  const std::string& target) const;
+  /// The WWW-Authenticate challenge of the configured scheme.
+  std::string Challenge() const;
+  /// video.cgi: the MJPEG stream, until the client leaves, the simulator stops or a drop.
+  void StreamMjpeg(Connection& connection, const Query& query);
+  /// image.cgi: one JPEG.
+  std::string Snapshot(const Query& query);
+  /// ptz.cgi: moves the head or answers its position ("" when there is nothing to say).
+  std::string Ptz(const Query& query);
   sim::Pose2 CurrentPose();
 
   AxisSimOptions options_;
