@@ -318,136 +318,153 @@ std::optional<WorldPlan> ReadWorldPlan(const fs::path& file, std::ostream& warni
   }
 }
 
-cv::Mat DrawTimeline(const EvalResult& r) {
-  const int n = std::max(1, r.frames);
-  const int left = 120, right = 30;
-  const int plot_w = std::clamp(n * 12, 900, 2400);
-  const int width = left + plot_w + right;
-  const auto x_of = [&](int f) {
-    return left + static_cast<int>(std::lround(1.0 * f * plot_w / n));
-  };
-  const auto col = [&](int first, int last, int y, int h) {  // inclusive frame range
-    return cv::Rect(x_of(first), y, std::max(1, x_of(last + 1) - x_of(first)), h);
-  };
+namespace {
 
-  const int row_h = 26, gap = 8, top = 60;
+// The timeline's geometry: one column of pixels per frame range, rows of equal height.
+struct Timeline {
+  int n;  // frames (at least 1)
+  int left = 120, right = 30;
+  int plot_w;
+  int row_h = 26, gap = 8, top = 60;
+
+  explicit Timeline(int frames) : n(std::max(1, frames)), plot_w(std::clamp(n * 12, 900, 2400)) {}
+  int width() const { return left + plot_w + right; }
+  int x_of(int f) const { return left + static_cast<int>(std::lround(1.0 * f * plot_w / n)); }
+  // The box of the inclusive frame range [first, last] in the row at y.
+  cv::Rect col(int first, int last, int y) const {
+    return cv::Rect(x_of(first), y, std::max(1, x_of(last + 1) - x_of(first)), row_h);
+  }
+  // Starts the row at y: its label and frame; the next row's y.
+  int Row(cv::Mat& img, const std::string& label, int y) const {
+    Text(img, label, {10, y + row_h / 2 + 5}, 0.45);
+    cv::rectangle(img, cv::Rect(left, y, plot_w, row_h), kGrid, 1);
+    return y + row_h + gap;
+  }
+};
+
+// Learned / recognised place of each detected place.
+void DrawPlaceRow(cv::Mat& img, const Timeline& tl, const EvalResult& r, int y) {
+  const std::map<PlaceId, size_t> colour_of = PlaceColours(r.main);
+  for (const EvalDetectedPlace& d : r.main.detected) {
+    if (d.frames.empty()) continue;
+    const cv::Scalar c = Palette(colour_of.at(d.place));
+    const cv::Rect box = tl.col(d.frames.front(), d.frames.back(), y);
+    cv::rectangle(img, box, c, cv::FILLED);
+    CentredText(img, std::string(d.recognized ? "R " : "L ") + d.place.ToString(), box, c);
+  }
+}
+
+// Detected places: their member frames, one colour per detected place.
+void DrawDetectedRow(cv::Mat& img, const Timeline& tl, const EvalResult& r, int y) {
+  for (size_t m = 0; m < r.main.detected.size(); ++m) {
+    const EvalDetectedPlace& d = r.main.detected[m];
+    const cv::Scalar c = Palette(m + 7);
+    for (int f : d.frames) cv::rectangle(img, tl.col(f, f, y), c, cv::FILLED);
+    if (d.frames.empty()) continue;
+    CentredText(img, "D" + std::to_string(d.index), tl.col(d.frames.front(), d.frames.back(), y),
+                c);
+  }
+}
+
+void DrawStatusRow(cv::Mat& img, const Timeline& tl, const EvalResult& r, int y) {
+  for (int f = 0; f < static_cast<int>(r.status.size()); ++f) {
+    if (r.status[static_cast<size_t>(f)] == BaseStatus::kGood) continue;
+    const bool uninformative = r.status[static_cast<size_t>(f)] == BaseStatus::kUninformative;
+    cv::rectangle(img, tl.col(f, f, y), uninformative ? kUninformative : kIncoherent, cv::FILLED);
+  }
+}
+
+void DrawTransitionRow(cv::Mat& img, const Timeline& tl, const EvalResult& r, int y) {
+  for (const TransitionRegion& t : r.main.transitions) {
+    if (t.empty()) continue;
+    cv::rectangle(img, tl.col(static_cast<int>(t.first), static_cast<int>(t.last), y), kTransition,
+                  cv::FILLED);
+  }
+}
+
+// The ground truth's labels: one box per run of frames with the same label.
+void DrawLabelRow(cv::Mat& img, const Timeline& tl, const EvalResult& r, int y) {
+  std::map<std::string, size_t> label_colour;
+  for (const std::string& l : r.truth.labels) {
+    if (!l.empty() && !label_colour.count(l)) {
+      const size_t i = label_colour.size();
+      label_colour[l] = i;
+    }
+  }
+  const auto& ls = r.truth.labels;
+  for (int f = 0; f < static_cast<int>(ls.size());) {
+    int g = f;
+    while (g + 1 < static_cast<int>(ls.size()) &&
+           ls[static_cast<size_t>(g + 1)] == ls[static_cast<size_t>(f)])
+      ++g;
+    const std::string& l = ls[static_cast<size_t>(f)];
+    if (!l.empty()) {
+      const cv::Scalar c = Palette(label_colour.at(l) + 2);
+      const cv::Rect box = tl.col(f, g, y);
+      cv::rectangle(img, box, c, cv::FILLED);
+      CentredText(img, l, box, c);
+    }
+    f = g + 1;
+  }
+}
+
+void DrawRevisitRow(cv::Mat& img, const Timeline& tl, const EvalResult& r, int y) {
+  const auto& rv = r.truth.revisits;
+  for (int f = 0; f < static_cast<int>(rv.size()); ++f) {
+    if (!rv[static_cast<size_t>(f)].empty()) {
+      cv::rectangle(img, tl.col(f, f, y), kRevisit, cv::FILLED);
+    }
+  }
+}
+
+void DrawFrameAxis(cv::Mat& img, const Timeline& tl, int axis_y) {
+  cv::line(img, {tl.left, axis_y}, {tl.left + tl.plot_w, axis_y}, kAxis, 1);
+  const int step = TickStep(tl.n, std::max(5, tl.plot_w / 70));
+  for (int f = 0; f <= tl.n; f += step) {
+    const int x = tl.x_of(f);
+    cv::line(img, {x, axis_y}, {x, axis_y + 6}, kAxis, 1);
+    const std::string s = std::to_string(f);
+    Text(img, s, {x - TextSize(s, 0.4).width / 2, axis_y + 22}, 0.4);
+  }
+  Text(img, "frame (0-based)", {tl.left + tl.plot_w / 2 - 60, axis_y + 44}, 0.45);
+}
+
+}  // namespace
+
+cv::Mat DrawTimeline(const EvalResult& r) {
+  const Timeline tl(r.frames);
   const bool labels = r.truth.has_labels(), revisits = r.truth.has_revisits();
   const int rows = 4 + (labels ? 1 : 0) + (revisits ? 1 : 0);
-  const int axis_y = top + rows * (row_h + gap) + 2;
-  const int height = axis_y + 120;
-  cv::Mat img(height, width, CV_8UC3, kWhite);
-
+  const int axis_y = tl.top + rows * (tl.row_h + tl.gap) + 2;
+  cv::Mat img(axis_y + 120, tl.width(), CV_8UC3, kWhite);
   Text(img,
        "detection timeline: " + fs::path(r.dataset).filename().string() + " (" +
            std::to_string(r.frames) + " frames, tau_r = " + Fixed(r.main.tau_r, 2) + ", " +
            std::to_string(r.main.detected.size()) + " detected, " +
            std::to_string(r.main.learned_places) + " learned places)",
-       {left, 28}, 0.6, kText, 1);
-
-  int y = top;
-  const auto row_label = [&](const std::string& s) {
-    Text(img, s, {10, y + row_h / 2 + 5}, 0.45);
-    cv::rectangle(img, cv::Rect(left, y, plot_w, row_h), kGrid, 1);
+       {tl.left, 28}, 0.6, kText, 1);
+  int y = tl.top;
+  const auto row = [&](const char* label, auto draw) {
+    const int at = y;
+    y = tl.Row(img, label, y);
+    draw(img, tl, r, at);
   };
+  row("place (L/R)", DrawPlaceRow);
+  row("detected", DrawDetectedRow);
+  row("status", DrawStatusRow);
+  row("transitions", DrawTransitionRow);
+  if (labels) row("truth: labels", DrawLabelRow);
+  if (revisits) row("truth: revisit", DrawRevisitRow);
+  DrawFrameAxis(img, tl, axis_y);
 
-  // Learned / recognised place of each detected place.
-  const std::map<PlaceId, size_t> colour_of = PlaceColours(r.main);
-  row_label("place (L/R)");
-  for (const EvalDetectedPlace& d : r.main.detected) {
-    if (d.frames.empty()) continue;
-    const cv::Scalar c = Palette(colour_of.at(d.place));
-    const cv::Rect box = col(d.frames.front(), d.frames.back(), y, row_h);
-    cv::rectangle(img, box, c, cv::FILLED);
-    CentredText(img, std::string(d.recognized ? "R " : "L ") + d.place.ToString(), box, c);
-  }
-  y += row_h + gap;
-
-  // Detected places: their member frames, one colour per detected place.
-  row_label("detected");
-  for (size_t m = 0; m < r.main.detected.size(); ++m) {
-    const EvalDetectedPlace& d = r.main.detected[m];
-    const cv::Scalar c = Palette(m + 7);
-    for (int f : d.frames) cv::rectangle(img, col(f, f, y, row_h), c, cv::FILLED);
-    if (d.frames.empty()) continue;
-    CentredText(img, "D" + std::to_string(d.index),
-                col(d.frames.front(), d.frames.back(), y, row_h), c);
-  }
-  y += row_h + gap;
-
-  row_label("status");
-  for (int f = 0; f < static_cast<int>(r.status.size()); ++f) {
-    if (r.status[static_cast<size_t>(f)] == BaseStatus::kGood) continue;
-    const bool uninformative = r.status[static_cast<size_t>(f)] == BaseStatus::kUninformative;
-    cv::rectangle(img, col(f, f, y, row_h), uninformative ? kUninformative : kIncoherent,
-                  cv::FILLED);
-  }
-  y += row_h + gap;
-
-  row_label("transitions");
-  for (const TransitionRegion& t : r.main.transitions) {
-    if (t.empty()) continue;
-    cv::rectangle(img, col(static_cast<int>(t.first), static_cast<int>(t.last), y, row_h),
-                  kTransition, cv::FILLED);
-  }
-  y += row_h + gap;
-
-  if (labels) {
-    row_label("truth: labels");
-    std::map<std::string, size_t> label_colour;
-    for (const std::string& l : r.truth.labels) {
-      if (!l.empty() && !label_colour.count(l)) {
-        const size_t i = label_colour.size();
-        label_colour[l] = i;
-      }
-    }
-    const auto& ls = r.truth.labels;
-    for (int f = 0; f < static_cast<int>(ls.size());) {
-      int g = f;
-      while (g + 1 < static_cast<int>(ls.size()) &&
-             ls[static_cast<size_t>(g + 1)] == ls[static_cast<size_t>(f)])
-        ++g;
-      const std::string& l = ls[static_cast<size_t>(f)];
-      if (!l.empty()) {
-        const cv::Scalar c = Palette(label_colour.at(l) + 2);
-        const cv::Rect box = col(f, g, y, row_h);
-        cv::rectangle(img, box, c, cv::FILLED);
-        CentredText(img, l, box, c);
-      }
-      f = g + 1;
-    }
-    y += row_h + gap;
-  }
-  if (revisits) {
-    row_label("truth: revisit");
-    const auto& rv = r.truth.revisits;
-    for (int f = 0; f < static_cast<int>(rv.size()); ++f) {
-      if (!rv[static_cast<size_t>(f)].empty()) {
-        cv::rectangle(img, col(f, f, y, row_h), kRevisit, cv::FILLED);
-      }
-    }
-    y += row_h + gap;
-  }
-
-  // Frame axis.
-  cv::line(img, {left, axis_y}, {left + plot_w, axis_y}, kAxis, 1);
-  const int step = TickStep(n, std::max(5, plot_w / 70));
-  for (int f = 0; f <= n; f += step) {
-    const int x = x_of(f);
-    cv::line(img, {x, axis_y}, {x, axis_y + 6}, kAxis, 1);
-    const std::string s = std::to_string(f);
-    Text(img, s, {x - TextSize(s, 0.4).width / 2, axis_y + 22}, 0.4);
-  }
-  Text(img, "frame (0-based)", {left + plot_w / 2 - 60, axis_y + 44}, 0.45);
-
-  // Legend.
-  cv::Point at(left, axis_y + 80);
-  Swatch(img, at, kWhite, "good", left);
-  Swatch(img, at, kUninformative, "uninformative", left);
-  Swatch(img, at, kIncoherent, "incoherent", left);
-  Swatch(img, at, kTransition, "transition region", left);
-  Swatch(img, at, Palette(7), "detected place Dm (its good frames)", left);
-  Swatch(img, at, Palette(0), "place it went to: L learned, R recognised", left);
-  if (revisits) Swatch(img, at, kRevisit, "frame revisits an earlier one", left);
+  cv::Point at(tl.left, axis_y + 80);
+  Swatch(img, at, kWhite, "good", tl.left);
+  Swatch(img, at, kUninformative, "uninformative", tl.left);
+  Swatch(img, at, kIncoherent, "incoherent", tl.left);
+  Swatch(img, at, kTransition, "transition region", tl.left);
+  Swatch(img, at, Palette(7), "detected place Dm (its good frames)", tl.left);
+  Swatch(img, at, Palette(0), "place it went to: L learned, R recognised", tl.left);
+  if (revisits) Swatch(img, at, kRevisit, "frame revisits an earlier one", tl.left);
   return img;
 }
 
