@@ -219,6 +219,98 @@ class RawTerminal {
   bool active_ = false;
 };
 
+using Steady = std::chrono::steady_clock;
+
+// What the keys ask of the base: w/a/s/d or the arrows move while held (a motion lasts `hold`
+// after its last key: the dead man), space stops, e latches the e-stop, r releases it, q quits.
+class TeleopKeys {
+ public:
+  struct Command {
+    double linear_mps = 0.0, angular_radps = 0.0;
+    bool estop = false;
+  };
+
+  TeleopKeys(double linear, double angular, Steady::duration hold)
+      : linear_(linear), angular_(angular), hold_(hold) {}
+
+  void Key(char c, Steady::time_point now) {
+    if (!escape_.empty() || c == '\x1b') {  // ESC [ A..D
+      escape_ += c;
+      if (escape_.size() < 3) return;
+      const char arrow = escape_[2];
+      escape_.clear();
+      if (arrow == 'A') Move(linear_, 0, now);
+      if (arrow == 'B') Move(-linear_, 0, now);
+      if (arrow == 'D') Move(0, angular_, now);
+      if (arrow == 'C') Move(0, -angular_, now);
+      return;
+    }
+    switch (c) {
+      case 'w':
+        Move(linear_, 0, now);
+        break;
+      case 's':
+        Move(-linear_, 0, now);
+        break;
+      case 'a':
+        Move(0, angular_, now);
+        break;
+      case 'd':
+        Move(0, -angular_, now);
+        break;
+      case ' ':
+        v_ = w_ = 0, last_key_ = {};
+        stops_left_ = 3;
+        break;
+      case 'e':
+        estop_ = true;
+        std::cerr << "teleop: E-STOP (r releases)\n";
+        break;
+      case 'r':
+        estop_ = false;
+        v_ = w_ = 0;
+        stops_left_ = 3;
+        break;
+      case 'q':
+        quit_ = true;
+        break;
+      default:
+        break;
+    }
+  }
+  void Quit() { quit_ = true; }
+  bool quit() const { return quit_; }
+  bool estop() const { return estop_; }
+
+  /// The command of this period, if any: the e-stop while latched, the motion while held,
+  /// then three stops once the dead man lets go (a lost datagram is no risk), then quiet.
+  std::optional<Command> Next(Steady::time_point now) {
+    if (estop_) return Command{0, 0, true};
+    if ((v_ != 0 || w_ != 0) && now - last_key_ <= hold_) return Command{v_, w_, false};
+    if (stops_left_ > 0) {
+      v_ = w_ = 0;
+      --stops_left_;
+      return Command{0, 0, false};
+    }
+    return std::nullopt;
+  }
+
+ private:
+  void Move(double v, double w, Steady::time_point now) {
+    v_ = v, w_ = w;
+    last_key_ = now;
+    stops_left_ = 3;
+  }
+
+  double linear_, angular_;
+  Steady::duration hold_;
+  double v_ = 0, w_ = 0;
+  bool estop_ = false, quit_ = false;
+  int stops_left_ = 0;
+  Steady::time_point last_key_{};
+  std::string escape_;  // an arrow key's escape sequence in progress
+};
+
 }  // namespace
 
 int RunTeleopCommand(const std::vector<std::string>& args) {
@@ -250,32 +342,24 @@ int RunTeleopCommand(const std::vector<std::string>& args) {
   std::cerr << "teleop on " << channel
             << ": w/a/s/d or arrows (hold), space stop, e e-stop, r release, q quit\n";
 
-  using Steady = std::chrono::steady_clock;
   const auto period = std::chrono::duration<double>(1.0 / rate_hz);
-  const auto hold = std::chrono::duration<double>(hold_s);
-  double v = 0, w = 0;
-  bool estop = false, quit = false;
-  int stops_left = 0;  // stops still to send after a motion ends (a lost datagram is no risk)
-  Steady::time_point last_key{}, next_send = Steady::now();
+  TeleopKeys keys(
+      linear, angular,
+      std::chrono::duration_cast<Steady::duration>(std::chrono::duration<double>(hold_s)));
   int64_t sequence = 0;
-  std::string escape;  // an arrow key's escape sequence in progress
-  auto publish = [&](double lin, double ang, bool e) {
+  auto publish = [&](const TeleopKeys::Command& c) {
     jaguar::motor_command_t m{};
     m.utime = std::chrono::duration_cast<std::chrono::microseconds>(
                   std::chrono::system_clock::now().time_since_epoch())
                   .count();
     m.sequence = ++sequence;
-    m.linear_mps = lin;
-    m.angular_radps = ang;
-    m.estop = e;
+    m.linear_mps = c.linear_mps;
+    m.angular_radps = c.angular_radps;
+    m.estop = c.estop;
     if (!bus.Publish(channel, m)) std::cerr << "teleop: cannot publish on " << channel << "\n";
   };
-  auto motion = [&](double lin, double ang) {
-    v = lin, w = ang;
-    last_key = Steady::now();
-    stops_left = 3;
-  };
-  while (!quit && !g_stop) {
+  Steady::time_point next_send = Steady::now();
+  while (!keys.quit() && !g_stop) {
     pollfd p{STDIN_FILENO, POLLIN, 0};
     const auto wait =
         std::chrono::duration_cast<std::chrono::milliseconds>(next_send - Steady::now());
@@ -284,69 +368,16 @@ int RunTeleopCommand(const std::vector<std::string>& args) {
       const ssize_t n = ::read(STDIN_FILENO, buf, sizeof buf);
       // End of a script, or a terminal that hung up: stop and quit.
       if (n < 0 || (n == 0 && (!::isatty(STDIN_FILENO) || (p.revents & (POLLHUP | POLLERR))))) {
-        quit = true;
+        keys.Quit();
       }
-      for (ssize_t i = 0; i < n; ++i) {
-        const char c = buf[i];
-        if (!escape.empty() || c == '\x1b') {  // ESC [ A..D
-          escape += c;
-          if (escape.size() < 3) continue;
-          const char arrow = escape[2];
-          escape.clear();
-          if (arrow == 'A') motion(linear, 0);
-          if (arrow == 'B') motion(-linear, 0);
-          if (arrow == 'D') motion(0, angular);
-          if (arrow == 'C') motion(0, -angular);
-          continue;
-        }
-        switch (c) {
-          case 'w':
-            motion(linear, 0);
-            break;
-          case 's':
-            motion(-linear, 0);
-            break;
-          case 'a':
-            motion(0, angular);
-            break;
-          case 'd':
-            motion(0, -angular);
-            break;
-          case ' ':
-            v = w = 0, last_key = {};
-            stops_left = 3;
-            break;
-          case 'e':
-            estop = true;
-            std::cerr << "teleop: E-STOP (r releases)\n";
-            break;
-          case 'r':
-            estop = false;
-            v = w = 0;
-            stops_left = 3;
-            break;
-          case 'q':
-            quit = true;
-            break;
-          default:
-            break;
-        }
-      }
+      for (ssize_t i = 0; i < n; ++i) keys.Key(buf[i], Steady::now());
     }
     const auto now = Steady::now();
     if (now < next_send) continue;
     next_send = now + std::chrono::duration_cast<Steady::duration>(period);
-    if (estop) {
-      publish(0, 0, true);  // keeps saying so while latched
-    } else if ((v != 0 || w != 0) && now - last_key <= hold) {
-      publish(v, w, false);
-    } else if (stops_left > 0) {  // the dead man let go: stop, then quiet
-      v = w = 0;
-      publish(0, 0, false);
-      --stops_left;
-    }
+    if (const auto command = keys.Next(now)) publish(*command);
   }
-  publish(0, 0, estop);
+  publish({0, 0, keys.estop()});
   return 0;
 }
 
