@@ -4,6 +4,8 @@
 #include <limits>
 #include <vector>
 
+#include "core/assert.h"
+
 namespace tsc {
 namespace {
 
@@ -46,7 +48,8 @@ Eigen::MatrixXf ThinViews(const Eigen::MatrixXf& pool, int cap) {
         }
       }
     }
-    if (drop < 0) break;  // unreachable: at least two views are kept here
+    TSC_ASSERT(drop >= 0, "at least two finite views are kept while more than cap are");
+    if (drop < 0) break;
     kept[static_cast<size_t>(drop)] = 0;
   }
   Eigen::MatrixXf out(pool.rows(), std::count(kept.begin(), kept.end(), 1));

@@ -7,6 +7,8 @@
 #include <string>
 #include <utility>
 
+#include "core/assert.h"
+
 namespace tsc {
 
 Slink::Slink(std::vector<int> pi, std::vector<double> lambda)
@@ -68,6 +70,7 @@ void Slink::Insert(const std::vector<double>& distances) {
   merged_.resize(order_.size() + fresh_.size());
   std::merge(order_.begin(), order_.end(), fresh_.begin(), fresh_.end(), merged_.begin());
   order_.swap(merged_);
+  TSC_ASSERT(order_.size() + 1 == pi_.size(), "every point but the last has a finite λ in order_");
 }
 
 std::vector<DendrogramMerge> ToDendrogram(const Slink& slink) {
@@ -87,6 +90,7 @@ std::vector<DendrogramMerge> ToDendrogram(const Slink& slink) {
   merges.reserve(n - 1);
   for (const auto& [height, i] : order) {
     const int ra = find(i), rb = find(slink.pi()[i]);
+    TSC_ASSERT(ra != rb, "in increasing λ, each point's link joins two clusters");
     merges.push_back({cluster[ra], cluster[rb], height});
     parent[ra] = rb;
     cluster[rb] = n + static_cast<int>(merges.size()) - 1;
