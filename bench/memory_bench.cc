@@ -7,10 +7,12 @@
 
 #include <map>
 #include <memory>
+#include <random>
 #include <utility>
 #include <vector>
 
 #include "core/memory/place_memory.h"
+#include "core/memory/simd.h"
 #include "test/support/synthetic_places.h"
 
 namespace tsc {
@@ -102,6 +104,49 @@ void BM_ViewIndexEstimate(benchmark::State& state) {
   for (auto _ : state) benchmark::DoNotOptimize(index.Estimate(queries));
 }
 BENCHMARK(BM_ViewIndexEstimate)->Arg(1000)->Arg(10000)->Unit(benchmark::kMicrosecond);
+
+// What the products of a recognition at the default caps cost with the places' views in cache
+// and out of it: 32 vote points against the 32 views of each of 32 places (the shortlist), on
+// the AVX2 kernel. The argument is the places held: 32 gives the same 32 every time (hot);
+// 2048 (300 MB, ten times the last-level cache) and 10⁴ (1.5 GB, as BM_RecognizeAtDefaultCaps)
+// give 32 of them in a seeded random order, as a shortlist of a large memory falls (cold). The
+// gap is what memory, not arithmetic, costs a recognition.
+void BM_ViewProducts(benchmark::State& state) {
+  if (FastestSimd() != Simd::kAvx2Fma) {
+    state.SkipWithError("no AVX2/FMA on this machine");
+    return;
+  }
+  constexpr int kVotes = 32, kViews = 32, kShortlist = 32;
+  const int places = static_cast<int>(state.range(0));
+  const bool cold = places > kShortlist;
+  std::mt19937 rng(24);  // fixed: the same data and order on every run
+  std::normal_distribution<float> normal;
+  Eigen::MatrixXf votes(kDim, kVotes);
+  for (Eigen::Index k = 0; k < votes.size(); ++k) votes.data()[k] = normal(rng);
+  std::vector<Eigen::MatrixXf> views(static_cast<size_t>(places), Eigen::MatrixXf(kDim, kViews));
+  for (Eigen::MatrixXf& v : views) {
+    for (Eigen::Index k = 0; k < v.size(); ++k) v.data()[k] = normal(rng);
+  }
+  std::uniform_int_distribution<int> pick(0, places - 1);
+  std::vector<float> out(kVotes * kViews), norms(kViews);
+  std::vector<int> chosen(kShortlist);
+  for (auto _ : state) {
+    for (int c = 0; c < kShortlist; ++c) chosen[static_cast<size_t>(c)] = cold ? pick(rng) : c;
+    for (int c = 0; c < kShortlist; ++c) {
+      const Eigen::MatrixXf& v = views[static_cast<size_t>(chosen[static_cast<size_t>(c)])];
+      const Eigen::MatrixXf* next =
+          c + 1 < kShortlist ? &views[static_cast<size_t>(chosen[static_cast<size_t>(c + 1)])]
+                             : nullptr;
+      avx2::ColumnDots(votes.data(), kVotes, v.data(), kViews, kDim, out.data(), norms.data(),
+                       next != nullptr ? next->data() : nullptr,
+                       next != nullptr ? next->size() : 0);
+    }
+    benchmark::DoNotOptimize(out.data());
+  }
+  state.counters["multiply_adds"] = static_cast<double>(kVotes) * kViews * kDim * kShortlist;
+  state.SetLabel(cold ? "cold: 32 of them at random" : "hot: the same 32");
+}
+BENCHMARK(BM_ViewProducts)->Arg(32)->Arg(2048)->Arg(10000)->Unit(benchmark::kMicrosecond);
 
 void BM_Learn(benchmark::State& state) {
   const int n = static_cast<int>(state.range(0));
