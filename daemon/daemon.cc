@@ -3,6 +3,7 @@
 #include <spdlog/spdlog.h>
 #include <unistd.h>
 
+#include <algorithm>
 #include <boost/asio/io_context.hpp>
 #include <boost/asio/posix/stream_descriptor.hpp>
 #include <boost/asio/post.hpp>
@@ -13,8 +14,7 @@
 #include <utility>
 
 #include "daemon/log_throttle.h"
-#include "jaguar/motor_command_t.hpp"
-#include "jaguar/motor_state_t.hpp"
+#include "daemon/motor_bridge.h"
 #include "tsc/announce_t.hpp"
 #include "tsc/memory_request_t.hpp"
 #include "tsc/place_event_t.hpp"
@@ -26,6 +26,12 @@ namespace asio = boost::asio;
 using Clock = std::chrono::steady_clock;
 
 namespace {
+
+// Memory portions published per turn of the event loop (~2 MB, a few ms): a memory of 10⁴
+// places is ~4 000 portions, which must not hold announces and timers back for a second.
+constexpr size_t kPortionsPerSlice = 32;
+// "merged" place events published per turn of the loop.
+constexpr size_t kEventsPerSlice = 256;
 
 int64_t RandomBootId() {
   std::random_device rd;
@@ -76,22 +82,6 @@ std::string Describe(const PlaceEvent& e) {
 
 }  // namespace
 
-const char* ChannelFamilyName(ChannelFamily family) {
-  switch (family) {
-    case ChannelFamily::kAnnounce:
-      return "TSC_ANNOUNCE";
-    case ChannelFamily::kMemory:
-      return "TSC_MEMORY";
-    case ChannelFamily::kRequest:
-      return "TSC_REQUEST";
-    case ChannelFamily::kEvent:
-      return "TSC_EVENT";
-    case ChannelFamily::kStats:
-      return "TSC_STATS";
-  }
-  return "?";
-}
-
 struct Daemon::Loop {
   explicit Loop(asio::io_context& io)
       : signals(io, SIGTERM, SIGINT, SIGHUP),
@@ -99,7 +89,6 @@ struct Daemon::Loop {
         announce(io),
         status(io),
         watchdog(io),
-        motor(io),
         exchange(io),
         join(io) {}
   asio::signal_set signals;
@@ -107,7 +96,6 @@ struct Daemon::Loop {
   asio::steady_timer announce;
   asio::steady_timer status;
   asio::steady_timer watchdog;
-  asio::steady_timer motor;
   asio::steady_timer exchange;
   asio::steady_timer join;
 };
@@ -124,14 +112,15 @@ Daemon::Daemon(Settings settings, SettingsSource source, std::unique_ptr<CameraS
       io_(std::make_unique<asio::io_context>()),
       loop_(std::make_unique<Loop>(*io_)),
       bus_(settings_.daemon.bus.url),
+      team_(bus_, std::move(team_key), counters_),
       queue_(static_cast<size_t>(settings_.daemon.queue_frames)),
-      team_key_(std::move(team_key)),
       exchange_(static_cast<int32_t>(robot_), PeerExchangeOptions{}) {
-  if (!team_key_) {
+  if (!team_.signs()) {
     spdlog::warn(
         "no team key (lcm.team_key_file): exchange messages are neither signed nor "
         "checked");
   }
+  if (base_) motor_ = std::make_unique<MotorBridge>(*base_, robot_, team_, *io_, counters_);
   spdlog::info("tscd robot {} starting (camera {}, LCM {}, state {})", robot_, camera_->name(),
                bus_.url(), db_path_.string());
   worker_ = std::make_unique<PipelineWorker>(
@@ -188,11 +177,7 @@ int Daemon::Run() {
   bus_.Subscribe("TSC_MEMORY_.*", [this](const std::string& c, const uint8_t* d, size_t n) {
     OnPeerPortion(c, d, n);
   });
-  if (base_) {
-    bus_.Subscribe("JAGUAR_CMD_" + me, [this](const std::string& c, const uint8_t* d, size_t n) {
-      OnMotorCommand(c, d, n);
-    });
-  }
+  if (motor_) motor_->Subscribe();
   loop_->lcm.assign(::dup(bus_.fd()));
   WaitLcm();
   loop_->signals.async_wait([this](const boost::system::error_code& ec, int sig) {
@@ -234,56 +219,8 @@ void Daemon::StartTimers() {
   }
   OnStatusTimer();
   if (notifier_.watchdog_interval()) OnWatchdogTimer();
-  if (base_) OnMotorTimer();
+  if (motor_) motor_->Start();
   OnExchangeTimer();
-}
-
-template <typename T>
-std::optional<T> Daemon::Authentic(const std::string& channel, const uint8_t* data, size_t size,
-                                   const char* what) {
-  std::optional<T> msg = LcmBus::Decode<T>(data, size);
-  const char* problem = nullptr;
-  if (!msg) {
-    problem = "a malformed";
-  } else if (team_key_ &&
-             !VerifyMessage(*team_key_, *msg, [](const T& m) { return LcmBus::Encode(m); })) {
-    problem = msg->hmac_size == 0 ? "an unsigned" : "a forged";
-  }
-  if (problem == nullptr) return msg;
-  const int64_t n = ++counters_.messages_rejected;
-  if (ShouldLog(n)) spdlog::warn("{}: dropped {} {} ({} bytes)", channel, problem, what, size);
-  return std::nullopt;
-}
-
-template <typename T>
-bool Daemon::PublishSigned(ChannelFamily family, const std::string& channel, T msg) {
-  if (team_key_) {
-    SignMessage(*team_key_, msg, [](const T& m) { return LcmBus::Encode(m); });
-  }
-  return PublishCounted(family, channel, msg);
-}
-
-template <typename T>
-bool Daemon::PublishCounted(ChannelFamily family, const std::string& channel, const T& msg) {
-  const std::vector<uint8_t> bytes = LcmBus::Encode(msg);
-  if (!bus_.PublishRaw(channel, bytes)) return false;
-  ChannelTraffic& t = traffic_[static_cast<size_t>(family)];
-  ++t.sent;
-  t.sent_bytes += static_cast<int64_t>(bytes.size());
-  return true;
-}
-
-void Daemon::PublishFailed(const std::string& channel) {
-  // A packet filter that drops datagrams makes every such send fail (EPERM): log the first
-  // and then one in a hundred, so a lossy network cannot fill the journal.
-  const int64_t n = ++counters_.publish_failures;
-  if (ShouldLog(n)) spdlog::warn("LCM: cannot publish on {} ({} failed sends so far)", channel, n);
-}
-
-void Daemon::CountReceived(ChannelFamily family, size_t bytes) {
-  ChannelTraffic& t = traffic_[static_cast<size_t>(family)];
-  ++t.received;
-  t.received_bytes += static_cast<int64_t>(bytes);
 }
 
 void Daemon::OnExchangeTimer() {
@@ -292,7 +229,7 @@ void Daemon::OnExchangeTimer() {
     spdlog::debug("asking robot {} for {} portions of version {}", r.robot,
                   r.missing.empty() ? std::string("all") : std::to_string(r.missing.size()),
                   r.version);
-    PublishSigned(ChannelFamily::kRequest, "TSC_REQUEST_" + std::to_string(r.robot), r);
+    team_.PublishSigned(ChannelFamily::kRequest, "TSC_REQUEST_" + std::to_string(r.robot), r);
   }
   loop_->exchange.expires_after(std::chrono::milliseconds(100));
   loop_->exchange.async_wait([this](const boost::system::error_code& ec) {
@@ -302,9 +239,9 @@ void Daemon::OnExchangeTimer() {
 
 void Daemon::OnPeerPortion(const std::string& channel, const uint8_t* data, size_t size) {
   if (channel == "TSC_MEMORY_" + std::to_string(robot_)) return;  // our own, looped back
-  auto portion = Authentic<memory_portion_t>(channel, data, size, "memory portion");
+  auto portion = team_.Authentic<memory_portion_t>(channel, data, size, "memory portion");
   if (!portion) return;
-  CountReceived(ChannelFamily::kMemory, size);
+  team_.CountReceived(ChannelFamily::kMemory, size);
   const int64_t rejected_before = exchange_.rejected_portions();
   std::optional<PeerSnapshot> snap = exchange_.OnPortion(*portion, PeerExchange::Clock::now());
   if (exchange_.rejected_portions() > rejected_before) {
@@ -325,9 +262,14 @@ void Daemon::OnPeerSnapshot(PeerSnapshot snapshot) {
   worker_->Enqueue(std::move(snapshot));
 }
 
-void Daemon::PublishMerged(std::vector<std::pair<PlaceId, PlaceId>> absorbed, int64_t utime) {
+void Daemon::PublishMerged(std::vector<std::pair<PlaceId, PlaceId>> absorbed, int64_t utime,
+                           size_t from) {
   const std::string channel = "TSC_EVENT_" + std::to_string(robot_);
-  for (const auto& [source, target] : absorbed) {
+  // A merge of 10⁴ places absorbs thousands: a slice per turn of the loop, as for portions.
+  const size_t end =
+      stopping_ ? absorbed.size() : std::min(absorbed.size(), from + kEventsPerSlice);
+  for (size_t k = from; k < end; ++k) {
+    const auto& [source, target] = absorbed[k];
     place_event_t m{};
     m.utime = utime;
     m.robot = static_cast<int32_t>(robot_);
@@ -339,48 +281,14 @@ void Daemon::PublishMerged(std::vector<std::pair<PlaceId, PlaceId>> absorbed, in
     m.has_from = true;
     m.from = Ref(source);
     m.transition_first = m.transition_last = -1;
-    if (!PublishCounted(ChannelFamily::kEvent, channel, m)) {
-      PublishFailed(channel);
+    if (!team_.PublishCounted(ChannelFamily::kEvent, channel, m)) {
+      team_.PublishFailed(channel);
     }
   }
-}
-
-void Daemon::OnMotorTimer() {
-  const Odometry odo = base_->state();
-  jaguar::motor_state_t m{};
-  m.utime = NowUtime();
-  m.x = odo.x;
-  m.y = odo.y;
-  m.heading = odo.heading;
-  m.linear_mps = odo.linear_mps;
-  m.angular_radps = odo.angular_radps;
-  m.left_ticks = odo.left_ticks;  // 0 on a simulated base: no encoders
-  m.right_ticks = odo.right_ticks;
-  m.battery_volts = odo.battery_volts;
-  m.temperatures_c = odo.temperatures_c;
-  m.num_temperatures = static_cast<int16_t>(m.temperatures_c.size());
-  m.link_ok = odo.link_ok;
-  m.stopped = odo.stopped;
-  m.fault = odo.fault;
-  const std::string channel = "JAGUAR_STATE_" + std::to_string(robot_);
-  if (!bus_.Publish(channel, m)) PublishFailed(channel);
-  loop_->motor.expires_after(std::chrono::milliseconds(100));
-  loop_->motor.async_wait([this](const boost::system::error_code& ec) {
-    if (!ec) OnMotorTimer();
+  if (end == absorbed.size()) return;
+  asio::post(*io_, [this, absorbed = std::move(absorbed), utime, end]() mutable {
+    PublishMerged(std::move(absorbed), utime, end);
   });
-}
-
-void Daemon::OnMotorCommand(const std::string& channel, const uint8_t* data, size_t size) {
-  if (stopping_) return;  // shutting down: the motors stay stopped
-  const auto c = LcmBus::Decode<jaguar::motor_command_t>(data, size);
-  if (!c) {
-    const int64_t n = ++counters_.messages_rejected;
-    if (ShouldLog(n))
-      spdlog::warn("{}: dropped a malformed motor command ({} bytes)", channel, size);
-    return;
-  }
-  base_->Command(MotorCommand{c->linear_mps, c->angular_radps, c->estop != 0, c->flipper_front,
-                              c->flipper_rear});
 }
 
 void Daemon::WaitLcm() {
@@ -414,8 +322,8 @@ void Daemon::OnAnnounceTimer() {
   a.queue_fill = static_cast<float>(queue_.fill());
   a.status = StatusLine();
   a.hmac_size = 0;
-  if (!PublishSigned(ChannelFamily::kAnnounce, "TSC_ANNOUNCE", a)) {
-    PublishFailed("TSC_ANNOUNCE");
+  if (!team_.PublishSigned(ChannelFamily::kAnnounce, "TSC_ANNOUNCE", a)) {
+    team_.PublishFailed("TSC_ANNOUNCE");
   }
   PublishStats(a.utime);
   const auto period = std::chrono::duration<double>(settings_.daemon.bus.announce_period_s);
@@ -449,26 +357,7 @@ void Daemon::PublishStats(int64_t utime) {
   s.peers = static_cast<int32_t>(exchange_.peers());
   s.merged_peers = static_cast<int32_t>(exchange_.merged_peers());
   s.buffered_portions = static_cast<int32_t>(exchange_.buffered_portions());
-  // The stats message counts itself: it is sent right after.
-  ChannelTraffic& own = traffic_[static_cast<size_t>(ChannelFamily::kStats)];
-  ++own.sent;
-  for (int f = 0; f < kChannelFamilies; ++f) {
-    const ChannelTraffic& t = traffic_[static_cast<size_t>(f)];
-    s.channel.push_back(ChannelFamilyName(static_cast<ChannelFamily>(f)));
-    s.sent.push_back(t.sent);
-    s.sent_bytes.push_back(t.sent_bytes);
-    s.received.push_back(t.received);
-    s.received_bytes.push_back(t.received_bytes);
-  }
-  s.num_channels = static_cast<int16_t>(kChannelFamilies);
-  const std::vector<uint8_t> bytes = LcmBus::Encode(s);
-  const std::string channel = "TSC_STATS_" + std::to_string(robot_);
-  if (bus_.PublishRaw(channel, bytes)) {
-    own.sent_bytes += static_cast<int64_t>(bytes.size());
-  } else {
-    --own.sent;
-    PublishFailed(channel);
-  }
+  team_.PublishStats("TSC_STATS_" + std::to_string(robot_), std::move(s));
 }
 
 void Daemon::OnStatusTimer() {
@@ -517,7 +406,7 @@ void Daemon::Shutdown() {
   if (stopping_.exchange(true)) return;
   // The motors first: the rest of the shutdown (final commit) may take a while, and commands
   // are ignored from now on.
-  if (base_) base_->Stop();
+  if (motor_) motor_->StopMotors();
   notifier_.Stopping();
   // Camera first (no new frames; its waits for the next frame, a reconnect or a stream read
   // are cut short, so stopping never waits for the camera's rate), then the worker drains the
@@ -541,7 +430,7 @@ void Daemon::Shutdown() {
   loop_->announce.cancel();
   loop_->status.cancel();
   loop_->watchdog.cancel();
-  loop_->motor.cancel();
+  if (motor_) motor_->Cancel();
   loop_->exchange.cancel();
   loop_->join.cancel();
   if (base_) base_->Stop();  // again, in case a command slipped in; the destructor stops too
@@ -575,14 +464,14 @@ void Daemon::Reload() {
 }
 
 void Daemon::OnRequest(const std::string& channel, const uint8_t* data, size_t size) {
-  const auto req = Authentic<memory_request_t>(channel, data, size, "memory request");
+  const auto req = team_.Authentic<memory_request_t>(channel, data, size, "memory request");
   if (!req) return;
   if (req->robot != static_cast<int32_t>(robot_)) {
     const int64_t n = ++counters_.messages_rejected;
     if (ShouldLog(n)) spdlog::warn("{}: dropped a request for robot {}", channel, req->robot);
     return;
   }
-  CountReceived(ChannelFamily::kRequest, size);
+  team_.CountReceived(ChannelFamily::kRequest, size);
   waiting_requests_.push_back(*req);
   ServeSnapshot();
 }
@@ -602,13 +491,13 @@ void Daemon::AnswerRequest(const memory_request_t& req, bool rebuilt) {
   }
   spdlog::debug("robot {} asked for {} portions of version {}", req.requester, indices.size(),
                 req.version);
-  PublishPortions(indices);
+  PublishPortions(snapshot_, std::move(indices));
 }
 
 void Daemon::OnPeerAnnounce(const std::string& channel, const uint8_t* data, size_t size) {
-  const auto a = Authentic<announce_t>(channel, data, size, "announce");
+  const auto a = team_.Authentic<announce_t>(channel, data, size, "announce");
   if (!a || a->robot == static_cast<int32_t>(robot_)) return;
-  CountReceived(ChannelFamily::kAnnounce, size);
+  team_.CountReceived(ChannelFamily::kAnnounce, size);
   if (a->places > 0) join_->PeerHeard(JoinGate::Clock::now());  // it may hold our places
   if (!exchange_.OnAnnounce(*a, PeerExchange::Clock::now())) {
     const int64_t n = ++counters_.messages_rejected;
@@ -624,8 +513,8 @@ void Daemon::PublishEvents(const std::vector<PlaceEvent>& events, int64_t utime)
   for (const PlaceEvent& e : events) {
     const auto level = e.kind == EventKind::kPruned ? spdlog::level::debug : spdlog::level::info;
     spdlog::log(level, "{}", Describe(e));
-    if (!PublishCounted(ChannelFamily::kEvent, channel, ToMessage(e, robot_, utime))) {
-      PublishFailed(channel);
+    if (!team_.PublishCounted(ChannelFamily::kEvent, channel, ToMessage(e, robot_, utime))) {
+      team_.PublishFailed(channel);
     }
   }
 }
@@ -662,17 +551,26 @@ void Daemon::BroadcastMemory() {
   last_memory_broadcast_ = Clock::now();
   std::vector<int32_t> all(snapshot_->portions.size());
   for (size_t i = 0; i < all.size(); ++i) all[i] = static_cast<int32_t>(i);
-  PublishPortions(all);
+  PublishPortions(snapshot_, std::move(all));
 }
 
-void Daemon::PublishPortions(const std::vector<int32_t>& indices) {
+void Daemon::PublishPortions(std::shared_ptr<const MemorySnapshot> snapshot,
+                             std::vector<int32_t> indices, size_t from) {
   const std::string channel = "TSC_MEMORY_" + std::to_string(robot_);
-  for (int32_t i : indices) {
-    if (!PublishSigned(ChannelFamily::kMemory, channel,
-                       snapshot_->portions[static_cast<size_t>(i)])) {
-      PublishFailed(channel);
+  // Stopping, the loop has nothing else to do: everything at once, before "stopped".
+  const size_t end =
+      stopping_ ? indices.size() : std::min(indices.size(), from + kPortionsPerSlice);
+  for (size_t k = from; k < end; ++k) {
+    if (!team_.PublishSigned(ChannelFamily::kMemory, channel,
+                             snapshot->portions[static_cast<size_t>(indices[k])])) {
+      team_.PublishFailed(channel);
     }
   }
+  if (end == indices.size()) return;
+  asio::post(*io_,
+             [this, snapshot = std::move(snapshot), indices = std::move(indices), end]() mutable {
+               PublishPortions(std::move(snapshot), std::move(indices), end);
+             });
 }
 
 std::string Daemon::StatusLine() const {

@@ -27,6 +27,7 @@
 #include "daemon/peer_exchange.h"
 #include "daemon/pipeline_worker.h"
 #include "daemon/system_notifier.h"
+#include "daemon/team_bus.h"
 #include "daemon/team_key.h"
 #include "drivers/base/motor_base.h"
 #include "drivers/camera/camera_source.h"
@@ -39,24 +40,12 @@ class io_context;
 
 namespace tsc {
 
+class MotorBridge;
+
 /// Where the settings came from, so SIGHUP can read them again.
 struct SettingsSource {
   std::optional<std::filesystem::path> file;
   std::vector<std::string> overrides;
-};
-
-/// The channel families tscd publishes on, for its traffic counters (TSC_STATS_<robot>).
-enum class ChannelFamily { kAnnounce, kMemory, kRequest, kEvent, kStats };
-inline constexpr int kChannelFamilies = 5;
-/// "TSC_ANNOUNCE", "TSC_MEMORY", … (the channel without its robot suffix).
-const char* ChannelFamilyName(ChannelFamily family);
-
-/// Messages and bytes sent and received on one channel family.
-struct ChannelTraffic {
-  int64_t sent = 0;
-  int64_t sent_bytes = 0;
-  int64_t received = 0;  ///< authentic messages of other robots
-  int64_t received_bytes = 0;
 };
 
 class Daemon {
@@ -90,8 +79,6 @@ class Daemon {
   void OnAnnounceTimer();
   void OnStatusTimer();
   void OnWatchdogTimer();
-  void OnMotorTimer();
-  void OnMotorCommand(const std::string& channel, const uint8_t* data, size_t size);
   void OnSignal(int signal);
   void OnRequest(const std::string& channel, const uint8_t* data, size_t size);
   void OnPeerAnnounce(const std::string& channel, const uint8_t* data, size_t size);
@@ -99,17 +86,6 @@ class Daemon {
   void OnExchangeTimer();
   void OnJoinTimer();
   void OnPeerSnapshot(PeerSnapshot snapshot);
-  /// Decodes an exchange message and checks its signature; counts and logs what it drops.
-  template <typename T>
-  std::optional<T> Authentic(const std::string& channel, const uint8_t* data, size_t size,
-                             const char* what);
-  template <typename T>
-  bool PublishSigned(ChannelFamily family, const std::string& channel, T msg);
-  /// Publishes and counts the message in its family's traffic.
-  template <typename T>
-  bool PublishCounted(ChannelFamily family, const std::string& channel, const T& msg);
-  void CountReceived(ChannelFamily family, size_t bytes);
-  void PublishFailed(const std::string& channel);
   void PublishStats(int64_t utime);
   void PublishEvents(const std::vector<PlaceEvent>& events, int64_t utime);
   /// Where snapshot_ stands against the memory: current, replaced by a newer one the worker
@@ -124,12 +100,17 @@ class Daemon {
   void PublishMemoryIfChanged();
   void BroadcastMemory();
   void AnswerRequest(const memory_request_t& req, bool rebuilt);
-  void PublishPortions(const std::vector<int32_t>& indices);
+  /// Publishes the portions `indices` of `snapshot` from `from` on, kPortionsPerSlice per turn
+  /// of the loop (the rest posted), so timers and LCM run in between; all at once when stopping.
+  void PublishPortions(std::shared_ptr<const MemorySnapshot> snapshot, std::vector<int32_t> indices,
+                       size_t from = 0);
   void Reload();
   void Shutdown();
   std::string StatusLine() const;
 
-  void PublishMerged(std::vector<std::pair<PlaceId, PlaceId>> absorbed, int64_t utime);
+  /// Publishes a "merged" event per absorbed place from `from` on, a slice per turn of the loop.
+  void PublishMerged(std::vector<std::pair<PlaceId, PlaceId>> absorbed, int64_t utime,
+                     size_t from = 0);
 
   // Camera thread.
   void CameraLoop();
@@ -146,6 +127,9 @@ class Daemon {
   struct Loop;  // Asio objects (signals, timers, LCM descriptor), kept out of this header
   std::unique_ptr<Loop> loop_;
   LcmBus bus_;
+  DaemonCounters counters_;             // before the parts that count: the worker, team_
+  TeamBus team_;                        // loop thread only
+  std::unique_ptr<MotorBridge> motor_;  // with a base only
   SystemNotifier notifier_;
 
   FrameQueue<CameraFrame> queue_;
@@ -153,18 +137,15 @@ class Daemon {
   int exit_code_ = 0;
   std::atomic<bool> camera_ended_{false};
   std::atomic<bool> degraded_camera_{false};
-  DaemonCounters counters_;
   std::unique_ptr<PipelineWorker> worker_;  // after queue_ and counters_, which it uses
   std::unique_ptr<JoinGate> join_;          ///< the camera waits here while a fresh robot listens
 
-  std::optional<TeamKey> team_key_;
   PeerExchange exchange_;                           // loop thread only
   std::shared_ptr<const MemorySnapshot> snapshot_;  // loop thread only; the worker's, shared
   bool broadcast_wanted_ = false;                   // loop thread only
   std::vector<memory_request_t> waiting_requests_;  // loop thread only: for a fresh snapshot
   std::chrono::steady_clock::time_point last_memory_broadcast_{};
   int64_t announces_sent_ = 0;
-  std::array<ChannelTraffic, kChannelFamilies> traffic_{};  // loop thread only
   const std::chrono::steady_clock::time_point started_ = std::chrono::steady_clock::now();
   int64_t last_rejected_logged_ = 0;
 
