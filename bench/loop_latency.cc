@@ -9,9 +9,10 @@
 // broadcasts it. The peer's side records when each of robot 1's announces arrives; the report
 // gives the largest gap between two announces minus the announce period (the jitter) in three
 // phases, bounded by tscd's "received the memory" and "merged the memory" log lines (timed by
-// an in-process log sink): the transfer and the assembly of the peer's memory (on the loop),
-// the merge and its commit (on the worker), and the 10 s after (the new snapshot, the
-// broadcast of the merged memory). The five largest gaps follow, with where they fall.
+// an in-process log sink): the transfer and the check of the peer's memory (joining its
+// portions, their digest), the merge and its commit (on the worker), and the 10 s after (the
+// new snapshot, the broadcast of the merged memory). The five largest gaps follow, with where they
+// fall.
 //
 // Needs a private network namespace (udpm:// multicast stays inside it):
 //   test/support/in_netns build/bin/tscd_loop_latency [--places N] [--dim D] [--out FILE]

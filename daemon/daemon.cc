@@ -243,23 +243,23 @@ void Daemon::OnPeerPortion(const std::string& channel, const uint8_t* data, size
   if (!portion) return;
   team_.CountReceived(ChannelFamily::kMemory, size);
   const int64_t rejected_before = exchange_.rejected_portions();
-  std::optional<PeerSnapshot> snap = exchange_.OnPortion(*portion, PeerExchange::Clock::now());
+  std::optional<SnapshotAssembler> complete =
+      exchange_.OnPortionUnchecked(*portion, PeerExchange::Clock::now());
   if (exchange_.rejected_portions() > rejected_before) {
     const int64_t n = ++counters_.messages_rejected;
     if (ShouldLog(n)) {
       spdlog::warn("{}: dropped a memory portion: {}", channel, exchange_.last_rejection());
     }
   }
-  if (snap) OnPeerSnapshot(std::move(*snap));
+  if (complete) OnPeerSnapshot(std::move(*complete));
 }
 
-void Daemon::OnPeerSnapshot(PeerSnapshot snapshot) {
-  spdlog::info("received the memory of robot {} (version {}, {} places, {} map edges)",
-               snapshot.robot, snapshot.version, snapshot.places.size(), snapshot.edges.size());
-  // Not fetched again while its content stays the same; forgotten again if the merge fails.
-  exchange_.MarkMerged(snapshot.robot, {snapshot.version, snapshot.digest});
-  ++counters_.snapshots_received;
-  worker_->Enqueue(std::move(snapshot));
+void Daemon::OnPeerSnapshot(SnapshotAssembler complete) {
+  // Not fetched again while its content stays the same; forgotten again if its check (on the
+  // worker: the digest over ~250 MB at 10⁴ places would hold the loop up for a second) or the
+  // merge fails.
+  exchange_.MarkMerged(complete.robot(), {complete.version(), complete.digest()});
+  worker_->Enqueue(std::move(complete));
 }
 
 void Daemon::PublishMerged(std::vector<std::pair<PlaceId, PlaceId>> absorbed, int64_t utime,

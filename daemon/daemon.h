@@ -85,7 +85,7 @@ class Daemon {
   void OnPeerPortion(const std::string& channel, const uint8_t* data, size_t size);
   void OnExchangeTimer();
   void OnJoinTimer();
-  void OnPeerSnapshot(PeerSnapshot snapshot);
+  void OnPeerSnapshot(SnapshotAssembler complete);
   void PublishStats(int64_t utime);
   void PublishEvents(const std::vector<PlaceEvent>& events, int64_t utime);
   /// Where snapshot_ stands against the memory: current, replaced by a newer one the worker

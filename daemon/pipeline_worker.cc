@@ -178,9 +178,9 @@ void PipelineWorker::Join() {
   if (thread_.joinable()) thread_.join();
 }
 
-void PipelineWorker::Enqueue(PeerSnapshot snapshot) {
+void PipelineWorker::Enqueue(SnapshotAssembler complete) {
   std::lock_guard lock(inbox_mutex_);
-  merge_inbox_.push_back(std::move(snapshot));
+  merge_inbox_.push_back(std::move(complete));
 }
 
 size_t PipelineWorker::inbox_size() const {
@@ -304,12 +304,27 @@ void PipelineWorker::Handle(BasePoint views) {
 }
 
 void PipelineWorker::MergePeers() {
-  std::vector<PeerSnapshot> inbox;
+  std::vector<SnapshotAssembler> inbox;
   {
     std::lock_guard lock(inbox_mutex_);
     inbox.swap(merge_inbox_);
   }
-  for (const PeerSnapshot& s : inbox) {
+  for (SnapshotAssembler& complete : inbox) {
+    // The check the loop leaves to us: joining the portions and their digest over all of them.
+    std::string reason;
+    const std::optional<PeerSnapshot> checked = complete.Take(&reason);
+    if (!checked) {
+      const int64_t n = ++counters_.messages_rejected;
+      if (ShouldLog(n)) {
+        spdlog::warn("TSC_MEMORY_{}: dropped a memory portion: {}", complete.robot(), reason);
+      }
+      hooks_.merge_failed(complete.robot());  // fetched again
+      continue;
+    }
+    const PeerSnapshot& s = *checked;
+    spdlog::info("received the memory of robot {} (version {}, {} places, {} map edges)", s.robot,
+                 s.version, s.places.size(), s.edges.size());
+    ++counters_.snapshots_received;
     try {
       MergePeer(s);
       ++counters_.merges_completed;

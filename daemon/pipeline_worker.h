@@ -26,6 +26,7 @@
 #include "daemon/join_gate.h"
 #include "daemon/memory_snapshot.h"
 #include "daemon/peer_exchange.h"
+#include "daemon/snapshot_assembler.h"
 #include "daemon/system_notifier.h"
 #include "drivers/camera/camera_source.h"
 #include "settings/settings.h"
@@ -73,8 +74,10 @@ class PipelineWorker {
   /// Waits for the thread to end (after the queue was closed).
   void Join();
 
-  /// Thread-safe: hands a complete, checked peer memory to the worker, which merges it.
-  void Enqueue(PeerSnapshot snapshot);
+  /// Thread-safe: hands a peer memory, all its portions received, to the worker, which checks
+  /// it (SnapshotAssembler::Take: its digest over every portion) and merges it; one that fails
+  /// the check is counted in messages_rejected and reported to hooks.merge_failed.
+  void Enqueue(SnapshotAssembler complete);
   /// Thread-safe: peer memories waiting to be merged.
   size_t inbox_size() const;
 
@@ -148,7 +151,7 @@ class PipelineWorker {
   std::atomic<bool> snapshot_wanted_{false};
 
   mutable std::mutex inbox_mutex_;
-  std::vector<PeerSnapshot> merge_inbox_;  // complete peer memories waiting for the worker
+  std::vector<SnapshotAssembler> merge_inbox_;  // complete peer memories waiting for the worker
 
   // The hand-over: the worker replaces the pointer, readers copy it; held for nothing else.
   mutable std::mutex snapshot_mutex_;

@@ -7,12 +7,12 @@
 
 #include <gtest/gtest.h>
 
+#include <atomic>
 #include <future>
 #include <mutex>
 #include <string>
 #include <vector>
 
-#include "daemon/snapshot_assembler.h"
 #include "test/support/random_memory.h"
 #include "test/support/temp_dir.h"
 
@@ -45,17 +45,18 @@ class Signal {
 };
 
 // Robot 2's memory of `places` random places as the loop hands it to the worker: published as
-// a snapshot and assembled from its portions.
-PeerSnapshot PeerMemory(int places) {
+// a snapshot, every portion received (checked by the worker).
+// `corrupt`: one value of a place changed after the digest was taken (as on a faulty link
+// that keeps the datagram's framing).
+SnapshotAssembler PeerMemory(int places, bool corrupt = false) {
   const auto memory = testing_support::MakeRandomMemory(2, places, 32, 7);
-  const MemorySnapshot published =
+  MemorySnapshot published =
       BuildSnapshot(memory.memory, memory.map, SnapshotHeader{2, 4242, 3, 1}, 60000);
+  if (corrupt) published.portions.front().places.front().mean.front() += 1.0f;
   SnapshotAssembler assembler(2);
   for (const memory_portion_t& p : published.portions) assembler.Accept(p);
-  std::string reason;
-  std::optional<PeerSnapshot> out = assembler.Take(&reason);
-  if (!out) throw std::runtime_error("peer snapshot: " + reason);
-  return *out;
+  if (!assembler.complete()) throw std::runtime_error("peer snapshot incomplete");
+  return assembler;
 }
 
 class PipelineWorkerTest : public ::testing::Test {
@@ -77,7 +78,11 @@ class PipelineWorkerTest : public ::testing::Test {
               inside_merge_.Set();
               release_merge_.Wait();
             },
-        .merge_failed = [](int32_t) { ADD_FAILURE() << "the merge failed"; },
+        .merge_failed =
+            [this](int32_t robot) {
+              failed_robot_ = robot;
+              merge_failed_.Set();
+            },
         .snapshot_ready = [this] { snapshot_ready_.Set(); },
     };
   }
@@ -88,7 +93,8 @@ class PipelineWorkerTest : public ::testing::Test {
   DaemonCounters counters_;
   FrameQueue<CameraFrame> queue_{4};
   JoinGate join_{false, {}, {}, JoinGate::Clock::now()};
-  Signal inside_merge_, release_merge_, snapshot_ready_;
+  Signal inside_merge_, release_merge_, snapshot_ready_, merge_failed_;
+  std::atomic<int32_t> failed_robot_{0};
 };
 
 TEST_F(PipelineWorkerTest, AnIdleWorkerAnswersARequestWithItsCurrentSnapshot) {
@@ -126,6 +132,20 @@ TEST_F(PipelineWorkerTest, TheLoopGetsTheLastSnapshotWhileTheWorkerIsInsideAMerg
   EXPECT_EQ(after->places, 20);
   EXPECT_EQ(before->places, 0);  // the one handed over before stays as it was
   EXPECT_EQ(counters_.merges_completed, 1);
+  queue_.Close();
+  dut.Join();
+}
+
+TEST_F(PipelineWorkerTest, APeerMemoryFailingItsDigestIsDroppedOnTheWorkerAndFetchedAgain) {
+  PipelineWorker dut(settings_, camera_, SnapshotHeader{1, 99, 0, 0}, counters_, queue_, Hooks());
+  dut.Start(join_);
+  dut.Enqueue(PeerMemory(20, /*corrupt=*/true));
+  merge_failed_.Wait();
+  EXPECT_EQ(failed_robot_, 2);  // the loop forgets it: fetched again at its next announce
+  EXPECT_EQ(counters_.messages_rejected, 1);
+  EXPECT_EQ(counters_.snapshots_received, 0);
+  EXPECT_EQ(counters_.merges_completed, 0);
+  EXPECT_EQ(counters_.memory_version, 1);
   queue_.Close();
   dut.Join();
 }
