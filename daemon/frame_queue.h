@@ -64,16 +64,28 @@ class FrameQueue {
     return true;
   }
 
-  /// Waits up to `timeout` for a whole base point. nullopt on timeout or when closed and empty.
+  /// Waits up to `timeout` for a whole base point. nullopt on timeout, after Wake(), or when
+  /// closed and empty.
   std::optional<BasePoint> Pop(std::chrono::milliseconds timeout) {
     std::unique_lock lock(mutex_);
-    ready_.wait_for(lock, timeout, [&] { return closed_ || !waiting_.empty(); });
+    ready_.wait_for(lock, timeout, [&] { return closed_ || woken_ || !waiting_.empty(); });
+    woken_ = false;
     if (waiting_.empty()) return std::nullopt;
     BasePoint b = std::move(waiting_.front());
     waiting_.pop_front();
     lock.unlock();
     room_.notify_one();
     return b;
+  }
+
+  /// Makes the current (or else the next) Pop return at once, with nullopt when nothing
+  /// waits: the worker has something else to do.
+  void Wake() {
+    {
+      std::lock_guard lock(mutex_);
+      woken_ = true;
+    }
+    ready_.notify_all();
   }
 
   /// Wakes every waiter; later pushes are refused, base points already queued can still be
@@ -131,6 +143,7 @@ class FrameQueue {
   std::deque<BasePoint> waiting_;
   BasePoint gathering_;  // views of the base point under way
   bool closed_ = false;
+  bool woken_ = false;
   int64_t dropped_ = 0;
 };
 

@@ -88,6 +88,19 @@ std::vector<memory_request_t> PeerExchange::Tick(Clock::time_point now) {
 
 std::optional<PeerSnapshot> PeerExchange::OnPortion(const memory_portion_t& p,
                                                     Clock::time_point now) {
+  std::optional<SnapshotAssembler> complete = OnPortionUnchecked(p, now);
+  if (!complete) return std::nullopt;
+  std::string reason;
+  std::optional<PeerSnapshot> snap = complete->Take(&reason);
+  if (!snap) {
+    ++rejected_portions_;
+    last_rejection_ = reason;
+  }
+  return snap;
+}
+
+std::optional<SnapshotAssembler> PeerExchange::OnPortionUnchecked(const memory_portion_t& p,
+                                                                  Clock::time_point now) {
   if (!fetching_ || p.robot != *fetching_ || !assembler_) return std::nullopt;
   const SnapshotAssembler::Result r = assembler_->Accept(p);
   if (r.verdict == SnapshotAssembler::Verdict::kRejected) {
@@ -100,15 +113,10 @@ std::optional<PeerSnapshot> PeerExchange::OnPortion(const memory_portion_t& p,
     (void)now;
   }
   if (!assembler_->complete()) return std::nullopt;
-  std::string reason;
-  std::optional<PeerSnapshot> snap = assembler_->Take(&reason);
-  if (!snap) {
-    ++rejected_portions_;
-    last_rejection_ = reason;
-  }
+  std::optional<SnapshotAssembler> complete = std::move(assembler_);
   fetching_.reset();
   assembler_.reset();
-  return snap;
+  return complete;
 }
 
 void PeerExchange::MarkMerged(int32_t robot, MergedVersion v) { merged_[robot] = v; }

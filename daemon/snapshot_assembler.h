@@ -50,7 +50,10 @@ class SnapshotAssembler {
   Result Accept(const memory_portion_t& portion);
 
   bool started() const { return count_ > 0; }
+  int32_t robot() const { return robot_; }
   int64_t version() const { return version_; }
+  /// The digest the portions claim (checked by Take).
+  int64_t digest() const { return digest_; }
   /// Portion indices not received yet (all of them before the first portion).
   std::vector<int32_t> Missing() const;
   /// Portions kept so far.

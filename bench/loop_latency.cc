@@ -1,0 +1,332 @@
+// tscd_loop_latency: how steadily tscd's event loop announces while its worker merges a large
+// peer memory (issue 22: the loop must never wait for SQLite or a merge). A whole-program
+// timing, not a Google Benchmark: one run is one merge.
+//
+// In one process: a Daemon (robot 1) whose store holds `--places` synthetic places, and a peer
+// (robot 2) on the same LCM bus that announces `--places` places of its own (half of them
+// seen by robot 1 as well) and serves them over the exchange protocol. Robot 1 fetches them,
+// merges them on its worker (10⁴ + 10⁴ places by default), commits the merged memory and
+// broadcasts it. The peer's side records when each of robot 1's announces arrives; the report
+// gives the largest gap between two announces minus the announce period (the jitter) in three
+// phases, bounded by tscd's "received the memory" and "merged the memory" log lines (timed by
+// an in-process log sink): the transfer and the check of the peer's memory (joining its
+// portions, their digest), the merge and its commit (on the worker), and the 10 s after (the
+// new snapshot, the broadcast of the merged memory). The five largest gaps follow, with where they
+// fall.
+//
+// Needs a private network namespace (udpm:// multicast stays inside it):
+//   test/support/in_netns build/bin/tscd_loop_latency [--places N] [--dim D] [--out FILE]
+
+#include <spdlog/sinks/base_sink.h>
+#include <spdlog/spdlog.h>
+
+#include <algorithm>
+#include <atomic>
+#include <chrono>
+#include <cstdio>
+#include <cstdlib>
+#include <filesystem>
+#include <fstream>
+#include <mutex>
+#include <set>
+#include <string>
+#include <thread>
+#include <vector>
+
+#include "core/pipeline/pipeline.h"
+#include "daemon/daemon.h"
+#include "daemon/lcm_bus.h"
+#include "daemon/memory_snapshot.h"
+#include "store/store.h"
+#include "test/support/synthetic_places.h"
+#include "tsc/announce_t.hpp"
+#include "tsc/memory_request_t.hpp"
+
+namespace tsc {
+namespace {
+
+namespace fs = std::filesystem;
+using Clock = std::chrono::steady_clock;
+
+constexpr const char* kUrl = "udpm://239.255.76.67:7667?ttl=0";
+constexpr int kMembers = 12;
+constexpr double kAnnouncePeriodS = 0.1;
+
+// A camera that never delivers a frame: robot 1 only serves and merges its memory.
+class IdleCamera : public CameraSource {
+ public:
+  std::optional<CameraFrame> Next() override {
+    while (interrupted_.WaitUntil(Clock::now() + std::chrono::hours(1))) {
+    }
+    return std::nullopt;
+  }
+  const CameraIntrinsics& intrinsics() const override { return intrinsics_; }
+  std::string name() const override { return "idle"; }
+
+ private:
+  CameraIntrinsics intrinsics_ = CameraIntrinsics::FromHorizontalFov(64, 48, 60);
+};
+
+// `n` places [first, first + n) of `world` as robot `robot` saw them, built at once (SLINK over
+// the means, then one Restore that trains every node) rather than by n Learn()s.
+PlaceMemory SyntheticMemory(uint32_t robot, const testing_support::SyntheticPlaces& world,
+                            int first, int n) {
+  const PlaceMemoryOptions options;
+  std::vector<LearnedPlace> places;
+  Slink slink;
+  std::vector<double> distances;
+  for (int p = 0; p < n; ++p) {
+    const DetectedPlace d = world.Visit(first + p, robot, kMembers, kMembers);
+    LearnedPlace lp;
+    lp.id = PlaceId{robot, static_cast<uint32_t>(p + 1)};
+    lp.mean = d.Mean();
+    lp.member_count = d.descriptors.cols();
+    lp.samples = d.descriptors.leftCols(
+        std::min<Eigen::Index>(options.max_samples_per_place, d.descriptors.cols()));
+    lp.detected = {d.index};
+    lp.members = d.members;
+    distances.resize(places.size());
+    for (size_t i = 0; i < places.size(); ++i) {
+      distances[i] = (places[i].mean - lp.mean).squaredNorm();
+    }
+    slink.Insert(distances);
+    places.push_back(std::move(lp));
+  }
+  return PlaceMemory::Restore(robot, options, std::move(places), std::move(slink),
+                              static_cast<uint32_t>(n + 1), {});
+}
+
+// Records the instants of tscd's log lines that bound the merge.
+class MergeLogSink : public spdlog::sinks::base_sink<std::mutex> {
+ public:
+  std::optional<Clock::time_point> received() const { return Get(received_); }
+  std::optional<Clock::time_point> merged() const { return Get(merged_); }
+
+ protected:
+  void sink_it_(const spdlog::details::log_msg& msg) override {
+    const std::string_view text(msg.payload.data(), msg.payload.size());
+    const int64_t now = Clock::now().time_since_epoch().count();
+    int64_t none = 0;
+    if (text.starts_with("received the memory of robot 2")) {
+      received_.compare_exchange_strong(none, now);
+    } else if (text.starts_with("merged the memory of robot 2")) {
+      merged_.compare_exchange_strong(none, now);
+    }
+  }
+  void flush_() override {}
+
+ private:
+  static std::optional<Clock::time_point> Get(const std::atomic<int64_t>& at) {
+    const int64_t v = at;
+    if (v == 0) return std::nullopt;
+    return Clock::time_point(Clock::duration(v));
+  }
+  std::atomic<int64_t> received_{0}, merged_{0};
+};
+
+struct Announce {
+  Clock::time_point at;
+  int64_t sequence, memory_version;
+  int32_t places;
+};
+
+// Robot 2: announces its memory, serves the portions robot 1 asks for (a little apart, as
+// crash_test's peer does) and records robot 1's announces.
+class Peer {
+ public:
+  explicit Peer(MemorySnapshot snapshot, int32_t places)
+      : snapshot_(std::move(snapshot)), places_(places), bus_(kUrl) {
+    bus_.Subscribe("TSC_REQUEST_2", [this](const std::string&, const uint8_t* d, size_t n) {
+      const auto r = LcmBus::Decode<memory_request_t>(d, n);
+      if (!r) return;
+      if (r->version == snapshot_.version && !r->missing.empty()) {
+        wanted_.insert(r->missing.begin(), r->missing.end());
+      } else {
+        for (size_t i = 0; i < snapshot_.portions.size(); ++i) {
+          wanted_.insert(static_cast<int32_t>(i));
+        }
+      }
+    });
+    bus_.Subscribe("TSC_ANNOUNCE", [this](const std::string&, const uint8_t* d, size_t n) {
+      const auto a = LcmBus::Decode<announce_t>(d, n);
+      if (!a || a->robot != 1) return;
+      std::lock_guard lock(mutex_);
+      announces_.push_back({Clock::now(), a->sequence, a->memory_version, a->places});
+    });
+    thread_ = std::thread([this] { Loop(); });
+  }
+  ~Peer() {
+    stop_ = true;
+    thread_.join();
+  }
+  void StartAnnouncing() { announcing_ = true; }
+  std::vector<Announce> announces() const {
+    std::lock_guard lock(mutex_);
+    return announces_;
+  }
+
+ private:
+  void Loop() {
+    auto next_announce = Clock::now();
+    int64_t sequence = 0;
+    while (!stop_) {
+      bus_.HandleTimeout(5);
+      for (int32_t i : wanted_) {
+        bus_.Publish("TSC_MEMORY_2", snapshot_.portions[static_cast<size_t>(i)]);
+        std::this_thread::sleep_for(std::chrono::microseconds(300));
+        bus_.HandleTimeout(0);  // robot 1's announces meanwhile, timed when they arrive
+      }
+      wanted_.clear();
+      if (announcing_ && Clock::now() >= next_announce) {
+        announce_t a{};
+        a.utime = 1;
+        a.protocol = announce_t::PROTOCOL;
+        a.robot = 2;
+        a.boot_id = 4242;
+        a.sequence = ++sequence;
+        a.memory_version = snapshot_.version;
+        a.memory_digest = snapshot_.digest;
+        a.portions = static_cast<int32_t>(snapshot_.portions.size());
+        a.places = places_;
+        a.status = "peer";
+        bus_.Publish("TSC_ANNOUNCE", a);
+        next_announce = Clock::now() + std::chrono::milliseconds(200);
+      }
+    }
+  }
+
+  const MemorySnapshot snapshot_;
+  const int32_t places_;
+  LcmBus bus_;
+  std::set<int32_t> wanted_;  // peer thread only
+  std::atomic<bool> stop_{false}, announcing_{false};
+  mutable std::mutex mutex_;
+  std::vector<Announce> announces_;
+  std::thread thread_;
+};
+
+double Seconds(Clock::duration d) { return std::chrono::duration<double>(d).count(); }
+
+// Largest gap between consecutive announces that ends in (from, to], minus the period (ms): a
+// stall counts in the phase where it ends (the announce it held back).
+double JitterMs(const std::vector<Announce>& a, Clock::time_point from, Clock::time_point to) {
+  double worst = 0.0;
+  for (size_t i = 1; i < a.size(); ++i) {
+    if (a[i].at <= from || a[i].at > to) continue;
+    worst = std::max(worst, Seconds(a[i].at - a[i - 1].at) - kAnnouncePeriodS);
+  }
+  return worst * 1000.0;
+}
+
+int Main(int argc, char** argv) {
+  int places = 10000, dim = 1200;
+  std::string out;
+  for (int i = 1; i + 1 < argc; i += 2) {
+    const std::string key = argv[i];
+    if (key == "--places") {
+      places = std::atoi(argv[i + 1]);
+    } else if (key == "--dim") {
+      dim = std::atoi(argv[i + 1]);
+    } else if (key == "--out") {
+      out = argv[i + 1];
+    } else {
+      std::fprintf(stderr, "usage: %s [--places N] [--dim D] [--out FILE]\n", argv[0]);
+      return 2;
+    }
+  }
+  const char* netns = std::getenv("TSCD_IN_NETNS");
+  if (netns == nullptr) {
+    std::fprintf(stderr, "run me in a private network namespace: test/support/in_netns %s\n",
+                 argv[0]);
+    return 2;
+  }
+  const fs::path dir =
+      fs::temp_directory_path() / ("tscd_loop_latency." + std::to_string(getpid()));
+  fs::create_directories(dir);
+
+  // Robot 1's memory in its store; robot 2's as a snapshot (half of its places are robot 1's).
+  const auto t_build = Clock::now();
+  const testing_support::SyntheticPlaces world(1, dim, 64, 0.02f, 1);
+  PlaceMemory ours = SyntheticMemory(1, world, 0, places);
+  const PlaceMemory theirs = SyntheticMemory(2, world, places / 2, places);
+  {
+    Store store = Store::Open(dir / "memory.db");
+    IdleCamera camera;
+    const Pipeline pipeline(camera.intrinsics(), PipelineOptions{}, std::move(ours),
+                            TopologicalMap{}, PipelineState{});
+    store.CommitPending({}, pipeline, true, std::nullopt);
+  }
+  const TopologicalMap no_map;
+  Peer peer(
+      BuildSnapshot(theirs, no_map, SnapshotHeader{2, 4242, 1, 1}, BusOptions{}.portion_bytes),
+      static_cast<int32_t>(theirs.places().size()));
+  std::printf("memories of %d places (dim %d) built and stored in %.1f s\n", places, dim,
+              Seconds(Clock::now() - t_build));
+
+  auto sink = std::make_shared<MergeLogSink>();
+  spdlog::default_logger()->sinks().push_back(sink);
+  Settings settings = LoadSettings(
+      std::nullopt, {"robot.id=1", "camera.source=sim", "daemon.state_dir=" + dir.string(),
+                     std::string("lcm.url=") + kUrl,
+                     "lcm.announce_period_s=" + std::to_string(kAnnouncePeriodS)});
+  std::optional<Daemon> daemon;
+  daemon.emplace(std::move(settings), SettingsSource{}, std::make_unique<IdleCamera>());
+  std::thread loop([&] { daemon->Run(); });
+  // Robot 1 announces for a second, then robot 2 appears; the run ends 10 s after the merge.
+  std::this_thread::sleep_for(std::chrono::seconds(1));
+  const auto t_peer = Clock::now();
+  peer.StartAnnouncing();
+  while (!sink->merged() && Clock::now() - t_peer < std::chrono::minutes(10)) {
+    std::this_thread::sleep_for(std::chrono::milliseconds(100));
+  }
+  std::this_thread::sleep_for(std::chrono::seconds(10));
+  const auto t_end = Clock::now();
+  daemon->Stop();
+  loop.join();
+  daemon.reset();
+  fs::remove_all(dir);
+
+  const std::vector<Announce> a = peer.announces();
+  if (!sink->received() || !sink->merged()) {
+    std::fprintf(stderr, "no merge within 10 min\n");
+    return 1;
+  }
+  int64_t version_before = 0, version_after = 0;
+  for (const Announce& x : a) {
+    if (x.at < *sink->received()) version_before = x.memory_version;
+    version_after = x.memory_version;
+  }
+  char report[1024];
+  std::snprintf(report, sizeof report,
+                "places %d + %d (dim %d), announce period %.0f ms, %zu announces\n"
+                "transfer %.2f s, merge and commit %.2f s (received -> merged log lines)\n"
+                "memory version %lld -> %lld\n"
+                "announce jitter (largest gap - period): while the memory arrives and is "
+                "assembled %.1f ms, during the merge and its commit %.1f ms, in the 10 s after "
+                "(snapshot, broadcast) %.1f ms\n",
+                places, places, dim, kAnnouncePeriodS * 1000, a.size(),
+                Seconds(*sink->received() - t_peer), Seconds(*sink->merged() - *sink->received()),
+                static_cast<long long>(version_before), static_cast<long long>(version_after),
+                JitterMs(a, t_peer, *sink->received() + std::chrono::milliseconds(500)),
+                JitterMs(a, *sink->received() + std::chrono::milliseconds(500), *sink->merged()),
+                JitterMs(a, *sink->merged(), t_end));
+  std::fputs(report, stdout);
+  // The largest gaps, for a look at where they fall.
+  std::vector<std::pair<double, double>> gaps;  // (gap ms, its end in s after "received")
+  for (size_t i = 1; i < a.size(); ++i) {
+    gaps.emplace_back(Seconds(a[i].at - a[i - 1].at) * 1000.0,
+                      Seconds(a[i].at - *sink->received()));
+  }
+  std::sort(gaps.rbegin(), gaps.rend());
+  for (size_t i = 0; i < std::min<size_t>(5, gaps.size()); ++i) {
+    std::printf("  gap %.0f ms ending %.2f s after the memory was received\n", gaps[i].first,
+                gaps[i].second);
+  }
+  if (!out.empty()) std::ofstream(out, std::ios::app) << report;
+  return 0;
+}
+
+}  // namespace
+}  // namespace tsc
+
+int main(int argc, char** argv) { return tsc::Main(argc, argv); }

@@ -1,0 +1,163 @@
+#pragma once
+// tscd's pipeline worker (DESIGN §6): the thread that owns the TSC pipeline and the store. It
+// takes base points from the camera's queue and peer memories from its merge inbox, commits
+// every result and merge to SQLite (keeping them, retrying, reopening the store while it
+// fails, spilling them at stop), and hands the event loop what it publishes: place events,
+// merges, and immutable snapshots of the memory for peers. Nothing here blocks the loop: the
+// loop reaches the worker only through the inbox, the snapshot hand-over and atomics.
+
+#include <atomic>
+#include <chrono>
+#include <cstdint>
+#include <filesystem>
+#include <functional>
+#include <map>
+#include <memory>
+#include <mutex>
+#include <optional>
+#include <string>
+#include <thread>
+#include <utility>
+#include <vector>
+
+#include "core/pipeline/pipeline.h"
+#include "daemon/daemon_counters.h"
+#include "daemon/frame_queue.h"
+#include "daemon/join_gate.h"
+#include "daemon/memory_snapshot.h"
+#include "daemon/peer_exchange.h"
+#include "daemon/snapshot_assembler.h"
+#include "daemon/system_notifier.h"
+#include "drivers/camera/camera_source.h"
+#include "settings/settings.h"
+#include "store/store.h"
+
+namespace tsc {
+
+/// What the worker reports; each is called on the worker thread and must only hand the work
+/// over (post it to the event loop).
+struct PipelineWorkerHooks {
+  /// Place events of one base point (or of the end of the stream) taken at `utime` (µs).
+  std::function<void(std::vector<PlaceEvent> events, int64_t utime)> events;
+  /// A peer memory was merged: which place (source) went into which (target).
+  std::function<void(std::vector<std::pair<PlaceId, PlaceId>> absorbed)> merged;
+  /// Merging `robot`'s memory failed: fetch it again.
+  std::function<void(int32_t robot)> merge_failed;
+  /// A snapshot asked for by RequestSnapshot() is ready in snapshot().
+  std::function<void()> snapshot_ready;
+};
+
+class PipelineWorker {
+ public:
+  using BasePoint = FrameQueue<CameraFrame>::BasePoint;
+
+  /// Opens the store under settings.daemon.state_dir (taking in earlier spills, loading the
+  /// saved memory) and builds the pipeline for `camera`'s intrinsics and spacing, then the
+  /// first snapshot (version 1) of the memory. A store that cannot be opened is logged and
+  /// retried later (status()). `header` names the robot and its boot in every snapshot.
+  PipelineWorker(const Settings& settings, const CameraSource& camera, SnapshotHeader header,
+                 DaemonCounters& counters, FrameQueue<CameraFrame>& queue,
+                 PipelineWorkerHooks hooks);
+  ~PipelineWorker();
+  PipelineWorker(const PipelineWorker&) = delete;
+  PipelineWorker& operator=(const PipelineWorker&) = delete;
+
+  /// The peers the loaded store had merged (robot → version and digest); empty after the first
+  /// call.
+  std::map<uint32_t, PeerMerge> TakeSavedPeers() { return std::exchange(saved_peers_, {}); }
+  /// Whether the memory was empty at start (a robot that may be rejoining its team).
+  bool started_empty() const { return started_empty_; }
+
+  /// Starts the thread; it learns only once `join` is open (the camera waits there) and opens
+  /// it after merging a peer memory. It runs until the queue is closed and drained.
+  void Start(JoinGate& join);
+  /// Waits for the thread to end (after the queue was closed).
+  void Join();
+
+  /// Thread-safe: hands a peer memory, all its portions received, to the worker, which checks
+  /// it (SnapshotAssembler::Take: its digest over every portion) and merges it; one that fails
+  /// the check is counted in messages_rejected and reported to hooks.merge_failed.
+  void Enqueue(SnapshotAssembler complete);
+  /// Thread-safe: peer memories waiting to be merged.
+  size_t inbox_size() const;
+
+  /// Thread-safe: the newest snapshot the worker built; never null. Its version is the
+  /// memory version it shows (DaemonCounters::memory_version then).
+  std::shared_ptr<const MemorySnapshot> snapshot() const;
+  /// Thread-safe: asks for a snapshot of the memory as it is; the worker builds it between
+  /// base points and merges (at once when the latest is current) and calls
+  /// hooks.snapshot_ready. Cheap; requests made before it builds are served together.
+  void RequestSnapshot();
+
+  /// Thread-safe: true while the store fails or is missing (results are kept meanwhile).
+  bool store_degraded() const { return degraded_store_; }
+  /// Thread-safe: results not yet in the store.
+  int64_t pending_results() const { return pending_results_; }
+  /// Thread-safe: monotonic ms of the worker's last sign of life.
+  int64_t heartbeat_ms() const { return heartbeat_ms_; }
+
+  /// After Join(), on the calling thread: waits up to daemon.stop_store_wait_s for the store
+  /// (telling `notifier`), then spills what it has not taken; the exit code.
+  int SaveBeforeExit(SystemNotifier& notifier);
+
+ private:
+  void Loop();
+  void Handle(BasePoint views);
+  void CommitOrKeep(FrameResult result);
+  void MergePeers();
+  void MergePeer(const PeerSnapshot& snapshot);
+  /// Builds and hands over a snapshot when one was asked for (or `stale`: when the memory
+  /// changed since the latest).
+  void ServeSnapshot(bool stale);
+  void BuildSnapshot();
+  /// Commits what is kept (results, a merge) when the store works; while it fails, at most
+  /// once a second unless `now`.
+  void RetryStore(bool now = false);
+  /// Opens the store again (after it failed to open, or was closed after a file system
+  /// failure); true when it is open.
+  bool ReopenStore();
+  /// One bounded retention step (Store::Maintain with store.*) once a second (five a second
+  /// while it is behind), while the store works and holds every result.
+  void MaintainStore();
+  /// At start: takes earlier spills into the freshly opened `store`.
+  void ReplaySpills(Store& store);
+
+  const Settings settings_;
+  const SnapshotHeader header_;
+  const std::filesystem::path db_path_;
+  DaemonCounters& counters_;
+  FrameQueue<CameraFrame>& queue_;
+  const PipelineWorkerHooks hooks_;
+  JoinGate* join_ = nullptr;
+
+  // The worker thread's alone once it runs (before: the constructor's, after: SaveBeforeExit's).
+  std::unique_ptr<Pipeline> pipeline_;
+  std::optional<Store> store_;
+  std::vector<FrameResult> pending_;        // results not yet committed (store missing or failing)
+  std::optional<PeerMerge> unsaved_merge_;  // a merged memory the store has not taken yet
+  bool replace_knowledge_ = false;          // results were dropped: write the whole memory
+  // Base point the store's last commit reached; nullopt while it never opened.
+  std::optional<int64_t> committed_next_base_;
+  std::string store_problem_;  // "" when the store works
+  std::chrono::steady_clock::time_point next_store_retry_{};
+  std::chrono::steady_clock::time_point next_maintenance_{};  // Maintain at most once a second
+  int64_t base_points_thinned_ = 0;                           // by Maintain since the start
+  std::map<uint32_t, PeerMerge> saved_peers_;
+  bool started_empty_ = false;
+
+  std::atomic<int64_t> pending_results_{0};  // pending_.size(), for the status line
+  std::atomic<bool> degraded_store_{false};
+  std::atomic<int64_t> heartbeat_ms_{0};
+  std::atomic<bool> snapshot_wanted_{false};
+
+  mutable std::mutex inbox_mutex_;
+  std::vector<SnapshotAssembler> merge_inbox_;  // complete peer memories waiting for the worker
+
+  // The hand-over: the worker replaces the pointer, readers copy it; held for nothing else.
+  mutable std::mutex snapshot_mutex_;
+  std::shared_ptr<const MemorySnapshot> snapshot_;
+
+  std::thread thread_;
+};
+
+}  // namespace tsc

@@ -1,0 +1,154 @@
+// The pipeline worker's hand-over to the event loop (issue 22): whatever the worker is doing,
+// the loop's calls (the snapshot, asking for a fresh one, the inbox) return at once with what
+// the worker last handed over, and a snapshot asked for comes back through the hook. The
+// worker is held inside a merge by its own hook, so no timing decides a verdict.
+
+#include "daemon/pipeline_worker.h"
+
+#include <gtest/gtest.h>
+
+#include <atomic>
+#include <future>
+#include <mutex>
+#include <string>
+#include <vector>
+
+#include "test/support/random_memory.h"
+#include "test/support/temp_dir.h"
+
+namespace tsc {
+namespace {
+
+// A camera that is never read: the worker only needs its intrinsics.
+class UnreadCamera : public CameraSource {
+ public:
+  std::optional<CameraFrame> Next() override { return std::nullopt; }
+  const CameraIntrinsics& intrinsics() const override { return intrinsics_; }
+  std::string name() const override { return "unread"; }
+
+ private:
+  CameraIntrinsics intrinsics_ = CameraIntrinsics::FromHorizontalFov(64, 48, 60);
+};
+
+// A one-shot signal between threads; setting it again does nothing.
+class Signal {
+ public:
+  void Set() {
+    std::call_once(once_, [this] { promise_.set_value(); });
+  }
+  void Wait() { future_.wait(); }
+
+ private:
+  std::once_flag once_;
+  std::promise<void> promise_;
+  std::shared_future<void> future_ = promise_.get_future().share();
+};
+
+// Robot 2's memory of `places` random places as the loop hands it to the worker: published as
+// a snapshot, every portion received (checked by the worker).
+// `corrupt`: one value of a place changed after the digest was taken (as on a faulty link
+// that keeps the datagram's framing).
+SnapshotAssembler PeerMemory(int places, bool corrupt = false) {
+  const auto memory = testing_support::MakeRandomMemory(2, places, 32, 7);
+  MemorySnapshot published =
+      BuildSnapshot(memory.memory, memory.map, SnapshotHeader{2, 4242, 3, 1}, 60000);
+  if (corrupt) published.portions.front().places.front().mean.front() += 1.0f;
+  SnapshotAssembler assembler(2);
+  for (const memory_portion_t& p : published.portions) assembler.Accept(p);
+  if (!assembler.complete()) throw std::runtime_error("peer snapshot incomplete");
+  return assembler;
+}
+
+class PipelineWorkerTest : public ::testing::Test {
+ protected:
+  PipelineWorkerTest()
+      : settings_(LoadSettings(std::nullopt, {"robot.id=1", "camera.source=sim",
+                                              "daemon.state_dir=" + temp_.path().string()})) {}
+
+  ~PipelineWorkerTest() override {
+    release_merge_.Set();
+    queue_.Close();
+  }
+
+  PipelineWorkerHooks Hooks() {
+    return PipelineWorkerHooks{
+        .events = [](std::vector<PlaceEvent>, int64_t) {},
+        .merged =
+            [this](std::vector<std::pair<PlaceId, PlaceId>>) {
+              inside_merge_.Set();
+              release_merge_.Wait();
+            },
+        .merge_failed =
+            [this](int32_t robot) {
+              failed_robot_ = robot;
+              merge_failed_.Set();
+            },
+        .snapshot_ready = [this] { snapshot_ready_.Set(); },
+    };
+  }
+
+  testing_support::TempDir temp_{"pipeline_worker_test"};
+  Settings settings_;
+  UnreadCamera camera_;
+  DaemonCounters counters_;
+  FrameQueue<CameraFrame> queue_{4};
+  JoinGate join_{false, {}, {}, JoinGate::Clock::now()};
+  Signal inside_merge_, release_merge_, snapshot_ready_, merge_failed_;
+  std::atomic<int32_t> failed_robot_{0};
+};
+
+TEST_F(PipelineWorkerTest, AnIdleWorkerAnswersARequestWithItsCurrentSnapshot) {
+  PipelineWorker dut(settings_, camera_, SnapshotHeader{1, 99, 0, 0}, counters_, queue_, Hooks());
+  const std::shared_ptr<const MemorySnapshot> first = dut.snapshot();
+  ASSERT_NE(first, nullptr);
+  EXPECT_EQ(first->version, 1);
+  EXPECT_EQ(first->places, 0);
+  dut.Start(join_);
+  dut.RequestSnapshot();
+  snapshot_ready_.Wait();
+  EXPECT_EQ(dut.snapshot(), first);  // nothing changed: the same snapshot, not a rebuilt one
+  queue_.Close();
+  dut.Join();
+}
+
+TEST_F(PipelineWorkerTest, TheLoopGetsTheLastSnapshotWhileTheWorkerIsInsideAMerge) {
+  PipelineWorker dut(settings_, camera_, SnapshotHeader{1, 99, 0, 0}, counters_, queue_, Hooks());
+  const std::shared_ptr<const MemorySnapshot> before = dut.snapshot();
+  dut.Start(join_);
+  dut.Enqueue(PeerMemory(20));
+  inside_merge_.Wait();  // the worker now waits in its merge until release_merge_
+
+  // What the event loop does meanwhile returns: the snapshot handed over last, whole.
+  EXPECT_EQ(counters_.memory_version, 2);  // the merge changed the memory …
+  EXPECT_EQ(dut.snapshot(), before);       // … which no snapshot shows yet
+  EXPECT_EQ(dut.snapshot()->places, 0);
+  EXPECT_EQ(dut.inbox_size(), 0u);
+  dut.RequestSnapshot();
+
+  release_merge_.Set();
+  snapshot_ready_.Wait();
+  const std::shared_ptr<const MemorySnapshot> after = dut.snapshot();
+  EXPECT_EQ(after->version, 2);
+  EXPECT_EQ(after->places, 20);
+  EXPECT_EQ(before->places, 0);  // the one handed over before stays as it was
+  EXPECT_EQ(counters_.merges_completed, 1);
+  queue_.Close();
+  dut.Join();
+}
+
+TEST_F(PipelineWorkerTest, APeerMemoryFailingItsDigestIsDroppedOnTheWorkerAndFetchedAgain) {
+  PipelineWorker dut(settings_, camera_, SnapshotHeader{1, 99, 0, 0}, counters_, queue_, Hooks());
+  dut.Start(join_);
+  dut.Enqueue(PeerMemory(20, /*corrupt=*/true));
+  merge_failed_.Wait();
+  EXPECT_EQ(failed_robot_, 2);  // the loop forgets it: fetched again at its next announce
+  EXPECT_EQ(counters_.messages_rejected, 1);
+  EXPECT_EQ(counters_.snapshots_received, 0);
+  EXPECT_EQ(counters_.merges_completed, 0);
+  EXPECT_EQ(counters_.memory_version, 1);
+  queue_.Close();
+  dut.Join();
+}
+
+}  // namespace
+}  // namespace tsc
