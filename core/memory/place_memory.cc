@@ -7,6 +7,7 @@
 #include <stdexcept>
 #include <string>
 
+#include "core/assert.h"
 #include "core/memory/member_views.h"
 #include "core/split_mix64.h"
 
@@ -343,14 +344,20 @@ const PlaceMemory::KeySlot* PlaceMemory::FindOldNode(uint64_t key) const {
 }
 
 void PlaceMemory::RebuildTree(std::unordered_map<uint64_t, OneClassDiscriminant>* saved) {
-  const int n = static_cast<int>(places_.size());
   // Keep the discriminants and centroid sums of nodes whose place set does not change: index
   // the old nodes by set key, then move their state out of the old per-node vectors.
   IndexOldNodes();
   old_sums_.swap(centroid_sums_);
   old_discriminants_.swap(discriminants_);
+  BuildNodes();
+  OrderLeaves();
+  FillKeysAndSums();
   // `saved` (Restore) takes precedence over the old nodes; its entries are moved out.
+  CarryOrTrainDiscriminants(saved);
+}
 
+void PlaceMemory::BuildNodes() {
+  const int n = static_cast<int>(places_.size());
   // nodes_ is rebuilt in place: children vectors keep their capacity.
   auto reset = [](MemoryNode& node) {
     node.parent = -1;
@@ -367,51 +374,54 @@ void PlaceMemory::RebuildTree(std::unordered_map<uint64_t, OneClassDiscriminant>
     nodes_[0].place = 0;
     nodes_[1].children.push_back(0);
     nodes_[0].parent = 1;
-  } else {
-    const std::vector<DendrogramMerge> merges = ToDendrogram(slink_);
-    // Binary dendrogram: clusters 0..n−1 are places, n+i is merge i (heights increase).
-    const int total = 2 * n - 1;
-    bin_parent_.assign(total, -1);
-    for (int i = 0; i < n - 1; ++i) {
-      bin_parent_[merges[i].a] = n + i;
-      bin_parent_[merges[i].b] = n + i;
+    root_ = 1;
+    return;
+  }
+  const std::vector<DendrogramMerge> merges = ToDendrogram(slink_);
+  // Binary dendrogram: clusters 0..n−1 are places, n+i is merge i (heights increase).
+  const int total = 2 * n - 1;
+  bin_parent_.assign(total, -1);
+  for (int i = 0; i < n - 1; ++i) {
+    bin_parent_[merges[i].a] = n + i;
+    bin_parent_[merges[i].b] = n + i;
+  }
+  // Simplification (section 3.6): merge node N folds into its parent P when
+  // h(P) − h(N) ≤ τ_h·h(P); folding is transitive, the root never folds.
+  target_.assign(total, -1);
+  for (int c = total - 1; c >= n; --c) {
+    const int p = bin_parent_[c];
+    if (p < 0) {
+      target_[c] = c;
+      continue;
     }
-    // Simplification (section 3.6): merge node N folds into its parent P when
-    // h(P) − h(N) ≤ τ_h·h(P); folding is transitive, the root never folds.
-    target_.assign(total, -1);
-    for (int c = total - 1; c >= n; --c) {
-      const int p = bin_parent_[c];
-      if (p < 0) {
-        target_[c] = c;
-        continue;
-      }
-      const double hp = merges[p - n].height, hc = merges[c - n].height;
-      target_[c] = hp - hc <= options_.tau_h * hp ? target_[p] : c;
-    }
-    index_.assign(total, -1);
-    for (int i = 0; i < n; ++i) index_[i] = i;
-    int count = n;
-    for (int c = n; c < total; ++c) {
-      if (target_[c] == c) index_[c] = count++;
-    }
-    nodes_.resize(count);
-    for (MemoryNode& node : nodes_) reset(node);
-    for (int i = 0; i < n; ++i) nodes_[i].place = i;
-    for (int c = n; c < total; ++c) {
-      if (index_[c] >= 0) nodes_[index_[c]].height = merges[c - n].height;
-    }
-    for (int c = 0; c < total; ++c) {
-      if (index_[c] < 0 || bin_parent_[c] < 0) continue;
-      const int parent = index_[target_[bin_parent_[c]]];
-      nodes_[index_[c]].parent = parent;
-      nodes_[parent].children.push_back(index_[c]);
-    }
+    const double hp = merges[p - n].height, hc = merges[c - n].height;
+    target_[c] = hp - hc <= options_.tau_h * hp ? target_[p] : c;
+  }
+  index_.assign(total, -1);
+  for (int i = 0; i < n; ++i) index_[i] = i;
+  int count = n;
+  for (int c = n; c < total; ++c) {
+    if (target_[c] == c) index_[c] = count++;
+  }
+  nodes_.resize(count);
+  for (MemoryNode& node : nodes_) reset(node);
+  for (int i = 0; i < n; ++i) nodes_[i].place = i;
+  for (int c = n; c < total; ++c) {
+    if (index_[c] >= 0) nodes_[index_[c]].height = merges[c - n].height;
+  }
+  for (int c = 0; c < total; ++c) {
+    if (index_[c] < 0 || bin_parent_[c] < 0) continue;
+    const int parent = index_[target_[bin_parent_[c]]];
+    nodes_[index_[c]].parent = parent;
+    nodes_[parent].children.push_back(index_[c]);
   }
   root_ = static_cast<int>(nodes_.size()) - 1;
+}
 
+void PlaceMemory::OrderLeaves() {
   // Leaf order by depth-first traversal: each node's places are one contiguous range.
   leaf_order_.clear();
-  leaf_order_.reserve(n);
+  leaf_order_.reserve(places_.size());
   stack_.clear();
   stack_.push_back({root_, false});
   while (!stack_.empty()) {
@@ -432,6 +442,10 @@ void PlaceMemory::RebuildTree(std::unordered_map<uint64_t, OneClassDiscriminant>
     for (auto it = nd.children.rbegin(); it != nd.children.rend(); ++it)
       stack_.push_back({*it, false});
   }
+  TSC_ASSERT(leaf_order_.size() == places_.size(), "every place is one leaf of the tree");
+}
+
+void PlaceMemory::FillKeysAndSums() {
   // Children precede parents in index order, so one forward pass fills keys and the sums of
   // place means of inner nodes; a node whose place set existed before keeps its sum.
   centroid_sums_.clear();
@@ -454,6 +468,10 @@ void PlaceMemory::RebuildTree(std::unordered_map<uint64_t, OneClassDiscriminant>
       centroid_sums_[i] += nodes_[c].terminal() ? places_[nodes_[c].place].mean : centroid_sums_[c];
     }
   }
+}
+
+void PlaceMemory::CarryOrTrainDiscriminants(
+    std::unordered_map<uint64_t, OneClassDiscriminant>* saved) {
   // Only nodes whose place set is new are trained; the root's d_N is never consulted.
   discriminants_.clear();
   discriminants_.resize(nodes_.size());

@@ -163,6 +163,12 @@ class PlaceMemory {
 
   /// `saved` (may be null): discriminants by set key, moved out of the map when used.
   void RebuildTree(std::unordered_map<uint64_t, OneClassDiscriminant>* saved);
+  // RebuildTree's steps: the simplified dendrogram as nodes_ (section 3.6), the leaf ranges,
+  // the set keys and centroid sums, the discriminants (carried over or trained).
+  void BuildNodes();
+  void OrderLeaves();
+  void FillKeysAndSums();
+  void CarryOrTrainDiscriminants(std::unordered_map<uint64_t, OneClassDiscriminant>* saved);
   void IndexOldNodes();
   const KeySlot* FindOldNode(uint64_t key) const;
   void RetrainDiscriminant(int node);
