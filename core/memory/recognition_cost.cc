@@ -46,6 +46,7 @@ Nearest NearestIn(const ViewDistances& vd, const CostCandidate& c) {
 // accept them), so the two hold the same place.
 bool Coincides(const ViewDistances& vd, const Nearest& best, const Nearest& other,
                double vote_radius) {
+  if (other.place.empty()) return false;  // not measured: no nearest view to compare
   std::vector<double> r;
   for (int j = 0; j < vd.num_votes(); ++j) {
     const int pa = best.place[static_cast<size_t>(j)], pb = other.place[static_cast<size_t>(j)];
@@ -155,14 +156,20 @@ CostTerms RecognitionCost(const ViewDistances& vd, const Eigen::VectorXf& mean,
   std::vector<char> measured;
   nearest.reserve(candidates.size());
   for (const CostCandidate& c : candidates) {
-    nearest.push_back(NearestIn(vd, c));
-    std::vector<double> d = nearest.back().distance;
-    gamma.push_back(d.empty() ? std::numeric_limits<double>::infinity() : Median(d));
     measured.push_back(
         std::any_of(c.places.begin(), c.places.end(), [&vd](int p) { return vd.measured(p); }));
-    if (measured.back()) continue;
-    // A child with no place in the shortlist: its rough distance, good enough for N² (it is
-    // never N¹, and the places nearest D are the ones measured).
+    if (measured.back()) {
+      nearest.push_back(NearestIn(vd, c));
+      std::vector<double> d = nearest.back().distance;
+      gamma.push_back(Median(d));
+      continue;
+    }
+    // A child with no place in the shortlist (most of a merge's N*, whose ~150 children were
+    // each given per-point distances, all infinite): no nearest view, so it never coincides
+    // with N¹, and its rough distance, good enough for N² (it is never N¹, and the places
+    // nearest D are the ones measured).
+    nearest.emplace_back();
+    gamma.push_back(std::numeric_limits<double>::infinity());
     for (int p : c.places) gamma.back() = std::min<double>(gamma.back(), vd.estimate(p));
   }
   CostTerms t;

@@ -1,5 +1,6 @@
 #include "core/merge/recognition.h"
 
+#include <algorithm>
 #include <limits>
 #include <utility>
 
@@ -9,22 +10,19 @@
 namespace tsc {
 namespace {
 
-// g of (4.1) for the incoming place `p` against hyper-terminal `h` of `base`: the g_N of
-// recognition (core/memory/recognition_cost.h) with p's member views as the vote points and
-// N*'s children as the candidates; only a terminal can absorb p, so an inner child of N*
-// only enters the ratio. Sets `best` to the nearest terminal place P¹ and `best_gamma` to
-// γ(p, P¹) between the means (the distance of the merged SLINK tree); −1, with an infinite
-// cost, when no terminal child of N* can take p.
-double RecognitionCost(const PlaceMemory& base, const HyperTerminal& h, const LearnedPlace& p,
-                       int* best, double* best_gamma) {
+// The children of hyper-terminal N* as g_N's candidates and the places under them (the
+// columns of ViewDistances): the same for every place recognised against N*, so they are made
+// once per N* (making them for every place, centroids included, was a tenth of a 10⁴ + 10⁴
+// merge). Only a terminal can absorb a place, so an inner child of N* only enters the ratio.
+struct StarCandidates {
   std::vector<const LearnedPlace*> places;
   std::vector<double> units;
   std::vector<int> index;  // base place index of each column
   std::vector<CostCandidate> candidates;
-  // Past `shortlist` places under N*'s children, only the nearest by the view index are
-  // measured, as recognition does (core/memory/view_index.h): the others enter the ratio's N²
-  // by their estimate and cannot be P¹. Measuring every one made the merge quadratic (10⁴ +
-  // 10⁴ synthetic places: N* of ~156 terminals, 1.6·10⁶ place measurements, 19 s).
+};
+
+StarCandidates CandidatesOf(const PlaceMemory& base, const HyperTerminal& h) {
+  StarCandidates out;
   for (int c : base.nodes()[static_cast<size_t>(h.node)].children) {
     const MemoryNode& child = base.nodes()[static_cast<size_t>(c)];
     CostCandidate candidate;
@@ -32,31 +30,58 @@ double RecognitionCost(const PlaceMemory& base, const HyperTerminal& h, const Le
     candidate.centroid = base.Centroid(c);
     for (int l = child.first_leaf; l < child.end_leaf; ++l) {
       const int place = base.leaf_order()[static_cast<size_t>(l)];
-      candidate.places.push_back(static_cast<int>(places.size()));
-      places.push_back(&base.places()[static_cast<size_t>(place)]);
-      units.push_back(base.DistanceUnit());
-      index.push_back(place);
+      candidate.places.push_back(static_cast<int>(out.places.size()));
+      out.places.push_back(&base.places()[static_cast<size_t>(place)]);
+      out.units.push_back(base.DistanceUnit());
+      out.index.push_back(place);
     }
-    candidates.push_back(std::move(candidate));
+    out.candidates.push_back(std::move(candidate));
   }
+  return out;
+}
+
+// The order to recognise by: the indices of `match_of` grouped by the hyper-terminal they
+// matched (then in index order), so each N*'s candidates are made once. Every place's
+// recognition depends only on itself and N*, so the order decides nothing.
+std::vector<size_t> ByStar(const std::vector<size_t>& match_of) {
+  std::vector<size_t> order(match_of.size());
+  for (size_t a = 0; a < order.size(); ++a) order[a] = a;
+  std::stable_sort(order.begin(), order.end(),
+                   [&match_of](size_t x, size_t y) { return match_of[x] < match_of[y]; });
+  return order;
+}
+
+// g of (4.1) for the place `p` against the candidates `star` of a hyper-terminal N* of
+// `base`: the g_N of recognition (core/memory/recognition_cost.h) with p's member views as the
+// vote points. Sets `best` to the nearest terminal place P¹ and `best_gamma` to γ(p, P¹)
+// between the means (the distance of the merged SLINK tree); −1, with an infinite cost, when
+// no terminal child of N* can take p.
+double RecognitionCost(const PlaceMemory& base, const StarCandidates& star, const LearnedPlace& p,
+                       int* best, double* best_gamma) {
+  // Past `shortlist` places under N*'s children, only the nearest by the view index are
+  // measured, as recognition does (core/memory/view_index.h): the others enter the ratio's N²
+  // by their estimate and cannot be P¹. Measuring every one made the merge quadratic (10⁴ +
+  // 10⁴ synthetic places: N* of ~156 terminals, 1.6·10⁶ place measurements, 19 s).
+  std::vector<const LearnedPlace*> places = star.places;
   std::vector<float> estimates;
   const int shortlist = base.options().shortlist;
   if (shortlist > 0 && static_cast<int>(places.size()) > shortlist) {
-    estimates = base.EstimatedDistances(p.samples, index);
+    estimates = base.EstimatedDistances(p.samples, star.index);
     std::vector<char> measured(places.size(), 0);
     for (int column : Shortlist(estimates, shortlist)) measured[static_cast<size_t>(column)] = 1;
     for (size_t column = 0; column < places.size(); ++column) {
       if (!measured[column]) places[column] = nullptr;
     }
   }
-  const ViewDistances vd(p.samples, places, units, estimates);
-  const CostTerms t = RecognitionCost(vd, p.mean, candidates, base.options().cost);
+  const ViewDistances vd(p.samples, places, star.units, estimates);
+  const CostTerms t = RecognitionCost(vd, p.mean, star.candidates, base.options().cost);
   if (t.best < 0) {  // no terminal child of N* can absorb p (RecognitionCost)
     *best = -1;
     *best_gamma = std::numeric_limits<double>::infinity();
     return std::numeric_limits<double>::infinity();
   }
-  *best = index[static_cast<size_t>(candidates[static_cast<size_t>(t.best)].places.front())];
+  *best =
+      star.index[static_cast<size_t>(star.candidates[static_cast<size_t>(t.best)].places.front())];
   *best_gamma = (p.mean - base.places()[static_cast<size_t>(*best)].mean).squaredNorm();
   return t.cost;
 }
@@ -76,13 +101,16 @@ void RecogniseFreshBasePlaces(const PlaceMemory& base, const PlaceMemory& incomi
   const std::vector<size_t> match_of = MatchHyperTerminals(incoming, hi, hb);
   std::vector<char> is_fresh(base.places().size(), 0);
   for (int b : fresh) is_fresh[static_cast<size_t>(b)] = 1;
-  for (size_t a = 0; a < hb.size(); ++a) {
+  StarCandidates star;
+  size_t made = hi.size();  // the hyper-terminal `star` holds the candidates of (none yet)
+  for (size_t a : ByStar(match_of)) {
     for (int b : hb[a].places) {
       if (!is_fresh[static_cast<size_t>(b)]) continue;
+      if (made != match_of[a]) star = CandidatesOf(incoming, hi[made = match_of[a]]);
       int match = -1;
       double gamma = 0.0;
-      const double g = RecognitionCost(incoming, hi[match_of[a]],
-                                       base.places()[static_cast<size_t>(b)], &match, &gamma);
+      const double g =
+          RecognitionCost(incoming, star, base.places()[static_cast<size_t>(b)], &match, &gamma);
       if (match < 0 || g > tau_r || is_new[static_cast<size_t>(match)]) continue;
       const PlaceId match_id = incoming.places()[static_cast<size_t>(match)].id;
       if (match_id.robot == base.places()[static_cast<size_t>(b)].id.robot) continue;
@@ -109,14 +137,16 @@ void RecogniseNewIncomingPlaces(const PlaceMemory& base, const PlaceMemory& inco
                                 const std::vector<char>& is_new, double tau_r,
                                 Recognitions& found) {
   const std::vector<size_t> match_of = MatchHyperTerminals(base, hb, hi);
-  for (size_t a = 0; a < hi.size(); ++a) {
-    const size_t star = match_of[a];
+  StarCandidates star;
+  size_t made = hb.size();  // the hyper-terminal `star` holds the candidates of (none yet)
+  for (size_t a : ByStar(match_of)) {
     for (int p : hi[a].places) {
       const auto i = static_cast<size_t>(p);
       if (!is_new[i] || found.target[i] >= 0) continue;
+      if (made != match_of[a]) star = CandidatesOf(base, hb[made = match_of[a]]);
       int match = -1;
       const double g =
-          RecognitionCost(base, hb[star], incoming.places()[i], &match, &found.nearest_gamma[i]);
+          RecognitionCost(base, star, incoming.places()[i], &match, &found.nearest_gamma[i]);
       found.nearest[i] = match;
       // A robot's own places stay apart: its pipeline already judged them different.
       if (match >= 0 && g <= tau_r &&
