@@ -67,35 +67,6 @@ class IdleCamera : public CameraSource {
   CameraIntrinsics intrinsics_ = CameraIntrinsics::FromHorizontalFov(64, 48, 60);
 };
 
-// `n` places [first, first + n) of `world` as robot `robot` saw them, built at once (SLINK over
-// the means, then one Restore that trains every node) rather than by n Learn()s.
-PlaceMemory SyntheticMemory(uint32_t robot, const testing_support::SyntheticPlaces& world,
-                            int first, int n) {
-  const PlaceMemoryOptions options;
-  std::vector<LearnedPlace> places;
-  Slink slink;
-  std::vector<double> distances;
-  for (int p = 0; p < n; ++p) {
-    const DetectedPlace d = world.Visit(first + p, robot, kMembers, kMembers);
-    LearnedPlace lp;
-    lp.id = PlaceId{robot, static_cast<uint32_t>(p + 1)};
-    lp.mean = d.Mean();
-    lp.member_count = d.descriptors.cols();
-    lp.samples = d.descriptors.leftCols(
-        std::min<Eigen::Index>(options.max_samples_per_place, d.descriptors.cols()));
-    lp.detected = {d.index};
-    lp.members = d.members;
-    distances.resize(places.size());
-    for (size_t i = 0; i < places.size(); ++i) {
-      distances[i] = (places[i].mean - lp.mean).squaredNorm();
-    }
-    slink.Insert(distances);
-    places.push_back(std::move(lp));
-  }
-  return PlaceMemory::Restore(robot, options, std::move(places), std::move(slink),
-                              static_cast<uint32_t>(n + 1), {});
-}
-
 // Records the instants of tscd's log lines that bound the merge.
 class MergeLogSink : public spdlog::sinks::base_sink<std::mutex> {
  public:
@@ -247,8 +218,9 @@ int Main(int argc, char** argv) {
   // Robot 1's memory in its store; robot 2's as a snapshot (half of its places are robot 1's).
   const auto t_build = Clock::now();
   const testing_support::SyntheticPlaces world(1, dim, 64, 0.02f, 1);
-  PlaceMemory ours = SyntheticMemory(1, world, 0, places);
-  const PlaceMemory theirs = SyntheticMemory(2, world, places / 2, places);
+  PlaceMemory ours = testing_support::SyntheticMemory(1, world, 0, places, kMembers);
+  const PlaceMemory theirs =
+      testing_support::SyntheticMemory(2, world, places / 2, places, kMembers);
   {
     Store store = Store::Open(dir / "memory.db");
     IdleCamera camera;

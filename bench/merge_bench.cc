@@ -31,39 +31,15 @@ constexpr int kRelearnSample = 64;
 class World {
  public:
   explicit World(uint32_t world) : places_(world, kDim, 64, 0.02f, world) {}
-  DetectedPlace Place(int p, uint32_t robot) const {
-    return places_.Visit(p, robot, kMembers, kMembers);
-  }
+  const testing_support::SyntheticPlaces& places() const { return places_; }
 
  private:
   testing_support::SyntheticPlaces places_;
 };
 
-// Robot `robot`'s memory of `n` places: places [first, first + n) of `world`. Built directly
-// (SLINK over the means, then one Restore that trains every node) rather than by n Learn()s.
+// Robot `robot`'s memory of `n` places: places [first, first + n) of `world`.
 PlaceMemory BuildMemory(uint32_t robot, const World& world, int first, int n) {
-  const PlaceMemoryOptions options;
-  std::vector<LearnedPlace> places;
-  Slink slink;
-  std::vector<double> distances;
-  for (int p = 0; p < n; ++p) {
-    const DetectedPlace d = world.Place(first + p, robot);
-    LearnedPlace lp;
-    lp.id = PlaceId{robot, static_cast<uint32_t>(p + 1)};
-    lp.mean = d.Mean();
-    lp.member_count = d.descriptors.cols();
-    lp.samples = d.descriptors.leftCols(
-        std::min<Eigen::Index>(options.max_samples_per_place, d.descriptors.cols()));
-    lp.detected = {d.index};
-    lp.members = d.members;
-    distances.resize(places.size());
-    for (size_t i = 0; i < places.size(); ++i)
-      distances[i] = (places[i].mean - lp.mean).squaredNorm();
-    slink.Insert(distances);
-    places.push_back(std::move(lp));
-  }
-  return PlaceMemory::Restore(robot, options, std::move(places), std::move(slink),
-                              static_cast<uint32_t>(n + 1), {});
+  return testing_support::SyntheticMemory(robot, world.places(), first, n, kMembers);
 }
 
 // Pairs built once per (n, shared %): robot 1 sees places [0, n) of world 1; robot 2 sees

@@ -8,6 +8,7 @@
 #include <algorithm>
 #include <cstdint>
 #include <random>
+#include <utility>
 #include <vector>
 
 #include "core/memory/place_memory.h"
@@ -52,5 +53,35 @@ class SyntheticPlaces {
   uint32_t world_;
   std::vector<Eigen::VectorXf> sites_;
 };
+
+/// Robot `robot`'s memory of places [first, first + n) of `world`, each a visit of `views`
+/// base points (the visit is the robot: its own member noise), ids 1..n. Built at once (SLINK
+/// over the means, then one Restore that trains every node) rather than by n Learn()s.
+inline PlaceMemory SyntheticMemory(uint32_t robot, const SyntheticPlaces& world, int first, int n,
+                                   int views) {
+  const PlaceMemoryOptions options;
+  std::vector<LearnedPlace> places;
+  Slink slink;
+  std::vector<double> distances;
+  for (int p = 0; p < n; ++p) {
+    const DetectedPlace d = world.Visit(first + p, robot, views, views);
+    LearnedPlace lp;
+    lp.id = PlaceId{robot, static_cast<uint32_t>(p + 1)};
+    lp.mean = d.Mean();
+    lp.member_count = d.descriptors.cols();
+    lp.samples = d.descriptors.leftCols(
+        std::min<Eigen::Index>(options.max_samples_per_place, d.descriptors.cols()));
+    lp.detected = {d.index};
+    lp.members = d.members;
+    distances.resize(places.size());
+    for (size_t i = 0; i < places.size(); ++i) {
+      distances[i] = (places[i].mean - lp.mean).squaredNorm();
+    }
+    slink.Insert(distances);
+    places.push_back(std::move(lp));
+  }
+  return PlaceMemory::Restore(robot, options, std::move(places), std::move(slink),
+                              static_cast<uint32_t>(n + 1), {});
+}
 
 }  // namespace tsc::testing_support
