@@ -172,8 +172,8 @@ int main(int argc, char** argv) {
                                               {static_cast<uint8_t>(v2::SystemCommand::kPing)}}));
 
   // Jaguar 4x4/V6 TCP stream: the board's report lines as `tsc jaguar-sim` writes them
-  // (tools/simulators/jaguar_sim.cc), then the PC's command lines as JaguarAsciiBase sends them; in one
-  // read and cut into small reads.
+  // (tools/simulators/jaguar_sim.cc), then the PC's command lines as JaguarAsciiBase sends them; in
+  // one read and cut into small reads.
   namespace ascii = tsc::jaguar_ascii;
   const std::string replies =
       "MM0 C=1234:-5678\r\nMM0 V=120:252:50\r\nMM0 T=28:29\r\nMM0 FF=16\r\n"
@@ -188,8 +188,8 @@ int main(int argc, char** argv) {
   Write(ascii_dir / "commands", InOneRead(commands));
   Write(ascii_dir / "commands-cut", InReads(commands, {3, 0, 11}));
 
-  // An MJPEG stream as `tsc axis-sim` serves it (tools/simulators/axis_sim.cc): the Content-Type line,
-  // then parts with Content-Length, or without (its omit_content_length mode), closed.
+  // An MJPEG stream as `tsc axis-sim` serves it (tools/simulators/axis_sim.cc): the Content-Type
+  // line, then parts with Content-Length, or without (its omit_content_length mode), closed.
   std::vector<uint8_t> jpeg;
   cv::imencode(".jpg", frame, jpeg);
   const std::string boundary = "axis-sim-3fa2b1";

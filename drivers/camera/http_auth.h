@@ -1,7 +1,8 @@
 #pragma once
 // HTTP authentication as Axis cameras use it: Basic (RFC 7617) and Digest with MD5 and
 // qop=auth (RFC 7616 / 2617). Both sides: the client answers a challenge, the simulator
-// (tools/simulators/axis_sim) issues challenges and checks answers. MD5 and Base64 come from OpenSSL.
+// (tools/simulators/axis_sim) issues challenges and checks answers. MD5 and Base64 come from
+// OpenSSL.
 
 #include <cstdint>
 #include <map>
