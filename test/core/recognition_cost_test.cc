@@ -1,3 +1,5 @@
+#include "core/memory/recognition_cost.h"
+
 #include <gtest/gtest.h>
 
 #include <Eigen/Core>
@@ -8,7 +10,6 @@
 #include <stdexcept>
 #include <vector>
 
-#include "core/memory/recognition_cost.h"
 #include "core/memory/simd.h"
 
 namespace tsc {
