@@ -51,16 +51,10 @@ void AppendFramed(std::vector<uint8_t>& stream, const std::vector<uint8_t>& byte
   stream.insert(stream.end(), bytes.begin(), bytes.end());
 }
 
-}  // namespace
-
-int main(int argc, char** argv) {
-  if (argc != 2) {
-    std::fprintf(stderr, "usage: fuzz_make_seeds FOLDER\n");
-    return 2;
-  }
-  const fs::path out(argv[1]);
+// The exchange's LCM messages: an announce (unsigned, signed), requests, a place event, motor
+// commands.
+void WriteLcmSeeds(const fs::path& out) {
   using tsc::LcmBus;
-
   tsc::announce_t a{};
   a.utime = 1700000000000000;
   a.protocol = tsc::announce_t::PROTOCOL;
@@ -112,7 +106,12 @@ int main(int argc, char** argv) {
   Write(out / "fuzz_lcm_motor_command_t/drive", LcmBus::Encode(c));
   c.estop = 1;
   Write(out / "fuzz_lcm_motor_command_t/estop", LcmBus::Encode(c));
+}
 
+// A real memory of 12 places cut into portions: each portion, and the assembler's streams of
+// them. Returns the portions.
+size_t WriteSnapshotSeeds(const fs::path& out) {
+  using tsc::LcmBus;
   // A real memory of 12 places (32 dimensions, 4 members) in portions of at most 4 KiB.
   const auto memory = tsc::testing_support::MakeRandomMemory(2, 12, 32, 1, 4);
   const tsc::MemorySnapshot snapshot =
@@ -130,14 +129,21 @@ int main(int argc, char** argv) {
   }
   Write(out / "fuzz_snapshot_assembler/in-order", in_order);
   Write(out / "fuzz_snapshot_assembler/reversed-with-duplicate", shuffled);
+  return snapshot.portions.size();
+}
 
-  const cv::Mat frame(24, 32, CV_8UC3, cv::Scalar(40, 90, 160));
+// A small camera frame.
+cv::Mat Frame() { return cv::Mat(24, 32, CV_8UC3, cv::Scalar(40, 90, 160)); }
+
+void WriteImageSeeds(const fs::path& out) {
   for (const char* ext : {".png", ".jpg"}) {
     std::vector<uint8_t> bytes;
-    cv::imencode(ext, frame, bytes);
+    cv::imencode(ext, Frame(), bytes);
     Write(out / "fuzz_dataset_image" / (std::string("frame") + ext), bytes);
   }
+}
 
+void WriteJaguarV2Seeds(const fs::path& out) {
   // Jaguar V2/V4 datagrams: the board's three sensor frames and ACK as `tsc jaguar-sim` sends
   // them (tools/simulators/jaguar_sim.cc), the PC's PWM, ACK and ping as JaguarV2Base sends them.
   namespace v2 = tsc::jaguar_v2;
@@ -170,7 +176,9 @@ int main(int argc, char** argv) {
                                               7,
                                               static_cast<uint8_t>(v2::FrameType::kSystem),
                                               {static_cast<uint8_t>(v2::SystemCommand::kPing)}}));
+}
 
+void WriteJaguarAsciiSeeds(const fs::path& out) {
   // Jaguar 4x4/V6 TCP stream: the board's report lines as `tsc jaguar-sim` writes them
   // (tools/simulators/jaguar_sim.cc), then the PC's command lines as JaguarAsciiBase sends them; in
   // one read and cut into small reads.
@@ -187,11 +195,13 @@ int main(int argc, char** argv) {
   Write(ascii_dir / "replies-cut", InReads(replies, {1, 5, 17}));
   Write(ascii_dir / "commands", InOneRead(commands));
   Write(ascii_dir / "commands-cut", InReads(commands, {3, 0, 11}));
+}
 
+void WriteAxisSeeds(const fs::path& out) {
   // An MJPEG stream as `tsc axis-sim` serves it (tools/simulators/axis_sim.cc): the Content-Type
   // line, then parts with Content-Length, or without (its omit_content_length mode), closed.
   std::vector<uint8_t> jpeg;
-  cv::imencode(".jpg", frame, jpeg);
+  cv::imencode(".jpg", Frame(), jpeg);
   const std::string boundary = "axis-sim-3fa2b1";
   auto mjpeg = [&](bool with_length) {
     std::string s = "multipart/x-mixed-replace; boundary=" + boundary + "\r\n";
@@ -207,7 +217,22 @@ int main(int argc, char** argv) {
   Write(axis_dir / "with-length-cut", InReads(mjpeg(true), {7, 200, 1}));
   Write(axis_dir / "without-length", InOneRead(mjpeg(false)));
   Write(axis_dir / "without-length-cut", InReads(mjpeg(false), {13, 0, 64, 2}));
+}
 
-  std::printf("seeds written to %s (%zu portions)\n", out.c_str(), snapshot.portions.size());
+}  // namespace
+
+int main(int argc, char** argv) {
+  if (argc != 2) {
+    std::fprintf(stderr, "usage: fuzz_make_seeds FOLDER\n");
+    return 2;
+  }
+  const fs::path out(argv[1]);
+  WriteLcmSeeds(out);
+  const size_t portions = WriteSnapshotSeeds(out);
+  WriteImageSeeds(out);
+  WriteJaguarV2Seeds(out);
+  WriteJaguarAsciiSeeds(out);
+  WriteAxisSeeds(out);
+  std::printf("seeds written to %s (%zu portions)\n", out.c_str(), portions);
   return 0;
 }
