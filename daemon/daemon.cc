@@ -244,7 +244,7 @@ void Daemon::OnPeerPortion(const std::string& channel, const uint8_t* data, size
   team_.CountReceived(ChannelFamily::kMemory, size);
   const int64_t rejected_before = exchange_.rejected_portions();
   std::optional<SnapshotAssembler> complete =
-      exchange_.OnPortionUnchecked(*portion, PeerExchange::Clock::now());
+      exchange_.OnPortion(*portion, PeerExchange::Clock::now());
   if (exchange_.rejected_portions() > rejected_before) {
     const int64_t n = ++counters_.messages_rejected;
     if (ShouldLog(n)) {

@@ -86,21 +86,8 @@ std::vector<memory_request_t> PeerExchange::Tick(Clock::time_point now) {
   return {Request(*pick, fetching_version_, {})};
 }
 
-std::optional<PeerSnapshot> PeerExchange::OnPortion(const memory_portion_t& p,
-                                                    Clock::time_point now) {
-  std::optional<SnapshotAssembler> complete = OnPortionUnchecked(p, now);
-  if (!complete) return std::nullopt;
-  std::string reason;
-  std::optional<PeerSnapshot> snap = complete->Take(&reason);
-  if (!snap) {
-    ++rejected_portions_;
-    last_rejection_ = reason;
-  }
-  return snap;
-}
-
-std::optional<SnapshotAssembler> PeerExchange::OnPortionUnchecked(const memory_portion_t& p,
-                                                                  Clock::time_point now) {
+std::optional<SnapshotAssembler> PeerExchange::OnPortion(const memory_portion_t& p,
+                                                         Clock::time_point now) {
   if (!fetching_ || p.robot != *fetching_ || !assembler_) return std::nullopt;
   const SnapshotAssembler::Result r = assembler_->Accept(p);
   if (r.verdict == SnapshotAssembler::Verdict::kRejected) {

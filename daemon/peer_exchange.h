@@ -40,14 +40,11 @@ class PeerExchange {
   /// An announce whose signature the caller has checked. Returns false (and counts it) for a
   /// replay: the same boot with a sequence not above the last one seen.
   bool OnAnnounce(const announce_t& a, Clock::time_point now);
-  /// A portion of the peer being fetched (others are ignored). The complete, checked snapshot
-  /// when this portion finished it.
-  std::optional<PeerSnapshot> OnPortion(const memory_portion_t& p, Clock::time_point now);
-  /// As OnPortion, but the snapshot's portions unchecked, to be checked and joined by the
-  /// caller (SnapshotAssembler::Take: the digest over every portion, the slow part) where it
-  /// does not hold up others; the exchange ends here either way.
-  std::optional<SnapshotAssembler> OnPortionUnchecked(const memory_portion_t& p,
-                                                      Clock::time_point now);
+  /// A portion of the peer being fetched (others are ignored). When this portion completed
+  /// the memory, its portions, still to be joined and checked by the caller
+  /// (SnapshotAssembler::Take: the digest over every portion, the slow part) where that holds
+  /// up nothing else; the exchange with that peer ends here either way.
+  std::optional<SnapshotAssembler> OnPortion(const memory_portion_t& p, Clock::time_point now);
   /// Requests to send now: the first request of a new exchange, or a repeat for what is
   /// missing. At most one peer at a time.
   std::vector<memory_request_t> Tick(Clock::time_point now);

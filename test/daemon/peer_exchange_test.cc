@@ -61,8 +61,11 @@ TEST(PeerExchange, FetchesOnePeerAtATimeAndAsksAgainForLostPortions) {
   EXPECT_EQ(requests[0].missing, std::vector<int32_t>{1});
   EXPECT_EQ(requests[0].num_missing, 1);
 
-  const auto snap = dut.OnPortion(two.portions[1], t + milliseconds(700));
-  ASSERT_TRUE(snap.has_value());
+  auto complete = dut.OnPortion(two.portions[1], t + milliseconds(700));
+  ASSERT_TRUE(complete.has_value());
+  std::string reason;
+  const auto snap = complete->Take(&reason);
+  ASSERT_TRUE(snap.has_value()) << reason;
   EXPECT_EQ(snap->places.size(), 20u);
   EXPECT_FALSE(dut.fetching().has_value());
   dut.MarkMerged(2, {snap->version, snap->digest});
