@@ -472,8 +472,32 @@ void Daemon::OnRequest(const std::string& channel, const uint8_t* data, size_t s
     return;
   }
   team_.CountReceived(ChannelFamily::kRequest, size);
+  // Portions still missing of a snapshot the loop holds go out at once from it, even when the
+  // memory has changed since: asking for a fresh snapshot instead would restart a peer's
+  // assembly at every change, and under loss a memory that keeps changing never arrives whole.
+  if (!req->missing.empty()) {
+    if (const auto held = HeldSnapshot(req->version)) {
+      std::vector<int32_t> indices;
+      for (int32_t i : req->missing) {
+        if (i >= 0 && i < static_cast<int32_t>(held->portions.size())) indices.push_back(i);
+      }
+      if (!indices.empty()) {
+        spdlog::debug("robot {} asked for {} missing portions of version {}", req->requester,
+                      indices.size(), req->version);
+        PublishPortions(held, std::move(indices));
+        return;
+      }
+    }
+  }
   waiting_requests_.push_back(*req);
   ServeSnapshot();
+}
+
+std::shared_ptr<const MemorySnapshot> Daemon::HeldSnapshot(int64_t version) const {
+  for (const auto& held : {snapshot_, previous_snapshot_}) {
+    if (held && held->version == version) return held;
+  }
+  return nullptr;
 }
 
 void Daemon::AnswerRequest(const memory_request_t& req, bool rebuilt) {
@@ -524,7 +548,7 @@ Daemon::Refresh Daemon::RefreshSnapshot() {
   // The worker's newest, when it is newer than ours: built since we last asked (or the first).
   std::shared_ptr<const MemorySnapshot> latest = worker_->snapshot();
   if (!snapshot_ || latest->version > snapshot_->version) {
-    snapshot_ = std::move(latest);
+    previous_snapshot_ = std::exchange(snapshot_, std::move(latest));
     return Refresh::kReplaced;
   }
   worker_->RequestSnapshot();

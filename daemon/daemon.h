@@ -93,6 +93,8 @@ class Daemon {
   /// it is there).
   enum class Refresh { kCurrent, kReplaced, kAwaited };
   Refresh RefreshSnapshot();
+  /// The snapshot of `version` the loop still holds (the current or the one before), or null.
+  std::shared_ptr<const MemorySnapshot> HeldSnapshot(int64_t version) const;
   /// Serves what waits for a current snapshot (the memory broadcast, peers' requests) when the
   /// worker's snapshot is current; else asks the worker for one and returns.
   void ServeSnapshot();
@@ -142,6 +144,9 @@ class Daemon {
 
   PeerExchange exchange_;                           // loop thread only
   std::shared_ptr<const MemorySnapshot> snapshot_;  // loop thread only; the worker's, shared
+  // The snapshot snapshot_ replaced: a peer still assembling it gets its missing portions from
+  // it, so an exchange completes while the memory keeps changing (loop thread only).
+  std::shared_ptr<const MemorySnapshot> previous_snapshot_;
   bool broadcast_wanted_ = false;                   // loop thread only
   std::vector<memory_request_t> waiting_requests_;  // loop thread only: for a fresh snapshot
   std::chrono::steady_clock::time_point last_memory_broadcast_{};
