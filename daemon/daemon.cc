@@ -40,6 +40,12 @@ int64_t RandomBootId() {
   return static_cast<int64_t>((hi << 32) | lo);
 }
 
+std::vector<int32_t> AllPortions(const MemorySnapshot& snapshot) {
+  std::vector<int32_t> all(snapshot.portions.size());
+  for (size_t i = 0; i < all.size(); ++i) all[i] = static_cast<int32_t>(i);
+  return all;
+}
+
 place_ref_t Ref(const PlaceId& id) {
   place_ref_t r;
   r.robot = static_cast<int32_t>(id.robot);
@@ -500,22 +506,12 @@ std::shared_ptr<const MemorySnapshot> Daemon::HeldSnapshot(int64_t version) cons
   return nullptr;
 }
 
-void Daemon::AnswerRequest(const memory_request_t& req, bool rebuilt) {
-  std::vector<int32_t> indices;
-  if (!rebuilt && req.version == snapshot_->version) {
-    for (int32_t i : req.missing) {
-      if (i >= 0 && i < static_cast<int32_t>(snapshot_->portions.size())) indices.push_back(i);
-    }
-  }
-  // An older version or an empty list: the whole current snapshot.
-  if (indices.empty()) {
-    for (int32_t i = 0; i < static_cast<int32_t>(snapshot_->portions.size()); ++i) {
-      indices.push_back(i);
-    }
-  }
-  spdlog::debug("robot {} asked for {} portions of version {}", req.requester, indices.size(),
-                req.version);
-  PublishPortions(snapshot_, std::move(indices));
+void Daemon::AnswerRequest(const memory_request_t& req) {
+  // OnRequest serves missing portions of the snapshots the loop holds; what reaches here asked
+  // for everything, or for a version the loop no longer holds: the whole current snapshot.
+  spdlog::debug("robot {} asked for version {}; sending all {} portions of version {}",
+                req.requester, req.version, snapshot_->portions.size(), snapshot_->version);
+  PublishPortions(snapshot_, AllPortions(*snapshot_));
 }
 
 void Daemon::OnPeerAnnounce(const std::string& channel, const uint8_t* data, size_t size) {
@@ -561,9 +557,7 @@ void Daemon::ServeSnapshot() {
   if (refresh == Refresh::kAwaited) return;  // served again once the worker hands it over
   const bool rebuilt = refresh == Refresh::kReplaced;
   if (std::exchange(broadcast_wanted_, false) && rebuilt) BroadcastMemory();
-  for (const memory_request_t& req : std::exchange(waiting_requests_, {})) {
-    AnswerRequest(req, rebuilt);
-  }
+  for (const memory_request_t& req : std::exchange(waiting_requests_, {})) AnswerRequest(req);
 }
 
 void Daemon::PublishMemoryIfChanged() {
@@ -573,9 +567,7 @@ void Daemon::PublishMemoryIfChanged() {
 
 void Daemon::BroadcastMemory() {
   last_memory_broadcast_ = Clock::now();
-  std::vector<int32_t> all(snapshot_->portions.size());
-  for (size_t i = 0; i < all.size(); ++i) all[i] = static_cast<int32_t>(i);
-  PublishPortions(snapshot_, std::move(all));
+  PublishPortions(snapshot_, AllPortions(*snapshot_));
 }
 
 void Daemon::PublishPortions(std::shared_ptr<const MemorySnapshot> snapshot,

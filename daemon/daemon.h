@@ -101,7 +101,8 @@ class Daemon {
   /// Broadcasts the memory when it changed since the last snapshot.
   void PublishMemoryIfChanged();
   void BroadcastMemory();
-  void AnswerRequest(const memory_request_t& req, bool rebuilt);
+  /// Sends the whole current snapshot to a peer that asked (see OnRequest for missing portions).
+  void AnswerRequest(const memory_request_t& req);
   /// Publishes the portions `indices` of `snapshot` from `from` on, kPortionsPerSlice per turn
   /// of the loop (the rest posted), so timers and LCM run in between; all at once when stopping.
   void PublishPortions(std::shared_ptr<const MemorySnapshot> snapshot, std::vector<int32_t> indices,
