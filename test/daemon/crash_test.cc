@@ -17,6 +17,8 @@
 #include <filesystem>
 #include <fstream>
 #include <map>
+#include <memory>
+#include <optional>
 #include <random>
 #include <set>
 #include <string>
@@ -359,18 +361,13 @@ testing_support::RandomMemory PeerMemory(const PlaceMemory& ours, uint32_t robot
 // image must be exactly the pre-merge memory (peer not recorded) or exactly the post-merge one
 // of an uninterrupted reference run (peer recorded), and tscd restarted on it must complete the
 // merge once more or, when it was committed, not fetch the peer again, ending with the
-// post-merge memory.
-TEST_F(CrashTest, KillNineDuringAMergeLeavesThePreOrPostMergeMemoryAndTheMergeCompletes) {
-  TSCD_REQUIRE_PRIVATE_NETNS();
-  BusListener bus("TSC_ANNOUNCE|TSC_EVENT_.*");
-  const int instants = TotalInstants() - TotalInstants() * 3 / 5;
-  const int peer_places = EnvInt("TSCD_KILL_PEER_PLACES", 200);
-
+// post-merge memory. The steps are the fixture's; each asserts what the next relies on.
+class CrashDuringMergeTest : public CrashTest {
+ protected:
   // Our memory before the merge: learned by a real tscd from its simulated camera.
-  const fs::path pre_dir = dir_ / "pre";
-  {
-    ChildProcess dut(FastSimRobot(pre_dir), dir_ / "learn.log");
-    ASSERT_TRUE(bus.WaitFor(
+  void LearnOurMemory() {
+    ChildProcess dut(FastSimRobot(pre_dir_), dir_ / "learn.log");
+    ASSERT_TRUE(bus_->WaitFor(
         [](const BusListener& b) {
           if (!b.announces.count("TSC_ANNOUNCE")) return false;
           for (const announce_t& a : b.announces.at("TSC_ANNOUNCE")) {
@@ -382,101 +379,88 @@ TEST_F(CrashTest, KillNineDuringAMergeLeavesThePreOrPostMergeMemoryAndTheMergeCo
         << dut.Log();
     dut.Signal(SIGTERM);
     ASSERT_EQ(dut.Wait(seconds(30)), 0) << dut.Log();
+    pre_ = LoadKnowledge(pre_dir_ / "memory.db", 1);
+    ASSERT_GE(pre_->state.memory.places().size(), 4u);
   }
-  const Knowledge pre = LoadKnowledge(pre_dir / "memory.db", 1);
-  ASSERT_GE(pre.state.memory.places().size(), 4u);
 
-  // The teammate's memory, served over the exchange protocol.
-  const auto memory = PeerMemory(pre.state.memory, 2, peer_places, 7);
-  PeerServer peer(2,
-                  BuildSnapshot(memory.memory, memory.map, SnapshotHeader{2, 4242, 1, 1}, 60000));
-
-  // Reference: the merge uninterrupted, timed from robot 1's first announce.
-  const auto copy_pre = [&](const fs::path& to) {
+  void CopyPreMergeStore(const fs::path& to) const {
     fs::remove_all(to);
     fs::create_directories(to);
-    fs::copy_file(pre_dir / "memory.db", to / "memory.db");
-  };
-  const fs::path ref_dir = dir_ / "reference";
-  copy_pre(ref_dir);
-  double received_s = 0, merged_s = 0;
-  {
-    const size_t before = Announces(bus, 1);
-    ChildProcess dut(IdleRobot(1, ref_dir, frames_), dir_ / "reference.log");
-    ASSERT_TRUE(WaitNewAnnounce(bus, 1, before, seconds(60))) << dut.Log();
-    const auto t0 = Clock::now();
-    ASSERT_TRUE(WaitLog(dut, "received the memory of robot 2", seconds(60))) << dut.Log();
-    received_s = std::chrono::duration<double>(Clock::now() - t0).count();
-    ASSERT_TRUE(WaitLog(dut, "merged the memory of robot 2", seconds(60))) << dut.Log();
-    merged_s = std::chrono::duration<double>(Clock::now() - t0).count();
-    dut.Signal(SIGTERM);
-    ASSERT_EQ(dut.Wait(seconds(30)), 0) << dut.Log();
+    fs::copy_file(pre_dir_ / "memory.db", to / "memory.db");
   }
-  const Knowledge post = LoadKnowledge(ref_dir / "memory.db", 1);
-  ASSERT_TRUE(post.peers.count(2));
-  ASSERT_NE(DescribeDifferences(pre, post), "") << "the merge changed nothing: no teeth";
 
-  // Instants: every other one uniform over [0, 1.2 x the reference's time to the merged log
-  // line] after the first announce (the transfer, the merge, its commit and a little after;
-  // the reference was timed in this run, so a sanitizer's slowdown is in it already). The
-  // others are aimed at the merge and its commit from this run's own reception log line,
-  // uniform over the first half of the reference's reception-to-merged time: timed from the
-  // announce they all fell after the merge once, on a loaded machine whose reference run had
-  // been slower than the runs after it.
-  constexpr unsigned kSeed = 20261124;  // of the kill instants, printed to replay a failure
-  std::printf("merge kill instants: seed %u\n", kSeed);
-  std::mt19937 rng(kSeed);
-  std::uniform_int_distribution<int> anywhere_ms(0, static_cast<int>(1200.0 * merged_s));
-  std::uniform_int_distribution<int> merging_ms(0,
-                                                static_cast<int>(500.0 * (merged_s - received_s)));
-  std::map<std::string, int> phases;
-  const fs::path state = dir_ / "state";
-  const fs::path crash = dir_ / "crash.db";
-  const auto start = Clock::now();
-  for (int instant = 0; instant < instants; ++instant) {
-    copy_pre(state);
-    std::string log;
+  // The merge uninterrupted, timed from robot 1's first announce: the memory every recorded
+  // peer must leave, and the times the kill instants are drawn over.
+  void RunReferenceMerge() {
+    const fs::path ref_dir = dir_ / "reference";
+    CopyPreMergeStore(ref_dir);
     {
-      const size_t before = Announces(bus, 1);
-      fs::remove(dir_ / "instant.log");
-      ChildProcess dut(IdleRobot(1, state, frames_), dir_ / "instant.log");
-      ASSERT_TRUE(WaitNewAnnounce(bus, 1, before, seconds(60))) << dut.Log();
-      if (instant % 2 == 0) {
-        std::this_thread::sleep_for(milliseconds(anywhere_ms(rng)));
-      } else {
-        ASSERT_TRUE(WaitLog(dut, "received the memory of robot 2", seconds(60))) << dut.Log();
-        std::this_thread::sleep_for(milliseconds(merging_ms(rng)));
-      }
-      dut.Signal(SIGKILL);
-      ASSERT_EQ(dut.Wait(seconds(10)), 128 + SIGKILL);
-      log = dut.Log();
+      const size_t before = Announces(*bus_, 1);
+      ChildProcess dut(IdleRobot(1, ref_dir, frames_), dir_ / "reference.log");
+      ASSERT_TRUE(WaitNewAnnounce(*bus_, 1, before, seconds(60))) << dut.Log();
+      const auto t0 = Clock::now();
+      ASSERT_TRUE(WaitLog(dut, "received the memory of robot 2", seconds(60))) << dut.Log();
+      received_s_ = std::chrono::duration<double>(Clock::now() - t0).count();
+      ASSERT_TRUE(WaitLog(dut, "merged the memory of robot 2", seconds(60))) << dut.Log();
+      merged_s_ = std::chrono::duration<double>(Clock::now() - t0).count();
+      dut.Signal(SIGTERM);
+      ASSERT_EQ(dut.Wait(seconds(30)), 0) << dut.Log();
     }
-    CopyCrashImage(state / "memory.db", crash);
+    post_ = LoadKnowledge(ref_dir / "memory.db", 1);
+    ASSERT_TRUE(post_->peers.count(2));
+    ASSERT_NE(DescribeDifferences(*pre_, *post_), "") << "the merge changed nothing: no teeth";
+  }
+
+  // Starts tscd on the pre-merge store, kills it `delay` after its first announce (or after
+  // its reception log line, when `from_reception`) and returns its log.
+  void KillDuringMerge(milliseconds delay, bool from_reception, std::string* log) {
+    CopyPreMergeStore(state_);
+    const size_t before = Announces(*bus_, 1);
+    fs::remove(dir_ / "instant.log");
+    ChildProcess dut(IdleRobot(1, state_, frames_), dir_ / "instant.log");
+    ASSERT_TRUE(WaitNewAnnounce(*bus_, 1, before, seconds(60))) << dut.Log();
+    if (from_reception) {
+      ASSERT_TRUE(WaitLog(dut, "received the memory of robot 2", seconds(60))) << dut.Log();
+    }
+    std::this_thread::sleep_for(delay);
+    dut.Signal(SIGKILL);
+    ASSERT_EQ(dut.Wait(seconds(10)), 128 + SIGKILL);
+    *log = dut.Log();
+  }
+
+  // The crash image is the pre- or the post-merge memory; returns the phase the kill met and
+  // whether the peer is recorded.
+  std::string JudgeCrashImage(int instant, const std::string& log, bool* recorded) {
+    const fs::path crash = dir_ / "crash.db";
+    CopyCrashImage(state_ / "memory.db", crash);
     const Knowledge committed = LoadKnowledge(crash, 1);
-    const bool recorded = committed.peers.count(2) > 0;
+    *recorded = committed.peers.count(2) > 0;
     const bool received = log.find("received the memory of robot 2") != std::string::npos;
     const bool logged = log.find("merged the memory of robot 2") != std::string::npos;
-    const std::string phase = !received  ? "receiving"
-                              : logged   ? "after the merge"
-                              : recorded ? "committed, not yet logged"
-                                         : "merging or committing";
-    ++phases[phase];
-    if (recorded) {
-      EXPECT_EQ(DescribeDifferences(committed, post), "")
+    const std::string phase = !received   ? "receiving"
+                              : logged    ? "after the merge"
+                              : *recorded ? "committed, not yet logged"
+                                          : "merging or committing";
+    if (*recorded) {
+      EXPECT_EQ(DescribeDifferences(committed, *post_), "")
           << "instant " << instant << " (" << phase << "): peer recorded but not the merged memory";
     } else {
-      EXPECT_EQ(DescribeDifferences(committed, pre), "")
+      EXPECT_EQ(DescribeDifferences(committed, *pre_), "")
           << "instant " << instant << " (" << phase << "): peer not recorded but not the memory "
           << "before the merge";
       EXPECT_FALSE(logged) << "instant " << instant << ": merge logged but not committed";
     }
+    return phase;
+  }
 
-    // Restart on the crash image: the merge completes (again), or the peer is not fetched again.
-    const size_t before = Announces(bus, 1);
+  // Restart on the crash image: the merge completes (again), or the peer is not fetched again;
+  // either way tscd ends with the post-merge memory.
+  void RestartAndFinish(int instant, bool recorded, const PeerServer& peer) {
+    const size_t before = Announces(*bus_, 1);
     const int64_t requests_before = peer.requests();
     fs::remove(dir_ / "restart.log");
-    ChildProcess dut(IdleRobot(1, state, frames_), dir_ / "restart.log");
-    ASSERT_TRUE(WaitNewAnnounce(bus, 1, before, seconds(60))) << dut.Log();
+    ChildProcess dut(IdleRobot(1, state_, frames_), dir_ / "restart.log");
+    ASSERT_TRUE(WaitNewAnnounce(*bus_, 1, before, seconds(60))) << dut.Log();
     if (recorded) {
       // The peer announces every 0.2 s; a memory not merged yet is asked for within one
       // announce and the exchange tick (0.1 s) after it.
@@ -489,9 +473,53 @@ TEST_F(CrashTest, KillNineDuringAMergeLeavesThePreOrPostMergeMemoryAndTheMergeCo
     }
     dut.Signal(SIGTERM);
     ASSERT_EQ(dut.Wait(seconds(30)), 0) << dut.Log();
-    const Knowledge final_memory = LoadKnowledge(state / "memory.db", 1);
-    EXPECT_EQ(DescribeDifferences(final_memory, post), "")
+    EXPECT_EQ(DescribeDifferences(LoadKnowledge(state_ / "memory.db", 1), *post_), "")
         << "instant " << instant << ": after the restart";
+  }
+
+  std::unique_ptr<BusListener> bus_;  // started after the private-namespace check
+  fs::path pre_dir_ = dir_ / "pre";
+  fs::path state_ = dir_ / "state";
+  std::optional<Knowledge> pre_, post_;  // set by LearnOurMemory, RunReferenceMerge
+  double received_s_ = 0, merged_s_ = 0;
+};
+
+TEST_F(CrashDuringMergeTest,
+       KillNineDuringAMergeLeavesThePreOrPostMergeMemoryAndTheMergeCompletes) {
+  TSCD_REQUIRE_PRIVATE_NETNS();
+  bus_ = std::make_unique<BusListener>("TSC_ANNOUNCE|TSC_EVENT_.*");
+  const int instants = TotalInstants() - TotalInstants() * 3 / 5;
+  const int peer_places = EnvInt("TSCD_KILL_PEER_PLACES", 200);
+  ASSERT_NO_FATAL_FAILURE(LearnOurMemory());
+  // The teammate's memory, served over the exchange protocol.
+  const auto memory = PeerMemory(pre_->state.memory, 2, peer_places, 7);
+  PeerServer peer(2,
+                  BuildSnapshot(memory.memory, memory.map, SnapshotHeader{2, 4242, 1, 1}, 60000));
+  ASSERT_NO_FATAL_FAILURE(RunReferenceMerge());
+
+  // Instants: every other one uniform over [0, 1.2 x the reference's time to the merged log
+  // line] after the first announce (the transfer, the merge, its commit and a little after;
+  // the reference was timed in this run, so a sanitizer's slowdown is in it already). The
+  // others are aimed at the merge and its commit from this run's own reception log line,
+  // uniform over the first half of the reference's reception-to-merged time: timed from the
+  // announce they all fell after the merge once, on a loaded machine whose reference run had
+  // been slower than the runs after it.
+  constexpr unsigned kSeed = 20261124;  // of the kill instants, printed to replay a failure
+  std::printf("merge kill instants: seed %u\n", kSeed);
+  std::mt19937 rng(kSeed);
+  std::uniform_int_distribution<int> anywhere_ms(0, static_cast<int>(1200.0 * merged_s_));
+  std::uniform_int_distribution<int> merging_ms(
+      0, static_cast<int>(500.0 * (merged_s_ - received_s_)));
+  std::map<std::string, int> phases;
+  const auto start = Clock::now();
+  for (int instant = 0; instant < instants; ++instant) {
+    const bool from_reception = instant % 2 == 1;
+    const milliseconds delay(from_reception ? merging_ms(rng) : anywhere_ms(rng));
+    std::string log;
+    ASSERT_NO_FATAL_FAILURE(KillDuringMerge(delay, from_reception, &log));
+    bool recorded = false;
+    ++phases[JudgeCrashImage(instant, log, &recorded)];
+    ASSERT_NO_FATAL_FAILURE(RestartAndFinish(instant, recorded, peer));
     if (HasFailure()) break;  // one broken instant says it; the rest would repeat it
   }
   const double s = std::chrono::duration<double>(Clock::now() - start).count();
@@ -501,8 +529,8 @@ TEST_F(CrashTest, KillNineDuringAMergeLeavesThePreOrPostMergeMemoryAndTheMergeCo
       "[ figures  ] merge: %d kill -9 instants over 0-%.2f s after the first announce (peer "
       "memory of %d places: received at %.2f s, merged and logged at %.2f s in the reference "
       "run);%s %zu -> %zu places; %.1f s\n",
-      instants, 1.2 * merged_s, peer_places, received_s, merged_s, where.c_str(),
-      pre.state.memory.places().size(), post.state.memory.places().size(), s);
+      instants, 1.2 * merged_s_, peer_places, received_s_, merged_s_, where.c_str(),
+      pre_->state.memory.places().size(), post_->state.memory.places().size(), s);
   EXPECT_GT(phases["merging or committing"] + phases["committed, not yet logged"], 0)
       << "no instant fell inside the merge";
 }
