@@ -362,6 +362,51 @@ std::vector<LoopClosure> PlaceMembersMirror::Recognise(const PlaceId& place,
   return out;
 }
 
+namespace {
+
+// Merge place recall over the places that share a view with a namesake (MergeScore).
+template <typename SameLabel>
+void ScoreViewNamesakes(const std::vector<TeamMemoryForScoring>& robots,
+                        const std::vector<PlaceId>& ids, const SameLabel& same_label,
+                        const std::set<PlaceId>& merged_with_namesake, MergeScore& s) {
+  std::map<PlaceId, const std::vector<GroundTruthPose>*> poses;
+  for (const TeamMemoryForScoring& r : robots) {
+    for (const auto& [id, p] : r.own_poses) {
+      if (!p.empty()) poses[id] = &p;
+    }
+  }
+  if (poses.empty()) return;  // no poses: the figure is undefined
+  const auto share_view = [&poses](const PlaceId& a, const PlaceId& b) {
+    const auto pa = poses.find(a), pb = poses.find(b);
+    if (pa == poses.end() || pb == poses.end()) return false;
+    for (const GroundTruthPose& x : *pa->second) {
+      for (const GroundTruthPose& y : *pb->second) {
+        if (ViewsOverlap(x, y)) return true;
+      }
+    }
+    return false;
+  };
+  std::set<PlaceId> with_view_namesake;
+  for (size_t i = 0; i < ids.size(); ++i) {
+    for (size_t j = i + 1; j < ids.size(); ++j) {
+      if (ids[i].robot != ids[j].robot && same_label(ids[i], ids[j]) &&
+          share_view(ids[i], ids[j])) {
+        with_view_namesake.insert({ids[i], ids[j]});
+      }
+    }
+  }
+  s.view_places_with_namesake = static_cast<int>(with_view_namesake.size());
+  for (const PlaceId& id : with_view_namesake) {
+    s.view_places_merged_with_namesake += static_cast<int>(merged_with_namesake.count(id));
+  }
+  s.view_place_recall =
+      s.view_places_with_namesake > 0
+          ? static_cast<double>(s.view_places_merged_with_namesake) / s.view_places_with_namesake
+          : 0.0;
+}
+
+}  // namespace
+
 MergeScore ScoreMerges(const std::vector<TeamMemoryForScoring>& robots) {
   std::map<PlaceId, std::string> label;
   for (const TeamMemoryForScoring& r : robots)
@@ -403,6 +448,7 @@ MergeScore ScoreMerges(const std::vector<TeamMemoryForScoring>& robots) {
   }
   s.places_with_namesake = static_cast<int>(with_namesake.size());
   s.places_merged_with_namesake = static_cast<int>(merged_with_namesake.size());
+  ScoreViewNamesakes(robots, ids, same_label, merged_with_namesake, s);
   for (const TeamMemoryForScoring& r : robots) {
     for (const auto& [place, l] : r.peer_recognitions) {
       ++s.peer_recognitions;

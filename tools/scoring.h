@@ -2,6 +2,7 @@
 // Scoring rules of DESIGN §7.1b, so every number means the same everywhere.
 
 #include <Eigen/Core>
+#include <limits>
 #include <map>
 #include <optional>
 #include <string>
@@ -209,9 +210,11 @@ class PlaceMembersMirror {
 /// detected places, correct when the peer place's label agrees with the detected place's.
 struct TeamMemoryForScoring {
   std::map<PlaceId, std::string> own_labels;  ///< this robot's own places and their labels
-  std::vector<std::vector<PlaceId>> groups;   ///< per place of its final memory: id + sources
+  std::vector<std::vector<PlaceId>> groups;  ///< per place of its final memory: id + sources
   /// Detected places this robot's pipeline assigned to a peer's place: (that place, label).
   std::vector<std::pair<PlaceId, std::string>> peer_recognitions;
+  /// Poses of the frames of each own place (none without poses in the ground truth).
+  std::map<PlaceId, std::vector<GroundTruthPose>> own_poses;
 };
 struct MergeScore {
   int merges = 0;
@@ -225,7 +228,13 @@ struct MergeScore {
   /// which merging each place with its own view merges two.
   int places_with_namesake = 0;
   int places_merged_with_namesake = 0;
-  double place_recall = 0.0;          ///< places_merged_with_namesake / places_with_namesake
+  double place_recall = 0.0;  ///< places_merged_with_namesake / places_with_namesake
+  /// The same counted only over places that share a view with a namesake (some frame of each
+  /// within 2 m and 45°: ViewsOverlap), as view-overlap recall counts recognitions: a forward
+  /// camera that crossed a room the other way saw other walls. Null (NaN) without poses.
+  int view_places_with_namesake = 0;
+  int view_places_merged_with_namesake = 0;
+  double view_place_recall = std::numeric_limits<double>::quiet_NaN();
   int peer_recognitions = 0;          ///< detected places recognised as a peer's place
   int peer_recognitions_correct = 0;  ///< of those, with the peer place's label
 };

@@ -407,7 +407,7 @@ int TeamOffline(const TeamRequest& req) {
   std::vector<RobotRow> rows;
   std::cout << RobotRow::Header(false);
   for (const ReplayedRobot& r : robots) {
-    scoring.push_back(ForMergeScoring(r.id, r.assignments, r.labels, r.memory));
+    scoring.push_back(ForMergeScoring(r, r.memory));
     RobotRow& row = rows.emplace_back();
     row.robot = r.id;
     row.frames = r.frames;
@@ -549,7 +549,7 @@ bool ReadRobotStore(const RobotStats& r, ReplayedRobot& route, RobotRow& row,
     route.assignments = Store::Open(r.dir / "memory.db").LoadAssignments();
     route.memory = s.memory;
     route.map = s.map;
-    scoring = ForMergeScoring(route.id, route.assignments, route.labels, s.memory);
+    scoring = ForMergeScoring(route, s.memory);
     try {
       RenderPng(ToDot(s.memory, s.map), r.dir / "memory.png");
     } catch (const std::exception& e) {

@@ -1,6 +1,7 @@
 #include "tools/team_replay.h"
 
 #include <algorithm>
+#include <cmath>
 #include <cstdio>
 #include <map>
 #include <optional>
@@ -84,6 +85,15 @@ std::pair<PlaceMemory, TopologicalMap> AsReceived(const PlaceMemory& memory,
   return {ToPlaceMemory(*peer, options), ToTopologicalMap(*peer)};
 }
 
+// The route's ground truth: label and pose of every frame (= base point).
+void RecordRoute(const SimCamera& camera, ReplayedRobot& out) {
+  for (const sim::RouteFrame& f : camera.route()) {
+    out.labels.push_back(f.label);
+    out.positions.emplace_back(f.pose.x, f.pose.y);
+    out.poses.push_back(GroundTruthPose{f.pose.x, f.pose.y, f.pose.heading});
+  }
+}
+
 }  // namespace
 
 ReplayedRobot ReplayRoute(const Settings& settings, uint32_t robot) {
@@ -99,10 +109,7 @@ ReplayedRobot ReplayRoute(const Settings& settings, uint32_t robot) {
 
   ReplayedRobot out;
   out.id = robot;
-  for (const sim::RouteFrame& f : camera.route()) {
-    out.labels.push_back(f.label);
-    out.positions.emplace_back(f.pose.x, f.pose.y);
-  }
+  RecordRoute(camera, out);
 
   // The daemon's pipeline (daemon.cc): its options, robot id, and the spacing its camera
   // declares.
@@ -167,9 +174,10 @@ bool ExchangeMemories(std::vector<ReplayedRobot>& robots, const std::vector<uint
   return false;
 }
 
-TeamMemoryForScoring ForMergeScoring(uint32_t robot, const PlaceAssignments& assignments,
-                                     const std::vector<std::string>& labels,
-                                     const PlaceMemory& memory) {
+TeamMemoryForScoring ForMergeScoring(const ReplayedRobot& route, const PlaceMemory& memory) {
+  const uint32_t robot = route.id;
+  const PlaceAssignments& assignments = route.assignments;
+  const std::vector<std::string>& labels = route.labels;
   GroundTruth truth;
   truth.labels = labels;
   TeamMemoryForScoring out;
@@ -192,6 +200,11 @@ TeamMemoryForScoring ForMergeScoring(uint32_t robot, const PlaceAssignments& ass
   }
   for (const auto& [place, frames] : frames_of) {
     out.own_labels[place] = MajorityLabel(truth, frames);
+    std::vector<GroundTruthPose>& poses = out.own_poses[place];
+    for (int f : frames) {
+      if (f < static_cast<int>(route.poses.size()))
+        poses.push_back(route.poses[static_cast<size_t>(f)]);
+    }
   }
   for (const LearnedPlace& p : memory.places()) {
     std::vector<PlaceId> group = {p.id};
@@ -251,6 +264,9 @@ std::string TeamVerdictJson(const TeamVerdict& v) {
        << ",\"places_with_namesake\":" << merge.places_with_namesake
        << ",\"places_merged_with_namesake\":" << merge.places_merged_with_namesake
        << ",\"place_recall\":" << JsonNumber(merge.place_recall)
+       << ",\"view_places_with_namesake\":" << merge.view_places_with_namesake
+       << ",\"view_places_merged_with_namesake\":" << merge.view_places_merged_with_namesake
+       << ",\"view_place_recall\":" << JsonNumber(merge.view_place_recall)
        << ",\"peer_recognitions\":" << merge.peer_recognitions
        << ",\"peer_recognitions_correct\":" << merge.peer_recognitions_correct << "}";
   json << ",\"consistent\":" << (v.consistent ? "true" : "false") << ",\"known_places\":[";
@@ -269,10 +285,7 @@ std::vector<ReplayedRobot> RoutesOf(const std::vector<Settings>& settings) {
     const SimCamera route(ToSimCameraOptions(settings[i].daemon.camera, settings[i].daemon.sim));
     ReplayedRobot r;
     r.id = static_cast<uint32_t>(i + 1);
-    for (const sim::RouteFrame& f : route.route()) {
-      r.labels.push_back(f.label);
-      r.positions.emplace_back(f.pose.x, f.pose.y);
-    }
+    RecordRoute(route, r);
     out.push_back(std::move(r));
   }
   return out;
@@ -345,8 +358,13 @@ void PrintTeamVerdict(std::ostream& out, const TeamVerdict& v) {
       << Figure(merge.precision) << ", recall " << Figure(merge.recall) << "\n"
       << "places merged with a place of another robot in their room: "
       << merge.places_merged_with_namesake << " of " << merge.places_with_namesake
-      << " (place recall " << Figure(merge.place_recall) << ")\n"
-      << "peer places recognised by the robots' pipelines: " << merge.peer_recognitions
+      << " (place recall " << Figure(merge.place_recall) << ")\n";
+  if (std::isfinite(merge.view_place_recall)) {
+    out << "of those sharing a view with it (2 m, 45 degrees): "
+        << merge.view_places_merged_with_namesake << " of " << merge.view_places_with_namesake
+        << " (view place recall " << Figure(merge.view_place_recall) << ")\n";
+  }
+  out << "peer places recognised by the robots' pipelines: " << merge.peer_recognitions
       << " detected places, " << merge.peer_recognitions_correct << " correct\n";
   out << "memories " << (v.consistent ? "consistent" : "NOT consistent")
       << ": places known (own, taken or absorbed) per robot:";

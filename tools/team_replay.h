@@ -39,6 +39,8 @@ struct ReplayedRobot {
   std::vector<std::string> labels;  ///< ground-truth label of each route frame (= base point)
   /// Ground-truth position of each route frame (metres, x east, y north).
   std::vector<std::pair<double, double>> positions;
+  /// Ground-truth pose of each route frame (positions with the camera's heading, radians).
+  std::vector<GroundTruthPose> poses;
   int64_t frames = 0;  ///< base points processed
   int detected_places = 0;
   int recognitions = 0;    ///< detected places recognised (final decisions)
@@ -68,13 +70,11 @@ bool MergePeer(ReplayedRobot& ours, const ReplayedRobot& peer, int portion_bytes
 bool ExchangeMemories(std::vector<ReplayedRobot>& robots, const std::vector<uint32_t>& order,
                       int portion_bytes, int max_rounds = 20);
 
-/// What robot `robot`'s final memory says for merge scoring: its own places labelled from the
-/// frames of the detected places assigned to them (`assignments`, base point k = frame k of
-/// `labels`), peer places its pipeline recognised, and the groups (each place of `memory` with
-/// the sources it absorbed).
-TeamMemoryForScoring ForMergeScoring(uint32_t robot, const PlaceAssignments& assignments,
-                                     const std::vector<std::string>& labels,
-                                     const PlaceMemory& memory);
+/// What robot `route.id`'s final memory says for merge scoring: its own places labelled from
+/// the frames of the detected places assigned to them (`route.assignments`, base point k =
+/// frame k of `route.labels`) with those frames' poses, peer places its pipeline recognised,
+/// and the groups (each place of `memory` with the sources it absorbed).
+TeamMemoryForScoring ForMergeScoring(const ReplayedRobot& route, const PlaceMemory& memory);
 
 /// Places per label (DESIGN §7.1b) of one final memory: the places whose ids (own or absorbed)
 /// carry a label, divided by the distinct labels among them; a place's label is the most common

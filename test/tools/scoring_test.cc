@@ -2,6 +2,7 @@
 
 #include <gtest/gtest.h>
 
+#include <cmath>
 #include <initializer_list>
 #include <stdexcept>
 #include <utility>
@@ -142,8 +143,8 @@ namespace {
 // never merged (a miss).
 TEST(ScoreMerges, CountsEachPairOnceAndScoresAgainstLabels) {
   const PlaceId a1{1, 1}, b1{1, 2}, a2{2, 1}, c2{2, 2}, b2{2, 3};
-  TeamMemoryForScoring r1{{{a1, "A"}, {b1, "B"}}, {{a1, a2}, {b1, c2}}, {}};
-  TeamMemoryForScoring r2{{{a2, "A"}, {c2, "C"}, {b2, "B"}}, {{a2, a1}, {c2}, {b2}}, {}};
+  TeamMemoryForScoring r1{{{a1, "A"}, {b1, "B"}}, {{a1, a2}, {b1, c2}}, {}, {}};
+  TeamMemoryForScoring r2{{{a2, "A"}, {c2, "C"}, {b2, "B"}}, {{a2, a1}, {c2}, {b2}}, {}, {}};
   const MergeScore dut = ScoreMerges({r1, r2});
   EXPECT_EQ(dut.merges, 2);
   EXPECT_EQ(dut.correct, 1);
@@ -153,6 +154,7 @@ TEST(ScoreMerges, CountsEachPairOnceAndScoresAgainstLabels) {
   EXPECT_EQ(dut.places_with_namesake, 4);  // 1:1, 2:1 (A); 1:2, 2:3 (B)
   EXPECT_EQ(dut.places_merged_with_namesake, 2);
   EXPECT_DOUBLE_EQ(dut.place_recall, 0.5);
+  EXPECT_TRUE(std::isnan(dut.view_place_recall));  // no poses: undefined, null in the JSON
 }
 
 // One room learned twice by each robot (two headings): four pairs of different robots, and
@@ -160,8 +162,8 @@ TEST(ScoreMerges, CountsEachPairOnceAndScoresAgainstLabels) {
 // merged with a namesake.
 TEST(ScoreMerges, PlaceRecallCountsAPlaceMergedWithAnyNamesake) {
   const PlaceId a1{1, 1}, a1b{1, 2}, a2{2, 1}, a2b{2, 2};
-  TeamMemoryForScoring r1{{{a1, "A"}, {a1b, "A"}}, {{a1, a2}, {a1b, a2b}}, {}};
-  TeamMemoryForScoring r2{{{a2, "A"}, {a2b, "A"}}, {{a1, a2}, {a1b, a2b}}, {}};
+  TeamMemoryForScoring r1{{{a1, "A"}, {a1b, "A"}}, {{a1, a2}, {a1b, a2b}}, {}, {}};
+  TeamMemoryForScoring r2{{{a2, "A"}, {a2b, "A"}}, {{a1, a2}, {a1b, a2b}}, {}, {}};
   const MergeScore dut = ScoreMerges({r1, r2});
   EXPECT_EQ(dut.same_label_pairs, 4);
   EXPECT_EQ(dut.correct, 2);
@@ -175,8 +177,8 @@ TEST(ScoreMerges, PlaceRecallCountsAPlaceMergedWithAnyNamesake) {
 // and once in room B (wrong), and an unknown place once (wrong: no label to agree with).
 TEST(ScoreMerges, ScoresRecognitionsOfPeerPlacesAgainstTheirOwnersLabels) {
   const PlaceId a1{1, 1}, b2{2, 1};
-  TeamMemoryForScoring r1{{{a1, "A"}}, {{a1}, {b2}}, {}};
-  TeamMemoryForScoring r2{{{b2, "B"}}, {{a1}, {b2}}, {{a1, "A"}, {a1, "B"}, {{3, 1}, "A"}}};
+  TeamMemoryForScoring r1{{{a1, "A"}}, {{a1}, {b2}}, {}, {}};
+  TeamMemoryForScoring r2{{{b2, "B"}}, {{a1}, {b2}}, {{a1, "A"}, {a1, "B"}, {{3, 1}, "A"}}, {}};
   const MergeScore dut = ScoreMerges({r1, r2});
   EXPECT_EQ(dut.peer_recognitions, 3);
   EXPECT_EQ(dut.peer_recognitions_correct, 1);
@@ -185,13 +187,37 @@ TEST(ScoreMerges, ScoresRecognitionsOfPeerPlacesAgainstTheirOwnersLabels) {
 
 TEST(ScoreMerges, UnlabelledPlacesNeverCountAsSameAndNothingMergedIsPrecise) {
   const PlaceId a1{1, 1}, a2{2, 1};
-  TeamMemoryForScoring r1{{{a1, ""}}, {{a1}}, {}};
-  TeamMemoryForScoring r2{{{a2, ""}}, {{a2}}, {}};
+  TeamMemoryForScoring r1{{{a1, ""}}, {{a1}}, {}, {}};
+  TeamMemoryForScoring r2{{{a2, ""}}, {{a2}}, {}, {}};
   const MergeScore dut = ScoreMerges({r1, r2});
   EXPECT_EQ(dut.merges, 0);
   EXPECT_EQ(dut.same_label_pairs, 0);
   EXPECT_DOUBLE_EQ(dut.precision, 1.0);
   EXPECT_DOUBLE_EQ(dut.recall, 0.0);
+}
+
+// View-overlap merge recall (DESIGN §7.1b's rule for a forward camera): room A's places of
+// robots 1 and 2 were seen from within 2 m and 45° and merged; room B's were seen from
+// opposite headings (robot 2 crossed it the other way) and stayed apart, so they count in
+// the label recall but not in the view one.
+TEST(ScoreMerges, ViewPlaceRecallCountsOnlyPlacesThatShareAViewWithANamesake) {
+  const PlaceId a1{1, 1}, b1{1, 2}, a2{2, 1}, b2{2, 2};
+  const GroundTruthPose east{0, 0, 0}, east_near{1.5, 0.5, 0.7}, west{0.5, 0, 3.1};
+  TeamMemoryForScoring r1{
+      {{a1, "A"}, {b1, "B"}}, {{a1, a2}, {b1}}, {}, {{a1, {east}}, {b1, {east, east_near}}}};
+  TeamMemoryForScoring r2{
+      {{a2, "A"}, {b2, "B"}}, {{a1, a2}, {b2}}, {}, {{a2, {east_near}}, {b2, {west}}}};
+  const MergeScore dut = ScoreMerges({r1, r2});
+  EXPECT_EQ(dut.places_with_namesake, 4);
+  EXPECT_DOUBLE_EQ(dut.place_recall, 0.5);
+  EXPECT_EQ(dut.view_places_with_namesake, 2);  // 1:1 and 2:1
+  EXPECT_EQ(dut.view_places_merged_with_namesake, 2);
+  EXPECT_DOUBLE_EQ(dut.view_place_recall, 1.0);
+  // Robot 2 seeing room B the same way as robot 1: B's places now count, unmerged.
+  r2.own_poses[b2] = {GroundTruthPose{2.0, 0, -0.5}};
+  const MergeScore both = ScoreMerges({r1, r2});
+  EXPECT_EQ(both.view_places_with_namesake, 4);
+  EXPECT_DOUBLE_EQ(both.view_place_recall, 0.5);
 }
 
 // Frame-level loop closure with revisits.csv (DESIGN §7.1b): a named frame within ±2 frames
