@@ -28,19 +28,16 @@
 #include <filesystem>
 #include <fstream>
 #include <mutex>
-#include <set>
 #include <string>
 #include <thread>
 #include <vector>
 
 #include "core/pipeline/pipeline.h"
 #include "daemon/daemon.h"
-#include "daemon/lcm_bus.h"
 #include "daemon/memory_snapshot.h"
 #include "store/store.h"
+#include "test/support/serving_peer.h"
 #include "test/support/synthetic_places.h"
-#include "tsc/announce_t.hpp"
-#include "tsc/memory_request_t.hpp"
 
 namespace tsc {
 namespace {
@@ -95,86 +92,7 @@ class MergeLogSink : public spdlog::sinks::base_sink<std::mutex> {
   std::atomic<int64_t> received_{0}, merged_{0};
 };
 
-struct Announce {
-  Clock::time_point at;
-  int64_t sequence, memory_version;
-  int32_t places;
-};
-
-// Robot 2: announces its memory, serves the portions robot 1 asks for (a little apart, as
-// crash_test's peer does) and records robot 1's announces.
-class Peer {
- public:
-  explicit Peer(MemorySnapshot snapshot, int32_t places)
-      : snapshot_(std::move(snapshot)), places_(places), bus_(kUrl) {
-    bus_.Subscribe("TSC_REQUEST_2", [this](const std::string&, const uint8_t* d, size_t n) {
-      const auto r = LcmBus::Decode<memory_request_t>(d, n);
-      if (!r) return;
-      if (r->version == snapshot_.version && !r->missing.empty()) {
-        wanted_.insert(r->missing.begin(), r->missing.end());
-      } else {
-        for (size_t i = 0; i < snapshot_.portions.size(); ++i) {
-          wanted_.insert(static_cast<int32_t>(i));
-        }
-      }
-    });
-    bus_.Subscribe("TSC_ANNOUNCE", [this](const std::string&, const uint8_t* d, size_t n) {
-      const auto a = LcmBus::Decode<announce_t>(d, n);
-      if (!a || a->robot != 1) return;
-      std::lock_guard lock(mutex_);
-      announces_.push_back({Clock::now(), a->sequence, a->memory_version, a->places});
-    });
-    thread_ = std::thread([this] { Loop(); });
-  }
-  ~Peer() {
-    stop_ = true;
-    thread_.join();
-  }
-  void StartAnnouncing() { announcing_ = true; }
-  std::vector<Announce> announces() const {
-    std::lock_guard lock(mutex_);
-    return announces_;
-  }
-
- private:
-  void Loop() {
-    auto next_announce = Clock::now();
-    int64_t sequence = 0;
-    while (!stop_) {
-      bus_.HandleTimeout(5);
-      for (int32_t i : wanted_) {
-        bus_.Publish("TSC_MEMORY_2", snapshot_.portions[static_cast<size_t>(i)]);
-        std::this_thread::sleep_for(std::chrono::microseconds(300));
-        bus_.HandleTimeout(0);  // robot 1's announces meanwhile, timed when they arrive
-      }
-      wanted_.clear();
-      if (announcing_ && Clock::now() >= next_announce) {
-        announce_t a{};
-        a.utime = 1;
-        a.protocol = announce_t::PROTOCOL;
-        a.robot = 2;
-        a.boot_id = 4242;
-        a.sequence = ++sequence;
-        a.memory_version = snapshot_.version;
-        a.memory_digest = snapshot_.digest;
-        a.portions = static_cast<int32_t>(snapshot_.portions.size());
-        a.places = places_;
-        a.status = "peer";
-        bus_.Publish("TSC_ANNOUNCE", a);
-        next_announce = Clock::now() + std::chrono::milliseconds(200);
-      }
-    }
-  }
-
-  const MemorySnapshot snapshot_;
-  const int32_t places_;
-  LcmBus bus_;
-  std::set<int32_t> wanted_;  // peer thread only
-  std::atomic<bool> stop_{false}, announcing_{false};
-  mutable std::mutex mutex_;
-  std::vector<Announce> announces_;
-  std::thread thread_;
-};
+using Announce = testing_support::ServingPeer::HeardAnnounce;
 
 double Seconds(Clock::duration d) { return std::chrono::duration<double>(d).count(); }
 
@@ -229,9 +147,11 @@ int Main(int argc, char** argv) {
     store.CommitPending({}, pipeline, true, std::nullopt);
   }
   const TopologicalMap no_map;
-  Peer peer(
-      BuildSnapshot(theirs, no_map, SnapshotHeader{2, 4242, 1, 1}, BusOptions{}.portion_bytes),
-      static_cast<int32_t>(theirs.places().size()));
+  // Robot 2: serves its memory to robot 1 (announcing from StartAnnouncing on) and records
+  // robot 1's announces.
+  testing_support::ServingPeer peer(
+      2, BuildSnapshot(theirs, no_map, SnapshotHeader{2, 4242, 1, 1}, BusOptions{}.portion_bytes),
+      kUrl, /*announcing=*/false);
   std::printf("memories of %d places (dim %d) built and stored in %.1f s\n", places, dim,
               Seconds(Clock::now() - t_build));
 

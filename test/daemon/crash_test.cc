@@ -31,6 +31,7 @@
 #include "test/support/child_process.h"
 #include "test/support/memory_compare.h"
 #include "test/support/random_memory.h"
+#include "test/support/serving_peer.h"
 #include "test/support/temp_dir.h"
 
 namespace tsc {
@@ -127,78 +128,6 @@ bool WaitLog(ChildProcess& p, const std::string& text, milliseconds timeout) {
 }
 
 using Key = std::pair<int, int>;  // (robot, local)
-
-/// A teammate that serves one fixed memory through the real exchange protocol: it announces
-/// it on TSC_ANNOUNCE and answers requests on TSC_REQUEST_<robot> with the portions asked for.
-/// Unlike a second tscd it never merges ours, so every instant meets the same peer memory.
-class PeerServer {
- public:
-  PeerServer(int32_t robot, MemorySnapshot snapshot)
-      : robot_(robot), snapshot_(std::move(snapshot)), lcm_(testing_support::kTestLcmUrl) {
-    if (!lcm_.good()) throw std::runtime_error("LCM cannot start");
-    lcm_.subscribeFunction("TSC_REQUEST_" + std::to_string(robot), &PeerServer::OnRequest, this);
-    thread_ = std::thread([this] { Loop(); });
-  }
-  ~PeerServer() {
-    stop_ = true;
-    thread_.join();
-  }
-  int64_t requests() const { return requests_; }
-
- private:
-  static void OnRequest(const lcm::ReceiveBuffer* rbuf, const std::string&, PeerServer* self) {
-    memory_request_t r;
-    if (r.decode(rbuf->data, 0, static_cast<int>(rbuf->data_size)) < 0) return;
-    ++self->requests_;
-    if (r.version == self->snapshot_.version && !r.missing.empty()) {
-      for (int32_t i : r.missing) self->wanted_.insert(i);
-    } else {
-      for (size_t i = 0; i < self->snapshot_.portions.size(); ++i) {
-        self->wanted_.insert(static_cast<int32_t>(i));
-      }
-    }
-  }
-  void Loop() {
-    auto next_announce = Clock::now();
-    int64_t sequence = 0;
-    while (!stop_) {
-      lcm_.handleTimeout(10);
-      // Portions a little apart, as a loaded sender would: a burst of 60 KB datagrams
-      // overflows the receiver's socket buffer and costs a retry round of 0.5 s.
-      for (int32_t i : wanted_) {
-        lcm_.publish("TSC_MEMORY_" + std::to_string(robot_),
-                     &snapshot_.portions[static_cast<size_t>(i)]);
-        std::this_thread::sleep_for(std::chrono::microseconds(300));
-      }
-      wanted_.clear();
-      if (Clock::now() >= next_announce) {
-        announce_t a{};
-        a.utime = 1;
-        a.protocol = announce_t::PROTOCOL;
-        a.robot = robot_;
-        a.boot_id = 4242;
-        a.sequence = ++sequence;
-        a.memory_version = snapshot_.version;
-        a.memory_digest = snapshot_.digest;
-        a.portions = static_cast<int32_t>(snapshot_.portions.size());
-        a.places = snapshot_.places;
-        a.edges = snapshot_.edges;
-        a.status = "running";
-        a.hmac_size = 0;
-        lcm_.publish("TSC_ANNOUNCE", &a);
-        next_announce = Clock::now() + milliseconds(200);
-      }
-    }
-  }
-
-  int32_t robot_;
-  MemorySnapshot snapshot_;
-  lcm::LCM lcm_;
-  std::set<int32_t> wanted_;  // the loop thread only (handlers run inside handleTimeout)
-  std::atomic<int64_t> requests_{0};
-  std::atomic<bool> stop_{false};
-  std::thread thread_;
-};
 
 class CrashTest : public ::testing::Test {
  protected:
@@ -455,7 +384,7 @@ class CrashDuringMergeTest : public CrashTest {
 
   // Restart on the crash image: the merge completes (again), or the peer is not fetched again;
   // either way tscd ends with the post-merge memory.
-  void RestartAndFinish(int instant, bool recorded, const PeerServer& peer) {
+  void RestartAndFinish(int instant, bool recorded, const testing_support::ServingPeer& peer) {
     const size_t before = Announces(*bus_, 1);
     const int64_t requests_before = peer.requests();
     fs::remove(dir_ / "restart.log");
@@ -493,8 +422,9 @@ TEST_F(CrashDuringMergeTest,
   ASSERT_NO_FATAL_FAILURE(LearnOurMemory());
   // The teammate's memory, served over the exchange protocol.
   const auto memory = PeerMemory(pre_->state.memory, 2, peer_places, 7);
-  PeerServer peer(2,
-                  BuildSnapshot(memory.memory, memory.map, SnapshotHeader{2, 4242, 1, 1}, 60000));
+  testing_support::ServingPeer peer(
+      2, BuildSnapshot(memory.memory, memory.map, SnapshotHeader{2, 4242, 1, 1}, 60000),
+      testing_support::kTestLcmUrl);
   ASSERT_NO_FATAL_FAILURE(RunReferenceMerge());
 
   // Instants: every other one uniform over [0, 1.2 x the reference's time to the merged log
