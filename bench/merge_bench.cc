@@ -156,5 +156,45 @@ void BM_SnapshotBytesPerPlace(benchmark::State& state) {
 }
 BENCHMARK(BM_SnapshotBytesPerPlace)->Arg(1000)->Arg(10000)->Unit(benchmark::kMillisecond);
 
+// Issue 23: bytes a peer that holds the previous version is sent when one place of `n` is seen
+// again (DESIGN §4 incremental exchange): the structure portions and the one changed body,
+// against every portion of the snapshot. Timed: building the second snapshot.
+void BM_SnapshotDeltaBytes(benchmark::State& state) {
+  const int n = static_cast<int>(state.range(0));
+  PlaceMemory memory = Pair(n, 50).second;
+  const TopologicalMap map;
+  const int portion_bytes = BusOptions{}.portion_bytes;
+  const MemorySnapshot before =
+      BuildSnapshot(memory, map, SnapshotHeader{2, 1, 1, 0}, portion_bytes);
+  DetectedPlace revisit;  // place n/2 seen again: a few of its views, shifted a little
+  revisit.index = n + 1;
+  revisit.descriptors =
+      memory.places()[static_cast<size_t>(n / 2)].samples.leftCols(4).array() + 0.01f;
+  revisit.members = {1, 2, 3, 4};
+  memory.Update(n / 2, revisit);
+  int64_t full = 0, delta = 0, structure = 0;
+  for (auto _ : state) {
+    const MemorySnapshot after =
+        BuildSnapshot(memory, map, SnapshotHeader{2, 1, 2, 0}, portion_bytes);
+    full = delta = structure = 0;
+    for (const memory_portion_t& p : after.portions) full += p.getEncodedSize();
+    for (int32_t i :
+         PortionsBeyond(after, {before.body_digests.begin(), before.body_digests.end()})) {
+      delta += after.portions[static_cast<size_t>(i)].getEncodedSize();
+      if (i < after.structure_portions)
+        structure += after.portions[static_cast<size_t>(i)].getEncodedSize();
+    }
+  }
+  state.counters["full_bytes"] = static_cast<double>(full);
+  state.counters["delta_bytes"] = static_cast<double>(delta);
+  state.counters["structure_bytes_per_place"] = static_cast<double>(structure) / n;
+  state.counters["delta_percent"] = 100.0 * static_cast<double>(delta) / static_cast<double>(full);
+}
+BENCHMARK(BM_SnapshotDeltaBytes)
+    ->Arg(100)
+    ->Arg(10000)
+    ->Unit(benchmark::kMillisecond)
+    ->Iterations(1);
+
 }  // namespace
 }  // namespace tsc

@@ -10,6 +10,7 @@
 #include <boost/asio/signal_set.hpp>
 #include <boost/asio/steady_timer.hpp>
 #include <csignal>
+#include <numeric>
 #include <random>
 #include <utility>
 
@@ -27,9 +28,9 @@ using Clock = std::chrono::steady_clock;
 
 namespace {
 
-// Memory portions published per turn of the event loop (~2 MB, a few ms): a memory of 10⁴
-// places is ~4 000 portions, which must not hold announces and timers back for a second.
-constexpr size_t kPortionsPerSlice = 32;
+// Memory portion bytes published per turn of the event loop (a few ms): a memory of 10⁴
+// places is ~1.5 GB of place bodies, which must not hold announces and timers back for long.
+constexpr int64_t kBytesPerSlice = 2 << 20;
 // "merged" place events published per turn of the loop.
 constexpr size_t kEventsPerSlice = 256;
 
@@ -42,7 +43,7 @@ int64_t RandomBootId() {
 
 std::vector<int32_t> AllPortions(const MemorySnapshot& snapshot) {
   std::vector<int32_t> all(snapshot.portions.size());
-  for (size_t i = 0; i < all.size(); ++i) all[i] = static_cast<int32_t>(i);
+  std::iota(all.begin(), all.end(), 0);
   return all;
 }
 
@@ -319,6 +320,7 @@ void Daemon::OnAnnounceTimer() {
   a.memory_version = snapshot_ ? snapshot_->version : 0;
   a.memory_digest = snapshot_ ? snapshot_->digest : 0;
   a.portions = snapshot_ ? static_cast<int32_t>(snapshot_->portions.size()) : 0;
+  a.structure_portions = snapshot_ ? snapshot_->structure_portions : 0;
   a.places = counters_.places;
   a.edges = counters_.edges;
   a.detected_places = counters_.detected_places;
@@ -508,10 +510,21 @@ std::shared_ptr<const MemorySnapshot> Daemon::HeldSnapshot(int64_t version) cons
 
 void Daemon::AnswerRequest(const memory_request_t& req) {
   // OnRequest serves missing portions of the snapshots the loop holds; what reaches here asked
-  // for everything, or for a version the loop no longer holds: the whole current snapshot.
-  spdlog::debug("robot {} asked for version {}; sending all {} portions of version {}",
-                req.requester, req.version, snapshot_->portions.size(), snapshot_->version);
-  PublishPortions(snapshot_, AllPortions(*snapshot_));
+  // for everything (the whole current snapshot), or for portions of a version the loop no
+  // longer holds: the current structure, from which the peer sees which bodies it still lacks.
+  if (req.missing.empty()) {
+    spdlog::debug("robot {} asked for version {}; sending all {} portions of version {}",
+                  req.requester, req.version, snapshot_->portions.size(), snapshot_->version);
+    PublishPortions(snapshot_, AllPortions(*snapshot_));
+    return;
+  }
+  spdlog::debug(
+      "robot {} asked for portions of version {}; sending the {} structure portions "
+      "of version {}",
+      req.requester, req.version, snapshot_->structure_portions, snapshot_->version);
+  std::vector<int32_t> structure(static_cast<size_t>(snapshot_->structure_portions));
+  std::iota(structure.begin(), structure.end(), 0);
+  PublishPortions(snapshot_, std::move(structure));
 }
 
 void Daemon::OnPeerAnnounce(const std::string& channel, const uint8_t* data, size_t size) {
@@ -567,18 +580,22 @@ void Daemon::PublishMemoryIfChanged() {
 
 void Daemon::BroadcastMemory() {
   last_memory_broadcast_ = Clock::now();
-  PublishPortions(snapshot_, AllPortions(*snapshot_));
+  // The structure and the bodies that changed: a peer that holds the others fills them in, one
+  // that does not asks for them (issue 23: one place changed in 10⁴ is not 10⁴ bodies again).
+  std::vector<int32_t> changed = PortionsBeyond(*snapshot_, broadcast_bodies_);
+  broadcast_bodies_ = {snapshot_->body_digests.begin(), snapshot_->body_digests.end()};
+  PublishPortions(snapshot_, std::move(changed));
 }
 
 void Daemon::PublishPortions(std::shared_ptr<const MemorySnapshot> snapshot,
                              std::vector<int32_t> indices, size_t from) {
   const std::string channel = "TSC_MEMORY_" + std::to_string(robot_);
   // Stopping, the loop has nothing else to do: everything at once, before "stopped".
-  const size_t end =
-      stopping_ ? indices.size() : std::min(indices.size(), from + kPortionsPerSlice);
-  for (size_t k = from; k < end; ++k) {
-    if (!team_.PublishSigned(ChannelFamily::kMemory, channel,
-                             snapshot->portions[static_cast<size_t>(indices[k])])) {
+  size_t end = from;
+  for (int64_t bytes = 0; end < indices.size() && (stopping_ || bytes < kBytesPerSlice); ++end) {
+    const memory_portion_t& portion = snapshot->portions[static_cast<size_t>(indices[end])];
+    bytes += portion.getEncodedSize();
+    if (!team_.PublishSigned(ChannelFamily::kMemory, channel, portion)) {
       team_.PublishFailed(channel);
     }
   }

@@ -16,6 +16,7 @@
 #include <optional>
 #include <string>
 #include <thread>
+#include <unordered_set>
 #include <vector>
 
 #include "core/pipeline/pipeline.h"
@@ -101,9 +102,10 @@ class Daemon {
   /// Broadcasts the memory when it changed since the last snapshot.
   void PublishMemoryIfChanged();
   void BroadcastMemory();
-  /// Sends the whole current snapshot to a peer that asked (see OnRequest for missing portions).
+  /// Answers a request OnRequest could not serve from a held snapshot: the whole current
+  /// snapshot when it asked for everything, else its structure (the peer then asks for bodies).
   void AnswerRequest(const memory_request_t& req);
-  /// Publishes the portions `indices` of `snapshot` from `from` on, kPortionsPerSlice per turn
+  /// Publishes the portions `indices` of `snapshot` from `from` on, ~kBytesPerSlice per turn
   /// of the loop (the rest posted), so timers and LCM run in between; all at once when stopping.
   void PublishPortions(std::shared_ptr<const MemorySnapshot> snapshot, std::vector<int32_t> indices,
                        size_t from = 0);
@@ -148,7 +150,9 @@ class Daemon {
   // The snapshot snapshot_ replaced: a peer still assembling it gets its missing portions from
   // it, so an exchange completes while the memory keeps changing (loop thread only).
   std::shared_ptr<const MemorySnapshot> previous_snapshot_;
-  bool broadcast_wanted_ = false;                   // loop thread only
+  bool broadcast_wanted_ = false;  // loop thread only
+  // The bodies the last broadcast carried or named: the next one sends only bodies beyond them.
+  std::unordered_set<int64_t> broadcast_bodies_;    // loop thread only
   std::vector<memory_request_t> waiting_requests_;  // loop thread only: for a fresh snapshot
   std::chrono::steady_clock::time_point last_memory_broadcast_{};
   int64_t announces_sent_ = 0;

@@ -16,12 +16,10 @@ place_ref_t Ref(PlaceId id) {
   return r;
 }
 
-learned_place_t ToMessage(const LearnedPlace& p, int pi, double lambda) {
+learned_place_t ToMessage(const LearnedPlace& p) {
   learned_place_t m;
   m.id = Ref(p.id);
   m.member_count = p.member_count;
-  m.slink_pi = pi;
-  m.slink_lambda = std::isinf(lambda) ? -1.0 : lambda;
   m.dims = static_cast<int32_t>(p.mean.size());
   m.mean.assign(p.mean.data(), p.mean.data() + p.mean.size());
   m.num_samples = static_cast<int32_t>(p.samples.cols());
@@ -33,6 +31,25 @@ learned_place_t ToMessage(const LearnedPlace& p, int pi, double lambda) {
   for (const PlaceId& s : p.sources) m.sources.push_back(Ref(s));
   m.num_sources = static_cast<int32_t>(m.sources.size());
   return m;
+}
+
+place_entry_t ToEntry(const learned_place_t& body, int64_t digest, int pi, double lambda) {
+  place_entry_t e;
+  e.id = body.id;
+  e.body_digest = digest;
+  e.slink_pi = pi;
+  e.slink_lambda = std::isinf(lambda) ? -1.0 : lambda;
+  return e;
+}
+
+// First 8 bytes (big endian) of a finished SHA-256.
+int64_t Prefix(EVP_MD_CTX* sha) {
+  unsigned char md[EVP_MAX_MD_SIZE];
+  unsigned int md_size = 0;
+  EVP_DigestFinal_ex(sha, md, &md_size);
+  uint64_t digest = 0;
+  for (int i = 0; i < 8; ++i) digest = (digest << 8) | md[i];
+  return static_cast<int64_t>(digest);
 }
 
 memory_node_t ToMessage(const MemoryNode& n, int index) {
@@ -73,18 +90,35 @@ MemorySnapshot BuildSnapshot(const PlaceMemory& memory, const TopologicalMap& ma
   blank.total_edges = snap.edges;
   blank.next_local = static_cast<int32_t>(memory.next_local_id());
   blank.first_place = 0;
-  blank.index = blank.count = 0;
+  blank.index = blank.count = blank.structure_portions = 0;
   blank.digest = 0;
-  blank.num_places = blank.num_nodes = blank.num_edges = 0;
+  blank.num_entries = blank.num_places = blank.num_nodes = blank.num_edges = 0;
   blank.hmac_size = 0;
   // Room left for the HMAC the exchange adds later (issue: merging).
   const int64_t budget = portion_bytes - 64;
   const int64_t empty_size = blank.getEncodedSize();
 
+  std::vector<memory_portion_t> bodies;
+  bodies.reserve(memory.places().size());
+  std::vector<place_entry_t> entries;
+  entries.reserve(memory.places().size());
+  const auto& pi = memory.slink().pi();
+  const auto& lambda = memory.slink().lambda();
+  for (size_t i = 0; i < memory.places().size(); ++i) {
+    memory_portion_t body = blank;
+    body.first_place = static_cast<int32_t>(i);
+    body.places.push_back(ToMessage(memory.places()[i]));
+    body.num_places = 1;
+    const int64_t digest = BodyDigest(body.places.front());
+    snap.body_digests.push_back(digest);
+    entries.push_back(ToEntry(body.places.front(), digest, pi[i], lambda[i]));
+    bodies.push_back(std::move(body));
+  }
+
   memory_portion_t current = blank;
   int64_t size = empty_size;
   auto flush = [&] {
-    current.num_places = static_cast<int32_t>(current.places.size());
+    current.num_entries = static_cast<int32_t>(current.entries.size());
     current.num_nodes = static_cast<int32_t>(current.nodes.size());
     current.num_edges = static_cast<int32_t>(current.edges.size());
     snap.portions.push_back(std::move(current));
@@ -95,14 +129,10 @@ MemorySnapshot BuildSnapshot(const PlaceMemory& memory, const TopologicalMap& ma
     if (size + item > budget && size > empty_size) flush();
     size += item;
   };
-
-  const auto& pi = memory.slink().pi();
-  const auto& lambda = memory.slink().lambda();
-  for (size_t i = 0; i < memory.places().size(); ++i) {
-    learned_place_t p = ToMessage(memory.places()[i], pi[i], lambda[i]);
-    room_for(p._getEncodedSizeNoHash());
-    if (current.places.empty()) current.first_place = static_cast<int32_t>(i);
-    current.places.push_back(std::move(p));
+  for (size_t i = 0; i < entries.size(); ++i) {
+    room_for(entries[i]._getEncodedSizeNoHash());
+    if (current.entries.empty()) current.first_place = static_cast<int32_t>(i);
+    current.entries.push_back(std::move(entries[i]));
   }
   for (size_t i = 0; i < memory.nodes().size(); ++i) {
     memory_node_t n = ToMessage(memory.nodes()[i], static_cast<int>(i));
@@ -114,12 +144,16 @@ MemorySnapshot BuildSnapshot(const PlaceMemory& memory, const TopologicalMap& ma
     room_for(e._getEncodedSizeNoHash());
     current.edges.push_back(std::move(e));
   }
-  flush();  // the last (or only, for an empty memory) portion
+  flush();  // the last (or only, for an empty memory) structure portion
 
+  snap.structure_portions = static_cast<int32_t>(snap.portions.size());
+  for (memory_portion_t& body : bodies) snap.portions.push_back(std::move(body));
   const int32_t count = static_cast<int32_t>(snap.portions.size());
   for (int32_t i = 0; i < count; ++i) {
-    snap.portions[static_cast<size_t>(i)].index = i;
-    snap.portions[static_cast<size_t>(i)].count = count;
+    memory_portion_t& p = snap.portions[static_cast<size_t>(i)];
+    p.index = i;
+    p.count = count;
+    p.structure_portions = snap.structure_portions;
   }
   snap.digest = SnapshotDigest(snap.portions);
   for (auto& p : snap.portions) p.digest = snap.digest;
@@ -130,6 +164,7 @@ int64_t SnapshotDigest(const std::vector<memory_portion_t>& portions) {
   EVP_MD_CTX* sha = EVP_MD_CTX_new();
   EVP_DigestInit_ex(sha, EVP_sha256(), nullptr);
   for (const memory_portion_t& p : portions) {
+    if (p.index >= p.structure_portions) continue;  // a body: named by its digest in the entries
     // Content only: the same memory republished under another version, boot or time keeps
     // its digest, so peers do not fetch it again.
     memory_portion_t unsigned_portion = p;
@@ -142,13 +177,32 @@ int64_t SnapshotDigest(const std::vector<memory_portion_t>& portions) {
     const std::vector<uint8_t> bytes = LcmBus::Encode(unsigned_portion);
     EVP_DigestUpdate(sha, bytes.data(), bytes.size());
   }
-  unsigned char md[EVP_MAX_MD_SIZE];
-  unsigned int md_size = 0;
-  EVP_DigestFinal_ex(sha, md, &md_size);
+  const int64_t digest = Prefix(sha);
   EVP_MD_CTX_free(sha);
-  uint64_t digest = 0;
-  for (int i = 0; i < 8; ++i) digest = (digest << 8) | md[i];
-  return static_cast<int64_t>(digest);
+  return digest;
+}
+
+int64_t BodyDigest(const learned_place_t& body) {
+  std::vector<uint8_t> bytes(static_cast<size_t>(body._getEncodedSizeNoHash()));
+  body._encodeNoHash(bytes.data(), 0, static_cast<int>(bytes.size()));
+  EVP_MD_CTX* sha = EVP_MD_CTX_new();
+  EVP_DigestInit_ex(sha, EVP_sha256(), nullptr);
+  EVP_DigestUpdate(sha, bytes.data(), bytes.size());
+  const int64_t digest = Prefix(sha);
+  EVP_MD_CTX_free(sha);
+  return digest;
+}
+
+std::vector<int32_t> PortionsBeyond(const MemorySnapshot& snapshot,
+                                    const std::unordered_set<int64_t>& known) {
+  std::vector<int32_t> indices;
+  for (int32_t i = 0; i < snapshot.structure_portions; ++i) indices.push_back(i);
+  for (size_t i = 0; i < snapshot.body_digests.size(); ++i) {
+    if (!known.count(snapshot.body_digests[i])) {
+      indices.push_back(snapshot.structure_portions + static_cast<int32_t>(i));
+    }
+  }
+  return indices;
 }
 
 }  // namespace tsc

@@ -1,8 +1,11 @@
 #pragma once
 // A robot's place memory and map as LCM portions (DESIGN §4): what tscd publishes on
-// TSC_MEMORY_<robot> when its memory changes and when a peer asks for it.
+// TSC_MEMORY_<robot> when its memory changes and when a peer asks for it. The structure
+// (place entries, tree, map) comes first; then one portion per place body, named in the
+// structure by its digest, so a change of one place changes the structure and that body only.
 
 #include <cstdint>
+#include <unordered_set>
 #include <vector>
 
 #include "core/map/topological_map.h"
@@ -13,8 +16,10 @@ namespace tsc {
 
 struct MemorySnapshot {
   int64_t version = 0;
-  int64_t digest = 0;  ///< first 8 bytes of SHA-256 over the portions' encodings (digest = 0)
+  int64_t digest = 0;  ///< SnapshotDigest of the structure portions
   std::vector<memory_portion_t> portions;
+  int32_t structure_portions = 0;     ///< portions [0, structure_portions) are the structure
+  std::vector<int64_t> body_digests;  ///< of place i, whose body is portion structure_portions + i
   int32_t places = 0;
   int32_t edges = 0;
 };
@@ -26,15 +31,24 @@ struct SnapshotHeader {
   int64_t utime = 0;
 };
 
-/// Cuts `memory` and `map` into portions whose encodings stay within `portion_bytes` (one
-/// place larger than that still gets a portion of its own). Deterministic for equal input.
+/// Cuts `memory` and `map` into structure portions whose encodings stay within `portion_bytes`
+/// and one body portion per place (as large as the place). Deterministic for equal input.
 /// Precondition: portion_bytes ≥ 4096.
 MemorySnapshot BuildSnapshot(const PlaceMemory& memory, const TopologicalMap& map,
                              const SnapshotHeader& header, int portion_bytes);
 
-/// First 8 bytes (big endian) of SHA-256 over the portions' encodings in order, each taken
-/// with utime, boot_id, version and digest zero and no HMAC (content only): what
-/// BuildSnapshot puts in `digest` and receivers check.
+/// First 8 bytes (big endian) of SHA-256 over the encodings of the structure portions among
+/// `portions` (index below structure_portions), in order, each taken with utime, boot_id,
+/// version and digest zero and no HMAC (content only): what BuildSnapshot puts in `digest`
+/// and receivers check. The structure names every body by its digest, so this covers them.
 int64_t SnapshotDigest(const std::vector<memory_portion_t>& portions);
+
+/// First 8 bytes (big endian) of SHA-256 over the body's LCM encoding (without fingerprint).
+int64_t BodyDigest(const learned_place_t& body);
+
+/// The structure portions of `snapshot` and the bodies whose digest is not in `known` (what a
+/// receiver holding the bodies `known` needs), in index order.
+std::vector<int32_t> PortionsBeyond(const MemorySnapshot& snapshot,
+                                    const std::unordered_set<int64_t>& known);
 
 }  // namespace tsc

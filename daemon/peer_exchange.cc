@@ -1,6 +1,7 @@
 #include "daemon/peer_exchange.h"
 
 #include <chrono>
+#include <numeric>
 
 namespace tsc {
 
@@ -20,6 +21,7 @@ bool PeerExchange::OnAnnounce(const announce_t& a, Clock::time_point now) {
   p.sequence = a.sequence;
   p.version = a.memory_version;
   p.digest = a.memory_digest;
+  p.structure_portions = a.structure_portions;
   p.seen = now;
   return true;
 }
@@ -65,10 +67,10 @@ std::vector<memory_request_t> PeerExchange::Tick(Clock::time_point now) {
       return {};
     }
     last_request_ = now;
-    // Before the first portion arrives every portion is missing: ask for all (empty list).
-    std::vector<int32_t> missing;
-    if (assembler_->started()) missing = assembler_->Missing();
-    return {Request(*fetching_, fetching_version_, std::move(missing))};
+    // The version being assembled, which a newer broadcast or answer may have moved past the
+    // announced one: portions asked for by index must be of the version they index.
+    const int64_t version = assembler_->started() ? assembler_->version() : fetching_version_;
+    return {Request(*fetching_, version, FirstMissing())};
   }
   // Start with the first wanted peer at or after the round-robin position.
   std::optional<int32_t> pick;
@@ -80,15 +82,35 @@ std::vector<memory_request_t> PeerExchange::Tick(Clock::time_point now) {
   next_start_ = *pick + 1;
   fetching_ = *pick;
   fetching_version_ = peers_[*pick].version;
-  assembler_.emplace(*pick);
+  const auto known = known_.find(*pick);
+  assembler_.emplace(*pick, known == known_.end() ? nullptr : known->second);
   retries_ = 0;
   last_request_ = now;
-  return {Request(*pick, fetching_version_, {})};
+  return {Request(*pick, fetching_version_, FirstMissing())};
+}
+
+std::vector<int32_t> PeerExchange::FirstMissing() const {
+  if (assembler_->started()) return assembler_->Missing();
+  // Nothing has come yet. Without bodies of this peer: everything (the empty list); with
+  // them: the structure, which says which bodies are new.
+  const auto known = known_.find(*fetching_);
+  const int32_t structure = peers_.at(*fetching_).structure_portions;
+  if (known == known_.end() || structure <= 0) return {};
+  std::vector<int32_t> missing(static_cast<size_t>(structure));
+  std::iota(missing.begin(), missing.end(), 0);
+  return missing;
+}
+
+size_t PeerExchange::known_bodies() const {
+  size_t n = 0;
+  for (const auto& [robot, bodies] : known_) n += bodies->size();
+  return n;
 }
 
 std::optional<SnapshotAssembler> PeerExchange::OnPortion(const memory_portion_t& p,
                                                          Clock::time_point now) {
   if (!fetching_ || p.robot != *fetching_ || !assembler_) return std::nullopt;
+  const bool had_structure = assembler_->structure_complete();
   const SnapshotAssembler::Result r = assembler_->Accept(p);
   if (r.verdict == SnapshotAssembler::Verdict::kRejected) {
     ++rejected_portions_;
@@ -97,9 +119,15 @@ std::optional<SnapshotAssembler> PeerExchange::OnPortion(const memory_portion_t&
   }
   if (r.verdict == SnapshotAssembler::Verdict::kAccepted) {
     retries_ = 0;  // progress: the retry budget is for silence
-    (void)now;
+    // The structure we asked for alone just came in whole: ask for the bodies it names that we
+    // lack at the next tick instead of after the retry period.
+    if (!had_structure && assembler_->structure_complete() && known_.count(p.robot)) {
+      last_request_ = now - options_.retry;
+    }
   }
   if (!assembler_->complete()) return std::nullopt;
+  // Kept before the caller checks them; a check that fails makes the caller Forget them.
+  known_[p.robot] = std::make_shared<const PlaceBodies>(assembler_->Bodies());
   std::optional<SnapshotAssembler> complete = std::move(assembler_);
   fetching_.reset();
   assembler_.reset();

@@ -2,12 +2,15 @@
 // Which peer to fetch a memory from, and when to ask again (DESIGN §4, chapter 4): peers are
 // discovered from their announces; the robot fetches one peer's memory at a time, only when
 // that peer announces a memory it has not merged yet; lost portions are asked for again until
-// the snapshot completes or the attempt is given up. Pure logic with the time passed in, so
+// the snapshot completes or the attempt is given up. The place bodies of each peer's last
+// complete memory are kept, so the next fetch asks for the structure first and then only for
+// the bodies it names that are new (issue 23). Pure logic with the time passed in, so
 // loss and timeouts are tested without sockets; the daemon does the sending.
 
 #include <chrono>
 #include <cstdint>
 #include <map>
+#include <memory>
 #include <optional>
 #include <string>
 #include <vector>
@@ -50,8 +53,11 @@ class PeerExchange {
   std::vector<memory_request_t> Tick(Clock::time_point now);
   /// The caller merged (or deliberately skipped) this snapshot: it will not be fetched again.
   void MarkMerged(int32_t robot, MergedVersion v);
-  /// The merge of `robot`'s memory failed: fetch it again when it is next announced.
-  void Forget(int32_t robot) { merged_.erase(robot); }
+  /// The merge of `robot`'s memory failed: fetch it again, whole, when it is next announced.
+  void Forget(int32_t robot) {
+    merged_.erase(robot);
+    known_.erase(robot);
+  }
 
   std::optional<int32_t> fetching() const { return fetching_; }
   int64_t replays() const { return replays_; }
@@ -64,6 +70,8 @@ class PeerExchange {
   size_t merged_peers() const { return merged_.size(); }
   /// Portions of the memory being fetched held until it completes.
   size_t buffered_portions() const { return assembler_ ? assembler_->buffered() : 0; }
+  /// Place bodies kept from the peers' last complete memories (shared with the merges).
+  size_t known_bodies() const;
 
  private:
   struct Peer {
@@ -71,15 +79,19 @@ class PeerExchange {
     int64_t sequence = 0;
     int64_t version = 0;
     int64_t digest = 0;
+    int32_t structure_portions = 0;
     Clock::time_point seen{};
   };
   bool Wanted(int32_t robot, const Peer& peer) const;
+  /// What to ask the peer being fetched for now.
+  std::vector<int32_t> FirstMissing() const;
   memory_request_t Request(int32_t robot, int64_t version, std::vector<int32_t> missing) const;
 
   int32_t self_;
   PeerExchangeOptions options_;
   std::map<int32_t, MergedVersion> merged_;
   std::map<int32_t, Peer> peers_;
+  std::map<int32_t, std::shared_ptr<const PlaceBodies>> known_;  // by peer
   std::optional<int32_t> fetching_;
   std::optional<SnapshotAssembler> assembler_;
   int64_t fetching_version_ = 0;

@@ -29,7 +29,12 @@ std::string CheckPlace(const learned_place_t& p) {
   }
   if (p.member_count < 1) return "place without members";
   if (p.id.robot <= 0 || p.id.local <= 0) return "bad place id";
-  if (!std::isfinite(p.slink_lambda)) return "non-finite SLINK height";
+  return "";
+}
+
+std::string CheckEntry(const place_entry_t& e) {
+  if (e.id.robot <= 0 || e.id.local <= 0) return "bad place id";
+  if (!std::isfinite(e.slink_lambda)) return "non-finite SLINK height";
   return "";
 }
 
@@ -40,7 +45,8 @@ PlaceMemory ToPlaceMemory(const PeerSnapshot& snapshot, const PlaceMemoryOptions
   std::vector<int> pi;
   std::vector<double> lambda;
   places.reserve(snapshot.places.size());
-  for (const learned_place_t& m : snapshot.places) {
+  for (size_t i = 0; i < snapshot.places.size(); ++i) {
+    const learned_place_t& m = *snapshot.places[i];
     LearnedPlace p;
     p.id = PlaceId{static_cast<uint32_t>(m.id.robot), static_cast<uint32_t>(m.id.local)};
     p.mean = Eigen::Map<const Eigen::VectorXf>(m.mean.data(), m.dims);
@@ -55,8 +61,9 @@ PlaceMemory ToPlaceMemory(const PeerSnapshot& snapshot, const PlaceMemoryOptions
     }
     std::sort(p.sources.begin(), p.sources.end());
     places.push_back(std::move(p));
-    pi.push_back(m.slink_pi);
-    lambda.push_back(m.slink_lambda < 0 ? Slink::kInfinity : m.slink_lambda);
+    const place_entry_t& e = snapshot.entries[i];
+    pi.push_back(e.slink_pi);
+    lambda.push_back(e.slink_lambda < 0 ? Slink::kInfinity : e.slink_lambda);
   }
   return PlaceMemory::Restore(static_cast<uint32_t>(snapshot.robot), options, std::move(places),
                               Slink(std::move(pi), std::move(lambda)),
@@ -68,7 +75,7 @@ TopologicalMap ToTopologicalMap(const PeerSnapshot& snapshot) {
   auto id = [](const place_ref_t& r) {
     return PlaceId{static_cast<uint32_t>(r.robot), static_cast<uint32_t>(r.local)};
   };
-  for (const learned_place_t& p : snapshot.places) map.AddPlace(id(p.id));
+  for (const place_entry_t& e : snapshot.entries) map.AddPlace(id(e.id));
   for (const map_edge_t& e : snapshot.edges) {
     if (id(e.a) == id(e.b)) throw std::invalid_argument("map edge from a place to itself");
     MapEdge edge;
@@ -80,10 +87,33 @@ TopologicalMap ToTopologicalMap(const PeerSnapshot& snapshot) {
   return map;
 }
 
+PlaceBodies SnapshotAssembler::Bodies() const {
+  PlaceBodies bodies;
+  for (const auto& [index, portion] : structure_) {
+    for (int32_t k = 0; k < portion.num_entries; ++k) {
+      const auto i = static_cast<size_t>(portion.first_place + k);
+      if (bodies_[i])
+        bodies.emplace(portion.entries[static_cast<size_t>(k)].body_digest, bodies_[i]);
+    }
+  }
+  return bodies;
+}
+
 void SnapshotAssembler::Reset() {
+  carried_.clear();
+  Restart();
+}
+
+void SnapshotAssembler::Restart() {
   version_ = -1;
   count_ = 0;
-  portions_.clear();
+  structure_portions_ = 0;
+  structure_.clear();
+  bodies_.clear();
+  received_.clear();
+  digests_.clear();
+  bodies_present_ = 0;
+  received_bodies_ = 0;
 }
 
 SnapshotAssembler::Result SnapshotAssembler::Accept(const memory_portion_t& p) {
@@ -95,52 +125,132 @@ SnapshotAssembler::Result SnapshotAssembler::Accept(const memory_portion_t& p) {
       p.total_nodes > 2 * kMaxPlaces || p.total_edges < 0) {
     return reject("impossible totals");
   }
-  if (p.num_places != static_cast<int32_t>(p.places.size()) ||
+  if (p.structure_portions < 1 || p.count - p.structure_portions != p.total_places) {
+    return reject("bodies and places disagree");
+  }
+  if (p.num_entries != static_cast<int32_t>(p.entries.size()) ||
+      p.num_places != static_cast<int32_t>(p.places.size()) ||
       p.num_nodes != static_cast<int32_t>(p.nodes.size()) ||
       p.num_edges != static_cast<int32_t>(p.edges.size())) {
     return reject("array lengths disagree");
   }
-  if (p.first_place < 0 || p.first_place + p.num_places > p.total_places) {
-    return reject("places outside the snapshot");
-  }
-  for (const learned_place_t& place : p.places) {
-    const std::string why = CheckPlace(place);
-    if (!why.empty()) return reject(why);
-  }
-  for (const memory_node_t& n : p.nodes) {
-    if (n.index < 0 || n.index >= p.total_nodes || !std::isfinite(n.height) ||
-        n.num_children != static_cast<int32_t>(n.children.size())) {
-      return reject("bad tree node");
+  if (p.index < p.structure_portions) {
+    if (p.num_places != 0) return reject("a body in the structure");
+    if (p.first_place < 0 || p.first_place + p.num_entries > p.total_places) {
+      return reject("places outside the snapshot");
     }
+    for (const place_entry_t& e : p.entries) {
+      const std::string why = CheckEntry(e);
+      if (!why.empty()) return reject(why);
+    }
+    for (const memory_node_t& n : p.nodes) {
+      if (n.index < 0 || n.index >= p.total_nodes || !std::isfinite(n.height) ||
+          n.num_children != static_cast<int32_t>(n.children.size())) {
+        return reject("bad tree node");
+      }
+    }
+  } else {
+    if (p.num_places != 1 || p.num_entries != 0 || p.num_nodes != 0 || p.num_edges != 0 ||
+        p.first_place != p.index - p.structure_portions) {
+      return reject("a body portion that is not one place");
+    }
+    const std::string why = CheckPlace(p.places.front());
+    if (!why.empty()) return reject(why);
   }
 
   if (started() && p.version < version_) return {Verdict::kStale, "older version"};
   if (!started() || p.version > version_) {
-    Reset();
+    Carry();
+    Restart();
     version_ = p.version;
     boot_id_ = p.boot_id;
     digest_ = p.digest;
     count_ = p.count;
+    structure_portions_ = p.structure_portions;
     total_places_ = p.total_places;
     total_nodes_ = p.total_nodes;
     total_edges_ = p.total_edges;
+    bodies_.assign(static_cast<size_t>(total_places_), nullptr);
+    received_.assign(static_cast<size_t>(total_places_), false);
+    digests_.assign(static_cast<size_t>(total_places_), 0);
   }
-  if (p.count != count_ || p.digest != digest_ || p.total_places != total_places_ ||
-      p.total_nodes != total_nodes_ || p.total_edges != total_edges_ || p.boot_id != boot_id_) {
+  if (p.count != count_ || p.structure_portions != structure_portions_ || p.digest != digest_ ||
+      p.total_places != total_places_ || p.total_nodes != total_nodes_ ||
+      p.total_edges != total_edges_ || p.boot_id != boot_id_) {
     return reject("disagrees with the other portions of version " + std::to_string(version_));
   }
-  if (portions_.count(p.index)) return {Verdict::kDuplicate, ""};
+  return Keep(p);
+}
+
+SnapshotAssembler::Result SnapshotAssembler::Keep(const memory_portion_t& p) {
+  if (p.index >= structure_portions_) {
+    const auto i = static_cast<size_t>(p.first_place);
+    if (received_[i]) return {Verdict::kDuplicate, ""};
+    // A body that came anyway replaces a known one: its digest is checked against the entry.
+    if (!bodies_[i]) ++bodies_present_;
+    bodies_[i] = std::make_shared<const learned_place_t>(p.places.front());
+    received_[i] = true;
+    ++received_bodies_;
+    return {Verdict::kAccepted, ""};
+  }
+  if (structure_.count(p.index)) return {Verdict::kDuplicate, ""};
   memory_portion_t kept = p;
   kept.hmac_size = 0;  // the tag was checked by the caller; the digest covers unsigned portions
   kept.hmac.clear();
-  portions_.emplace(p.index, std::move(kept));
+  structure_.emplace(p.index, std::move(kept));
+  if (structure_complete()) FillKnownBodies();
   return {Verdict::kAccepted, ""};
+}
+
+bool SnapshotAssembler::knows_bodies() const {
+  return (known_ && !known_->empty()) || !carried_.empty();
+}
+
+void SnapshotAssembler::FillKnownBodies() {
+  if (!knows_bodies()) return;
+  auto find = [&](int64_t digest) -> std::shared_ptr<const learned_place_t> {
+    if (known_) {
+      if (const auto it = known_->find(digest); it != known_->end()) return it->second;
+    }
+    const auto it = carried_.find(digest);
+    return it == carried_.end() ? nullptr : it->second;
+  };
+  for (const auto& [index, portion] : structure_) {
+    for (int32_t k = 0; k < portion.num_entries; ++k) {
+      const auto i = static_cast<size_t>(portion.first_place + k);
+      if (bodies_[i]) continue;
+      const int64_t digest = portion.entries[static_cast<size_t>(k)].body_digest;
+      bodies_[i] = find(digest);
+      if (!bodies_[i]) continue;
+      digests_[i] = digest;
+      ++bodies_present_;
+    }
+  }
+  carried_.clear();  // what this version uses is in bodies_ now, and carried again from there
+}
+
+void SnapshotAssembler::Carry() {
+  // A peer whose memory changes faster than a whole copy of it arrives would otherwise restart
+  // us from nothing at each change: the bodies of the version given up are kept for the next,
+  // each under the digest of its content (computed for the ones received, so they need no
+  // further check), until a whole structure has named what it still uses.
+  for (size_t i = 0; i < bodies_.size(); ++i) {
+    if (!bodies_[i]) continue;
+    carried_.emplace(received_[i] ? BodyDigest(*bodies_[i]) : digests_[i], bodies_[i]);
+  }
+  // Versions that never showed a whole structure cannot pile up without bound.
+  if (carried_.size() > static_cast<size_t>(kMaxPlaces)) carried_.clear();
 }
 
 std::vector<int32_t> SnapshotAssembler::Missing() const {
   std::vector<int32_t> missing;
-  for (int32_t i = 0; i < count_; ++i) {
-    if (!portions_.count(i)) missing.push_back(i);
+  for (int32_t i = 0; i < structure_portions_; ++i) {
+    if (!structure_.count(i)) missing.push_back(i);
+  }
+  // Known bodies are matched only once the structure names the digests.
+  if (!structure_complete() && knows_bodies()) return missing;
+  for (int32_t i = 0; i < total_places_; ++i) {
+    if (!bodies_[static_cast<size_t>(i)]) missing.push_back(structure_portions_ + i);
   }
   return missing;
 }
@@ -153,8 +263,8 @@ std::optional<PeerSnapshot> SnapshotAssembler::Take(std::string* reason) {
   };
   if (!complete()) return fail("incomplete");
   std::vector<memory_portion_t> ordered;
-  ordered.reserve(portions_.size());
-  for (const auto& [index, portion] : portions_) ordered.push_back(portion);
+  ordered.reserve(structure_.size());
+  for (const auto& [index, portion] : structure_) ordered.push_back(portion);
   if (SnapshotDigest(ordered) != digest_) return fail("digest mismatch");
 
   PeerSnapshot snap;
@@ -162,30 +272,44 @@ std::optional<PeerSnapshot> SnapshotAssembler::Take(std::string* reason) {
   snap.boot_id = boot_id_;
   snap.version = version_;
   snap.digest = digest_;
-  for (auto& [index, portion] : portions_) {
+  for (auto& [index, portion] : structure_) {
     snap.next_local = portion.next_local;
-    if (!portion.places.empty() &&
-        portion.first_place != static_cast<int32_t>(snap.places.size())) {
+    if (!portion.entries.empty() &&
+        portion.first_place != static_cast<int32_t>(snap.entries.size())) {
       return fail("places out of order");
     }
-    for (auto& p : portion.places) snap.places.push_back(std::move(p));
+    for (auto& e : portion.entries) snap.entries.push_back(std::move(e));
     for (auto& n : portion.nodes) snap.nodes.push_back(std::move(n));
     for (auto& e : portion.edges) snap.edges.push_back(std::move(e));
   }
-  if (snap.places.size() != static_cast<size_t>(total_places_) ||
+  if (snap.entries.size() != static_cast<size_t>(total_places_) ||
       snap.nodes.size() != static_cast<size_t>(total_nodes_) ||
       snap.edges.size() != static_cast<size_t>(total_edges_)) {
     return fail("totals not reached");
   }
-  const int32_t dims = snap.places.empty() ? 0 : snap.places.front().dims;
-  std::set<std::pair<int32_t, int32_t>> ids;
-  const int32_t n = static_cast<int32_t>(snap.places.size());
+  const int32_t n = static_cast<int32_t>(snap.entries.size());
   for (int32_t i = 0; i < n; ++i) {
-    const learned_place_t& p = snap.places[static_cast<size_t>(i)];
-    if (p.dims != dims) return fail("places of different dimensions");
-    if (!ids.insert({p.id.robot, p.id.local}).second) return fail("duplicate place id");
+    const place_entry_t& e = snap.entries[static_cast<size_t>(i)];
+    const learned_place_t& body = *bodies_[static_cast<size_t>(i)];
+    // Known bodies were checked when they came; a received one is checked here.
+    if (received_[static_cast<size_t>(i)] && BodyDigest(body) != e.body_digest) {
+      return fail("a place body does not match its digest");
+    }
+    if (body.id.robot != e.id.robot || body.id.local != e.id.local) {
+      return fail("a place body of another place");
+    }
+  }
+  snap.places = std::move(bodies_);
+  const int32_t dims = snap.places.empty() ? 0 : snap.places.front()->dims;
+  std::set<std::pair<int32_t, int32_t>> ids;
+  for (int32_t i = 0; i < n; ++i) {
+    const place_entry_t& e = snap.entries[static_cast<size_t>(i)];
+    if (snap.places[static_cast<size_t>(i)]->dims != dims) {
+      return fail("places of different dimensions");
+    }
+    if (!ids.insert({e.id.robot, e.id.local}).second) return fail("duplicate place id");
     // SLINK pointer representation: π(i) > i for all but the last, whose λ is ∞ (−1 here).
-    if (i + 1 < n && (p.slink_pi <= i || p.slink_pi >= n || p.slink_lambda < 0)) {
+    if (i + 1 < n && (e.slink_pi <= i || e.slink_pi >= n || e.slink_lambda < 0)) {
       return fail("inconsistent SLINK pointers");
     }
   }

@@ -3,17 +3,26 @@
 // with duplicates and losses), says which are still missing so they can be asked for again,
 // and hands over the snapshot only once it is complete and consistent. Every portion is
 // checked before it is kept (DESIGN §4): wrong robot, impossible sizes, non-finite numbers,
-// totals that disagree between portions; a finished snapshot must match its digest.
+// totals that disagree between portions; a finished snapshot must match its digest, and each
+// body received must match the digest the structure gives it. Bodies the receiver kept from
+// an earlier version of the same peer (`known`), and those of a version whose assembly a newer
+// one replaced, fill in for their portions once the structure names them, so only what
+// changed is asked for (issue 23).
 
 #include <cstdint>
 #include <map>
+#include <memory>
 #include <optional>
 #include <string>
+#include <unordered_map>
 #include <vector>
 
 #include "daemon/memory_snapshot.h"
 
 namespace tsc {
+
+/// Place bodies by their digest (BodyDigest), shared between the snapshots that hold them.
+using PlaceBodies = std::unordered_map<int64_t, std::shared_ptr<const learned_place_t>>;
 
 /// A peer's memory as it was published, checked for consistency.
 struct PeerSnapshot {
@@ -22,8 +31,9 @@ struct PeerSnapshot {
   int64_t version = 0;
   int64_t digest = 0;
   int32_t next_local = 0;
-  std::vector<learned_place_t> places;  ///< in snapshot order
-  std::vector<memory_node_t> nodes;     ///< in index order
+  std::vector<place_entry_t> entries;                          ///< in snapshot order
+  std::vector<std::shared_ptr<const learned_place_t>> places;  ///< the body of each entry
+  std::vector<memory_node_t> nodes;                            ///< in index order
   std::vector<map_edge_t> edges;
 };
 
@@ -42,8 +52,9 @@ class SnapshotAssembler {
     std::string reason;  ///< why a portion was rejected or stale
   };
 
-  /// Collects the memory of `robot`.
-  explicit SnapshotAssembler(int32_t robot) : robot_(robot) {}
+  /// Collects the memory of `robot`; bodies in `known` need not be sent again.
+  explicit SnapshotAssembler(int32_t robot, std::shared_ptr<const PlaceBodies> known = nullptr)
+      : robot_(robot), known_(std::move(known)) {}
 
   /// Checks and keeps one portion. A portion of a newer version starts the assembly afresh;
   /// one of an older version is stale.
@@ -54,11 +65,20 @@ class SnapshotAssembler {
   int64_t version() const { return version_; }
   /// The digest the portions claim (checked by Take).
   int64_t digest() const { return digest_; }
-  /// Portion indices not received yet (all of them before the first portion).
+  /// Portion indices to ask for: structure portions not received, and bodies neither received
+  /// nor known (while the structure is incomplete, with known bodies, no body: the structure
+  /// will say which are known). Empty before the first portion.
   std::vector<int32_t> Missing() const;
-  /// Portions kept so far.
-  size_t buffered() const { return portions_.size(); }
-  bool complete() const { return started() && portions_.size() == static_cast<size_t>(count_); }
+  /// Portions kept so far (received, not filled in from known bodies).
+  size_t buffered() const { return structure_.size() + received_bodies_; }
+  /// Every structure portion is in.
+  bool structure_complete() const {
+    return started() && structure_.size() == static_cast<size_t>(structure_portions_);
+  }
+  bool complete() const { return structure_complete() && bodies_present_ == total_places_; }
+  /// Once complete: the bodies by the digests the structure gives them (checked by Take), what
+  /// the receiver keeps to ask only for changes next time.
+  PlaceBodies Bodies() const;
   /// The snapshot, once complete: the portions joined in order and checked as a whole (digest,
   /// place ranges, node indices, edge places). nullopt with `reason` set when inconsistent;
   /// the assembler then starts over.
@@ -70,17 +90,30 @@ class SnapshotAssembler {
   static constexpr int32_t kMaxDims = 100000;
 
  private:
-  void Reset();
+  void Reset();    // everything, for a snapshot taken or refused
+  void Restart();  // for a newer version: what Carry kept stays
+  Result Keep(const memory_portion_t& p);
+  bool knows_bodies() const;
+  void FillKnownBodies();
+  void Carry();
 
   int32_t robot_;
+  std::shared_ptr<const PlaceBodies> known_;
   int64_t version_ = -1;
   int64_t boot_id_ = 0;
   int64_t digest_ = 0;
   int32_t count_ = 0;
+  int32_t structure_portions_ = 0;
   int32_t total_places_ = 0;
   int32_t total_nodes_ = 0;
   int32_t total_edges_ = 0;
-  std::map<int32_t, memory_portion_t> portions_;
+  std::map<int32_t, memory_portion_t> structure_;
+  std::vector<std::shared_ptr<const learned_place_t>> bodies_;  ///< by place index
+  std::vector<bool> received_;    ///< body i came in a portion (its digest is still to check)
+  std::vector<int64_t> digests_;  ///< of body i when it was filled in (known or carried)
+  PlaceBodies carried_;           ///< bodies of the version this assembly replaced
+  int32_t bodies_present_ = 0;
+  size_t received_bodies_ = 0;
 };
 
 }  // namespace tsc

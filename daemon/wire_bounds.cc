@@ -76,7 +76,7 @@ constexpr size_t kHash = 8;
 constexpr size_t kPlaceRef = 4 + 4;
 
 void LearnedPlace(WireWalker& w) {
-  w.Skip(kPlaceRef + 8 + 4 + 8);  // id, member_count, slink_pi, slink_lambda
+  w.Skip(kPlaceRef + 8);  // id, member_count
   const int64_t dims = w.Length(4);
   w.Array(dims, 4);                     // mean
   const int64_t samples = w.Length(4);  // samples[num_samples][dims]
@@ -97,7 +97,8 @@ void MemoryNode(WireWalker& w) {
 template <>
 bool ArrayLengthsFit<announce_t>(const uint8_t* data, size_t size) {
   WireWalker w(data, size);
-  w.Skip(kHash + 8 + 2 + 4 + 8 + 8 + 8 + 8 + 4 + 4 + 4 + 4 + 8 + 8 + 8 + 4);
+  // utime … portions, structure_portions, places … queue_fill
+  w.Skip(kHash + 8 + 2 + 4 + 8 + 8 + 8 + 8 + 4 + 4 + 4 + 4 + 4 + 8 + 8 + 8 + 4);
   w.String();  // status
   w.Hmac();
   return w.ok();
@@ -115,7 +116,9 @@ bool ArrayLengthsFit<memory_request_t>(const uint8_t* data, size_t size) {
 template <>
 bool ArrayLengthsFit<memory_portion_t>(const uint8_t* data, size_t size) {
   WireWalker w(data, size);
-  w.Skip(kHash + 8 + 4 + 8 + 8 + 4 + 4 + 8 + 4 + 4 + 4 + 4 + 4);
+  // utime … count, structure_portions, digest … next_local
+  w.Skip(kHash + 8 + 4 + 8 + 8 + 4 + 4 + 4 + 8 + 4 + 4 + 4 + 4 + 4);
+  w.Array(w.Length(4), kPlaceRef + 8 + 4 + 8);  // entries: id, digest, slink_pi, slink_lambda
   const int64_t places = w.Length(4);
   if (w.Fits(places))
     for (int64_t i = 0; i < places && w.ok(); ++i) LearnedPlace(w);

@@ -129,6 +129,23 @@ size_t WriteSnapshotSeeds(const fs::path& out) {
   }
   Write(out / "fuzz_snapshot_assembler/in-order", in_order);
   Write(out / "fuzz_snapshot_assembler/reversed-with-duplicate", shuffled);
+
+  // The next version after place 5 was seen again: its structure and the one new body, which
+  // the assembler completes from the bodies of the first (issue 23).
+  auto changed = memory;
+  tsc::DetectedPlace revisit;
+  revisit.index = 13;
+  revisit.descriptors = Eigen::MatrixXf::Constant(32, 2, 0.5f);
+  revisit.members = {1300, 1301};
+  changed.memory.Update(5, revisit);
+  const tsc::MemorySnapshot next =
+      tsc::BuildSnapshot(changed.memory, changed.map, tsc::SnapshotHeader{2, 77, 4, 0}, 4096);
+  std::vector<uint8_t> two_versions = in_order;
+  for (int32_t i :
+       tsc::PortionsBeyond(next, {snapshot.body_digests.begin(), snapshot.body_digests.end()})) {
+    AppendFramed(two_versions, LcmBus::Encode(next.portions[static_cast<size_t>(i)]));
+  }
+  Write(out / "fuzz_snapshot_assembler/next-version-changed-body-only", two_versions);
   return snapshot.portions.size();
 }
 

@@ -1,10 +1,13 @@
 // Fuzz target: a peer's memory as the daemon receives it. The input is a stream of portions,
 // each a 4-byte big-endian length and a memory_portion_t encoding; they are decoded, given
-// the digest of what arrived (so the fuzzer gets past the digest check, as a peer that
-// computes digests honestly over a malicious memory would), fed to a SnapshotAssembler, and a
-// snapshot it accepts is turned into a place memory and a map as the daemon does before
-// merging.
+// the digest of what arrived of their version (so the fuzzer gets past the digest check, as a
+// peer that computes digests honestly over a malicious memory would), fed to a
+// SnapshotAssembler, and a snapshot it accepts is turned into a place memory and a map as the
+// daemon does before merging. The bodies of a complete snapshot are offered to the next
+// assembly, as the daemon does for a peer's next version (issue 23).
 
+#include <map>
+#include <memory>
 #include <optional>
 #include <stdexcept>
 #include <string>
@@ -29,15 +32,22 @@ extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
     at += n;
   }
   if (portions.empty()) return 0;
-  const int64_t digest = tsc::SnapshotDigest(portions);
-  tsc::SnapshotAssembler dut(portions.front().robot);
+  std::map<int64_t, std::vector<tsc::memory_portion_t>> by_version;
+  for (const tsc::memory_portion_t& p : portions) by_version[p.version].push_back(p);
+  std::map<int64_t, int64_t> digests;
+  for (const auto& [version, of_version] : by_version) {
+    digests[version] = tsc::SnapshotDigest(of_version);
+  }
+  std::optional<tsc::SnapshotAssembler> dut(std::in_place, portions.front().robot);
   for (tsc::memory_portion_t& p : portions) {
-    p.digest = digest;
-    dut.Accept(p);
-    (void)dut.Missing();
-    if (!dut.complete()) continue;
+    p.digest = digests[p.version];
+    dut->Accept(p);
+    (void)dut->Missing();
+    if (!dut->complete()) continue;
+    auto known = std::make_shared<const tsc::PlaceBodies>(dut->Bodies());
     std::string reason;
-    const std::optional<tsc::PeerSnapshot> snapshot = dut.Take(&reason);
+    const std::optional<tsc::PeerSnapshot> snapshot = dut->Take(&reason);
+    dut.emplace(portions.front().robot, std::move(known));
     if (!snapshot) continue;
     try {
       (void)tsc::ToPlaceMemory(*snapshot, tsc::PlaceMemoryOptions{});

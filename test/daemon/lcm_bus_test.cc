@@ -44,11 +44,14 @@ void PutInt32(std::vector<uint8_t>& bytes, size_t at, int32_t value) {
     bytes.at(at + i) = static_cast<uint8_t>(static_cast<uint32_t>(value) >> (24 - 8 * i));
 }
 
-// A portion holding one place of `dims` dimensions and one sample, one node with one child.
+// A portion holding one place entry, one place of `dims` dimensions and one sample, one node
+// with one child.
 memory_portion_t SamplePortion(int32_t dims) {
   memory_portion_t p{};
   p.robot = 2;
   p.count = 1;
+  p.entries = {place_entry_t{}};
+  p.num_entries = 1;
   learned_place_t place{};
   place.id.robot = 2;
   place.dims = dims;
@@ -68,10 +71,12 @@ memory_portion_t SamplePortion(int32_t dims) {
   return p;
 }
 
-// Offsets in the encoding of SamplePortion: after the 8-byte hash come 64 bytes of fixed
-// fields, then num_places; a place has 28 bytes before dims.
-constexpr size_t kNumPlaces = 8 + 64;
-constexpr size_t kDims = kNumPlaces + 4 + 28;
+// Offsets in the encoding of SamplePortion: after the 8-byte hash come 68 bytes of fixed
+// fields, then num_entries and an entry of 28 bytes, then num_places; a place has 16 bytes
+// before dims.
+constexpr size_t kNumEntries = 8 + 68;
+constexpr size_t kNumPlaces = kNumEntries + 4 + 28;
+constexpr size_t kDims = kNumPlaces + 4 + 16;
 
 // Decodes forged bytes and checks they are refused without a large allocation.
 template <typename T>
@@ -173,7 +178,8 @@ TEST(LcmBus, ForgedHugeArrayLengthIsRefusedBeforeAllocating) {
     int32_t value;  // in `good`, to check the offset
     const char* what;
   };
-  for (const auto& [at, value, what] : std::vector<Field>{{kNumPlaces, 1, "num_places"},
+  for (const auto& [at, value, what] : std::vector<Field>{{kNumEntries, 1, "num_entries"},
+                                                          {kNumPlaces, 1, "num_places"},
                                                           {kDims, 3, "dims"},
                                                           {num_samples, 1, "num_samples"},
                                                           {num_sources, 0, "num_sources"},
@@ -201,11 +207,11 @@ TEST(LcmBus, ForgedHugeArrayLengthIsRefusedBeforeAllocating) {
   ExpectRefusedCheaply<memory_request_t>(request, "num_missing");
 
   std::vector<uint8_t> announce = LcmBus::Encode(SampleAnnounce());
-  // The status string's length follows 90 bytes of fixed fields.
-  ASSERT_EQ(GetInt32(announce, 8 + 90), 8) << "offset of the length of \"running\"";
-  PutInt32(announce, 8 + 90, INT32_MAX);
+  // The status string's length follows 94 bytes of fixed fields.
+  ASSERT_EQ(GetInt32(announce, 8 + 94), 8) << "offset of the length of \"running\"";
+  PutInt32(announce, 8 + 94, INT32_MAX);
   ExpectRefusedCheaply<announce_t>(announce, "status length");
-  PutInt32(announce, 8 + 90, 0);  // an LCM string always counts its NUL
+  PutInt32(announce, 8 + 94, 0);  // an LCM string always counts its NUL
   ExpectRefusedCheaply<announce_t>(announce, "status length 0");
 }
 
@@ -214,11 +220,11 @@ TEST(LcmBus, ForgedHugeArrayLengthIsRefusedBeforeAllocating) {
 // and with trailing garbage (getEncodedSize counts size() + 1).
 TEST(LcmBus, StringWithANulInsideIsRefusedAndEncodeStaysConsistent) {
   std::vector<uint8_t> bytes = LcmBus::Encode(SampleAnnounce());
-  ASSERT_EQ(GetInt32(bytes, 8 + 90), 8);  // "running" and its NUL
-  bytes.at(8 + 94 + 3) = 0;               // "run\0ing"
+  ASSERT_EQ(GetInt32(bytes, 8 + 94), 8);  // "running" and its NUL
+  bytes.at(8 + 98 + 3) = 0;               // "run\0ing"
   EXPECT_FALSE(LcmBus::Decode<announce_t>(bytes.data(), bytes.size()).has_value());
-  bytes.at(8 + 94 + 3) = 'n';
-  bytes.at(8 + 94 + 7) = 'x';  // no terminating NUL
+  bytes.at(8 + 98 + 3) = 'n';
+  bytes.at(8 + 98 + 7) = 'x';  // no terminating NUL
   EXPECT_FALSE(LcmBus::Decode<announce_t>(bytes.data(), bytes.size()).has_value());
 
   announce_t a = SampleAnnounce();

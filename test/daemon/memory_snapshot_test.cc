@@ -2,6 +2,7 @@
 
 #include <gtest/gtest.h>
 
+#include <cstdio>
 #include <random>
 #include <set>
 
@@ -18,23 +19,35 @@ testing_support::RandomMemory Fixture(int places) {
   return testing_support::MakeRandomMemory(5, places, kDim, static_cast<unsigned>(places), 12);
 }
 
-TEST(MemorySnapshot, PortionsStayWithinTheBudgetAndCoverEverythingOnce) {
+TEST(MemorySnapshot, StructureStaysWithinTheBudgetBodiesComeOneEachEverythingOnce) {
   const auto f = Fixture(60);
-  const int budget = 8192;
+  const int budget = 4096;
   const MemorySnapshot dut = BuildSnapshot(f.memory, f.map, {5, 99, 3, 1000}, budget);
-  ASSERT_GT(dut.portions.size(), 1u);
-  std::set<int32_t> places, nodes;
+  ASSERT_GT(dut.structure_portions, 1);
+  ASSERT_EQ(dut.portions.size(), static_cast<size_t>(dut.structure_portions) + 60);
+  ASSERT_EQ(dut.body_digests.size(), 60u);
+  std::set<int32_t> entries, places, nodes;
   size_t edges = 0;
   for (size_t i = 0; i < dut.portions.size(); ++i) {
     const memory_portion_t& p = dut.portions[i];
-    EXPECT_LE(LcmBus::Encode(p).size(), static_cast<size_t>(budget)) << i;
+    const bool structure = p.index < dut.structure_portions;
+    if (structure) EXPECT_LE(LcmBus::Encode(p).size(), static_cast<size_t>(budget)) << i;
     EXPECT_EQ(p.index, static_cast<int32_t>(i));
     EXPECT_EQ(p.count, static_cast<int32_t>(dut.portions.size()));
+    EXPECT_EQ(p.structure_portions, dut.structure_portions);
     EXPECT_EQ(p.robot, 5);
     EXPECT_EQ(p.version, 3);
     EXPECT_EQ(p.digest, dut.digest);
     EXPECT_EQ(p.total_places, 60);
+    EXPECT_EQ(p.num_places, structure ? 0 : 1) << i;
+    for (int32_t k = 0; k < p.num_entries; ++k) {
+      EXPECT_TRUE(entries.insert(p.first_place + k).second);
+      const place_entry_t& e = p.entries[static_cast<size_t>(k)];
+      EXPECT_EQ(e.body_digest, dut.body_digests[static_cast<size_t>(p.first_place + k)]);
+      EXPECT_EQ(e.slink_pi, f.memory.slink().pi()[static_cast<size_t>(p.first_place + k)]);
+    }
     for (int32_t k = 0; k < p.num_places; ++k) {
+      EXPECT_EQ(p.first_place, p.index - dut.structure_portions);
       EXPECT_TRUE(places.insert(p.first_place + k).second);
       const learned_place_t& lp = p.places[static_cast<size_t>(k)];
       const LearnedPlace& want = f.memory.places()[static_cast<size_t>(p.first_place + k)];
@@ -42,13 +55,67 @@ TEST(MemorySnapshot, PortionsStayWithinTheBudgetAndCoverEverythingOnce) {
       EXPECT_EQ(lp.dims, kDim);
       EXPECT_EQ(lp.mean[7], want.mean[7]);
       EXPECT_EQ(lp.num_samples, want.samples.cols());
+      EXPECT_EQ(BodyDigest(lp), dut.body_digests[static_cast<size_t>(p.first_place)]);
     }
     for (const memory_node_t& n : p.nodes) EXPECT_TRUE(nodes.insert(n.index).second);
     edges += p.edges.size();
   }
+  EXPECT_EQ(entries.size(), 60u);
   EXPECT_EQ(places.size(), 60u);
   EXPECT_EQ(nodes.size(), f.memory.nodes().size());
   EXPECT_EQ(edges, f.map.edges().size());
+}
+
+// Issue 23: a place seen again changes its body and the structure, nothing else, so a peer
+// that holds the other bodies is sent the structure and one body.
+TEST(MemorySnapshot, APlaceSeenAgainChangesItsBodyAndTheStructureOnly) {
+  auto f = Fixture(40);
+  const SnapshotHeader h{5, 1, 1, 0};
+  const MemorySnapshot before = BuildSnapshot(f.memory, f.map, h, 8192);
+  DetectedPlace revisit;
+  revisit.index = 41;
+  revisit.descriptors = Eigen::MatrixXf::Constant(kDim, 3, 0.25f);
+  revisit.members = {4100, 4101, 4102};
+  f.memory.Update(7, revisit);
+  const MemorySnapshot after = BuildSnapshot(f.memory, f.map, h, 8192);
+  ASSERT_EQ(after.body_digests.size(), 40u);
+  for (size_t i = 0; i < 40; ++i) {
+    EXPECT_EQ(after.body_digests[i] != before.body_digests[i], i == 7) << i;
+  }
+  std::vector<int32_t> want(static_cast<size_t>(after.structure_portions));
+  for (int32_t i = 0; i < after.structure_portions; ++i) want[static_cast<size_t>(i)] = i;
+  want.push_back(after.structure_portions + 7);
+  EXPECT_EQ(PortionsBeyond(after, {before.body_digests.begin(), before.body_digests.end()}), want);
+  EXPECT_EQ(PortionsBeyond(after, {}).size(), after.portions.size());
+}
+
+// Issue 23, "a 10⁴-place memory changing one place sends ≤ 1 % of the full snapshot's bytes",
+// at the descriptor size tscd uses (1200 dimensions; 12 members, fewer than the 32 a place may
+// keep, so a smaller body and a larger share for the structure than in operation). The
+// structure costs the same per place at any size and the one body a smaller share of more
+// places, so what holds for 500 places holds for 10⁴ (bench: BM_SnapshotDeltaBytes).
+TEST(MemorySnapshot, OnePlaceChangedSendsUnderOnePercentOfTheSnapshot) {
+  auto f = testing_support::MakeRandomMemory(5, 500, 1200, 500, 12);
+  const SnapshotHeader h{5, 1, 1, 0};
+  const MemorySnapshot before = BuildSnapshot(f.memory, f.map, h, 60000);
+  DetectedPlace revisit;
+  revisit.index = 501;
+  revisit.descriptors = Eigen::MatrixXf::Constant(1200, 3, 0.25f);
+  revisit.members = {50100, 50101, 50102};
+  f.memory.Update(250, revisit);
+  const MemorySnapshot after = BuildSnapshot(f.memory, f.map, h, 60000);
+  int64_t full = 0, delta = 0;
+  for (const memory_portion_t& p : after.portions) full += p.getEncodedSize();
+  for (int32_t i :
+       PortionsBeyond(after, {before.body_digests.begin(), before.body_digests.end()})) {
+    delta += after.portions[static_cast<size_t>(i)].getEncodedSize();
+  }
+  std::printf(
+      "500 places of 1200 dimensions: full snapshot %lld bytes, one place changed %lld "
+      "bytes (%.3f %%)\n",
+      static_cast<long long>(full), static_cast<long long>(delta),
+      100.0 * static_cast<double>(delta) / static_cast<double>(full));
+  EXPECT_LE(static_cast<double>(delta), 0.01 * static_cast<double>(full));
 }
 
 TEST(MemorySnapshot, DigestIsDeterministicAndFollowsContent) {
@@ -60,12 +127,14 @@ TEST(MemorySnapshot, DigestIsDeterministicAndFollowsContent) {
   EXPECT_NE(sa.digest, 0);
 }
 
-TEST(MemorySnapshot, EmptyMemoryIsOnePortion) {
+TEST(MemorySnapshot, EmptyMemoryIsOneStructurePortion) {
   const PlaceMemory empty(2, PlaceMemoryOptions{});
   const MemorySnapshot dut = BuildSnapshot(empty, TopologicalMap{}, {2, 1, 1, 0}, 4096);
   ASSERT_EQ(dut.portions.size(), 1u);
+  EXPECT_EQ(dut.structure_portions, 1);
   EXPECT_EQ(dut.portions[0].total_places, 0);
   EXPECT_EQ(dut.portions[0].count, 1);
+  EXPECT_EQ(dut.portions[0].structure_portions, 1);
 }
 
 }  // namespace

@@ -3,6 +3,8 @@
 #include <gtest/gtest.h>
 
 #include <limits>
+#include <numeric>
+#include <optional>
 #include <random>
 
 #include "test/support/random_memory.h"
@@ -13,8 +15,10 @@ namespace {
 using std::chrono::milliseconds;
 using Clock = PeerExchange::Clock;
 
+constexpr int kDim = 48;
+
 MemorySnapshot MakeSnapshot(int32_t robot, int places, int64_t version) {
-  const auto m = testing_support::MakeRandomMemory(static_cast<uint32_t>(robot), places, 48,
+  const auto m = testing_support::MakeRandomMemory(static_cast<uint32_t>(robot), places, kDim,
                                                    static_cast<unsigned>(robot * 100 + places));
   return BuildSnapshot(m.memory, TopologicalMap{}, {robot, 5, version, 1}, 5000);
 }
@@ -27,6 +31,7 @@ announce_t Announce(int32_t robot, int64_t sequence, const MemorySnapshot& s) {
   a.memory_version = s.version;
   a.memory_digest = s.digest;
   a.portions = static_cast<int32_t>(s.portions.size());
+  a.structure_portions = s.structure_portions;
   a.hmac_size = 0;
   return a;
 }
@@ -92,6 +97,74 @@ TEST(PeerExchange, ReplayedAnnounceIsRefusedAndMergedDigestIsNotFetchedAgain) {
   EXPECT_EQ(requests[0].version, 2);
 }
 
+// Issue 23: the second fetch of a peer asks for the structure, then only for the body of the
+// place that changed; after a failed merge (Forget) the next fetch asks for everything again.
+TEST(PeerExchange, SecondFetchAsksForTheStructureThenOnlyTheChangedBody) {
+  auto peer = testing_support::MakeRandomMemory(2, 60, kDim, 60);
+  const MemorySnapshot v1 = BuildSnapshot(peer.memory, peer.map, {2, 5, 1, 0}, 4096);
+  PeerExchange dut(1, PeerExchangeOptions{});
+  Clock::time_point t{};
+  dut.OnAnnounce(Announce(2, 1, v1), t);
+  ASSERT_TRUE(dut.Tick(t).at(0).missing.empty());  // nothing of robot 2 yet: everything
+  std::optional<SnapshotAssembler> complete;
+  for (const memory_portion_t& p : v1.portions) complete = dut.OnPortion(p, t);
+  ASSERT_TRUE(complete.has_value());
+  dut.MarkMerged(2, {v1.version, v1.digest});
+  EXPECT_EQ(dut.known_bodies(), 60u);
+
+  DetectedPlace revisit;
+  revisit.index = 61;
+  revisit.descriptors = Eigen::MatrixXf::Constant(kDim, 2, 0.75f);
+  revisit.members = {6100, 6101};
+  peer.memory.Update(33, revisit);
+  const MemorySnapshot v2 = BuildSnapshot(peer.memory, peer.map, {2, 5, 2, 0}, 4096);
+  ASSERT_GE(v2.structure_portions, 2);
+  t += milliseconds(1000);
+  dut.OnAnnounce(Announce(2, 2, v2), t);
+  auto requests = dut.Tick(t);
+  ASSERT_EQ(requests.size(), 1u);
+  std::vector<int32_t> structure(static_cast<size_t>(v2.structure_portions));
+  std::iota(structure.begin(), structure.end(), 0);
+  EXPECT_EQ(requests[0].missing, structure);
+  for (int32_t i : structure) {
+    EXPECT_FALSE(dut.OnPortion(v2.portions[static_cast<size_t>(i)], t).has_value());
+  }
+  requests = dut.Tick(t + milliseconds(100));  // at once, not after the retry period
+  ASSERT_EQ(requests.size(), 1u);
+  EXPECT_EQ(requests[0].missing, std::vector<int32_t>{v2.structure_portions + 33});
+  complete = dut.OnPortion(v2.portions[static_cast<size_t>(v2.structure_portions + 33)],
+                           t + milliseconds(150));
+  ASSERT_TRUE(complete.has_value());
+  std::string reason;
+  const auto snap = complete->Take(&reason);
+  ASSERT_TRUE(snap.has_value()) << reason;
+  EXPECT_EQ(snap->digest, v2.digest);
+  EXPECT_EQ(snap->places.size(), 60u);
+
+  dut.Forget(2);  // say the merge failed
+  EXPECT_EQ(dut.known_bodies(), 0u);
+  dut.OnAnnounce(Announce(2, 3, v2), t + milliseconds(2000));
+  requests = dut.Tick(t + milliseconds(2000));
+  ASSERT_EQ(requests.size(), 1u);
+  EXPECT_TRUE(requests[0].missing.empty());
+}
+
+// Portions asked for by index are of the version being assembled, which a newer broadcast may
+// have moved past the announced one (the peer serves held versions by index).
+TEST(PeerExchange, AsksAgainForTheVersionBeingAssembled) {
+  const MemorySnapshot v1 = MakeSnapshot(2, 20, 1);
+  const MemorySnapshot v2 = MakeSnapshot(2, 21, 2);
+  PeerExchange dut(1, PeerExchangeOptions{});
+  Clock::time_point t{};
+  dut.OnAnnounce(Announce(2, 1, v1), t);
+  ASSERT_EQ(dut.Tick(t).at(0).version, 1);
+  EXPECT_FALSE(dut.OnPortion(v2.portions[0], t).has_value());  // a broadcast of version 2
+  const auto requests = dut.Tick(t + milliseconds(600));
+  ASSERT_EQ(requests.size(), 1u);
+  EXPECT_EQ(requests[0].version, 2);
+  EXPECT_EQ(requests[0].missing.size(), v2.portions.size() - 1);
+}
+
 TEST(PeerExchange, GivesUpOnASilentPeerAndForgetsIt) {
   const MemorySnapshot two = MakeSnapshot(2, 4, 1);
   PeerExchangeOptions o;
@@ -117,7 +190,7 @@ TEST(PeerExchange, ForgedPortionIsCountedNotKept) {
   Clock::time_point t{};
   dut.OnAnnounce(Announce(2, 1, two), t);
   dut.Tick(t);
-  memory_portion_t forged = two.portions[0];
+  memory_portion_t forged = two.portions[static_cast<size_t>(two.structure_portions)];
   forged.places[0].mean[0] = std::numeric_limits<float>::quiet_NaN();
   EXPECT_FALSE(dut.OnPortion(forged, t).has_value());
   EXPECT_EQ(dut.rejected_portions(), 1);

@@ -4,6 +4,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <memory>
 #include <random>
 
 #include "test/support/random_memory.h"
@@ -47,9 +48,9 @@ TEST(SnapshotAssembler, CompletesFromShuffledDuplicatedPortionsAfterAskingForThe
   for (const memory_portion_t& p : snap.portions)
     sent.insert(sent.end(), p.places.begin(), p.places.end());
   ASSERT_EQ(sent.size(), 30u);
-  for (size_t i = 0; i < sent.size(); ++i) EXPECT_EQ(got->places[i].mean, sent[i].mean) << i;
+  for (size_t i = 0; i < sent.size(); ++i) EXPECT_EQ(got->places[i]->mean, sent[i].mean) << i;
   int32_t expected_local = 1;
-  for (const learned_place_t& p : got->places) EXPECT_EQ(p.id.local, expected_local++);
+  for (const auto& p : got->places) EXPECT_EQ(p->id.local, expected_local++);
 }
 
 TEST(SnapshotAssembler, RejectsForeignNonFiniteAndInconsistentPortions) {
@@ -59,18 +60,33 @@ TEST(SnapshotAssembler, RejectsForeignNonFiniteAndInconsistentPortions) {
   other.robot = 3;
   EXPECT_EQ(dut.Accept(other).verdict, SnapshotAssembler::Verdict::kRejected);
 
-  memory_portion_t nan = snap.portions[0];
-  ASSERT_FALSE(nan.places.empty());
+  const memory_portion_t& body = snap.portions[static_cast<size_t>(snap.structure_portions)];
+  memory_portion_t nan = body;
+  ASSERT_EQ(nan.places.size(), 1u);
   nan.places[0].mean[3] = std::nanf("");
   EXPECT_EQ(dut.Accept(nan).verdict, SnapshotAssembler::Verdict::kRejected);
 
-  memory_portion_t inf = snap.portions[0];
+  memory_portion_t inf = body;
   inf.places[0].samples[0][1] = INFINITY;
   EXPECT_EQ(dut.Accept(inf).verdict, SnapshotAssembler::Verdict::kRejected);
 
-  memory_portion_t lengths = snap.portions[0];
+  memory_portion_t lengths = body;
   lengths.num_places += 1;
   EXPECT_EQ(dut.Accept(lengths).verdict, SnapshotAssembler::Verdict::kRejected);
+
+  memory_portion_t two = body;  // a body portion holds one place
+  two.places.push_back(two.places[0]);
+  two.num_places = 2;
+  EXPECT_EQ(dut.Accept(two).verdict, SnapshotAssembler::Verdict::kRejected);
+
+  memory_portion_t lambda = snap.portions[0];
+  ASSERT_FALSE(lambda.entries.empty());
+  lambda.entries[0].slink_lambda = std::nan("");
+  EXPECT_EQ(dut.Accept(lambda).verdict, SnapshotAssembler::Verdict::kRejected);
+
+  memory_portion_t bodies = snap.portions[0];  // more places than bodies
+  bodies.total_places += 1;
+  EXPECT_EQ(dut.Accept(bodies).verdict, SnapshotAssembler::Verdict::kRejected);
 
   memory_portion_t index = snap.portions[0];
   index.index = index.count;
@@ -78,17 +94,129 @@ TEST(SnapshotAssembler, RejectsForeignNonFiniteAndInconsistentPortions) {
   EXPECT_FALSE(dut.started());  // nothing kept
 }
 
-TEST(SnapshotAssembler, TamperedContentFailsTheDigest) {
+TEST(SnapshotAssembler, TamperedContentFailsTheDigests) {
   const MemorySnapshot snap = MakeSnapshot(8, 1);
-  SnapshotAssembler dut(2);
-  for (memory_portion_t p : snap.portions) {
-    if (!p.places.empty()) p.places[0].mean[0] += 0.25f;  // finite, plausible, wrong
-    ASSERT_EQ(dut.Accept(p).verdict, SnapshotAssembler::Verdict::kAccepted);
+  {
+    SnapshotAssembler dut(2);
+    for (memory_portion_t p : snap.portions) {
+      if (!p.places.empty()) p.places[0].mean[0] += 0.25f;  // finite, plausible, wrong
+      ASSERT_EQ(dut.Accept(p).verdict, SnapshotAssembler::Verdict::kAccepted);
+    }
+    std::string reason;
+    EXPECT_FALSE(dut.Take(&reason).has_value());
+    EXPECT_EQ(reason, "a place body does not match its digest");
+    EXPECT_FALSE(dut.started());
   }
+  {
+    SnapshotAssembler dut(2);
+    for (memory_portion_t p : snap.portions) {
+      for (place_entry_t& e : p.entries) e.slink_lambda += 0.25;  // the structure changed
+      ASSERT_EQ(dut.Accept(p).verdict, SnapshotAssembler::Verdict::kAccepted);
+    }
+    std::string reason;
+    EXPECT_FALSE(dut.Take(&reason).has_value());
+    EXPECT_EQ(reason, "digest mismatch");
+  }
+}
+
+// Issue 23: a receiver that kept the bodies of version 1 asks for the structure of version 2
+// and then only for the body of the place that changed, and ends with version 2 exactly.
+TEST(SnapshotAssembler, KnownBodiesLeaveOnlyTheChangedPlaceToAskFor) {
+  auto m = testing_support::MakeRandomMemory(2, 80, kDim, 80);
+  const MemorySnapshot v1 = BuildSnapshot(m.memory, m.map, {2, 77, 1, 1}, 4096);
+  SnapshotAssembler first(2);
+  for (const memory_portion_t& p : v1.portions) first.Accept(p);
+  ASSERT_TRUE(first.complete());
+  const auto known = std::make_shared<const PlaceBodies>(first.Bodies());
+  EXPECT_EQ(known->size(), 80u);
+
+  DetectedPlace revisit;  // place 12 seen again: its mean and samples change
+  revisit.index = 81;
+  revisit.descriptors = Eigen::MatrixXf::Constant(kDim, 4, 0.5f);
+  revisit.members = {3100, 3101, 3102, 3103};
+  m.memory.Update(12, revisit);
+  const MemorySnapshot v2 = BuildSnapshot(m.memory, m.map, {2, 77, 2, 2}, 4096);
+  ASSERT_GE(v2.structure_portions, 2);
+  ASSERT_NE(v2.digest, v1.digest);
+
+  SnapshotAssembler dut(2, known);
+  EXPECT_TRUE(dut.Missing().empty());  // nothing has come: the caller asks for the structure
+  for (int32_t i = 0; i + 1 < v2.structure_portions; ++i) {
+    ASSERT_EQ(dut.Accept(v2.portions[static_cast<size_t>(i)]).verdict,
+              SnapshotAssembler::Verdict::kAccepted);
+  }
+  // Structure incomplete: only the structure is asked for, not bodies that may be known.
+  EXPECT_EQ(dut.Missing(), std::vector<int32_t>{v2.structure_portions - 1});
+  dut.Accept(v2.portions[static_cast<size_t>(v2.structure_portions - 1)]);
+  ASSERT_TRUE(dut.structure_complete());
+  EXPECT_EQ(dut.Missing(), std::vector<int32_t>{v2.structure_portions + 12});
+  EXPECT_EQ(dut.Accept(v2.portions[static_cast<size_t>(v2.structure_portions + 12)]).verdict,
+            SnapshotAssembler::Verdict::kAccepted);
+  ASSERT_TRUE(dut.complete());
+  EXPECT_EQ(dut.buffered(), static_cast<size_t>(v2.structure_portions) + 1);
+  std::string reason;
+  const auto got = dut.Take(&reason);
+  ASSERT_TRUE(got.has_value()) << reason;
+  ASSERT_EQ(got->places.size(), 80u);
+  for (size_t i = 0; i < 80; ++i) {
+    const learned_place_t& want =
+        v2.portions[static_cast<size_t>(v2.structure_portions) + i].places[0];
+    EXPECT_EQ(got->places[i]->mean, want.mean) << i;
+    EXPECT_EQ(got->places[i]->samples, want.samples) << i;
+  }
+  EXPECT_EQ(got->places[0], known->at(v1.body_digests[0]));  // shared, not copied
+}
+
+// A peer whose memory changes while we assemble it: the bodies received of the version given
+// up count for the next, so a receiver with nothing known still completes (the soak's
+// restarted robots fetching peers that learn as they drive).
+TEST(SnapshotAssembler, BodiesOfAReplacedVersionCarryOverToTheNext) {
+  auto m = testing_support::MakeRandomMemory(2, 80, kDim, 80);
+  const MemorySnapshot v1 = BuildSnapshot(m.memory, m.map, {2, 77, 1, 1}, 4096);
+  DetectedPlace revisit;
+  revisit.index = 81;
+  revisit.descriptors = Eigen::MatrixXf::Constant(kDim, 4, 0.5f);
+  revisit.members = {3100, 3101, 3102, 3103};
+  m.memory.Update(12, revisit);
+  const MemorySnapshot v2 = BuildSnapshot(m.memory, m.map, {2, 77, 2, 2}, 4096);
+
+  SnapshotAssembler dut(2);
+  for (size_t i = static_cast<size_t>(v1.structure_portions); i < v1.portions.size(); ++i) {
+    ASSERT_EQ(dut.Accept(v1.portions[i]).verdict, SnapshotAssembler::Verdict::kAccepted);
+  }
+  ASSERT_FALSE(dut.complete());  // version 1's structure was lost
+  for (int32_t i = 0; i < v2.structure_portions; ++i) {
+    ASSERT_EQ(dut.Accept(v2.portions[static_cast<size_t>(i)]).verdict,
+              SnapshotAssembler::Verdict::kAccepted);
+  }
+  EXPECT_EQ(dut.version(), 2);
+  EXPECT_EQ(dut.Missing(), std::vector<int32_t>{v2.structure_portions + 12});
+  dut.Accept(v2.portions[static_cast<size_t>(v2.structure_portions + 12)]);
+  ASSERT_TRUE(dut.complete());
+  std::string reason;
+  const auto got = dut.Take(&reason);
+  ASSERT_TRUE(got.has_value()) << reason;
+  EXPECT_EQ(got->digest, v2.digest);
+}
+
+// A body whose content is not what the structure names is refused, even when the receiver
+// knows a body of that digest.
+TEST(SnapshotAssembler, AReceivedBodyMustMatchItsEntry) {
+  const MemorySnapshot snap = MakeSnapshot(5, 1);
+  SnapshotAssembler first(2);
+  for (const memory_portion_t& p : snap.portions) first.Accept(p);
+  ASSERT_TRUE(first.complete());
+  SnapshotAssembler dut(2, std::make_shared<const PlaceBodies>(first.Bodies()));
+  memory_portion_t swapped = snap.portions[static_cast<size_t>(snap.structure_portions) + 1];
+  swapped.places[0] = snap.portions[static_cast<size_t>(snap.structure_portions)].places[0];
+  swapped.first_place = 1;
+  for (int32_t i = 0; i < snap.structure_portions; ++i)
+    dut.Accept(snap.portions[static_cast<size_t>(i)]);
+  ASSERT_TRUE(dut.complete());  // every body known
+  ASSERT_EQ(dut.Accept(swapped).verdict, SnapshotAssembler::Verdict::kAccepted);
   std::string reason;
   EXPECT_FALSE(dut.Take(&reason).has_value());
-  EXPECT_EQ(reason, "digest mismatch");
-  EXPECT_FALSE(dut.started());
+  EXPECT_EQ(reason, "a place body does not match its digest");
 }
 
 TEST(SnapshotAssembler, NewerVersionRestartsOlderIsStale) {
@@ -108,13 +236,17 @@ TEST(SnapshotAssembler, NewerVersionRestartsOlderIsStale) {
 
 TEST(SnapshotAssembler, BrokenTreeIsRefusedAsAWhole) {
   MemorySnapshot snap = MakeSnapshot(6, 1, 60000);
-  ASSERT_EQ(snap.portions.size(), 1u);
-  memory_portion_t p = snap.portions[0];
+  ASSERT_EQ(snap.structure_portions, 1);
+  memory_portion_t& p = snap.portions[0];
   ASSERT_GE(p.nodes.size(), 2u);
   p.nodes.back().children.push_back(p.nodes.back().index);  // a node its own child
   p.nodes.back().num_children += 1;
+  p.digest = snap.digest = SnapshotDigest(snap.portions);  // an honest digest of a bad tree
   SnapshotAssembler dut(2);
-  ASSERT_EQ(dut.Accept(p).verdict, SnapshotAssembler::Verdict::kAccepted);
+  for (memory_portion_t& q : snap.portions) {
+    q.digest = snap.digest;
+    ASSERT_EQ(dut.Accept(q).verdict, SnapshotAssembler::Verdict::kAccepted);
+  }
   std::string reason;
   EXPECT_FALSE(dut.Take(&reason).has_value());
   EXPECT_FALSE(reason.empty());

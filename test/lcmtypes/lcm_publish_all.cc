@@ -67,6 +67,7 @@ tsc::announce_t Announce(int32_t robot) {
   m.memory_version = 5;
   m.memory_digest = -81985529216486896;  // 0xfedcba9876543210
   m.portions = 1;
+  m.structure_portions = 1;
   m.places = 2;
   m.edges = 1;
   m.detected_places = 3;
@@ -104,8 +105,6 @@ tsc::learned_place_t Place(int32_t robot, int32_t local, float base) {
   tsc::learned_place_t p{};
   p.id = Ref(robot, local);
   p.member_count = 10 + local;
-  p.slink_pi = 1;
-  p.slink_lambda = local == 1 ? 0.75 : -1.0;
   p.dims = 3;
   p.mean = {base, base + 0.5F, base + 1.0F};
   p.samples = {{base, base, base}, {base + 0.25F, base + 0.5F, base + 0.75F}};
@@ -115,6 +114,15 @@ tsc::learned_place_t Place(int32_t robot, int32_t local, float base) {
   }
   p.num_sources = static_cast<int32_t>(p.sources.size());
   return p;
+}
+
+tsc::place_entry_t Entry(int32_t robot, int32_t local) {
+  tsc::place_entry_t e{};
+  e.id = Ref(robot, local);
+  e.body_digest = -1234567890123 * local;
+  e.slink_pi = 1;
+  e.slink_lambda = local == 1 ? 0.75 : -1.0;
+  return e;
 }
 
 tsc::memory_node_t Node(int32_t index, int32_t parent, int32_t place, double height,
@@ -136,11 +144,15 @@ tsc::memory_portion_t Portion(int32_t robot) {
   m.boot_id = 123456789012345;
   m.version = 5;
   m.index = 0;
-  m.count = 1;
+  m.count = 3;
+  m.structure_portions = 1;
   m.digest = -81985529216486896;
   m.total_places = 2;
   m.first_place = 0;
   m.next_local = 3;
+  // Every array filled, to decode each field: tscd sends entries and bodies apart.
+  m.entries = {Entry(robot, 1), Entry(robot, 2)};
+  m.num_entries = static_cast<int32_t>(m.entries.size());
   m.places = {Place(robot, 1, 0.5F), Place(robot, 2, -1.5F)};
   m.num_places = static_cast<int32_t>(m.places.size());
   m.nodes = {Node(0, 2, 0, 0.0, {}), Node(1, 2, 1, 0.0, {}), Node(2, -1, -1, 0.75, {0, 1})};
