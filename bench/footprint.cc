@@ -1,0 +1,142 @@
+// tscd_footprint: what a learned memory of N places costs tscd in RAM and on disk (issue 23,
+// deliver 3; DESIGN §8: RSS ≤ 200 MB at 10⁴ places). A whole-program measurement, not a
+// Google Benchmark: a store holding N synthetic places (test/support/synthetic_places.h, the
+// descriptor dimension of the default features, 12 member views each) is written, the real
+// tscd binary is started on it (sim camera at 1 frame/s, LCM on memq://, so nothing leaves
+// the process), and once it has loaded the memory, announced and built its first snapshot
+// the report gives its resident set (VmRSS, and the peak VmHWM) and the database size, in
+// total and per place.
+//
+//   build/bin/tscd_footprint [--places N] [--dim D] [--members M] [--settle-s S] [--out FILE]
+
+#include <unistd.h>
+
+#include <chrono>
+#include <cstdio>
+#include <cstdlib>
+#include <filesystem>
+#include <fstream>
+#include <optional>
+#include <sstream>
+#include <string>
+#include <thread>
+#include <vector>
+
+#include "core/pipeline/pipeline.h"
+#include "store/store.h"
+#include "test/support/child_process.h"
+#include "test/support/synthetic_places.h"
+
+namespace tsc {
+namespace {
+
+namespace fs = std::filesystem;
+using Clock = std::chrono::steady_clock;
+
+double Seconds(Clock::duration d) { return std::chrono::duration<double>(d).count(); }
+
+// A field of /proc/<pid>/status in MB ("VmRSS", "VmHWM"); -1 when the process is gone.
+double StatusMb(pid_t pid, const std::string& field) {
+  std::ifstream in("/proc/" + std::to_string(pid) + "/status");
+  std::string line;
+  while (std::getline(in, line)) {
+    if (line.rfind(field + ":", 0) != 0) continue;
+    std::istringstream v(line.substr(field.size() + 1));
+    double kb = 0;
+    v >> kb;
+    return kb / 1024.0;
+  }
+  return -1;
+}
+
+uint64_t FileBytes(const fs::path& p) {
+  std::error_code ec;
+  const auto n = fs::file_size(p, ec);
+  return ec ? 0 : n;
+}
+
+int Main(int argc, char** argv) {
+  int places = 10000, dim = 1200, members = 12;
+  double settle_s = 15;
+  std::string out;
+  for (int i = 1; i + 1 < argc; i += 2) {
+    const std::string key = argv[i];
+    if (key == "--places") {
+      places = std::atoi(argv[i + 1]);
+    } else if (key == "--dim") {
+      dim = std::atoi(argv[i + 1]);
+    } else if (key == "--members") {
+      members = std::atoi(argv[i + 1]);
+    } else if (key == "--settle-s") {
+      settle_s = std::atof(argv[i + 1]);
+    } else if (key == "--out") {
+      out = argv[i + 1];
+    } else {
+      std::fprintf(stderr,
+                   "usage: %s [--places N] [--dim D] [--members M] [--settle-s S] [--out FILE]\n",
+                   argv[0]);
+      return 2;
+    }
+  }
+  if (places < 1 || dim < 1 || members < 1 || argc % 2 == 0) {
+    std::fprintf(stderr, "%s: places, dim and members must be positive\n", argv[0]);
+    return 2;
+  }
+  const fs::path dir = fs::temp_directory_path() / ("tscd_footprint." + std::to_string(getpid()));
+  fs::create_directories(dir);
+
+  const auto t_build = Clock::now();
+  {
+    const testing_support::SyntheticPlaces world(1, dim, 64, 0.02f, 1);
+    Store store = Store::Open(dir / "memory.db");
+    const Pipeline pipeline(CameraIntrinsics::FromHorizontalFov(160, 120, 60), PipelineOptions{},
+                            testing_support::SyntheticMemory(1, world, 0, places, members),
+                            TopologicalMap{}, PipelineState{});
+    store.CommitPending({}, pipeline, true, std::nullopt);
+  }
+  const uint64_t db_bytes = FileBytes(dir / "memory.db") + FileBytes(dir / "memory.db-wal");
+  std::printf("a store of %d places (dim %d, %d member views) written in %.1f s\n", places, dim,
+              members, Seconds(Clock::now() - t_build));
+
+  const fs::path log = dir / "tscd.log";
+  testing_support::ChildProcess tscd(
+      {std::string(TSCD_BIN_DIR) + "/tscd", "--robot", "1", "--state-dir", dir.string(), "--set",
+       "camera.source=sim", "--set", "camera.fps=1", "--set", "lcm.url=memq://"},
+      log);
+  // Loaded, announcing and serving: "ready" is logged after the memory is loaded; the first
+  // announce asks the worker for a snapshot, which the settling time leaves room for.
+  const auto t_start = Clock::now();
+  while (tscd.running() && tscd.Log().find("ready:") == std::string::npos &&
+         Clock::now() - t_start < std::chrono::minutes(10)) {
+    std::this_thread::sleep_for(std::chrono::milliseconds(100));
+  }
+  const double ready_s = Seconds(Clock::now() - t_start);
+  std::this_thread::sleep_for(std::chrono::duration<double>(settle_s));
+  const double rss = StatusMb(tscd.pid(), "VmRSS"), hwm = StatusMb(tscd.pid(), "VmHWM");
+  tscd.Signal(SIGTERM);
+  const std::optional<int> status = tscd.Wait(std::chrono::seconds(60));
+  if (rss < 0 || !status || *status != 0) {
+    std::fprintf(stderr, "tscd did not run through (exit %d); its log:\n%s\n",
+                 status ? *status : -1, tscd.Log().c_str());
+    fs::remove_all(dir);
+    return 1;
+  }
+  fs::remove_all(dir);
+
+  char report[768];
+  std::snprintf(report, sizeof report,
+                "places %d (dim %d, %d member views): tscd ready after %.1f s; after %.0f s "
+                "more: RSS %.1f MB (%.1f KB per place), peak %.1f MB (%.1f KB per place); "
+                "database %.1f MB (%.1f KB per place)\n",
+                places, dim, members, ready_s, settle_s, rss, 1024.0 * rss / places, hwm,
+                1024.0 * hwm / places, static_cast<double>(db_bytes) / (1 << 20),
+                static_cast<double>(db_bytes) / 1024.0 / places);
+  std::fputs(report, stdout);
+  if (!out.empty()) std::ofstream(out, std::ios::app) << report;
+  return 0;
+}
+
+}  // namespace
+}  // namespace tsc
+
+int main(int argc, char** argv) { return tsc::Main(argc, argv); }
