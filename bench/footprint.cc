@@ -22,6 +22,7 @@
 #include <thread>
 #include <vector>
 
+#include "bench/key_value_args.h"
 #include "core/pipeline/pipeline.h"
 #include "store/store.h"
 #include "test/support/child_process.h"
@@ -56,29 +57,16 @@ uint64_t FileBytes(const fs::path& p) {
 }
 
 int Main(int argc, char** argv) {
-  int places = 10000, dim = 1200, members = 12;
-  double settle_s = 15;
-  std::string out;
-  for (int i = 1; i + 1 < argc; i += 2) {
-    const std::string key = argv[i];
-    if (key == "--places") {
-      places = std::atoi(argv[i + 1]);
-    } else if (key == "--dim") {
-      dim = std::atoi(argv[i + 1]);
-    } else if (key == "--members") {
-      members = std::atoi(argv[i + 1]);
-    } else if (key == "--settle-s") {
-      settle_s = std::atof(argv[i + 1]);
-    } else if (key == "--out") {
-      out = argv[i + 1];
-    } else {
-      std::fprintf(stderr,
-                   "usage: %s [--places N] [--dim D] [--members M] [--settle-s S] [--out FILE]\n",
-                   argv[0]);
-      return 2;
-    }
-  }
-  if (places < 1 || dim < 1 || members < 1 || argc % 2 == 0) {
+  const auto args =
+      KeyValueArgs(argc, argv, {"places", "dim", "members", "settle-s", "out"},
+                   "[--places N] [--dim D] [--members M] [--settle-s S] [--out FILE]");
+  if (!args) return 2;
+  const int places = static_cast<int>(NumberArg(*args, "places", 10000));
+  const int dim = static_cast<int>(NumberArg(*args, "dim", 1200));
+  const int members = static_cast<int>(NumberArg(*args, "members", 12));
+  const double settle_s = NumberArg(*args, "settle-s", 15);
+  const std::string out = args->count("out") ? args->at("out") : "";
+  if (places < 1 || dim < 1 || members < 1) {
     std::fprintf(stderr, "%s: places, dim and members must be positive\n", argv[0]);
     return 2;
   }

@@ -32,6 +32,7 @@
 #include <thread>
 #include <vector>
 
+#include "bench/key_value_args.h"
 #include "core/pipeline/pipeline.h"
 #include "daemon/daemon.h"
 #include "daemon/memory_snapshot.h"
@@ -108,21 +109,12 @@ double JitterMs(const std::vector<Announce>& a, Clock::time_point from, Clock::t
 }
 
 int Main(int argc, char** argv) {
-  int places = 10000, dim = 1200;
-  std::string out;
-  for (int i = 1; i + 1 < argc; i += 2) {
-    const std::string key = argv[i];
-    if (key == "--places") {
-      places = std::atoi(argv[i + 1]);
-    } else if (key == "--dim") {
-      dim = std::atoi(argv[i + 1]);
-    } else if (key == "--out") {
-      out = argv[i + 1];
-    } else {
-      std::fprintf(stderr, "usage: %s [--places N] [--dim D] [--out FILE]\n", argv[0]);
-      return 2;
-    }
-  }
+  const auto args =
+      KeyValueArgs(argc, argv, {"places", "dim", "out"}, "[--places N] [--dim D] [--out FILE]");
+  if (!args) return 2;
+  const int places = static_cast<int>(NumberArg(*args, "places", 10000));
+  const int dim = static_cast<int>(NumberArg(*args, "dim", 1200));
+  const std::string out = args->count("out") ? args->at("out") : "";
   const char* netns = std::getenv("TSCD_IN_NETNS");
   if (netns == nullptr) {
     std::fprintf(stderr, "run me in a private network namespace: test/support/in_netns %s\n",
