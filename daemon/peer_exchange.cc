@@ -70,7 +70,7 @@ std::vector<memory_request_t> PeerExchange::Tick(Clock::time_point now) {
     // The version being assembled, which a newer broadcast or answer may have moved past the
     // announced one: portions asked for by index must be of the version they index.
     const int64_t version = assembler_->started() ? assembler_->version() : fetching_version_;
-    return {Request(*fetching_, version, FirstMissing())};
+    return {Request(*fetching_, version, PortionsToAskFor())};
   }
   // Start with the first wanted peer at or after the round-robin position.
   std::optional<int32_t> pick;
@@ -86,10 +86,10 @@ std::vector<memory_request_t> PeerExchange::Tick(Clock::time_point now) {
   assembler_.emplace(*pick, known == known_.end() ? nullptr : known->second);
   retries_ = 0;
   last_request_ = now;
-  return {Request(*pick, fetching_version_, FirstMissing())};
+  return {Request(*pick, fetching_version_, PortionsToAskFor())};
 }
 
-std::vector<int32_t> PeerExchange::FirstMissing() const {
+std::vector<int32_t> PeerExchange::PortionsToAskFor() const {
   if (assembler_->started()) return assembler_->Missing();
   // Nothing has come yet. Without bodies of this peer: everything (the empty list); with
   // them: the structure, which says which bodies are new.

@@ -84,7 +84,7 @@ class PeerExchange {
   };
   bool Wanted(int32_t robot, const Peer& peer) const;
   /// What to ask the peer being fetched for now.
-  std::vector<int32_t> FirstMissing() const;
+  std::vector<int32_t> PortionsToAskFor() const;
   memory_request_t Request(int32_t robot, int64_t version, std::vector<int32_t> missing) const;
 
   int32_t self_;

@@ -31,7 +31,9 @@ TEST(MemorySnapshot, StructureStaysWithinTheBudgetBodiesComeOneEachEverythingOnc
   for (size_t i = 0; i < dut.portions.size(); ++i) {
     const memory_portion_t& p = dut.portions[i];
     const bool structure = p.index < dut.structure_portions;
-    if (structure) EXPECT_LE(LcmBus::Encode(p).size(), static_cast<size_t>(budget)) << i;
+    if (structure) {
+      EXPECT_LE(LcmBus::Encode(p).size(), static_cast<size_t>(budget)) << i;
+    }
     EXPECT_EQ(p.index, static_cast<int32_t>(i));
     EXPECT_EQ(p.count, static_cast<int32_t>(dut.portions.size()));
     EXPECT_EQ(p.structure_portions, dut.structure_portions);
