@@ -8,9 +8,11 @@
 namespace tsc {
 namespace {
 
-bool AllFinite(const std::vector<float>& v) {
+// Finite, and small enough that a squared distance over kMaxDims of them stays finite (a
+// descriptor holds normalised image statistics, far below this).
+bool AllBounded(const std::vector<float>& v) {
   for (float x : v) {
-    if (!std::isfinite(x)) return false;
+    if (!std::isfinite(x) || std::abs(x) > SnapshotAssembler::kMaxDescriptorValue) return false;
   }
   return true;
 }
@@ -20,12 +22,12 @@ bool AllFinite(const std::vector<float>& v) {
 std::string CheckPlace(const learned_place_t& p) {
   if (p.dims <= 0 || p.dims > SnapshotAssembler::kMaxDims) return "bad descriptor dimension";
   if (p.mean.size() != static_cast<size_t>(p.dims)) return "mean of the wrong size";
-  if (!AllFinite(p.mean)) return "non-finite mean";
+  if (!AllBounded(p.mean)) return "non-finite or out-of-range mean";
   if (p.num_samples < 0 || p.samples.size() != static_cast<size_t>(p.num_samples)) {
     return "bad sample count";
   }
   for (const auto& s : p.samples) {
-    if (s.size() != static_cast<size_t>(p.dims) || !AllFinite(s)) return "bad sample";
+    if (s.size() != static_cast<size_t>(p.dims) || !AllBounded(s)) return "bad sample";
   }
   if (p.member_count < 1) return "place without members";
   if (p.id.robot <= 0 || p.id.local <= 0) return "bad place id";

@@ -88,6 +88,10 @@ class SnapshotAssembler {
   static constexpr int32_t kMaxPortions = 100000;
   static constexpr int32_t kMaxPlaces = 1000000;
   static constexpr int32_t kMaxDims = 100000;
+  /// Largest |value| of a descriptor component: (2·10⁶)² · kMaxDims is finite in float, so
+  /// distances between a peer's views cannot overflow to infinity (found by fuzzing: views of
+  /// ~10³⁸ made every distance infinite and broke view thinning).
+  static constexpr float kMaxDescriptorValue = 1e6f;
 
  private:
   void Reset();    // everything, for a snapshot taken or refused

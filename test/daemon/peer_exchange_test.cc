@@ -194,7 +194,7 @@ TEST(PeerExchange, ForgedPortionIsCountedNotKept) {
   forged.places[0].mean[0] = std::numeric_limits<float>::quiet_NaN();
   EXPECT_FALSE(dut.OnPortion(forged, t).has_value());
   EXPECT_EQ(dut.rejected_portions(), 1);
-  EXPECT_EQ(dut.last_rejection(), "non-finite mean");
+  EXPECT_EQ(dut.last_rejection(), "non-finite or out-of-range mean");
 }
 
 }  // namespace

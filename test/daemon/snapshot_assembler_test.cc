@@ -70,6 +70,10 @@ TEST(SnapshotAssembler, RejectsForeignNonFiniteAndInconsistentPortions) {
   inf.places[0].samples[0][1] = INFINITY;
   EXPECT_EQ(dut.Accept(inf).verdict, SnapshotAssembler::Verdict::kRejected);
 
+  memory_portion_t huge = body;  // finite, but its squared distances overflow (fuzzing)
+  huge.places[0].samples[0][2] = 3e37f;
+  EXPECT_EQ(dut.Accept(huge).reason, "bad sample");
+
   memory_portion_t lengths = body;
   lengths.num_places += 1;
   EXPECT_EQ(dut.Accept(lengths).verdict, SnapshotAssembler::Verdict::kRejected);
