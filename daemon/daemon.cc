@@ -10,7 +10,6 @@
 #include <boost/asio/signal_set.hpp>
 #include <boost/asio/steady_timer.hpp>
 #include <csignal>
-#include <numeric>
 #include <random>
 #include <utility>
 
@@ -39,12 +38,6 @@ int64_t RandomBootId() {
   const uint64_t hi = rd();
   const uint64_t lo = rd();
   return static_cast<int64_t>((hi << 32) | lo);
-}
-
-std::vector<int32_t> AllPortions(const MemorySnapshot& snapshot) {
-  std::vector<int32_t> all(snapshot.portions.size());
-  std::iota(all.begin(), all.end(), 0);
-  return all;
 }
 
 place_ref_t Ref(const PlaceId& id) {
@@ -317,10 +310,7 @@ void Daemon::OnAnnounceTimer() {
   a.robot = static_cast<int32_t>(robot_);
   a.boot_id = boot_id_;
   a.sequence = ++announces_sent_;
-  a.memory_version = snapshot_ ? snapshot_->version : 0;
-  a.memory_digest = snapshot_ ? snapshot_->digest : 0;
-  a.portions = snapshot_ ? static_cast<int32_t>(snapshot_->portions.size()) : 0;
-  a.structure_portions = snapshot_ ? snapshot_->structure_portions : 0;
+  DescribeInAnnounce(snapshot_ ? *snapshot_ : MemorySnapshot{}, a);
   a.places = counters_.places;
   a.edges = counters_.edges;
   a.detected_places = counters_.detected_places;
@@ -515,16 +505,14 @@ void Daemon::AnswerRequest(const memory_request_t& req) {
   if (req.missing.empty()) {
     spdlog::debug("robot {} asked for version {}; sending all {} portions of version {}",
                   req.requester, req.version, snapshot_->portions.size(), snapshot_->version);
-    PublishPortions(snapshot_, AllPortions(*snapshot_));
+    PublishPortions(snapshot_, PortionsBelow(static_cast<int32_t>(snapshot_->portions.size())));
     return;
   }
   spdlog::debug(
       "robot {} asked for portions of version {}; sending the {} structure portions "
       "of version {}",
       req.requester, req.version, snapshot_->structure_portions, snapshot_->version);
-  std::vector<int32_t> structure(static_cast<size_t>(snapshot_->structure_portions));
-  std::iota(structure.begin(), structure.end(), 0);
-  PublishPortions(snapshot_, std::move(structure));
+  PublishPortions(snapshot_, PortionsBelow(snapshot_->structure_portions));
 }
 
 void Daemon::OnPeerAnnounce(const std::string& channel, const uint8_t* data, size_t size) {

@@ -2,7 +2,9 @@
 
 #include <openssl/evp.h>
 
+#include <algorithm>
 #include <cmath>
+#include <numeric>
 
 #include "daemon/lcm_bus.h"
 
@@ -193,16 +195,28 @@ int64_t BodyDigest(const learned_place_t& body) {
   return digest;
 }
 
+std::vector<int32_t> PortionsBelow(int32_t n) {
+  std::vector<int32_t> indices(static_cast<size_t>(std::max(n, 0)));
+  std::iota(indices.begin(), indices.end(), 0);
+  return indices;
+}
+
 std::vector<int32_t> PortionsBeyond(const MemorySnapshot& snapshot,
                                     const std::unordered_set<int64_t>& known) {
-  std::vector<int32_t> indices;
-  for (int32_t i = 0; i < snapshot.structure_portions; ++i) indices.push_back(i);
+  std::vector<int32_t> indices = PortionsBelow(snapshot.structure_portions);
   for (size_t i = 0; i < snapshot.body_digests.size(); ++i) {
     if (!known.count(snapshot.body_digests[i])) {
       indices.push_back(snapshot.structure_portions + static_cast<int32_t>(i));
     }
   }
   return indices;
+}
+
+void DescribeInAnnounce(const MemorySnapshot& snapshot, announce_t& a) {
+  a.memory_version = snapshot.version;
+  a.memory_digest = snapshot.digest;
+  a.portions = static_cast<int32_t>(snapshot.portions.size());
+  a.structure_portions = snapshot.structure_portions;
 }
 
 }  // namespace tsc

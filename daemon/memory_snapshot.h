@@ -10,6 +10,7 @@
 
 #include "core/map/topological_map.h"
 #include "core/memory/place_memory.h"
+#include "tsc/announce_t.hpp"
 #include "tsc/memory_portion_t.hpp"
 
 namespace tsc {
@@ -46,9 +47,16 @@ int64_t SnapshotDigest(const std::vector<memory_portion_t>& portions);
 /// First 8 bytes (big endian) of SHA-256 over the body's LCM encoding (without fingerprint).
 int64_t BodyDigest(const learned_place_t& body);
 
+/// Portion indices 0 .. n−1: a whole snapshot (n = its portions) or its structure.
+std::vector<int32_t> PortionsBelow(int32_t n);
+
 /// The structure portions of `snapshot` and the bodies whose digest is not in `known` (what a
 /// receiver holding the bodies `known` needs), in index order.
 std::vector<int32_t> PortionsBeyond(const MemorySnapshot& snapshot,
                                     const std::unordered_set<int64_t>& known);
+
+/// Sets the fields of an announce that describe `snapshot` (memory_version, memory_digest,
+/// portions, structure_portions): what a peer needs to decide to fetch it and what to ask for.
+void DescribeInAnnounce(const MemorySnapshot& snapshot, announce_t& a);
 
 }  // namespace tsc

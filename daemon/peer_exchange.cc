@@ -1,7 +1,6 @@
 #include "daemon/peer_exchange.h"
 
 #include <chrono>
-#include <numeric>
 
 namespace tsc {
 
@@ -96,9 +95,7 @@ std::vector<int32_t> PeerExchange::PortionsToAskFor() const {
   const auto known = known_.find(*fetching_);
   const int32_t structure = peers_.at(*fetching_).structure_portions;
   if (known == known_.end() || structure <= 0) return {};
-  std::vector<int32_t> missing(static_cast<size_t>(structure));
-  std::iota(missing.begin(), missing.end(), 0);
-  return missing;
+  return PortionsBelow(structure);
 }
 
 size_t PeerExchange::known_bodies() const {

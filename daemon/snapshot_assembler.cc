@@ -89,15 +89,20 @@ TopologicalMap ToTopologicalMap(const PeerSnapshot& snapshot) {
   return map;
 }
 
-PlaceBodies SnapshotAssembler::Bodies() const {
-  PlaceBodies bodies;
+template <typename F>
+void SnapshotAssembler::ForEachEntry(F f) const {
   for (const auto& [index, portion] : structure_) {
     for (int32_t k = 0; k < portion.num_entries; ++k) {
-      const auto i = static_cast<size_t>(portion.first_place + k);
-      if (bodies_[i])
-        bodies.emplace(portion.entries[static_cast<size_t>(k)].body_digest, bodies_[i]);
+      f(static_cast<size_t>(portion.first_place + k), portion.entries[static_cast<size_t>(k)]);
     }
   }
+}
+
+PlaceBodies SnapshotAssembler::Bodies() const {
+  PlaceBodies bodies;
+  ForEachEntry([&](size_t i, const place_entry_t& e) {
+    if (bodies_[i]) bodies.emplace(e.body_digest, bodies_[i]);
+  });
   return bodies;
 }
 
@@ -217,17 +222,13 @@ void SnapshotAssembler::FillKnownBodies() {
     const auto it = carried_.find(digest);
     return it == carried_.end() ? nullptr : it->second;
   };
-  for (const auto& [index, portion] : structure_) {
-    for (int32_t k = 0; k < portion.num_entries; ++k) {
-      const auto i = static_cast<size_t>(portion.first_place + k);
-      if (bodies_[i]) continue;
-      const int64_t digest = portion.entries[static_cast<size_t>(k)].body_digest;
-      bodies_[i] = find(digest);
-      if (!bodies_[i]) continue;
-      digests_[i] = digest;
-      ++bodies_present_;
-    }
-  }
+  ForEachEntry([&](size_t i, const place_entry_t& e) {
+    if (bodies_[i]) return;
+    bodies_[i] = find(e.body_digest);
+    if (!bodies_[i]) return;
+    digests_[i] = e.body_digest;
+    ++bodies_present_;
+  });
   carried_.clear();  // what this version uses is in bodies_ now, and carried again from there
 }
 

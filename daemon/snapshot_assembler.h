@@ -98,6 +98,9 @@ class SnapshotAssembler {
   void Restart();  // for a newer version: what Carry kept stays
   Result Keep(const memory_portion_t& p);
   bool knows_bodies() const;
+  /// f(place index, its entry) for every entry of the structure portions kept.
+  template <typename F>
+  void ForEachEntry(F f) const;
   void FillKnownBodies();
   void Carry();
 

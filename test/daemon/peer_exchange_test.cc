@@ -28,10 +28,7 @@ announce_t Announce(int32_t robot, int64_t sequence, const MemorySnapshot& s) {
   a.robot = robot;
   a.boot_id = 5;
   a.sequence = sequence;
-  a.memory_version = s.version;
-  a.memory_digest = s.digest;
-  a.portions = static_cast<int32_t>(s.portions.size());
-  a.structure_portions = s.structure_portions;
+  DescribeInAnnounce(s, a);
   a.hmac_size = 0;
   return a;
 }

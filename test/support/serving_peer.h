@@ -112,9 +112,7 @@ class ServingPeer {
     a.robot = robot_;
     a.boot_id = 4242;
     a.sequence = sequence;
-    a.memory_version = snapshot_.version;
-    a.memory_digest = snapshot_.digest;
-    a.portions = static_cast<int32_t>(snapshot_.portions.size());
+    DescribeInAnnounce(snapshot_, a);
     a.places = snapshot_.places;
     a.edges = snapshot_.edges;
     a.status = "running";
