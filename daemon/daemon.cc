@@ -114,7 +114,9 @@ Daemon::Daemon(Settings settings, SettingsSource source, std::unique_ptr<CameraS
       bus_(settings_.daemon.bus.url),
       team_(bus_, std::move(team_key), counters_),
       queue_(static_cast<size_t>(settings_.daemon.queue_frames)),
-      exchange_(static_cast<int32_t>(robot_), PeerExchangeOptions{}) {
+      exchange_(static_cast<int32_t>(robot_),
+                PeerExchangeOptions{.view_basis =
+                                        ViewBasisId(settings_.pipeline.memory.view_basis.get())}) {
   if (!team_.signs()) {
     spdlog::warn(
         "no team key (lcm.team_key_file): exchange messages are neither signed nor "
@@ -311,6 +313,7 @@ void Daemon::OnAnnounceTimer() {
   a.boot_id = boot_id_;
   a.sequence = ++announces_sent_;
   DescribeInAnnounce(snapshot_ ? *snapshot_ : MemorySnapshot{}, a);
+  a.view_basis = ViewBasisId(settings_.pipeline.memory.view_basis.get());
   a.places = counters_.places;
   a.edges = counters_.edges;
   a.detected_places = counters_.detected_places;
@@ -520,12 +523,15 @@ void Daemon::OnPeerAnnounce(const std::string& channel, const uint8_t* data, siz
   if (!a || a->robot == static_cast<int32_t>(robot_)) return;
   team_.CountReceived(ChannelFamily::kAnnounce, size);
   if (a->places > 0) join_->PeerHeard(JoinGate::Clock::now());  // it may hold our places
+  const int64_t other_basis = exchange_.other_basis();
   if (!exchange_.OnAnnounce(*a, PeerExchange::Clock::now())) {
     const int64_t n = ++counters_.messages_rejected;
     if (ShouldLog(n)) {
       spdlog::warn("{}: dropped a replayed announce of robot {} (sequence {})", channel, a->robot,
                    a->sequence);
     }
+  } else if (exchange_.other_basis() > other_basis && ShouldLog(exchange_.other_basis())) {
+    spdlog::warn("{}: {}", channel, exchange_.last_rejection());
   }
 }
 

@@ -3,6 +3,7 @@
 #include <openssl/evp.h>
 
 #include <algorithm>
+#include <bit>
 #include <cmath>
 #include <numeric>
 
@@ -25,6 +26,7 @@ learned_place_t ToMessage(const LearnedPlace& p) {
   m.dims = static_cast<int32_t>(p.mean.size());
   m.mean.assign(p.mean.data(), p.mean.data() + p.mean.size());
   m.num_samples = static_cast<int32_t>(p.samples.cols());
+  m.view_dims = static_cast<int32_t>(p.samples.rows());
   m.samples.resize(static_cast<size_t>(m.num_samples));
   for (int j = 0; j < m.num_samples; ++j) {
     const float* col = p.samples.col(j).data();
@@ -80,6 +82,7 @@ MemorySnapshot BuildSnapshot(const PlaceMemory& memory, const TopologicalMap& ma
   MemorySnapshot snap;
   snap.version = header.version;
   snap.places = static_cast<int32_t>(memory.places().size());
+  snap.view_basis = ViewBasisId(memory.view_basis());
   snap.edges = static_cast<int32_t>(map.edges().size());
 
   memory_portion_t blank;
@@ -91,6 +94,7 @@ MemorySnapshot BuildSnapshot(const PlaceMemory& memory, const TopologicalMap& ma
   blank.total_nodes = static_cast<int32_t>(memory.nodes().size());
   blank.total_edges = snap.edges;
   blank.next_local = static_cast<int32_t>(memory.next_local_id());
+  blank.view_basis = ViewBasisId(memory.view_basis());
   blank.first_place = 0;
   blank.index = blank.count = blank.structure_portions = 0;
   blank.digest = 0;
@@ -217,6 +221,11 @@ void DescribeInAnnounce(const MemorySnapshot& snapshot, announce_t& a) {
   a.memory_digest = snapshot.digest;
   a.portions = static_cast<int32_t>(snapshot.portions.size());
   a.structure_portions = snapshot.structure_portions;
+  a.view_basis = snapshot.view_basis;
+}
+
+int64_t ViewBasisId(const ViewBasis* basis) {
+  return basis ? std::bit_cast<int64_t>(basis->id()) : 0;
 }
 
 }  // namespace tsc

@@ -23,6 +23,7 @@ struct MemorySnapshot {
   std::vector<int64_t> body_digests;  ///< of place i, whose body is portion structure_portions + i
   int32_t places = 0;
   int32_t edges = 0;
+  int64_t view_basis = 0;  ///< ViewBasisId of the memory's member views
 };
 
 struct SnapshotHeader {
@@ -55,8 +56,13 @@ std::vector<int32_t> PortionsBelow(int32_t n);
 std::vector<int32_t> PortionsBeyond(const MemorySnapshot& snapshot,
                                     const std::unordered_set<int64_t>& known);
 
+/// What the exchange calls a view basis (memory_portion_t.view_basis, announce_t.view_basis):
+/// its id, 0 for none (views kept as descriptors).
+int64_t ViewBasisId(const ViewBasis* basis);
+
 /// Sets the fields of an announce that describe `snapshot` (memory_version, memory_digest,
-/// portions, structure_portions): what a peer needs to decide to fetch it and what to ask for.
+/// portions, structure_portions, view_basis): what a peer needs to decide to fetch it and what
+/// to ask for.
 void DescribeInAnnounce(const MemorySnapshot& snapshot, announce_t& a);
 
 }  // namespace tsc

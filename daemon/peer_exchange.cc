@@ -21,12 +21,19 @@ bool PeerExchange::OnAnnounce(const announce_t& a, Clock::time_point now) {
   p.version = a.memory_version;
   p.digest = a.memory_digest;
   p.structure_portions = a.structure_portions;
+  p.other_basis = a.view_basis != options_.view_basis;
+  if (p.other_basis) {
+    ++other_basis_;
+    last_rejection_ =
+        "robot " + std::to_string(a.robot) +
+        " keeps member views in another basis (memory.view_basis differs): not fetched";
+  }
   p.seen = now;
   return true;
 }
 
 bool PeerExchange::Wanted(int32_t robot, const Peer& peer) const {
-  if (peer.version <= 0) return false;
+  if (peer.version <= 0 || peer.other_basis) return false;
   const auto m = merged_.find(robot);
   // A new digest means new content, whatever the version says (a restarted peer counts anew).
   return m == merged_.end() || m->second.digest != peer.digest;

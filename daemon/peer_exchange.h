@@ -25,6 +25,9 @@ struct PeerExchangeOptions {
   std::chrono::milliseconds retry{500};           ///< ask again for missing portions after this
   int max_retries = 20;                           ///< then give up on this attempt
   std::chrono::milliseconds peer_timeout{10000};  ///< a peer silent this long is forgotten
+  /// ViewBasisId of our member views: a peer announcing another is never fetched (its views
+  /// do not compare with ours; a team must share memory.view_basis).
+  int64_t view_basis = 0;
 };
 
 /// What is known of a merged peer memory (kept in the store's peers table).
@@ -63,6 +66,8 @@ class PeerExchange {
   int64_t replays() const { return replays_; }
   int64_t rejected_portions() const { return rejected_portions_; }
   int64_t given_up() const { return given_up_; }
+  /// Announces of peers whose member views are kept in another basis (not fetched).
+  int64_t other_basis() const { return other_basis_; }
   const std::string& last_rejection() const { return last_rejection_; }
   /// Peers heard from within the peer timeout (or being fetched).
   size_t peers() const { return peers_.size(); }
@@ -80,6 +85,7 @@ class PeerExchange {
     int64_t version = 0;
     int64_t digest = 0;
     int32_t structure_portions = 0;
+    bool other_basis = false;  // its views are in another basis: never fetched
     Clock::time_point seen{};
   };
   bool Wanted(int32_t robot, const Peer& peer) const;
@@ -101,6 +107,7 @@ class PeerExchange {
   int64_t replays_ = 0;
   int64_t rejected_portions_ = 0;
   int64_t given_up_ = 0;
+  int64_t other_basis_ = 0;
   std::string last_rejection_;
 };
 

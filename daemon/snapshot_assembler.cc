@@ -26,8 +26,9 @@ std::string CheckPlace(const learned_place_t& p) {
   if (p.num_samples < 0 || p.samples.size() != static_cast<size_t>(p.num_samples)) {
     return "bad sample count";
   }
+  if (p.view_dims <= 0 || p.view_dims > SnapshotAssembler::kMaxDims) return "bad view dimension";
   for (const auto& s : p.samples) {
-    if (s.size() != static_cast<size_t>(p.dims) || !AllBounded(s)) return "bad sample";
+    if (s.size() != static_cast<size_t>(p.view_dims) || !AllBounded(s)) return "bad sample";
   }
   if (p.member_count < 1) return "place without members";
   if (p.id.robot <= 0 || p.id.local <= 0) return "bad place id";
@@ -43,6 +44,10 @@ std::string CheckEntry(const place_entry_t& e) {
 }  // namespace
 
 PlaceMemory ToPlaceMemory(const PeerSnapshot& snapshot, const PlaceMemoryOptions& options) {
+  if (snapshot.view_basis != ViewBasisId(options.view_basis.get())) {
+    throw std::invalid_argument("robot " + std::to_string(snapshot.robot) +
+                                " keeps member views in another view basis (memory.view_basis)");
+  }
   std::vector<LearnedPlace> places;
   std::vector<int> pi;
   std::vector<double> lambda;
@@ -53,10 +58,10 @@ PlaceMemory ToPlaceMemory(const PeerSnapshot& snapshot, const PlaceMemoryOptions
     p.id = PlaceId{static_cast<uint32_t>(m.id.robot), static_cast<uint32_t>(m.id.local)};
     p.mean = Eigen::Map<const Eigen::VectorXf>(m.mean.data(), m.dims);
     p.member_count = m.member_count;
-    p.samples.resize(m.dims, m.num_samples);
+    p.samples.resize(m.view_dims, m.num_samples);
     for (int j = 0; j < m.num_samples; ++j) {
       p.samples.col(j) =
-          Eigen::Map<const Eigen::VectorXf>(m.samples[static_cast<size_t>(j)].data(), m.dims);
+          Eigen::Map<const Eigen::VectorXf>(m.samples[static_cast<size_t>(j)].data(), m.view_dims);
     }
     for (const place_ref_t& s : m.sources) {
       p.sources.push_back(PlaceId{static_cast<uint32_t>(s.robot), static_cast<uint32_t>(s.local)});
@@ -172,6 +177,7 @@ SnapshotAssembler::Result SnapshotAssembler::Accept(const memory_portion_t& p) {
     version_ = p.version;
     boot_id_ = p.boot_id;
     digest_ = p.digest;
+    view_basis_ = p.view_basis;
     count_ = p.count;
     structure_portions_ = p.structure_portions;
     total_places_ = p.total_places;
@@ -183,7 +189,7 @@ SnapshotAssembler::Result SnapshotAssembler::Accept(const memory_portion_t& p) {
   }
   if (p.count != count_ || p.structure_portions != structure_portions_ || p.digest != digest_ ||
       p.total_places != total_places_ || p.total_nodes != total_nodes_ ||
-      p.total_edges != total_edges_ || p.boot_id != boot_id_) {
+      p.total_edges != total_edges_ || p.boot_id != boot_id_ || p.view_basis != view_basis_) {
     return reject("disagrees with the other portions of version " + std::to_string(version_));
   }
   return Keep(p);
@@ -275,6 +281,7 @@ std::optional<PeerSnapshot> SnapshotAssembler::Take(std::string* reason) {
   snap.boot_id = boot_id_;
   snap.version = version_;
   snap.digest = digest_;
+  snap.view_basis = view_basis_;
   for (auto& [index, portion] : structure_) {
     snap.next_local = portion.next_local;
     if (!portion.entries.empty() &&

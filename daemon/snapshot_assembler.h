@@ -30,6 +30,7 @@ struct PeerSnapshot {
   int64_t boot_id = 0;
   int64_t version = 0;
   int64_t digest = 0;
+  int64_t view_basis = 0;  ///< memory_portion_t.view_basis
   int32_t next_local = 0;
   std::vector<place_entry_t> entries;                          ///< in snapshot order
   std::vector<std::shared_ptr<const learned_place_t>> places;  ///< the body of each entry
@@ -109,6 +110,7 @@ class SnapshotAssembler {
   int64_t version_ = -1;
   int64_t boot_id_ = 0;
   int64_t digest_ = 0;
+  int64_t view_basis_ = 0;
   int32_t count_ = 0;
   int32_t structure_portions_ = 0;
   int32_t total_places_ = 0;

@@ -78,11 +78,12 @@ constexpr size_t kPlaceRef = 4 + 4;
 void LearnedPlace(WireWalker& w) {
   w.Skip(kPlaceRef + 8);  // id, member_count
   const int64_t dims = w.Length(4);
-  w.Array(dims, 4);                     // mean
-  const int64_t samples = w.Length(4);  // samples[num_samples][dims]
-  if (w.Fits(samples) && dims > 0) {
-    if (samples * dims > INT32_MAX) w.Fits(-1);  // more floats than any message can hold
-    w.Array(samples * dims, 4);
+  w.Array(dims, 4);  // mean
+  const int64_t samples = w.Length(4);
+  const int64_t view_dims = w.Length(4);  // samples[num_samples][view_dims]
+  if (w.Fits(samples) && view_dims > 0) {
+    if (samples * view_dims > INT32_MAX) w.Fits(-1);  // more floats than any message can hold
+    w.Array(samples * view_dims, 4);
   }
   w.Array(w.Length(4), kPlaceRef);  // sources
 }
@@ -97,8 +98,8 @@ void MemoryNode(WireWalker& w) {
 template <>
 bool ArrayLengthsFit<announce_t>(const uint8_t* data, size_t size) {
   WireWalker w(data, size);
-  // utime … portions, structure_portions, places … queue_fill
-  w.Skip(kHash + 8 + 2 + 4 + 8 + 8 + 8 + 8 + 4 + 4 + 4 + 4 + 4 + 8 + 8 + 8 + 4);
+  // utime … portions, structure_portions, view_basis, places … queue_fill
+  w.Skip(kHash + 8 + 2 + 4 + 8 + 8 + 8 + 8 + 4 + 4 + 8 + 4 + 4 + 4 + 8 + 8 + 8 + 4);
   w.String();  // status
   w.Hmac();
   return w.ok();
@@ -116,8 +117,8 @@ bool ArrayLengthsFit<memory_request_t>(const uint8_t* data, size_t size) {
 template <>
 bool ArrayLengthsFit<memory_portion_t>(const uint8_t* data, size_t size) {
   WireWalker w(data, size);
-  // utime … count, structure_portions, digest … next_local
-  w.Skip(kHash + 8 + 4 + 8 + 8 + 4 + 4 + 4 + 8 + 4 + 4 + 4 + 4 + 4);
+  // utime … count, structure_portions, digest … next_local, view_basis
+  w.Skip(kHash + 8 + 4 + 8 + 8 + 4 + 4 + 4 + 8 + 4 + 4 + 4 + 4 + 4 + 8);
   w.Array(w.Length(4), kPlaceRef + 8 + 4 + 8);  // entries: id, digest, slink_pi, slink_lambda
   const int64_t places = w.Length(4);
   if (w.Fits(places))

@@ -11,9 +11,14 @@
 #include <cstdlib>
 #include <fstream>
 #include <map>
+#include <memory>
 #include <set>
 #include <sstream>
 #include <type_traits>
+#include <vector>
+
+#include "core/memory/builtin_view_basis.h"
+#include "core/memory/view_basis.h"
 
 namespace tsc {
 namespace fs = std::filesystem;
@@ -156,6 +161,26 @@ std::function<void(const std::string&)> OneOf(std::vector<std::string> choices) 
     for (const std::string& c : choices) list += (list.empty() ? "" : " | ") + c;
     throw std::invalid_argument("'" + v + "' is not one of " + list);
   };
+}
+
+// memory.view_basis: "builtin", "none" (null) or a file of ViewBasisBytes' form.
+std::shared_ptr<const ViewBasis> NamedOrFileViewBasis(const std::string& value) {
+  if (value == "none") return nullptr;
+  if (value == "builtin") return BuiltinViewBasis();
+  std::ifstream in(value, std::ios::binary);
+  if (!in) throw std::invalid_argument("cannot read the basis file '" + value + "'");
+  // Bounded before reading: 4096 axes of 4096 floats is far beyond any descriptor.
+  constexpr std::streamoff kMaxBytes = 64ll << 20;
+  in.seekg(0, std::ios::end);
+  const std::streamoff size = in.tellg();
+  if (size < 0 || size > kMaxBytes) {
+    throw std::invalid_argument("basis file '" + value + "' is larger than 64 MiB");
+  }
+  in.seekg(0);
+  std::vector<uint8_t> bytes(static_cast<size_t>(size));
+  in.read(reinterpret_cast<char*>(bytes.data()), size);
+  if (!in) throw std::invalid_argument("cannot read the basis file '" + value + "'");
+  return std::make_shared<const ViewBasis>(ParseViewBasis(bytes, value));
 }
 
 std::vector<ConfigKey> BuildTable() {
@@ -323,6 +348,24 @@ std::vector<ConfigKey> BuildTable() {
       "in the view index come nearest the detected place; 0 = every place",
       "places", PlaceMemoryOptions::kShortlistRange,
       [](auto& o) -> auto& { return o.pipeline.memory.shortlist; }));
+  {
+    ConfigKey k;
+    k.key = "memory.view_basis";
+    k.description =
+        "space member views are kept and measured in: builtin, the principal basis compiled "
+        "into tscd (128 axes, fitted for the default features; docs/decisions.md); none, the "
+        "descriptors themselves (the only choice for other feature sets unless a basis is "
+        "fitted for them); or a basis file written by 'tsc basis'. A team must share it";
+    k.kind = ConfigKey::Kind::kText;
+    k.text_range = "builtin | none | a path";
+    k.get = [](const Settings& o) {
+      return o.pipeline.memory.view_basis ? o.pipeline.memory.view_basis->name() : "none";
+    };
+    k.set = [](Settings& o, const std::string& v) {
+      o.pipeline.memory.view_basis = NamedOrFileViewBasis(Trim(v));
+    };
+    t.push_back(std::move(k));
+  }
   t.push_back(Number(
       "memory.svm_nu", "nu of the one-class SVM discriminants d_N", "",
       DiscriminantOptions::kNuRange,

@@ -903,10 +903,11 @@ std::vector<LearnedPlace> ReadLearnedPlaces(const Db& db) {
     }
     p.member_count = row.Int(4, "member_count", 1);
     p.samples = row.Samples(5, "samples");
-    if (p.samples.rows() != p.mean.size() || p.samples.cols() == 0) {
+    // Their dimension is the view basis' (or the mean's, before views were kept in a basis):
+    // Load checks it against the configured basis (PlaceMemory::Restore).
+    if (p.samples.rows() == 0 || p.samples.cols() == 0) {
       row.Fail("samples", std::to_string(p.samples.rows()) + " x " +
-                              std::to_string(p.samples.cols()) + " samples for a mean of " +
-                              std::to_string(p.mean.size()));
+                              std::to_string(p.samples.cols()) + " samples");
     }
     p.detected = row.Array<int64_t>(6, "detected");
     p.members = row.Array<int64_t>(7, "members");

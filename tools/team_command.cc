@@ -538,7 +538,7 @@ bool ReadRobotStore(const RobotStats& r, ReplayedRobot& route, RobotRow& row,
                     TeamMemoryForScoring& scoring) {
   try {
     const InspectedStore s =
-        InspectStore(r.dir / "memory.db", PlaceMemoryOptions{}, static_cast<uint32_t>(r.id));
+        InspectStore(r.dir / "memory.db", PipelineOptions{}.memory, static_cast<uint32_t>(r.id));
     row.frames = s.summary.base_points;
     row.places = static_cast<int64_t>(s.summary.learned_places.size());
     row.edges = s.summary.map_edges;

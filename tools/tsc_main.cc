@@ -20,6 +20,7 @@
 #include "settings/settings.h"
 #include "store/store.h"
 #include "tools/axis_sim_command.h"
+#include "tools/basis_command.h"
 #include "tools/classify_command.h"
 #include "tools/command_line.h"
 #include "tools/eval.h"
@@ -53,6 +54,7 @@ Topological spatial cognition, offline. Commands:
   soak     soak and load: a team under packet loss and restarts for minutes; RSS, CPU,
            merges and message rates to soak.csv and soak.png; judges growth
   merge    merge two robots' stores (place memories and maps) into a new store
+  basis    fit the principal basis member views are kept in, on datasets' descriptors
   axis-sim a simulated Axis PTZ camera (VAPIX MJPEG and PTZ over HTTP) on 127.0.0.1
   classify supervised place classification (chapter 2): train, test or cross-validate a
            multi-class SVM on labelled RGB-D datasets (ImageCLEF score, PR curve over tau)
@@ -502,6 +504,7 @@ int Main(int argc, char** argv) {
   if (command == "team") fn = RunTeamCommand;
   if (command == "soak") fn = RunSoakCommand;
   if (command == "merge") fn = RunMergeCommand;
+  if (command == "basis") fn = RunBasisCommand;
   if (command == "axis-sim") fn = RunAxisSimCommand;
   if (command == "classify") fn = RunClassifyCommand;
   if (command == "jaguar-sim") fn = RunJaguarSimCommand;

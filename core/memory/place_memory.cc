@@ -74,8 +74,14 @@ int PlaceMemory::Depth() const {
   return depth;
 }
 
-Eigen::MatrixXf PlaceMemory::VotePoints(const DetectedPlace& d) const {
-  return EvenlySpaced(d.descriptors, options_.max_vote_points);
+Votes PlaceMemory::VotePoints(const DetectedPlace& d) const {
+  const Eigen::MatrixXf points = EvenlySpaced(d.descriptors, options_.max_vote_points);
+  return Votes{ViewCoordinates(view_basis(), points), points.rowwise().mean()};
+}
+
+const Eigen::VectorXf& PlaceMemory::ViewCentre(int place) const {
+  return view_basis() ? view_centres_.at(static_cast<size_t>(place))
+                      : places_.at(static_cast<size_t>(place)).mean;
 }
 
 double PlaceMemory::MedianViewSpacing() const {
@@ -129,7 +135,7 @@ std::vector<float> PlaceMemory::EstimatedDistances(const Eigen::MatrixXf& votes,
   return view_index_.Estimate(IndexQueries(votes), places);
 }
 
-CostTerms PlaceMemory::Cost(const ViewDistances& vd, const Eigen::MatrixXf& votes, int node) const {
+CostTerms PlaceMemory::Cost(const ViewDistances& vd, const Votes& votes, int node) const {
   // The children of N, each with the places under it (one contiguous range of leaf_order_).
   const std::vector<int>& children = nodes_[node].children;
   std::vector<CostCandidate> candidates(children.size());
@@ -139,26 +145,25 @@ CostTerms PlaceMemory::Cost(const ViewDistances& vd, const Eigen::MatrixXf& vote
                                 leaf_order_.begin() + child.end_leaf);
     candidates[c].centroid = Centroid(children[c]);
   }
-  CostTerms t = RecognitionCost(vd, votes.rowwise().mean(), candidates, options_.cost);
+  CostTerms t = RecognitionCost(vd, votes.mean, candidates, options_.cost);
   // No child with a shortlisted place: infinite cost, so the descent stops here.
   if (t.best < 0) return t;
   t.best = children[static_cast<size_t>(t.best)];
   if (options_.svm_vote) {
     // The thesis' vote: the fraction of D's points inside d_{N¹}'s support.
     t.cost -= 1.0 - t.vote;
-    t.vote = discriminants_[t.best].VoteFraction(votes);
+    t.vote = discriminants_[t.best].VoteFraction(votes.views);
     t.cost += 1.0 - t.vote;
   }
   return t;
 }
 
 Recognition PlaceMemory::Descend(const DetectedPlace& d, int start) const {
-  const Eigen::MatrixXf votes = VotePoints(d);
-  return Descend(DistancesOf(votes, UnitFor(d)), votes, start);
+  const Votes votes = VotePoints(d);
+  return Descend(DistancesOf(votes.views, UnitFor(d)), votes, start);
 }
 
-Recognition PlaceMemory::Descend(const ViewDistances& vd, const Eigen::MatrixXf& votes,
-                                 int start) const {
+Recognition PlaceMemory::Descend(const ViewDistances& vd, const Votes& votes, int start) const {
   Recognition r;
   r.start_nodes.push_back(start);
   for (int node = start;;) {
@@ -178,8 +183,8 @@ Recognition PlaceMemory::Recognize(const DetectedPlace& d, std::optional<int> pr
   Recognition total;
   if (empty()) return total;
   // Every descent measures against the same views: the distances are computed once.
-  const Eigen::MatrixXf votes = VotePoints(d);
-  const ViewDistances vd = DistancesOf(votes, UnitFor(d));
+  const Votes votes = VotePoints(d);
+  const ViewDistances vd = DistancesOf(votes.views, UnitFor(d));
   auto absorb = [&total](const Recognition& r) {
     total.start_nodes.insert(total.start_nodes.end(), r.start_nodes.begin(), r.start_nodes.end());
     total.visited.insert(total.visited.end(), r.visited.begin(), r.visited.end());
@@ -217,8 +222,10 @@ int PlaceMemory::Learn(const DetectedPlace& d) {
   }
   p.member_count = d.descriptors.cols();
   // Thinning compares every pair: a long place is first spaced evenly to twice the cap.
-  p.samples = ThinViews(EvenlySpaced(d.descriptors, 2 * options_.max_samples_per_place),
-                        options_.max_samples_per_place);
+  p.samples =
+      ThinViews(ViewCoordinates(view_basis(),
+                                EvenlySpaced(d.descriptors, 2 * options_.max_samples_per_place)),
+                options_.max_samples_per_place);
   p.detected = {d.index};
   p.members = d.members;
   // γ of (3.12) between the new place and every learned place, streamed from the contiguous
@@ -236,7 +243,6 @@ int PlaceMemory::Learn(const DetectedPlace& d) {
   spacings_.push_back(ViewSpacing(p.samples));
   places_.push_back(std::move(p));
   StoreMean(static_cast<int>(places_.size()) - 1);
-  view_index_.Set(static_cast<int>(places_.size()) - 1, places_.back());
   ++next_local_;
   RebuildTree(nullptr);
   return static_cast<int>(places_.size()) - 1;
@@ -251,7 +257,8 @@ void PlaceMemory::Update(int place, const DetectedPlace& d) {
            static_cast<float>(p.member_count + added);
   p.member_count += added;
   // The kept views first, then this visit's: thinning keeps what the visit shows anew.
-  const Eigen::MatrixXf visit = EvenlySpaced(d.descriptors, options_.max_samples_per_place);
+  const Eigen::MatrixXf visit =
+      ViewCoordinates(view_basis(), EvenlySpaced(d.descriptors, options_.max_samples_per_place));
   Eigen::MatrixXf pool(p.samples.rows(), p.samples.cols() + visit.cols());
   pool << p.samples, visit;
   p.samples = ThinViews(pool, options_.max_samples_per_place);
@@ -259,7 +266,6 @@ void PlaceMemory::Update(int place, const DetectedPlace& d) {
   p.detected.push_back(d.index);
   p.members.insert(p.members.end(), d.members.begin(), d.members.end());
   StoreMean(place);
-  view_index_.Set(place, p);
   // The place's path to the root: centroids move, discriminants see new members.
   const Eigen::VectorXf delta = p.mean - old_mean;
   RetrainDiscriminant(place);
@@ -274,8 +280,7 @@ Eigen::MatrixXf PlaceMemory::TrainingSet(int node) const {
   Eigen::Index total = 0;
   for (int i = nd.first_leaf; i < nd.end_leaf; ++i) total += places_[leaf_order_[i]].samples.cols();
   const Eigen::Index cap = std::min<Eigen::Index>(total, options_.discriminant.max_training);
-  const Eigen::Index dim = places_.front().mean.size();
-  Eigen::MatrixXf out(dim, cap);
+  Eigen::MatrixXf out(places_.front().samples.rows(), cap);
   // Column j of the result is sample ⌊j·total/cap⌋ of the node's places in leaf order.
   Eigen::Index offset = 0, j = 0;
   for (int i = nd.first_leaf; i < nd.end_leaf && j < cap; ++i) {
@@ -304,6 +309,11 @@ void PlaceMemory::StoreMean(int place) {
     means_.swap(grown);
   }
   means_.col(place).head(mean.size()) = mean;
+  if (view_basis()) {
+    if (static_cast<size_t>(place) >= view_centres_.size()) view_centres_.resize(place + 1);
+    view_centres_[static_cast<size_t>(place)] = view_basis()->Coordinates(mean);
+  }
+  view_index_.Set(place, ViewCentre(place), places_[place].samples);
 }
 
 void PlaceMemory::RetrainDiscriminant(int node) {
@@ -508,10 +518,29 @@ PlaceMemory PlaceMemory::Restore(uint32_t robot, PlaceMemoryOptions options,
     throw std::invalid_argument("place memory: " + std::to_string(places.size()) +
                                 " places but SLINK state of " + std::to_string(slink.size()));
   }
+  if (const ViewBasis* basis = memory.view_basis()) {
+    // A memory saved, or sent by a peer, before views were kept in the basis holds them in
+    // the descriptors' own space: they are taken into the basis (docs/decisions.md "A
+    // principal basis for member views").
+    for (LearnedPlace& p : places) {
+      if (p.samples.rows() == basis->input_dimension() && p.samples.rows() != basis->dimension()) {
+        p.samples = basis->Coordinates(p.samples);
+      }
+    }
+  }
   for (const LearnedPlace& p : places) {
     if (p.mean.size() == 0 || p.mean.size() != places.front().mean.size() || !p.mean.allFinite() ||
-        p.samples.rows() != p.mean.size() || p.samples.cols() == 0 || p.member_count < 1) {
+        p.samples.cols() == 0 || p.member_count < 1) {
       throw std::invalid_argument("place memory: place " + p.id.ToString() + " is inconsistent");
+    }
+    const int view_dim = ViewDimension(memory.view_basis(), static_cast<int>(p.mean.size()));
+    if (p.samples.rows() != view_dim) {
+      const ViewBasis* basis = memory.view_basis();
+      throw std::invalid_argument(
+          "place memory: place " + p.id.ToString() + " keeps member views of dimension " +
+          std::to_string(p.samples.rows()) + ", but memory.view_basis = " +
+          (basis ? basis->name() : std::string("none")) + " keeps them in " +
+          std::to_string(view_dim) + " (the memory was kept in another view basis)");
     }
     if (p.id.robot == robot && p.id.local >= next_local) {
       throw std::invalid_argument("place memory: place " + p.id.ToString() +
@@ -529,7 +558,6 @@ PlaceMemory PlaceMemory::Restore(uint32_t robot, PlaceMemoryOptions options,
   }
   for (size_t i = 0; i < memory.places_.size(); ++i) {
     memory.StoreMean(static_cast<int>(i));
-    memory.view_index_.Set(static_cast<int>(i), memory.places_[i]);
   }
   memory.spacings_.reserve(memory.places_.size());
   for (const LearnedPlace& p : memory.places_) memory.spacings_.push_back(ViewSpacing(p.samples));

@@ -7,6 +7,7 @@
 
 #include <Eigen/Core>
 #include <cstdint>
+#include <memory>
 #include <optional>
 #include <unordered_map>
 #include <vector>
@@ -17,6 +18,7 @@
 #include "core/memory/place_id.h"
 #include "core/memory/recognition_cost.h"
 #include "core/memory/slink.h"
+#include "core/memory/view_basis.h"
 #include "core/memory/view_index.h"
 #include "core/range.h"
 
@@ -61,6 +63,9 @@ struct PlaceMemoryOptions {
   /// Places measured exactly per recognition once the memory holds more: the ones whose
   /// keys in the view index come nearest D (core/memory/view_index.h). 0: every place.
   int shortlist = 32;
+  /// The space member views are kept and measured in (core/memory/view_basis.h); null: the
+  /// descriptors' own. Every memory a merge joins must use the same basis.
+  std::shared_ptr<const ViewBasis> view_basis;
   RecognitionCostOptions cost;
   DiscriminantOptions discriminant;  ///< d_N, used with svm_vote
   // Valid ranges (also the configuration's, memory.*).
@@ -73,6 +78,14 @@ struct PlaceMemoryOptions {
   static constexpr Range kStepUnitRange{0, 1e6};
   static constexpr Range kShortlistRange{0, 1000000};
   void Validate() const;
+};
+
+/// D's vote points (evenly spaced base points, at most memory.max_vote_points): in the view
+/// space, what distances to member views are measured on, and their mean descriptor, what the
+/// centroids of the tree's nodes are compared with.
+struct Votes {
+  Eigen::MatrixXf views;
+  Eigen::VectorXf mean;
 };
 
 /// Outcome of one recognition attempt.
@@ -94,14 +107,15 @@ class PlaceMemory {
   Recognition Recognize(const DetectedPlace& d, std::optional<int> previous = std::nullopt) const;
   /// Top-down descent from `start`: while g_N ≤ τ_r go to N¹; a terminal N¹ recognises.
   Recognition Descend(const DetectedPlace& d, int start) const;
-  Recognition Descend(const ViewDistances& vd, const Eigen::MatrixXf& votes, int start) const;
+  Recognition Descend(const ViewDistances& vd, const Votes& votes, int start) const;
   /// g_N(D) of (3.8) at inner node `node` from D's vote points' distances to every place's
   /// member views; `terms.best` is N¹ as a node index.
-  CostTerms Cost(const ViewDistances& vd, const Eigen::MatrixXf& votes, int node) const;
+  CostTerms Cost(const ViewDistances& vd, const Votes& votes, int node) const;
   /// The nearest member views of every place to D's vote points (only of the shortlist's
   /// places once the memory holds more than options().shortlist; the others infinitely far).
   ViewDistances DistancesOf(const Eigen::MatrixXf& votes, double unit) const;
-  /// The view index's rough squared distances from `votes` (its mean and two spread points)
+  /// The view index's rough squared distances from `votes` (view space; their mean and two
+  /// spread points)
   /// to the places `places`: what the merge shortlists a hyper-terminal's places by, and the
   /// ratio term's distance to the places it does not measure (core/merge/recognition.cc).
   std::vector<float> EstimatedDistances(const Eigen::MatrixXf& votes,
@@ -109,7 +123,11 @@ class PlaceMemory {
   /// u for D: the larger of DistanceUnit() and step_unit x D's median consecutive squared
   /// step (DistanceUnit() alone when D has one point or step_unit is 0).
   double UnitFor(const DetectedPlace& d) const;
-  Eigen::MatrixXf VotePoints(const DetectedPlace& d) const;
+  Votes VotePoints(const DetectedPlace& d) const;
+  /// The basis of member views (null: the descriptors' own space).
+  const ViewBasis* view_basis() const { return options_.view_basis.get(); }
+  /// Place `place`'s mean in the space of member views (the mean itself without a basis).
+  const Eigen::VectorXf& ViewCentre(int place) const;
 
   /// Learns D as a new place p*+1 (SLINK insertion, rebuild, retrain changed nodes).
   int Learn(const DetectedPlace& d);
@@ -174,7 +192,8 @@ class PlaceMemory {
   void RetrainDiscriminant(int node);
   Eigen::MatrixXf TrainingSet(int node) const;
   bool TrainsDiscriminants() const { return options_.svm_vote; }
-  /// Copies place `place`'s mean into column `place` of `means_` (growing it as needed).
+  /// Copies place `place`'s mean into column `place` of `means_` (growing it as needed) and
+  /// re-keys it in the view index.
   void StoreMean(int place);
 
   uint32_t robot_;
@@ -195,6 +214,8 @@ class PlaceMemory {
   // keeps the distances bit-identical to (places_[i].mean − x).squaredNorm().
   Eigen::MatrixXf means_;
   ViewIndex view_index_;  // keys of every place, in place order
+  // With a view basis: each place's mean in it (ViewCentre), kept in sync with the means.
+  std::vector<Eigen::VectorXf> view_centres_;
 
   // Scratch reused across rebuilds (no per-learn allocation).
   std::vector<KeySlot> key_table_;

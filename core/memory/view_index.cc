@@ -43,25 +43,25 @@ float ViewIndex::Unprojected(float projected) {
   return std::max(0.0f, projected / static_cast<float>(kDimensions));
 }
 
-void ViewIndex::Set(int place, const LearnedPlace& p) {
+void ViewIndex::Set(int place, const Eigen::VectorXf& centre, const Eigen::MatrixXf& views) {
   if (place < 0 || place > size()) {
     throw std::out_of_range("view index: place " + std::to_string(place) + " of " +
                             std::to_string(size()));
   }
-  if (p.mean.size() == 0 || p.samples.cols() == 0 || p.samples.rows() != p.mean.size()) {
-    throw std::invalid_argument("view index: place " + p.id.ToString() + " has no views");
+  if (centre.size() == 0 || views.cols() == 0 || views.rows() != centre.size()) {
+    throw std::invalid_argument("view index: place " + std::to_string(place) + " has no views");
   }
-  if (projection_.cols() != p.mean.size()) {
+  if (projection_.cols() != centre.size()) {
     if (size() > 0) {
-      throw std::invalid_argument("view index: dimension " + std::to_string(p.mean.size()) +
+      throw std::invalid_argument("view index: dimension " + std::to_string(centre.size()) +
                                   " differs from the index's " +
                                   std::to_string(projection_.cols()));
     }
-    projection_ = RademacherProjection(p.mean.size());
+    projection_ = RademacherProjection(centre.size());
   }
-  Eigen::MatrixXf keys(p.mean.size(), kKeysPerPlace);
-  keys.col(0) = p.mean;
-  const Eigen::MatrixXf spread = ThinViews(p.samples, kKeysPerPlace - 1);
+  Eigen::MatrixXf keys(centre.size(), kKeysPerPlace);
+  keys.col(0) = centre;
+  const Eigen::MatrixXf spread = ThinViews(views, kKeysPerPlace - 1);
   // A place with fewer views repeats its last one: every place has the same number of keys.
   for (int k = 1; k < kKeysPerPlace; ++k) {
     keys.col(k) = spread.col(std::min<Eigen::Index>(k - 1, spread.cols() - 1));

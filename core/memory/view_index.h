@@ -11,7 +11,6 @@
 #include <span>
 #include <vector>
 
-#include "core/memory/learned_place.h"
 #include "core/memory/simd.h"
 
 namespace tsc {
@@ -29,9 +28,10 @@ class ViewIndex {
   /// `simd`: the instructions Estimate runs on (the same estimates up to rounding).
   explicit ViewIndex(Simd simd = FastestSimd()) : simd_(simd) {}
 
-  /// Keys place `place` (re-keys it when already indexed; appends when place == size()).
-  /// Precondition: place ≤ size(); p has a mean and at least one member view.
-  void Set(int place, const LearnedPlace& p);
+  /// Keys place `place` (re-keys it when already indexed; appends when place == size()) by
+  /// `centre`, its mean in the space of its member views `views` (dim x k, k ≥ 1;
+  /// core/memory/view_basis.h), and two spread views. Precondition: place ≤ size().
+  void Set(int place, const Eigen::VectorXf& centre, const Eigen::MatrixXf& views);
   int size() const { return static_cast<int>(key_norms_.size() / kKeysPerPlace); }
 
   /// For every place, an estimate of its squared distance to D: the smallest over its keys

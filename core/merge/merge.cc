@@ -22,6 +22,15 @@ void CheckSameDimension(const PlaceMemory& ours, const PlaceMemory& peer) {
                                 std::to_string(ours.places().front().mean.size()) + " and " +
                                 std::to_string(peer.places().front().mean.size()));
   }
+  // Views of different bases are not comparable (core/memory/view_basis.h).
+  const ViewBasis* a = ours.view_basis();
+  const ViewBasis* b = peer.view_basis();
+  if ((a == nullptr) != (b == nullptr) || (a && a->id() != b->id())) {
+    throw std::invalid_argument(
+        "cannot merge memories whose member views are kept in different "
+        "bases (" +
+        std::string(a ? a->name() : "none") + " and " + std::string(b ? b->name() : "none") + ")");
+  }
 }
 
 // Figure 4.4's case of the root spheres (`spheres`), then recognition where they meet (into

@@ -7,14 +7,23 @@
 namespace tsc {
 namespace {
 
-// The radius around `centre` of the ball that holds every member view of `memory`.
+// The radius around `centre` of the ball that holds every member view of `memory`, in the
+// space of the views (a view basis shortens distances, never lengthens them).
 double ViewBound(const PlaceMemory& memory, const Eigen::VectorXf& centre) {
   double bound = 0.0;
-  for (const LearnedPlace& p : memory.places()) {
-    const double spread = (p.samples.colwise() - p.mean).colwise().norm().maxCoeff();
+  for (size_t i = 0; i < memory.places().size(); ++i) {
+    const LearnedPlace& p = memory.places()[i];
+    const Eigen::VectorXf& c = memory.ViewCentre(static_cast<int>(i));
+    const double spread = (p.samples.colwise() - c).colwise().norm().maxCoeff();
     bound = std::max(bound, (p.mean - centre).norm() + spread);
   }
   return bound;
+}
+
+// ‖a − b‖ in the space of the member views.
+double ViewSpaceDistance(const PlaceMemory& memory, const Eigen::VectorXf& a,
+                         const Eigen::VectorXf& b) {
+  return ViewCoordinates(memory.view_basis(), a - b).norm();
 }
 
 std::vector<int> AllPlaces(const PlaceMemory& memory) {
@@ -35,7 +44,8 @@ MergeCase RootSphereCase(const PlaceMemory& base, const PlaceMemory& incoming,
   const double reach = std::sqrt(tau_r * std::max(base.DistanceUnit(), incoming.DistanceUnit()));
   // (4.5), decided on the spheres that hold every member view: ρ of (4.4) is a root mean
   // square, and a place outside it may coincide with one of the other memory.
-  if (d > ViewBound(base, sb.centroid) + ViewBound(incoming, si.centroid) + reach) {
+  if (ViewSpaceDistance(base, sb.centroid, si.centroid) >
+      ViewBound(base, sb.centroid) + ViewBound(incoming, si.centroid) + reach) {
     return MergeCase::kDisjoint;
   }
   const bool base_large = sb.radius >= si.radius;

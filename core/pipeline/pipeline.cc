@@ -5,6 +5,8 @@
 #include <string>
 #include <utility>
 
+#include "core/memory/builtin_view_basis.h"
+
 namespace tsc {
 namespace {
 PlaceEvent MakeEvent(EventKind kind, BaseIndex frame, DetectedPlaceIndex detected) {
@@ -44,6 +46,11 @@ void PipelineOptions::Validate() const {
   }
 }
 
+PlaceMemoryOptions WithBuiltinViewBasis(PlaceMemoryOptions options) {
+  options.view_basis = BuiltinViewBasis();
+  return options;
+}
+
 Pipeline::Pipeline(CameraIntrinsics camera, PipelineOptions options, PlaceMemory memory,
                    TopologicalMap map, PipelineState state)
     : options_((options.Validate(), std::move(options))),
@@ -58,6 +65,18 @@ Pipeline::Pipeline(CameraIntrinsics camera, PipelineOptions options, PlaceMemory
     throw std::invalid_argument("place memory of robot " + std::to_string(memory_.robot()) +
                                 " given to the pipeline of robot " +
                                 std::to_string(options_.robot));
+  }
+  if (const ViewBasis* basis = memory_.view_basis()) {
+    // Said here, at start, rather than when the first place is learned.
+    const int dim = computer_.Compute(surface_).dim();
+    surface_.Reset();
+    if (dim != basis->input_dimension()) {
+      throw std::invalid_argument(
+          "memory.view_basis = " + basis->name() + " takes descriptors of dimension " +
+          std::to_string(basis->input_dimension()) + ", but bubble.features = " +
+          options_.features.ToString() + " gives " + std::to_string(dim) +
+          ": set memory.view_basis = none, or fit a basis for these features with tsc basis");
+    }
   }
 }
 

@@ -77,6 +77,9 @@ BasePointView FinishBasePoint(BubbleSurface& surface, const DescriptorComputer& 
 BasePointView DescribeBasePoint(std::span<const Observation> views, BubbleSurface& surface,
                                 const DescriptorComputer& computer);
 
+/// `options` with member views in the builtin basis.
+PlaceMemoryOptions WithBuiltinViewBasis(PlaceMemoryOptions options);
+
 struct PipelineOptions {
   uint32_t robot = 1;
   FeatureSet features = FeatureSet::Recognition();
@@ -84,7 +87,10 @@ struct PipelineOptions {
   DescriptorOptions descriptor;
   ReliabilityOptions reliability;
   DetectorOptions detector;
-  PlaceMemoryOptions memory;
+  /// Member views in the builtin basis (core/memory/builtin_view_basis.h), whose axes take
+  /// the default features' descriptors: another feature set needs memory.view_basis = none or
+  /// a basis of its own (the pipeline refuses a basis of another dimension).
+  PlaceMemoryOptions memory = WithBuiltinViewBasis(PlaceMemoryOptions{});
   bool recognize_partial = true;  ///< try recognition when a place opens (extent > τ_p)
   /// Base points of the window on which the robot recognises its whereabouts while a maximal
   /// neighbourhood is still too short to be a place (extent ≤ τ_p; section 3.5's periodic

@@ -35,6 +35,7 @@ class PipelineTest : public ::testing::Test {
   static PipelineOptions Options() {
     PipelineOptions o;
     o.detector = DetectorOptions{2, 2, 3};
+    o.memory.view_basis = nullptr;  // the descriptors here are synthetic, of kDim dimensions
     return o;
   }
   // `n` frames of place `c` (small noise), then a transition of 3 incoherent frames.

@@ -29,19 +29,15 @@ class Places {
   testing_support::SyntheticPlaces places_;
 };
 
-LearnedPlace AsLearned(const DetectedPlace& d) {
-  LearnedPlace p;
-  p.id = PlaceId{1, static_cast<uint32_t>(d.index)};
-  p.mean = d.Mean();
-  p.samples = d.descriptors;
-  p.member_count = d.descriptors.cols();
-  return p;
+// Keys `d` as place `place`, its views the descriptors themselves (no view basis).
+void Key(ViewIndex& index, int place, const DetectedPlace& d) {
+  index.Set(place, d.Mean(), d.descriptors);
 }
 
 TEST(ViewIndex, NamesThePlacesWhoseKeysAreNearestInIncreasingOrder) {
   Places places(11);
   ViewIndex index;
-  for (int p = 0; p < 200; ++p) index.Set(p, AsLearned(places.Visit(p, 0)));
+  for (int p = 0; p < 200; ++p) Key(index, p, places.Visit(p, 0));
   ASSERT_EQ(index.size(), 200);
   int found = 0;
   for (int p = 0; p < 200; p += 7) {
@@ -59,13 +55,13 @@ TEST(ViewIndex, NamesThePlacesWhoseKeysAreNearestInIncreasingOrder) {
 TEST(ViewIndex, RekeysAPlaceItAlreadyHolds) {
   Places places(12);
   ViewIndex index;
-  for (int p = 0; p < 50; ++p) index.Set(p, AsLearned(places.Visit(p, 0)));
+  for (int p = 0; p < 50; ++p) Key(index, p, places.Visit(p, 0));
   const Eigen::MatrixXf elsewhere = places.Visit(49, 1).descriptors;
-  index.Set(3, AsLearned(places.Visit(49, 2)));  // place 3 now looks like place 49
+  Key(index, 3, places.Visit(49, 2));  // place 3 now looks like place 49
   const std::vector<int> near = Shortlist(index.Estimate(elsewhere), 2);
   EXPECT_EQ(near, (std::vector<int>{3, 49}));
   EXPECT_EQ(index.size(), 50);
-  EXPECT_THROW(index.Set(52, AsLearned(places.Visit(1, 0))), std::out_of_range);
+  EXPECT_THROW(Key(index, 52, places.Visit(1, 0)), std::out_of_range);
 }
 
 // The definition by brute force: the `count` smallest (estimate, index) pairs, by index.
@@ -95,9 +91,9 @@ TEST(ViewIndex, EstimatesAreTheSameWithEitherSimd) {
   Places places(14);
   ViewIndex portable(Simd::kPortable), fastest(FastestSimd());
   for (int p = 0; p < 400; ++p) {  // 1200 keys
-    const LearnedPlace learned = AsLearned(places.Visit(p, 0));
-    portable.Set(p, learned);
-    fastest.Set(p, learned);
+    const DetectedPlace d = places.Visit(p, 0);
+    Key(portable, p, d);
+    Key(fastest, p, d);
   }
   for (int count : {1, 3, 5}) {
     const Eigen::MatrixXf queries = places.Visit(17, 1).descriptors.leftCols(count);
@@ -147,8 +143,8 @@ TEST(PlaceMemoryShortlist, RecognisesWhatTheExhaustiveSearchRecognises) {
   EXPECT_GT(hybrid_recognised, 30);
 
   // Only the shortlist is measured: the other places are infinitely far.
-  const Eigen::MatrixXf votes = memory.VotePoints(places.Visit(7, 1));
-  const ViewDistances vd = memory.DistancesOf(votes, memory.DistanceUnit());
+  const Votes votes = memory.VotePoints(places.Visit(7, 1));
+  const ViewDistances vd = memory.DistancesOf(votes.views, memory.DistanceUnit());
   int measured = 0;
   for (int p = 0; p < vd.num_places(); ++p) measured += std::isfinite(vd.distance(0, p));
   EXPECT_EQ(measured, 16);

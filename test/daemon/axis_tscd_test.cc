@@ -159,7 +159,7 @@ RobotRun RunRobot(const std::vector<std::string>& extra, milliseconds tick,
   }
   out.tscd_log = tscd.Log();
   Store store = Store::Open(dir / "state" / "memory.db");
-  EXPECT_GE(store.Load(1, PlaceMemoryOptions{}).memory.places().size(), 3u);
+  EXPECT_GE(store.Load(1, PipelineOptions{}.memory).memory.places().size(), 3u);
 
   sim.Signal(SIGTERM);
   EXPECT_EQ(sim.Wait(seconds(10)), 0) << sim.Log();

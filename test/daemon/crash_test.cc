@@ -259,7 +259,8 @@ TEST_F(CrashTest, KillNineWhileLearningLosesNothingAndRestartsFromTheLastCommit)
 // memories overlap and the merge has hyper-terminals to match.
 testing_support::RandomMemory PeerMemory(const PlaceMemory& ours, uint32_t robot, int count,
                                          unsigned seed) {
-  testing_support::RandomMemory out{PlaceMemory(robot, PlaceMemoryOptions{}), TopologicalMap{}};
+  // Our options: the views in our basis, as a teammate's are.
+  testing_support::RandomMemory out{PlaceMemory(robot, ours.options()), TopologicalMap{}};
   std::mt19937 rng(seed);
   std::uniform_real_distribution<float> scale(0.5f, 1.5f);
   const auto& places = ours.places();

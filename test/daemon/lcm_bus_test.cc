@@ -57,6 +57,7 @@ memory_portion_t SamplePortion(int32_t dims) {
   place.dims = dims;
   place.mean.assign(static_cast<size_t>(dims), 0.5f);
   place.num_samples = 1;
+  place.view_dims = dims;
   place.samples.assign(1, std::vector<float>(static_cast<size_t>(dims), 0.25f));
   place.num_sources = 0;
   p.places = {place};
@@ -74,7 +75,7 @@ memory_portion_t SamplePortion(int32_t dims) {
 // Offsets in the encoding of SamplePortion: after the 8-byte hash come 68 bytes of fixed
 // fields, then num_entries and an entry of 28 bytes, then num_places; a place has 16 bytes
 // before dims.
-constexpr size_t kNumEntries = 8 + 68;
+constexpr size_t kNumEntries = 8 + 76;
 constexpr size_t kNumPlaces = kNumEntries + 4 + 28;
 constexpr size_t kDims = kNumPlaces + 4 + 16;
 
@@ -169,7 +170,8 @@ TEST(LcmBus, ForgedHugeArrayLengthIsRefusedBeforeAllocating) {
   ASSERT_TRUE(LcmBus::Decode<memory_portion_t>(good.data(), good.size()).has_value());
   // Field offsets in `good`: mean holds 3 floats, samples one row of 3.
   const size_t num_samples = kDims + 4 + 12;
-  const size_t num_sources = num_samples + 4 + 12;
+  const size_t view_dims = num_samples + 4;
+  const size_t num_sources = view_dims + 4 + 12;
   const size_t num_nodes = num_sources + 4;
   const size_t num_children = num_nodes + 4 + 20;
   const size_t num_edges = num_children + 4 + 4;
@@ -182,6 +184,7 @@ TEST(LcmBus, ForgedHugeArrayLengthIsRefusedBeforeAllocating) {
                                                           {kNumPlaces, 1, "num_places"},
                                                           {kDims, 3, "dims"},
                                                           {num_samples, 1, "num_samples"},
+                                                          {view_dims, 3, "view_dims"},
                                                           {num_sources, 0, "num_sources"},
                                                           {num_nodes, 1, "num_nodes"},
                                                           {num_children, 1, "num_children"},
@@ -207,11 +210,11 @@ TEST(LcmBus, ForgedHugeArrayLengthIsRefusedBeforeAllocating) {
   ExpectRefusedCheaply<memory_request_t>(request, "num_missing");
 
   std::vector<uint8_t> announce = LcmBus::Encode(SampleAnnounce());
-  // The status string's length follows 94 bytes of fixed fields.
-  ASSERT_EQ(GetInt32(announce, 8 + 94), 8) << "offset of the length of \"running\"";
-  PutInt32(announce, 8 + 94, INT32_MAX);
+  // The status string's length follows 102 bytes of fixed fields.
+  ASSERT_EQ(GetInt32(announce, 8 + 102), 8) << "offset of the length of \"running\"";
+  PutInt32(announce, 8 + 102, INT32_MAX);
   ExpectRefusedCheaply<announce_t>(announce, "status length");
-  PutInt32(announce, 8 + 94, 0);  // an LCM string always counts its NUL
+  PutInt32(announce, 8 + 102, 0);  // an LCM string always counts its NUL
   ExpectRefusedCheaply<announce_t>(announce, "status length 0");
 }
 
@@ -220,11 +223,11 @@ TEST(LcmBus, ForgedHugeArrayLengthIsRefusedBeforeAllocating) {
 // and with trailing garbage (getEncodedSize counts size() + 1).
 TEST(LcmBus, StringWithANulInsideIsRefusedAndEncodeStaysConsistent) {
   std::vector<uint8_t> bytes = LcmBus::Encode(SampleAnnounce());
-  ASSERT_EQ(GetInt32(bytes, 8 + 94), 8);  // "running" and its NUL
-  bytes.at(8 + 98 + 3) = 0;               // "run\0ing"
+  ASSERT_EQ(GetInt32(bytes, 8 + 102), 8);  // "running" and its NUL
+  bytes.at(8 + 106 + 3) = 0;               // "run\0ing"
   EXPECT_FALSE(LcmBus::Decode<announce_t>(bytes.data(), bytes.size()).has_value());
-  bytes.at(8 + 98 + 3) = 'n';
-  bytes.at(8 + 98 + 7) = 'x';  // no terminating NUL
+  bytes.at(8 + 106 + 3) = 'n';
+  bytes.at(8 + 106 + 7) = 'x';  // no terminating NUL
   EXPECT_FALSE(LcmBus::Decode<announce_t>(bytes.data(), bytes.size()).has_value());
 
   announce_t a = SampleAnnounce();

@@ -94,6 +94,28 @@ TEST(PeerExchange, ReplayedAnnounceIsRefusedAndMergedDigestIsNotFetchedAgain) {
   EXPECT_EQ(requests[0].version, 2);
 }
 
+// A peer whose member views are kept in another basis is heard but never fetched: its views
+// would be measured against ours as if they were comparable.
+TEST(PeerExchange, APeerOfAnotherViewBasisIsNotFetched) {
+  const MemorySnapshot two = MakeSnapshot(2, 4, 1);
+  const MemorySnapshot three = MakeSnapshot(3, 4, 1);
+  PeerExchangeOptions options;
+  options.view_basis = 77;  // ours; the random memories keep plain descriptors (0)
+  PeerExchange dut(1, options);
+  Clock::time_point t{};
+  EXPECT_TRUE(dut.OnAnnounce(Announce(2, 1, two), t));
+  EXPECT_EQ(dut.other_basis(), 1);
+  EXPECT_NE(dut.last_rejection().find("robot 2"), std::string::npos) << dut.last_rejection();
+  EXPECT_TRUE(dut.Tick(t).empty());
+  announce_t same = Announce(3, 1, three);
+  same.view_basis = 77;
+  EXPECT_TRUE(dut.OnAnnounce(same, t));
+  const auto requests = dut.Tick(t);
+  ASSERT_EQ(requests.size(), 1u);
+  EXPECT_EQ(requests[0].robot, 3);
+  EXPECT_EQ(dut.other_basis(), 1);
+}
+
 // Issue 23: the second fetch of a peer asks for the structure, then only for the body of the
 // place that changed; after a failed merge (Forget) the next fetch asks for everything again.
 TEST(PeerExchange, SecondFetchAsksForTheStructureThenOnlyTheChangedBody) {

@@ -63,8 +63,10 @@ SnapshotAssembler PeerMemory(int places, bool corrupt = false) {
 class PipelineWorkerTest : public ::testing::Test {
  protected:
   PipelineWorkerTest()
-      : settings_(LoadSettings(std::nullopt, {"robot.id=1", "camera.source=sim",
-                                              "daemon.state_dir=" + temp_.path().string()})) {}
+      // The peer memories are random, of 32 dimensions: no view basis takes them.
+      : settings_(
+            LoadSettings(std::nullopt, {"robot.id=1", "camera.source=sim", "memory.view_basis=none",
+                                        "daemon.state_dir=" + temp_.path().string()})) {}
 
   ~PipelineWorkerTest() override {
     release_merge_.Set();

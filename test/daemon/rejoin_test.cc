@@ -53,7 +53,7 @@ bool CameraEnded(const BusListener& b, int robot) {
 // Robot `robot`'s place ids in a stored memory: its places and the sources other places hold.
 std::set<PlaceId> OwnIds(const fs::path& db, uint32_t owner, uint32_t robot) {
   Store store = Store::Open(db);
-  const StoredState saved = store.Load(owner, PlaceMemoryOptions{});
+  const StoredState saved = store.Load(owner, PipelineOptions{}.memory);
   std::set<PlaceId> ids;
   for (const LearnedPlace& p : saved.memory.places()) {
     if (p.id.robot == robot) ids.insert(p.id);

@@ -216,7 +216,7 @@ class SimulatedRobot : public ::testing::Test {
     EXPECT_EQ(tscd_->Log().find("camera errors so far"), std::string::npos) << tscd_->Log();
     // The store holds what the bus reported.
     Store store = Store::Open(dir_ / "state" / "memory.db");
-    EXPECT_GE(store.Load(1, PlaceMemoryOptions{}).memory.places().size(), 2u);
+    EXPECT_GE(store.Load(1, PipelineOptions{}.memory).memory.places().size(), 2u);
     return frames;
   }
 

@@ -60,7 +60,7 @@ std::set<PlaceId> OwnPlacesOfTheTeam(const fs::path& team, int robots) {
 // The places robot `r` knows at the end: its memory's places and the sources they absorbed.
 std::set<PlaceId> KnownPlaces(const fs::path& team, int r) {
   Store store = Store::Open(team / ("robot-" + std::to_string(r)) / "memory.db");
-  const StoredState saved = store.Load(static_cast<uint32_t>(r), PlaceMemoryOptions{});
+  const StoredState saved = store.Load(static_cast<uint32_t>(r), PipelineOptions{}.memory);
   std::set<PlaceId> known;
   for (const LearnedPlace& p : saved.memory.places()) {
     known.insert(p.id);
@@ -121,7 +121,7 @@ TEST_F(TeamTest, ThreeRobotsLearnAndEveryMessageDecodes) {
   // places or as the sources of places that absorbed them), committed to its store.
   for (int r = 1; r <= 3; ++r) {
     Store store = Store::Open(dir_ / "team" / ("robot-" + std::to_string(r)) / "memory.db");
-    const StoredState saved = store.Load(static_cast<uint32_t>(r), PlaceMemoryOptions{});
+    const StoredState saved = store.Load(static_cast<uint32_t>(r), PipelineOptions{}.memory);
     std::set<uint32_t> robots;
     for (const LearnedPlace& p : saved.memory.places()) {
       robots.insert(p.id.robot);
@@ -146,7 +146,7 @@ TEST_F(TeamTest, ThreeRobotsLearnAndEveryMessageDecodes) {
 // how many of its places hold it: merging keeps one place per id (DESIGN 3.6, idempotent).
 std::map<PlaceId, int> PlacesHoldingEachId(const fs::path& team, int r) {
   Store store = Store::Open(team / ("robot-" + std::to_string(r)) / "memory.db");
-  const StoredState saved = store.Load(static_cast<uint32_t>(r), PlaceMemoryOptions{});
+  const StoredState saved = store.Load(static_cast<uint32_t>(r), PipelineOptions{}.memory);
   std::map<PlaceId, int> count;
   for (const LearnedPlace& p : saved.memory.places()) {
     std::set<PlaceId> ids(p.sources.begin(), p.sources.end());

@@ -190,7 +190,7 @@ TEST_F(TscdTest, ServesEveryChannelRejectsGarbageReloadsAndStopsCleanly) {
   });
   // What it learned is in its store.
   Store store = Store::Open(dir_ / "state" / "memory.db");
-  EXPECT_GE(store.Load(1, PlaceMemoryOptions{}).memory.places().size(), 2u);
+  EXPECT_GE(store.Load(1, PipelineOptions{}.memory).memory.places().size(), 2u);
 }
 
 TEST_F(TscdTest, UnwritableStateDirectoryIsReportedAndTheDaemonKeepsRunning) {
@@ -288,7 +288,7 @@ TEST_F(TscdTest, StopDuringAStoreOutageExitsNonZeroAndTheNextStartTakesInWhatWas
   }
   EXPECT_TRUE(fs::is_empty(run));
   Store store = Store::Open(state / "memory.db");
-  const StoredState saved = store.Load(1, PlaceMemoryOptions{});
+  const StoredState saved = store.Load(1, PipelineOptions{}.memory);
   std::set<std::pair<int, int>> stored;
   for (const LearnedPlace& p : saved.memory.places()) {
     stored.insert({static_cast<int>(p.id.robot), static_cast<int>(p.id.local)});
@@ -331,7 +331,7 @@ TEST_F(TscdTest, ARestartMapsNoEdgeFromThePlaceBeforeIt) {
   std::optional<PlaceId> before;
   {
     Store store = Store::Open(state / "memory.db");
-    before = store.Load(1, PlaceMemoryOptions{}).pipeline.previous_place;
+    before = store.Load(1, PipelineOptions{}.memory).pipeline.previous_place;
   }
   ASSERT_TRUE(before.has_value());
   {

@@ -68,6 +68,7 @@ tsc::announce_t Announce(int32_t robot) {
   m.memory_digest = -81985529216486896;  // 0xfedcba9876543210
   m.portions = 1;
   m.structure_portions = 1;
+  m.view_basis = -6762863007442862697;  // 0xa126e3a0e17dfd97, the builtin basis' id
   m.places = 2;
   m.edges = 1;
   m.detected_places = 3;
@@ -109,6 +110,7 @@ tsc::learned_place_t Place(int32_t robot, int32_t local, float base) {
   p.mean = {base, base + 0.5F, base + 1.0F};
   p.samples = {{base, base, base}, {base + 0.25F, base + 0.5F, base + 0.75F}};
   p.num_samples = static_cast<int32_t>(p.samples.size());
+  p.view_dims = 3;
   if (local == 2) {
     p.sources = {Ref(9, 4)};
   }
@@ -150,6 +152,7 @@ tsc::memory_portion_t Portion(int32_t robot) {
   m.total_places = 2;
   m.first_place = 0;
   m.next_local = 3;
+  m.view_basis = -6762863007442862697;
   // Every array filled, to decode each field: tscd sends entries and bodies apart.
   m.entries = {Entry(robot, 1), Entry(robot, 2)};
   m.num_entries = static_cast<int32_t>(m.entries.size());

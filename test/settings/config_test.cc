@@ -6,6 +6,7 @@
 #include <set>
 #include <sstream>
 
+#include "core/memory/view_basis.h"
 #include "settings/settings.h"
 #include "test/support/temp_dir.h"
 
@@ -207,6 +208,34 @@ TEST_F(ConfigTest, ImageLimitIsCheckedAgainstTheRequestedCameraSize) {
   std::vector<std::string> fits = axis;
   fits.back() = "camera.max_image_pixels=786432";
   EXPECT_NO_THROW(LoadSettings(std::nullopt, fits));
+}
+
+// memory.view_basis: the builtin basis by default, none, or a file of `tsc basis`; a file that
+// is missing or not a basis is a configuration error naming the key.
+TEST_F(ConfigTest, ViewBasisIsBuiltinNoneOrAFile) {
+  EXPECT_EQ(FindConfigKey("memory.view_basis")->get(Settings{}), "builtin");
+  const Settings none = LoadSettings(std::nullopt, {"memory.view_basis=none"});
+  EXPECT_EQ(none.pipeline.memory.view_basis, nullptr);
+  EXPECT_EQ(FindConfigKey("memory.view_basis")->get(none), "none");
+
+  const fs::path file = dir_ / "basis.bin";
+  {
+    const std::vector<uint8_t> bytes = ViewBasisBytes(Eigen::MatrixXf::Identity(2, 5));
+    std::ofstream(file, std::ios::binary)
+        .write(reinterpret_cast<const char*>(bytes.data()),
+               static_cast<std::streamsize>(bytes.size()));
+  }
+  const Settings from_file = LoadSettings(std::nullopt, {"memory.view_basis=" + file.string()});
+  ASSERT_NE(from_file.pipeline.memory.view_basis, nullptr);
+  EXPECT_EQ(from_file.pipeline.memory.view_basis->dimension(), 2);
+  EXPECT_EQ(FindConfigKey("memory.view_basis")->get(from_file), file.string());
+
+  std::ofstream(dir_ / "junk.bin") << "not a basis";
+  for (const fs::path& bad : {dir_ / "absent.bin", dir_ / "junk.bin"}) {
+    const std::string msg = ErrorOf("[memory]\nview_basis = " + bad.string() + "\n");
+    EXPECT_NE(msg.find("memory.view_basis"), std::string::npos) << msg;
+    EXPECT_NE(msg.find(bad.filename().string()), std::string::npos) << msg;
+  }
 }
 
 TEST_F(ConfigTest, MissingFileNamesIt) {

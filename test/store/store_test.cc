@@ -29,7 +29,8 @@ PipelineOptions Options() {
   PipelineOptions o;
   o.robot = kRobot;
   o.detector = DetectorOptions{2, 2, 3};
-  o.memory.svm_vote = true;  // the discriminants table is filled and checked below
+  o.memory.svm_vote = true;       // the discriminants table is filled and checked below
+  o.memory.view_basis = nullptr;  // the descriptors here are synthetic, of kDim dimensions
   return o;
 }
 
@@ -511,7 +512,7 @@ testing_support::Knowledge FillBeyondABudget(const fs::path& path, int frames_at
     Finish(pipeline, store, committed);
     store.ReplaceKnowledge(pipeline.memory(), pipeline.map(), PeerMerge{7, 5, -42, 1000});
   }
-  return testing_support::LoadKnowledge(path, kRobot);
+  return testing_support::LoadKnowledge(path, kRobot, Options().memory);
 }
 
 TEST_F(StoreTest, MaintainThinsOldBasePointsUnderTheBudgetAndKeepsTheKnowledge) {
@@ -563,7 +564,8 @@ TEST_F(StoreTest, MaintainThinsOldBasePointsUnderTheBudgetAndKeepsTheKnowledge) 
 
   // Every learned place (members, member views), the tree, every map edge, the pipeline's
   // position and the peer's version load back exactly; so do the detected places.
-  const testing_support::Knowledge after = testing_support::LoadKnowledge(path_, kRobot);
+  const testing_support::Knowledge after =
+      testing_support::LoadKnowledge(path_, kRobot, Options().memory);
   EXPECT_TRUE(testing_support::Differences(before, after).empty())
       << testing_support::DescribeDifferences(before, after);
   ExpectSameState(before.state.pipeline, after.state.pipeline);
@@ -614,7 +616,8 @@ TEST_F(StoreTest, EnableIncrementalVacuumConvertsASmallOlderDatabase) {
   EXPECT_TRUE(dut.EnableIncrementalVacuum());
   EXPECT_TRUE(dut.reclaims_space());
   EXPECT_EQ(Sql(path_, "PRAGMA auto_vacuum"), 2);
-  const testing_support::Knowledge after = testing_support::LoadKnowledge(path_, kRobot);
+  const testing_support::Knowledge after =
+      testing_support::LoadKnowledge(path_, kRobot, Options().memory);
   EXPECT_TRUE(testing_support::Differences(before, after).empty())
       << testing_support::DescribeDifferences(before, after);
 }
@@ -768,12 +771,12 @@ TEST_F(StoreTest, KeptResultsCommittedTogetherEqualResultsCommittedOneByOne) {
     c.CommitPending(kept_c, pipeline, true, std::nullopt);
     ASSERT_GE(pipeline.memory().places().size(), 3u);
   }
-  const auto expected = testing_support::LoadKnowledge(one_by_one, kRobot);
-  EXPECT_EQ(testing_support::DescribeDifferences(expected,
-                                                 testing_support::LoadKnowledge(together, kRobot)),
+  const auto expected = testing_support::LoadKnowledge(one_by_one, kRobot, Options().memory);
+  EXPECT_EQ(testing_support::DescribeDifferences(
+                expected, testing_support::LoadKnowledge(together, kRobot, Options().memory)),
             "");
-  EXPECT_EQ(testing_support::DescribeDifferences(expected,
-                                                 testing_support::LoadKnowledge(rewritten, kRobot)),
+  EXPECT_EQ(testing_support::DescribeDifferences(
+                expected, testing_support::LoadKnowledge(rewritten, kRobot, Options().memory)),
             "");
   for (const char* table : {"base_points", "detected_places", "transition_regions"}) {
     const std::string count = std::string("SELECT COUNT(*) FROM ") + table;
@@ -881,7 +884,7 @@ TEST_F(StoreTest, ASpillTakenInEqualsResultsCommittedOneByOne) {
     ASSERT_GE(pipeline.memory().places().size(), 3u);
   }
   EXPECT_FALSE(fs::exists(spill.string() + ".partial"));
-  const auto expected = testing_support::LoadKnowledge(one_by_one, kRobot);
+  const auto expected = testing_support::LoadKnowledge(one_by_one, kRobot, Options().memory);
 
   // A spill of a writer that never loaded a database goes only into an empty one.
   {
@@ -899,9 +902,9 @@ TEST_F(StoreTest, ASpillTakenInEqualsResultsCommittedOneByOne) {
     EXPECT_EQ(r.places, expected.state.memory.places().size());
     EXPECT_EQ(r.base_points, static_cast<int64_t>(frames.size()) - continues);
   }
-  EXPECT_EQ(
-      testing_support::DescribeDifferences(expected, testing_support::LoadKnowledge(path_, kRobot)),
-      "");
+  EXPECT_EQ(testing_support::DescribeDifferences(
+                expected, testing_support::LoadKnowledge(path_, kRobot, Options().memory)),
+            "");
   for (const char* table : {"base_points", "detected_places", "transition_regions"}) {
     const std::string count = std::string("SELECT COUNT(*) FROM ") + table;
     EXPECT_EQ(Sql(path_, count), Sql(one_by_one, count)) << table;
@@ -917,7 +920,7 @@ TEST_F(StoreTest, ASpillTakenInEqualsResultsCommittedOneByOne) {
     dut.ReplaySpill(never_loaded_spill, kRobot, Options().memory);
   }
   EXPECT_EQ(testing_support::DescribeDifferences(
-                expected, testing_support::LoadKnowledge(never_loaded, kRobot)),
+                expected, testing_support::LoadKnowledge(never_loaded, kRobot, Options().memory)),
             "");
   EXPECT_EQ(Sql(never_loaded, "SELECT COUNT(*) FROM base_points"),
             Sql(one_by_one, "SELECT COUNT(*) FROM base_points"));
@@ -934,9 +937,10 @@ TEST_F(StoreTest, StructuralComparisonNamesTheSmallestDifference) {
     for (int c : {0, 1, 2, 0}) Feed(pipeline, dut, stream.Visit(c, 14), committed);
     Finish(pipeline, dut, committed);
   }
-  const auto a = testing_support::LoadKnowledge(path_, kRobot);
+  const auto a = testing_support::LoadKnowledge(path_, kRobot, Options().memory);
   ASSERT_GE(a.state.memory.places().size(), 2u);
-  EXPECT_EQ(testing_support::DescribeDifferences(a, testing_support::LoadKnowledge(path_, kRobot)),
+  EXPECT_EQ(testing_support::DescribeDifferences(
+                a, testing_support::LoadKnowledge(path_, kRobot, Options().memory)),
             "");
 
   std::vector<LearnedPlace> places = a.state.memory.places();

@@ -13,6 +13,7 @@
 #include <string>
 #include <vector>
 
+#include "core/pipeline/pipeline.h"
 #include "store/store.h"
 
 namespace tsc::testing_support {
@@ -23,11 +24,13 @@ struct Knowledge {
   std::map<uint32_t, PeerMerge> peers;
 };
 
-/// Opens `db` and loads it (a crash image is recovered from its WAL as tscd would).
+/// Opens `db` and loads it (a crash image is recovered from its WAL as tscd would) with the
+/// memory options tscd runs with by default (its views in the builtin basis).
 /// Throws StoreError.
-inline Knowledge LoadKnowledge(const std::filesystem::path& db, uint32_t robot) {
+inline Knowledge LoadKnowledge(const std::filesystem::path& db, uint32_t robot,
+                               const PlaceMemoryOptions& options = PipelineOptions{}.memory) {
   Store store = Store::Open(db);
-  Knowledge k{store.Load(robot, PlaceMemoryOptions{}), store.LoadPeers()};
+  Knowledge k{store.Load(robot, options), store.LoadPeers()};
   return k;
 }
 

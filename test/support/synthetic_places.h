@@ -56,10 +56,10 @@ class SyntheticPlaces {
 
 /// Robot `robot`'s memory of places [first, first + n) of `world`, each a visit of `views`
 /// base points (the visit is the robot: its own member noise), ids 1..n. Built at once (SLINK
-/// over the means, then one Restore that trains every node) rather than by n Learn()s.
+/// over the means, then one Restore that trains every node) rather than by n Learn()s. With a
+/// view basis in `options`, Restore takes the views into it.
 inline PlaceMemory SyntheticMemory(uint32_t robot, const SyntheticPlaces& world, int first, int n,
-                                   int views) {
-  const PlaceMemoryOptions options;
+                                   int views, const PlaceMemoryOptions& options = {}) {
   std::vector<LearnedPlace> places;
   Slink slink;
   std::vector<double> distances;

@@ -50,7 +50,7 @@ class MergeCliTest : public ::testing::Test {
 
   static fs::path Path(const std::string& name) { return dir_->path() / name; }
   static StoredState Load(const std::string& name, uint32_t robot) {
-    return Store::Open(Path(name)).Load(robot, PlaceMemoryOptions{});
+    return Store::Open(Path(name)).Load(robot, PipelineOptions{}.memory);
   }
 
   static testing_support::TempDir* dir_;
