@@ -77,9 +77,14 @@ int Main(int argc, char** argv) {
   {
     const testing_support::SyntheticPlaces world(1, dim, 64, 0.02f, 1);
     Store store = Store::Open(dir / "memory.db");
-    const Pipeline pipeline(CameraIntrinsics::FromHorizontalFov(160, 120, 60), PipelineOptions{},
-                            testing_support::SyntheticMemory(1, world, 0, places, members),
-                            TopologicalMap{}, PipelineState{});
+    // The memory as tscd keeps it with its default options: member views in the builtin basis
+    // when the dimension is the default features' (core/memory/builtin_view_basis.h).
+    PipelineOptions options;
+    if (dim != options.memory.view_basis->input_dimension()) options.memory.view_basis = nullptr;
+    const Pipeline pipeline(
+        CameraIntrinsics::FromHorizontalFov(160, 120, 60), options,
+        testing_support::SyntheticMemory(1, world, 0, places, members, options.memory),
+        TopologicalMap{}, PipelineState{});
     store.CommitPending({}, pipeline, true, std::nullopt);
   }
   const uint64_t db_bytes = FileBytes(dir / "memory.db") + FileBytes(dir / "memory.db-wal");

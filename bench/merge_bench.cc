@@ -11,8 +11,10 @@
 #include <map>
 #include <memory>
 #include <optional>
+#include <tuple>
 #include <utility>
 
+#include "core/memory/builtin_view_basis.h"
 #include "core/merge/merge.h"
 #include "daemon/memory_snapshot.h"
 #include "settings/daemon_options.h"
@@ -37,23 +39,29 @@ class World {
   testing_support::SyntheticPlaces places_;
 };
 
-// Robot `robot`'s memory of `n` places: places [first, first + n) of `world`.
-PlaceMemory BuildMemory(uint32_t robot, const World& world, int first, int n) {
-  return testing_support::SyntheticMemory(robot, world.places(), first, n, kMembers);
+// Robot `robot`'s memory of `n` places: places [first, first + n) of `world`; with `basis`,
+// its member views kept in tscd's builtin view basis (core/memory/builtin_view_basis.h), as
+// tscd keeps them, else as descriptors.
+PlaceMemory BuildMemory(uint32_t robot, const World& world, int first, int n, bool basis) {
+  PlaceMemoryOptions options;
+  if (basis) options.view_basis = BuiltinViewBasis();
+  return testing_support::SyntheticMemory(robot, world.places(), first, n, kMembers, options);
 }
 
-// Pairs built once per (n, shared %): robot 1 sees places [0, n) of world 1; robot 2 sees
-// `shared` % of the same places (its own member noise) and the rest from places [n, ...) —
-// or, with shared = 0, places of another world.
-const std::pair<PlaceMemory, PlaceMemory>& Pair(int n, int shared) {
-  static std::map<std::pair<int, int>, std::unique_ptr<std::pair<PlaceMemory, PlaceMemory>>> cache;
-  auto& slot = cache[{n, shared}];
+// Pairs built once per (n, shared %, basis): robot 1 sees places [0, n) of world 1; robot 2
+// sees `shared` % of the same places (its own member noise) and the rest from places [n, ...)
+// — or, with shared = 0, places of another world.
+const std::pair<PlaceMemory, PlaceMemory>& Pair(int n, int shared, bool basis) {
+  static std::map<std::tuple<int, int, bool>, std::unique_ptr<std::pair<PlaceMemory, PlaceMemory>>>
+      cache;
+  auto& slot = cache[{n, shared, basis}];
   if (!slot) {
     const World one(1), two(2);
     const int overlap = n * shared / 100;
-    PlaceMemory a = BuildMemory(1, one, 0, n);
-    PlaceMemory b = shared == 0 ? BuildMemory(2, two, 0, n)
-                                : BuildMemory(2, one, n - overlap, n);  // last `overlap` of a's
+    PlaceMemory a = BuildMemory(1, one, 0, n, basis);
+    PlaceMemory b = shared == 0
+                        ? BuildMemory(2, two, 0, n, basis)
+                        : BuildMemory(2, one, n - overlap, n, basis);  // last `overlap` of a's
     slot = std::make_unique<std::pair<PlaceMemory, PlaceMemory>>(std::move(a), std::move(b));
   }
   return *slot;
@@ -62,7 +70,8 @@ const std::pair<PlaceMemory, PlaceMemory>& Pair(int n, int shared) {
 void BM_MergeMemories(benchmark::State& state) {
   const int n = static_cast<int>(state.range(0)), shared = static_cast<int>(state.range(1));
   const bool copying = state.range(2) != 0;
-  const auto& [ours, peer] = Pair(n, shared);
+  const bool basis = state.range(3) != 0;
+  const auto& [ours, peer] = Pair(n, shared, basis);
   double merge_s = 0.0;
   MergeCase merge_case = MergeCase::kNothingNew;
   size_t absorbed = 0, added = 0;
@@ -92,8 +101,17 @@ void BM_MergeMemories(benchmark::State& state) {
   }
   m.reset();
   merge_s /= static_cast<double>(state.iterations());
+  state.counters["merge_s"] = merge_s;
+  state.counters["case"] = static_cast<double>(merge_case);
+  state.counters["absorbed"] = static_cast<double>(absorbed);
+  state.counters["added"] = static_cast<double>(added);
+  state.counters["retrained"] = retrained;
+  state.SetLabel(std::string(ToString(merge_case)) + (copying ? " copying" : " moving") +
+                 (basis ? ", views in the builtin basis" : ", views as descriptors"));
   // Reference: recognise-then-update-or-learn the peer's places one by one into a copy of
-  // ours, on an evenly spaced sample, extrapolated to all of them (after the timed loop).
+  // ours, on an evenly spaced sample, extrapolated to all of them (after the timed loop). The
+  // peer's views are relearned as descriptors, so only without a basis.
+  if (basis) return;
   PlaceMemory relearner = ours;
   const int sample = std::min<int>(kRelearnSample, static_cast<int>(peer.places().size()));
   const auto t0 = std::chrono::steady_clock::now();
@@ -114,22 +132,20 @@ void BM_MergeMemories(benchmark::State& state) {
   const double per_place =
       std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count() / sample;
   const double relearn_s = per_place * static_cast<double>(peer.places().size());
-  state.counters["merge_s"] = merge_s;
   state.counters["relearn_s_extrapolated"] = relearn_s;
   state.counters["merge_over_relearn"] = merge_s / relearn_s;
-  state.counters["case"] = static_cast<double>(merge_case);
-  state.counters["absorbed"] = static_cast<double>(absorbed);
-  state.counters["added"] = static_cast<double>(added);
-  state.counters["retrained"] = retrained;
-  state.SetLabel(std::string(ToString(merge_case)) + (copying ? " copying" : " moving"));
 }
-// Args: places per memory, % of the peer's places shared with ours, 1 = the copying form.
+// Args: places per memory, % of the peer's places shared with ours, 1 = the copying form,
+// 1 = member views in the builtin basis (what tscd runs with; session 27).
 BENCHMARK(BM_MergeMemories)
-    ->Args({1000, 0, 0})
-    ->Args({1000, 50, 0})
-    ->Args({10000, 0, 0})
-    ->Args({10000, 50, 0})
-    ->Args({10000, 50, 1})
+    ->Args({1000, 0, 0, 0})
+    ->Args({1000, 50, 0, 0})
+    ->Args({10000, 0, 0, 0})
+    ->Args({10000, 50, 0, 0})
+    ->Args({10000, 50, 1, 0})
+    ->Args({1000, 50, 0, 1})
+    ->Args({10000, 0, 0, 1})
+    ->Args({10000, 50, 0, 1})
     ->Unit(benchmark::kMillisecond)
     ->Iterations(1);  // the giving-up form consumes its inputs
 
@@ -138,7 +154,7 @@ BENCHMARK(BM_MergeMemories)
 // default portion size, divided by the places. Without the HMAC (32 bytes per portion).
 void BM_SnapshotBytesPerPlace(benchmark::State& state) {
   const int n = static_cast<int>(state.range(0));
-  const PlaceMemory& memory = Pair(n, 50).second;
+  const PlaceMemory& memory = Pair(n, 50, true).second;
   const TopologicalMap map;
   int64_t bytes = 0;
   size_t portions = 0;
@@ -152,6 +168,7 @@ void BM_SnapshotBytesPerPlace(benchmark::State& state) {
   state.counters["bytes_per_place"] = static_cast<double>(bytes) / n;
   state.counters["portions"] = static_cast<double>(portions);
   state.counters["dim"] = kDim;
+  state.counters["view_dim"] = static_cast<double>(memory.places().front().samples.rows());
   state.counters["samples_per_place"] = PlaceMemoryOptions{}.max_samples_per_place;
 }
 BENCHMARK(BM_SnapshotBytesPerPlace)->Arg(1000)->Arg(10000)->Unit(benchmark::kMillisecond);
@@ -161,15 +178,16 @@ BENCHMARK(BM_SnapshotBytesPerPlace)->Arg(1000)->Arg(10000)->Unit(benchmark::kMil
 // against every portion of the snapshot. Timed: building the second snapshot.
 void BM_SnapshotDeltaBytes(benchmark::State& state) {
   const int n = static_cast<int>(state.range(0));
-  PlaceMemory memory = Pair(n, 50).second;
+  PlaceMemory memory = Pair(n, 50, true).second;
   const TopologicalMap map;
   const int portion_bytes = BusOptions{}.portion_bytes;
   const MemorySnapshot before =
       BuildSnapshot(memory, map, SnapshotHeader{2, 1, 1, 0}, portion_bytes);
-  DetectedPlace revisit;  // place n/2 seen again: a few of its views, shifted a little
+  DetectedPlace revisit;  // place n/2 seen again: four base points near its mean
   revisit.index = n + 1;
-  revisit.descriptors =
-      memory.places()[static_cast<size_t>(n / 2)].samples.leftCols(4).array() + 0.01f;
+  const Eigen::VectorXf& mean = memory.places()[static_cast<size_t>(n / 2)].mean;
+  revisit.descriptors = mean.replicate(1, 4);
+  for (int j = 0; j < 4; ++j) revisit.descriptors(j, j) += 0.01f;
   revisit.members = {1, 2, 3, 4};
   memory.Update(n / 2, revisit);
   int64_t full = 0, delta = 0, structure = 0;
