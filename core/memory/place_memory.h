@@ -114,10 +114,10 @@ class PlaceMemory {
   /// The nearest member views of every place to D's vote points (only of the shortlist's
   /// places once the memory holds more than options().shortlist; the others infinitely far).
   ViewDistances DistancesOf(const Eigen::MatrixXf& votes, double unit) const;
-  /// The view index's rough squared distances from `votes` (view space; their mean and two
-  /// spread points)
-  /// to the places `places`: what the merge shortlists a hyper-terminal's places by, and the
-  /// ratio term's distance to the places it does not measure (core/merge/recognition.cc).
+  /// The view index's rough squared distances from `votes` (in the view space; their mean and
+  /// two spread points) to the places `places`: what the merge shortlists a hyper-terminal's
+  /// places by, and the ratio term's distance to the places it does not measure
+  /// (core/merge/recognition.cc).
   std::vector<float> EstimatedDistances(const Eigen::MatrixXf& votes,
                                         std::span<const int> places) const;
   /// u for D: the larger of DistanceUnit() and step_unit x D's median consecutive squared

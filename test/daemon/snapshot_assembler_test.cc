@@ -74,6 +74,12 @@ TEST(SnapshotAssembler, RejectsForeignNonFiniteAndInconsistentPortions) {
   huge.places[0].samples[0][2] = 3e37f;
   EXPECT_EQ(dut.Accept(huge).reason, "bad sample");
 
+  memory_portion_t view_dims = body;  // rows of another length than the body claims
+  view_dims.places[0].view_dims += 1;
+  EXPECT_EQ(dut.Accept(view_dims).reason, "bad sample");
+  view_dims.places[0].view_dims = 0;
+  EXPECT_EQ(dut.Accept(view_dims).reason, "bad view dimension");
+
   memory_portion_t lengths = body;
   lengths.num_places += 1;
   EXPECT_EQ(dut.Accept(lengths).verdict, SnapshotAssembler::Verdict::kRejected);
@@ -96,6 +102,19 @@ TEST(SnapshotAssembler, RejectsForeignNonFiniteAndInconsistentPortions) {
   index.index = index.count;
   EXPECT_EQ(dut.Accept(index).verdict, SnapshotAssembler::Verdict::kRejected);
   EXPECT_FALSE(dut.started());  // nothing kept
+}
+
+// Every portion of a version names the basis its views are kept in; one that names another
+// does not belong to the memory being assembled.
+TEST(SnapshotAssembler, PortionsOfOneVersionAgreeOnTheViewBasis) {
+  const MemorySnapshot snap = MakeSnapshot(12, 1);
+  SnapshotAssembler dut(2);
+  ASSERT_EQ(dut.Accept(snap.portions[0]).verdict, SnapshotAssembler::Verdict::kAccepted);
+  memory_portion_t other = snap.portions[1];
+  other.view_basis = 99;
+  const SnapshotAssembler::Result r = dut.Accept(other);
+  EXPECT_EQ(r.verdict, SnapshotAssembler::Verdict::kRejected);
+  EXPECT_NE(r.reason.find("disagrees"), std::string::npos) << r.reason;
 }
 
 TEST(SnapshotAssembler, TamperedContentFailsTheDigests) {
