@@ -11,6 +11,7 @@
 #include "core/memory/view_basis.h"
 #include "settings/settings.h"
 #include "tools/command_line.h"
+#include "tools/eval.h"
 #include "tools/frame_view.h"
 
 namespace tsc {
@@ -34,9 +35,7 @@ Options)";
 
 // Every frame's descriptor (dim x frames).
 Eigen::MatrixXf Describe(const fs::path& dir, const Settings& settings) {
-  DatasetOptions dataset_options;
-  dataset_options.max_image_pixels = settings.daemon.camera.max_image_pixels;
-  const Dataset dataset = Dataset::Open(dir, dataset_options);
+  const Dataset dataset = Dataset::Open(dir, DatasetOptionsOf(settings));
   const PipelineOptions& o = settings.pipeline;
   BubbleSurface surface(o.features, dataset.camera(), o.surface);
   const DescriptorComputer computer(surface.grid(), o.descriptor);

@@ -326,6 +326,12 @@ void WriteConfig(JsonWriter& w, const PipelineOptions& options) {
 
 }  // namespace
 
+DatasetOptions DatasetOptionsOf(const Settings& settings) {
+  DatasetOptions out;
+  out.max_image_pixels = settings.daemon.camera.max_image_pixels;
+  return out;
+}
+
 PipelineOptions OptionsForDataset(const Settings& settings, const Dataset& dataset,
                                   std::ostream* say) {
   PipelineOptions out = settings.pipeline;

@@ -83,6 +83,10 @@ struct EvalResult {
   double frame_ms_median = 0.0;       ///< descriptor + pipeline step of the main run, per frame
 };
 
+/// How the offline tools read a dataset: images bounded by camera.max_image_pixels, as tscd's
+/// cameras are.
+DatasetOptions DatasetOptionsOf(const Settings& settings);
+
 /// The pipeline options of `settings` for `dataset`: place detection counts τ_p in base
 /// points at the dataset's spacing (camera.spacing_m when set, else what the dataset declares;
 /// Dataset::spacing). Writes the spacing, its basis and τ_p to `say` unless it is null.

@@ -149,14 +149,6 @@ Settings ConfigFrom(const po::variables_map& vm) {
   return SettingsFromCommandLine(vm);
 }
 
-// How the offline tools read a dataset: images bounded by camera.max_image_pixels, as tscd's
-// cameras are.
-DatasetOptions DatasetOptionsOf(const Settings& settings) {
-  DatasetOptions out;
-  out.max_image_pixels = settings.daemon.camera.max_image_pixels;
-  return out;
-}
-
 double Median(std::vector<double> v) {
   if (v.empty()) return 0.0;
   const size_t mid = v.size() / 2;
