@@ -16,16 +16,6 @@ namespace {
 
 uint64_t PlaceKey(PlaceId id) { return SplitMix64((uint64_t{id.robot} << 32) | id.local); }
 
-// What D asks the view index with: the index keys each place by its mean and spread views, so
-// D asks by its mean and two of its vote points, and a revisit along part of a place still
-// finds it.
-Eigen::MatrixXf IndexQueries(const Eigen::MatrixXf& votes) {
-  Eigen::MatrixXf queries(votes.rows(), 1 + std::min<Eigen::Index>(2, votes.cols()));
-  queries.col(0) = votes.rowwise().mean();
-  queries.rightCols(queries.cols() - 1) = EvenlySpaced(votes, 2);
-  return queries;
-}
-
 }  // namespace
 
 Eigen::VectorXf DetectedPlace::Mean() const {
@@ -118,7 +108,7 @@ ViewDistances PlaceMemory::DistancesOf(const Eigen::MatrixXf& votes, double unit
   std::vector<float> estimates;
   const int n = static_cast<int>(places_.size());
   if (options_.shortlist > 0 && n > options_.shortlist) {
-    estimates = view_index_.Estimate(IndexQueries(votes));
+    estimates = view_index_.Estimate(ViewIndex::Queries(votes));
     for (int p : Shortlist(estimates, options_.shortlist)) {
       all[static_cast<size_t>(p)] = &places_[static_cast<size_t>(p)];
     }
@@ -128,11 +118,6 @@ ViewDistances PlaceMemory::DistancesOf(const Eigen::MatrixXf& votes, double unit
   // One unit for every place (docs/decisions.md "Recognition cost": a place's own spacing let
   // large, varied places absorb strangers).
   return ViewDistances(votes, all, std::vector<double>(all.size(), unit), estimates);
-}
-
-std::vector<float> PlaceMemory::EstimatedDistances(const Eigen::MatrixXf& votes,
-                                                   std::span<const int> places) const {
-  return view_index_.Estimate(IndexQueries(votes), places);
 }
 
 CostTerms PlaceMemory::Cost(const ViewDistances& vd, const Votes& votes, int node) const {
@@ -242,7 +227,7 @@ int PlaceMemory::Learn(const DetectedPlace& d) {
   slink_.Insert(distances_);
   spacings_.push_back(ViewSpacing(p.samples));
   places_.push_back(std::move(p));
-  StoreMean(static_cast<int>(places_.size()) - 1);
+  StoreMeans(static_cast<int>(places_.size()) - 1, static_cast<int>(places_.size()));
   ++next_local_;
   RebuildTree(nullptr);
   return static_cast<int>(places_.size()) - 1;
@@ -265,7 +250,7 @@ void PlaceMemory::Update(int place, const DetectedPlace& d) {
   spacings_[static_cast<size_t>(place)] = ViewSpacing(p.samples);
   p.detected.push_back(d.index);
   p.members.insert(p.members.end(), d.members.begin(), d.members.end());
-  StoreMean(place);
+  StoreMeans(place, place + 1);
   // The place's path to the root: centroids move, discriminants see new members.
   const Eigen::VectorXf delta = p.mean - old_mean;
   RetrainDiscriminant(place);
@@ -295,25 +280,33 @@ Eigen::MatrixXf PlaceMemory::TrainingSet(int node) const {
   return out;
 }
 
-void PlaceMemory::StoreMean(int place) {
-  const Eigen::VectorXf& mean = places_[place].mean;
+void PlaceMemory::StoreMeans(int first, int end) {
+  if (first >= end) return;
+  const Eigen::Index dim = places_[first].mean.size();
   // Columns padded to a multiple of 16 floats (64 bytes ≥ EIGEN_MAX_ALIGN_BYTES).
-  const Eigen::Index stride = (mean.size() + 15) / 16 * 16;
+  const Eigen::Index stride = (dim + 15) / 16 * 16;
   if (means_.rows() != stride) means_.resize(stride, 0);
-  if (place >= means_.cols()) {
+  if (end > means_.cols()) {
     // Grows by half: the cache costs dim·4 bytes per place plus at most 50 % slack.
     const Eigen::Index capacity = std::max<Eigen::Index>(64, means_.cols() + means_.cols() / 2);
-    Eigen::MatrixXf grown(stride, std::max<Eigen::Index>(capacity, place + 1));
+    Eigen::MatrixXf grown(stride, std::max<Eigen::Index>(capacity, end));
     grown.leftCols(means_.cols()) = means_;
     grown.rightCols(grown.cols() - means_.cols()).setZero();
     means_.swap(grown);
   }
-  means_.col(place).head(mean.size()) = mean;
+  for (int p = first; p < end; ++p) means_.col(p).head(dim) = places_[p].mean;
   if (view_basis()) {
-    if (static_cast<size_t>(place) >= view_centres_.size()) view_centres_.resize(place + 1);
-    view_centres_[static_cast<size_t>(place)] = view_basis()->Coordinates(mean);
+    if (static_cast<size_t>(end) > view_centres_.size()) view_centres_.resize(end);
+    // In blocks of the cache's columns (a few MB at a time); ViewBasis::Coordinates gives a
+    // mean the same coordinates whatever block it is in.
+    constexpr int kBlock = 512;
+    for (int b = first; b < end; b += kBlock) {
+      const int len = std::min(kBlock, end - b);
+      const Eigen::MatrixXf centres = view_basis()->Coordinates(means_.block(0, b, dim, len));
+      for (int i = 0; i < len; ++i) view_centres_[static_cast<size_t>(b + i)] = centres.col(i);
+    }
   }
-  view_index_.Set(place, ViewCentre(place), places_[place].samples);
+  for (int p = first; p < end; ++p) view_index_.Set(p, ViewCentre(p), places_[p].samples);
 }
 
 void PlaceMemory::RetrainDiscriminant(int node) {
@@ -550,15 +543,8 @@ PlaceMemory PlaceMemory::Restore(uint32_t robot, PlaceMemoryOptions options,
   memory.places_ = std::move(places);
   memory.slink_ = std::move(slink);
   memory.next_local_ = next_local;
-  if (!memory.places_.empty()) {
-    // The cache at its final size at once (StoreMean grows it by half, copying, one at a time).
-    const Eigen::Index dim = memory.places_.front().mean.size(), stride = (dim + 15) / 16 * 16;
-    memory.means_.resize(stride, static_cast<Eigen::Index>(memory.places_.size()));
-    memory.means_.bottomRows(stride - dim).setZero();
-  }
-  for (size_t i = 0; i < memory.places_.size(); ++i) {
-    memory.StoreMean(static_cast<int>(i));
-  }
+  // All at once: the cache is sized once and the means taken into the basis in blocks.
+  memory.StoreMeans(0, static_cast<int>(memory.places_.size()));
   memory.spacings_.reserve(memory.places_.size());
   for (const LearnedPlace& p : memory.places_) memory.spacings_.push_back(ViewSpacing(p.samples));
   if (!memory.places_.empty()) memory.RebuildTree(&saved);

@@ -114,12 +114,10 @@ class PlaceMemory {
   /// The nearest member views of every place to D's vote points (only of the shortlist's
   /// places once the memory holds more than options().shortlist; the others infinitely far).
   ViewDistances DistancesOf(const Eigen::MatrixXf& votes, double unit) const;
-  /// The view index's rough squared distances from `votes` (in the view space; their mean and
-  /// two spread points) to the places `places`: what the merge shortlists a hyper-terminal's
-  /// places by, and the ratio term's distance to the places it does not measure
-  /// (core/merge/recognition.cc).
-  std::vector<float> EstimatedDistances(const Eigen::MatrixXf& votes,
-                                        std::span<const int> places) const;
+  /// The index over the places' member views (core/memory/view_index.h): what the merge
+  /// shortlists a hyper-terminal's places by, and the ratio term's distance to the places it
+  /// does not measure (core/merge/recognition.cc).
+  const ViewIndex& view_index() const { return view_index_; }
   /// u for D: the larger of DistanceUnit() and step_unit x D's median consecutive squared
   /// step (DistanceUnit() alone when D has one point or step_unit is 0).
   double UnitFor(const DetectedPlace& d) const;
@@ -192,9 +190,9 @@ class PlaceMemory {
   void RetrainDiscriminant(int node);
   Eigen::MatrixXf TrainingSet(int node) const;
   bool TrainsDiscriminants() const { return options_.svm_vote; }
-  /// Copies place `place`'s mean into column `place` of `means_` (growing it as needed) and
-  /// re-keys it in the view index.
-  void StoreMean(int place);
+  /// Copies the means of places [first, end) into their columns of `means_` (growing it as
+  /// needed), takes them into the view basis (view_centres_) and re-keys them in the view index.
+  void StoreMeans(int first, int end);
 
   uint32_t robot_;
   PlaceMemoryOptions options_;

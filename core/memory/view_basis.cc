@@ -36,8 +36,8 @@ uint32_t GetU32(const uint8_t* p) {
 
 }  // namespace
 
-ViewBasis::ViewBasis(Eigen::MatrixXf axes, std::string name)
-    : axes_(std::move(axes)), name_(std::move(name)), id_(HashOf(axes_)) {
+ViewBasis::ViewBasis(Eigen::MatrixXf axes, std::string name, Simd simd)
+    : axes_(std::move(axes)), simd_(simd), name_(std::move(name)), id_(HashOf(axes_)) {
   if (axes_.rows() < 1 || axes_.rows() > axes_.cols()) {
     throw std::invalid_argument("view basis " + name_ + ": " + std::to_string(axes_.rows()) +
                                 " axes in " + std::to_string(axes_.cols()) + " dimensions");
@@ -52,6 +52,7 @@ ViewBasis::ViewBasis(Eigen::MatrixXf axes, std::string name)
     throw std::invalid_argument("view basis " + name_ + ": axes not orthonormal (off by " +
                                 std::to_string(off) + ")");
   }
+  if (simd_ == Simd::kAvx2Fma) axes_t_ = axes_.transpose();
 }
 
 Eigen::MatrixXf ViewBasis::Coordinates(const Eigen::MatrixXf& descriptors) const {
@@ -60,7 +61,19 @@ Eigen::MatrixXf ViewBasis::Coordinates(const Eigen::MatrixXf& descriptors) const
                                 std::to_string(axes_.cols()) + ", given " +
                                 std::to_string(descriptors.rows()));
   }
-  return axes_ * descriptors;
+  const Eigen::Index n = descriptors.cols();
+  Eigen::MatrixXf out(axes_.rows(), n);
+  if (n == 0) return out;
+  // One product per column, each summed over the dimensions in one order: a matrix product
+  // would block its sums by the number of columns. Restore takes a whole memory's means at
+  // once (one product per place was a third of a 10⁴ + 10⁴ merge).
+  if (simd_ == Simd::kAvx2Fma) {
+    avx2::ColumnDots(axes_t_.data(), static_cast<int>(axes_t_.cols()), descriptors.data(),
+                     static_cast<int>(n), static_cast<int>(axes_t_.rows()), out.data(), nullptr);
+  } else {
+    for (Eigen::Index j = 0; j < n; ++j) out.col(j).noalias() = axes_ * descriptors.col(j);
+  }
+  return out;
 }
 
 Eigen::MatrixXf PrincipalAxes(const Eigen::MatrixXf& descriptors, int k, double* retained) {

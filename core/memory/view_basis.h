@@ -15,14 +15,17 @@
 #include <string>
 #include <vector>
 
+#include "core/memory/simd.h"
+
 namespace tsc {
 
 class ViewBasis {
  public:
   /// `axes`: k x dim, orthonormal rows (1 ≤ k ≤ dim); `name` says which basis it is in the
   /// configuration ("builtin"). Throws std::invalid_argument when the rows are not
-  /// orthonormal to 1e-3 or not finite.
-  ViewBasis(Eigen::MatrixXf axes, std::string name);
+  /// orthonormal to 1e-3 or not finite. `simd`: the instructions Coordinates runs on (the
+  /// same coordinates up to rounding).
+  ViewBasis(Eigen::MatrixXf axes, std::string name, Simd simd = FastestSimd());
 
   /// Dimension of the descriptors it takes.
   int input_dimension() const { return static_cast<int>(axes_.cols()); }
@@ -35,11 +38,16 @@ class ViewBasis {
   const Eigen::MatrixXf& axes() const { return axes_; }
 
   /// The coordinates of descriptors (input_dimension() x n) in the basis: dimension() x n.
-  /// Linear, so the coordinates of a mean are the mean of the coordinates.
+  /// Linear, so the coordinates of a mean are the mean of the coordinates. Each column's
+  /// coordinates depend on that column alone, not on the others given with it: a place's
+  /// mean gets the same bits whether it is taken alone (Learn) or with the whole memory
+  /// (Restore).
   Eigen::MatrixXf Coordinates(const Eigen::MatrixXf& descriptors) const;
 
  private:
   Eigen::MatrixXf axes_;
+  Eigen::MatrixXf axes_t_;  // axes_ transposed: each axis one contiguous column (the kernel's)
+  Simd simd_;
   std::string name_;
   uint64_t id_;
 };

@@ -34,12 +34,19 @@ class ViewIndex {
   void Set(int place, const Eigen::VectorXf& centre, const Eigen::MatrixXf& views);
   int size() const { return static_cast<int>(key_norms_.size() / kKeysPerPlace); }
 
+  /// What D asks the index with, from its vote points (dim x n, n ≥ 1): the index keys each
+  /// place by its mean and spread views, so D asks by its mean and two of its points, and a
+  /// revisit along part of a place still finds it.
+  static Eigen::MatrixXf Queries(const Eigen::MatrixXf& votes);
+
   /// For every place, an estimate of its squared distance to D: the smallest over its keys
   /// and the columns of `queries` (dim x m, m ≥ 1) in the projection, scaled back to the
   /// descriptor's units (about ±25 % of the true key distance at 32 dimensions).
   std::vector<float> Estimate(const Eigen::MatrixXf& queries) const;
-  /// The same estimate for the places `places` only (indices below size()), in their order.
-  std::vector<float> Estimate(const Eigen::MatrixXf& queries, std::span<const int> places) const;
+  /// An index of the places `places` only (indices below size()), in their order: its
+  /// Estimate gives theirs. The merge estimates many places against the same hyper-terminal's
+  /// places; their keys gathered once are then read in blocks like a whole memory's.
+  ViewIndex Subset(std::span<const int> places) const;
 
  private:
   Eigen::MatrixXf Project(const Eigen::MatrixXf& x) const;
@@ -51,6 +58,7 @@ class ViewIndex {
   // kDimensions x dim, entries ±1 from a fixed seed: a Johnson-Lindenstrauss map, the same
   // for every memory of that dimension, so no basis has to be learned or kept in step.
   Eigen::MatrixXf projection_;
+  Eigen::MatrixXf projection_t_;  // transposed: each row of the map a contiguous column
   Eigen::MatrixXf keys_;  // capacity x kDimensions; the first kKeysPerPlace · size() rows are keys
   std::vector<float> key_norms_;
   Simd simd_;

@@ -19,6 +19,7 @@ struct StarCandidates {
   std::vector<double> units;
   std::vector<int> index;  // base place index of each column
   std::vector<CostCandidate> candidates;
+  ViewIndex keys;  // the view index of those places, gathered once per N*
 };
 
 StarCandidates CandidatesOf(const PlaceMemory& base, const HyperTerminal& h) {
@@ -36,6 +37,11 @@ StarCandidates CandidatesOf(const PlaceMemory& base, const HyperTerminal& h) {
       out.index.push_back(place);
     }
     out.candidates.push_back(std::move(candidate));
+  }
+  // Only where RecognitionCost shortlists.
+  const int shortlist = base.options().shortlist;
+  if (shortlist > 0 && static_cast<int>(out.places.size()) > shortlist) {
+    out.keys = base.view_index().Subset(out.index);
   }
   return out;
 }
@@ -66,7 +72,7 @@ double RecognitionCost(const PlaceMemory& base, const StarCandidates& star, cons
   std::vector<float> estimates;
   const int shortlist = base.options().shortlist;
   if (shortlist > 0 && static_cast<int>(places.size()) > shortlist) {
-    estimates = base.EstimatedDistances(p.samples, star.index);
+    estimates = star.keys.Estimate(ViewIndex::Queries(p.samples));
     std::vector<char> measured(places.size(), 0);
     for (int column : Shortlist(estimates, shortlist)) measured[static_cast<size_t>(column)] = 1;
     for (size_t column = 0; column < places.size(); ++column) {

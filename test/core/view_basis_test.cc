@@ -87,6 +87,28 @@ TEST(ViewBasis, BytesRoundTripAndForgeriesAreRefused) {
   EXPECT_THROW(basis.Coordinates(Eigen::MatrixXf::Ones(9, 2)), std::invalid_argument);
 }
 
+// A place's centre is the coordinates of its mean: Learn takes one mean, Restore a whole
+// memory's at once, and the two must agree to the bit or a restored memory would estimate
+// and recognise differently from the one that was saved. Both instruction sets agree up to
+// rounding.
+TEST(ViewBasis, AColumnGetsTheSameCoordinatesAloneOrWithOthers) {
+  std::mt19937 rng(11);
+  std::normal_distribution<float> n(0.0f, 1.0f);
+  const Eigen::MatrixXf axes = RandomAxes(24, 70, 4);
+  Eigen::MatrixXf x(70, 13);
+  for (Eigen::Index i = 0; i < x.size(); ++i) x.data()[i] = n(rng);
+  const ViewBasis fastest(axes, "fastest"), portable(axes, "portable", Simd::kPortable);
+  for (const ViewBasis* basis : {&fastest, &portable}) {
+    SCOPED_TRACE(basis->name());
+    const Eigen::MatrixXf together = basis->Coordinates(x);
+    for (Eigen::Index j = 0; j < x.cols(); ++j) {
+      const Eigen::MatrixXf alone = basis->Coordinates(x.col(j));
+      for (Eigen::Index i = 0; i < together.rows(); ++i) EXPECT_EQ(together(i, j), alone(i, 0));
+    }
+    EXPECT_TRUE(together.isApprox(axes * x, 1e-5f));
+  }
+}
+
 // The basis tscd ships (core/memory/data/view_basis.bin). Its id is what a team compares: a
 // new basis file changes it, and robots of the old and the new basis stop merging each other.
 TEST(ViewBasis, TheBuiltinBasisTakesTheDefaultDescriptors) {
