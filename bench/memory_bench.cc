@@ -40,7 +40,7 @@ DetectedPlace Place(int p, uint32_t visit = 0, int members = kMembers) {
 // From 10⁵ places (issue 23) a memory is built at once (test/support/synthetic_places.h:
 // LargeSyntheticMemory, its SLINK tree over the means in the basis), its places learned from
 // visit 2; n Learn()s would take hours.
-constexpr int kLarge = 100000;
+constexpr int kLarge = testing_support::kLargeMemory;
 
 // Memories are built once per size, place size and space of views, and shared by the
 // benchmarks. `basis`: member views in tscd's builtin view basis (128 dimensions, what tscd

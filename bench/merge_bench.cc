@@ -26,7 +26,7 @@ namespace {
 constexpr int kDim = 1200;
 constexpr int kMembers = 12;
 constexpr int kRelearnSample = 64;
-constexpr int kLarge = 100000;
+constexpr int kLarge = testing_support::kLargeMemory;
 
 // Places of a world of 64 sites (test/support/synthetic_places.h): place p of world w is its
 // site's centre perturbed by 20 %, members by another 2 %. A robot sees place (w, p) with its

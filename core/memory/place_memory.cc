@@ -106,8 +106,7 @@ double PlaceMemory::UnitFor(const DetectedPlace& d) const {
 ViewDistances PlaceMemory::DistancesOf(const Eigen::MatrixXf& votes, double unit) const {
   std::vector<const LearnedPlace*> all(places_.size(), nullptr);
   std::vector<float> estimates;
-  const int n = static_cast<int>(places_.size());
-  if (options_.shortlist > 0 && n > options_.shortlist) {
+  if (options_.Shortlists(places_.size())) {
     estimates = view_index_.Estimate(ViewIndex::Queries(votes));
     for (int p : Shortlist(estimates, options_.shortlist)) {
       all[static_cast<size_t>(p)] = &places_[static_cast<size_t>(p)];

@@ -63,6 +63,10 @@ struct PlaceMemoryOptions {
   /// Places measured exactly per recognition once the memory holds more: the ones whose
   /// keys in the view index come nearest D (core/memory/view_index.h). 0: every place.
   int shortlist = 32;
+  /// Whether recognition among `places` candidate places measures only a shortlist of them.
+  bool Shortlists(size_t places) const {
+    return shortlist > 0 && places > static_cast<size_t>(shortlist);
+  }
   /// The space member views are kept and measured in (core/memory/view_basis.h); null: the
   /// descriptors' own. Every memory a merge joins must use the same basis.
   std::shared_ptr<const ViewBasis> view_basis;

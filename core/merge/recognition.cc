@@ -38,9 +38,7 @@ StarCandidates CandidatesOf(const PlaceMemory& base, const HyperTerminal& h) {
     }
     out.candidates.push_back(std::move(candidate));
   }
-  // Only where RecognitionCost shortlists.
-  const int shortlist = base.options().shortlist;
-  if (shortlist > 0 && static_cast<int>(out.places.size()) > shortlist) {
+  if (base.options().Shortlists(out.places.size())) {  // only where RecognitionCost shortlists
     out.keys = base.view_index().Subset(out.index);
   }
   return out;
@@ -70,11 +68,11 @@ double RecognitionCost(const PlaceMemory& base, const StarCandidates& star, cons
   // 10⁴ synthetic places: N* of ~156 terminals, 1.6·10⁶ place measurements, 19 s).
   std::vector<const LearnedPlace*> places = star.places;
   std::vector<float> estimates;
-  const int shortlist = base.options().shortlist;
-  if (shortlist > 0 && static_cast<int>(places.size()) > shortlist) {
+  if (base.options().Shortlists(places.size())) {
     estimates = star.keys.Estimate(ViewIndex::Queries(p.samples));
     std::vector<char> measured(places.size(), 0);
-    for (int column : Shortlist(estimates, shortlist)) measured[static_cast<size_t>(column)] = 1;
+    for (int column : Shortlist(estimates, base.options().shortlist))
+      measured[static_cast<size_t>(column)] = 1;
     for (size_t column = 0; column < places.size(); ++column) {
       if (!measured[column]) places[column] = nullptr;
     }

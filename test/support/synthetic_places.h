@@ -99,6 +99,8 @@ inline PlaceMemory SyntheticMemory(uint32_t robot, const SyntheticPlaces& world,
 /// and the SLINK state computed over the means' coordinates in that basis, by blocks of matrix
 /// products. Its tree is therefore close to, not exactly, the descriptor-space SLINK tree of
 /// the same means; the operations a benchmark times run on the memory as they would on any.
+/// The memory size from which the benchmarks build their fixtures with LargeSyntheticMemory.
+inline constexpr int kLargeMemory = 100000;
 inline PlaceMemory LargeSyntheticMemory(uint32_t robot, const SyntheticPlaces& world, int first,
                                         int n, int views, const PlaceMemoryOptions& options) {
   if (options.view_basis == nullptr) throw std::invalid_argument("a view basis is needed");
