@@ -4,6 +4,7 @@
 #include <cmath>
 #include <functional>
 #include <limits>
+#include <span>
 #include <stdexcept>
 #include <string>
 
@@ -37,7 +38,7 @@ void PlaceMemoryOptions::Validate() const {
 }
 
 PlaceMemory::PlaceMemory(uint32_t robot, PlaceMemoryOptions options)
-    : robot_(robot), options_(std::move(options)) {
+    : robot_(robot), options_(std::move(options)), view_index_(FastestSimd(), options_.view_cells) {
   options_.Validate();
 }
 
@@ -52,6 +53,20 @@ Eigen::VectorXf PlaceMemory::Centroid(int node) const {
   const MemoryNode& nd = nodes_[node];
   if (nd.terminal()) return places_[nd.place].mean;
   return centroid_sums_[node] / static_cast<float>(nd.num_places());
+}
+
+CostCandidate PlaceMemory::CandidateOf(int node) const {
+  const MemoryNode& nd = nodes_[node];
+  CostCandidate c;
+  c.places = std::span<const int>(leaf_order_)
+                 .subspan(static_cast<size_t>(nd.first_leaf), static_cast<size_t>(nd.num_places()));
+  if (nd.terminal()) {
+    c.centroid_sum = &places_[nd.place].mean;
+  } else {
+    c.centroid_sum = &centroid_sums_[node];
+    c.centroid_count = static_cast<float>(nd.num_places());
+  }
+  return c;
 }
 
 int PlaceMemory::Depth() const {
@@ -116,19 +131,16 @@ ViewDistances PlaceMemory::DistancesOf(const Eigen::MatrixXf& votes, double unit
   }
   // One unit for every place (docs/decisions.md "Recognition cost": a place's own spacing let
   // large, varied places absorb strangers).
-  return ViewDistances(votes, all, std::vector<double>(all.size(), unit), estimates);
+  std::vector<double> units(all.size(), unit);
+  return ViewDistances(votes, std::move(all), std::move(units), std::move(estimates));
 }
 
 CostTerms PlaceMemory::Cost(const ViewDistances& vd, const Votes& votes, int node) const {
   // The children of N, each with the places under it (one contiguous range of leaf_order_).
   const std::vector<int>& children = nodes_[node].children;
-  std::vector<CostCandidate> candidates(children.size());
-  for (size_t c = 0; c < children.size(); ++c) {
-    const MemoryNode& child = nodes_[children[c]];
-    candidates[c].places.assign(leaf_order_.begin() + child.first_leaf,
-                                leaf_order_.begin() + child.end_leaf);
-    candidates[c].centroid = Centroid(children[c]);
-  }
+  std::vector<CostCandidate> candidates;
+  candidates.reserve(children.size());
+  for (int child : children) candidates.push_back(CandidateOf(child));
   CostTerms t = RecognitionCost(vd, votes.mean, candidates, options_.cost);
   // No child with a shortlisted place: infinite cost, so the descent stops here.
   if (t.best < 0) return t;

@@ -67,6 +67,9 @@ struct PlaceMemoryOptions {
   bool Shortlists(size_t places) const {
     return shortlist > 0 && places > static_cast<size_t>(shortlist);
   }
+  /// Whether the view index reads only its cells nearest D once it holds
+  /// ViewIndex::kCellsFrom places (false: every key, the exact index; benchmarks compare).
+  bool view_cells = true;
   /// The space member views are kept and measured in (core/memory/view_basis.h); null: the
   /// descriptors' own. Every memory a merge joins must use the same basis.
   std::shared_ptr<const ViewBasis> view_basis;
@@ -157,6 +160,9 @@ class PlaceMemory {
   std::optional<int> Find(PlaceId id) const;
   /// c(N): mean of the means of the node's places.
   Eigen::VectorXf Centroid(int node) const;
+  /// Node `node` as a candidate of g_N: its places (a range of leaf_order()) and its centroid,
+  /// both viewed, valid while the memory is unchanged.
+  CostCandidate CandidateOf(int node) const;
   int Depth() const;
 
   /// Moves the places out and leaves an empty memory of the same robot and options (next

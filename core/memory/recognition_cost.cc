@@ -60,17 +60,15 @@ bool Coincides(const ViewDistances& vd, const Nearest& best, const Nearest& othe
 
 }  // namespace
 
-ViewDistances::ViewDistances(const Eigen::MatrixXf& votes,
-                             std::span<const LearnedPlace* const> places,
-                             std::span<const double> units, std::span<const float> estimates,
-                             Simd simd)
-    : places_(places.begin(), places.end()),
-      column_(places.size(), -1),
-      units_(units.begin(), units.end()),
-      estimates_(estimates.begin(), estimates.end()) {
+ViewDistances::ViewDistances(const Eigen::MatrixXf& votes, std::vector<const LearnedPlace*> places,
+                             std::vector<double> units, std::vector<float> estimates, Simd simd)
+    : places_(std::move(places)),
+      column_(places_.size(), -1),
+      units_(std::move(units)),
+      estimates_(std::move(estimates)) {
   if (votes.cols() == 0) throw std::invalid_argument("view distances of no vote points");
-  if (units.size() != places.size()) throw std::invalid_argument("one unit per place needed");
-  if (!estimates.empty() && estimates.size() != places.size())
+  if (units_.size() != places_.size()) throw std::invalid_argument("one unit per place needed");
+  if (!estimates_.empty() && estimates_.size() != places_.size())
     throw std::invalid_argument("one estimate per place needed");
   std::vector<int> measured;  // the measured places, in increasing order: their columns
   for (size_t p = 0; p < places_.size(); ++p) {
@@ -197,7 +195,8 @@ CostTerms RecognitionCost(const ViewDistances& vd, const Eigen::VectorXf& mean,
   // base points see the whole room, and a revisit along another path through it is far from
   // every kept view yet near the room's mean (docs/decisions.md "Recognition cost").
   if (options.mean_unit > 0.0) {
-    const double to_mean = (mean - candidates[static_cast<size_t>(t.best)].centroid).squaredNorm();
+    const double to_mean =
+        (mean - candidates[static_cast<size_t>(t.best)].Centroid()).squaredNorm();
     t.distance = std::min(t.distance, to_mean / options.mean_unit);
   }
   // N²: the nearest other child that is not the same place held again, looked for in order

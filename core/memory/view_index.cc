@@ -97,12 +97,25 @@ void ViewIndex::Set(int place, const Eigen::VectorXf& centre, const Eigen::Matri
   for (int k = 0; k < kKeysPerPlace; ++k) {
     key_norms_[static_cast<size_t>(first + k)] = projected.col(k).squaredNorm();
   }
+  if (!use_cells_ || size() < kCellsFrom) return;
+  const auto rows = static_cast<Eigen::Index>(key_norms_.size());
+  if (rows >= 2 * cells_.trained_rows()) {  // first trained, or the memory doubled since
+    cells_.Train(keys_, rows, simd_);
+    return;
+  }
+  for (int k = 0; k < kKeysPerPlace; ++k)
+    cells_.File(keys_, first + k, key_norms_[static_cast<size_t>(first + k)]);
 }
 
 std::vector<float> ViewIndex::Estimate(const Eigen::MatrixXf& queries) const {
   const int places = size();
   const Eigen::MatrixXf q = ProjectQueries(queries);
   const Eigen::RowVectorXf q_norms = q.colwise().squaredNorm();
+  if (cells_.trained()) {
+    std::vector<float> out = cells_.Estimate(q, q_norms, places, kKeysPerPlace, kProbedKeys);
+    for (float& e : out) e = Unprojected(e);
+    return out;
+  }
   // ‖k − q‖² = ‖k‖² + ‖q‖² − 2 kᵀq; the key norms are kept, the rest is computed here.
   const Eigen::Index n = static_cast<Eigen::Index>(places) * kKeysPerPlace;
   // Over blocks of keys that stay in cache, so the keys are read from memory once: portably
@@ -142,7 +155,7 @@ std::vector<float> ViewIndex::Estimate(const Eigen::MatrixXf& queries) const {
 }
 
 ViewIndex ViewIndex::Subset(std::span<const int> places) const {
-  ViewIndex out(simd_);
+  ViewIndex out(simd_, false);
   out.projection_ = projection_;
   out.projection_t_ = projection_t_;
   out.keys_.resize(static_cast<Eigen::Index>(places.size()) * kKeysPerPlace, kDimensions);

@@ -2,6 +2,8 @@
 
 #include <algorithm>
 #include <limits>
+#include <numeric>
+#include <span>
 #include <utility>
 
 #include "core/memory/recognition_cost.h"
@@ -17,26 +19,39 @@ namespace {
 struct StarCandidates {
   std::vector<const LearnedPlace*> places;
   std::vector<double> units;
-  std::vector<int> index;  // base place index of each column
-  std::vector<CostCandidate> candidates;
-  ViewIndex keys;  // the view index of those places, gathered once per N*
+  std::vector<int> index;                 // base place index of each column
+  std::vector<int> columns;               // 0, 1, ...: each candidate's places are a range of it
+  std::vector<CostCandidate> candidates;  // views into `columns`: moved, never copied
+  ViewIndex keys;                         // the view index of those places, gathered once per N*
+
+  StarCandidates() = default;
+  StarCandidates(StarCandidates&&) = default;  // a moved vector keeps its buffer: views hold
+  StarCandidates& operator=(StarCandidates&&) = default;
+  StarCandidates(const StarCandidates&) = delete;  // a copy's views would be the original's
+  StarCandidates& operator=(const StarCandidates&) = delete;
 };
 
 StarCandidates CandidatesOf(const PlaceMemory& base, const HyperTerminal& h) {
   StarCandidates out;
+  std::vector<size_t> first;  // of each candidate, in `columns`
   for (int c : base.nodes()[static_cast<size_t>(h.node)].children) {
     const MemoryNode& child = base.nodes()[static_cast<size_t>(c)];
-    CostCandidate candidate;
+    CostCandidate candidate = base.CandidateOf(c);  // its places become columns below
     candidate.may_be_best = child.terminal();
-    candidate.centroid = base.Centroid(c);
+    first.push_back(out.places.size());
     for (int l = child.first_leaf; l < child.end_leaf; ++l) {
       const int place = base.leaf_order()[static_cast<size_t>(l)];
-      candidate.places.push_back(static_cast<int>(out.places.size()));
       out.places.push_back(&base.places()[static_cast<size_t>(place)]);
       out.units.push_back(base.DistanceUnit());
       out.index.push_back(place);
     }
     out.candidates.push_back(std::move(candidate));
+  }
+  out.columns.resize(out.places.size());
+  std::iota(out.columns.begin(), out.columns.end(), 0);
+  for (size_t c = 0; c < out.candidates.size(); ++c) {
+    const size_t end = c + 1 < first.size() ? first[c + 1] : out.columns.size();
+    out.candidates[c].places = std::span<const int>(out.columns).subspan(first[c], end - first[c]);
   }
   if (base.options().Shortlists(out.places.size())) {  // only where RecognitionCost shortlists
     out.keys = base.view_index().Subset(out.index);
@@ -77,7 +92,7 @@ double RecognitionCost(const PlaceMemory& base, const StarCandidates& star, cons
       if (!measured[column]) places[column] = nullptr;
     }
   }
-  const ViewDistances vd(p.samples, places, star.units, estimates);
+  const ViewDistances vd(p.samples, std::move(places), star.units, std::move(estimates));
   const CostTerms t = RecognitionCost(vd, p.mean, star.candidates, base.options().cost);
   if (t.best < 0) {  // no terminal child of N* can absorb p (RecognitionCost)
     *best = -1;

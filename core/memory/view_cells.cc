@@ -1,0 +1,204 @@
+#include "core/memory/view_cells.h"
+
+#include <algorithm>
+#include <bit>
+#include <cstdint>
+#include <limits>
+#include <numeric>
+#include <stdexcept>
+
+namespace tsc {
+namespace {
+
+constexpr int kSamplesPerCell = 32;  // k-means runs on this many sampled keys a cell
+constexpr int kIterations = 8;
+constexpr Eigen::Index kBlock = 4096;  // keys filed per product when training
+
+// Column of the smallest ‖c‖² − 2 cᵀk per row of `dots` (rows x cells: kᵀc), the first on ties.
+void NearestPerRow(const Eigen::MatrixXf& dots, const Eigen::VectorXf& centroid_norms,
+                   std::vector<int>& out) {
+  out.resize(static_cast<size_t>(dots.rows()));
+  for (Eigen::Index r = 0; r < dots.rows(); ++r) {
+    int best = 0;
+    float best_d = centroid_norms[0] - 2.0f * dots(r, 0);
+    for (Eigen::Index c = 1; c < dots.cols(); ++c) {
+      const float d = centroid_norms[c] - 2.0f * dots(r, c);
+      if (d < best_d) {
+        best_d = d;
+        best = static_cast<int>(c);
+      }
+    }
+    out[static_cast<size_t>(r)] = best;
+  }
+}
+
+}  // namespace
+
+void ViewCells::Train(const Eigen::MatrixXf& keys, Eigen::Index rows, Simd simd) {
+  if (rows <= 0 || rows > keys.rows()) throw std::invalid_argument("view cells: no keys to train");
+  simd_ = simd;
+  const Eigen::Index dim = keys.cols();
+  int cells = std::max<int>(
+      kMinCells, static_cast<int>(std::bit_floor(static_cast<uint64_t>(rows / kKeysPerCell))));
+  const Eigen::Index step =
+      std::max<Eigen::Index>(1, rows / (static_cast<Eigen::Index>(cells) * kSamplesPerCell));
+  const Eigen::Index m = (rows + step - 1) / step;
+  cells = static_cast<int>(std::min<Eigen::Index>(cells, m));
+  Eigen::MatrixXf sample(m, dim);  // a key per row
+  for (Eigen::Index i = 0; i < m; ++i) sample.row(i) = keys.row(i * step);
+  // Evenly spaced samples as the first centroids, then Lloyd's iterations.
+  centroids_.resize(dim, cells);
+  for (int c = 0; c < cells; ++c) centroids_.col(c) = sample.row(c * m / cells).transpose();
+  std::vector<int> nearest;
+  Eigen::MatrixXf dots;
+  for (int it = 0; it <= kIterations; ++it) {
+    centroid_norms_ = centroids_.colwise().squaredNorm().transpose();
+    dots.noalias() = sample * centroids_;
+    NearestPerRow(dots, centroid_norms_, nearest);
+    if (it == kIterations) break;
+    Eigen::MatrixXf sums = Eigen::MatrixXf::Zero(dim, cells);
+    std::vector<int> counts(static_cast<size_t>(cells), 0);
+    for (Eigen::Index i = 0; i < m; ++i) {
+      sums.col(nearest[static_cast<size_t>(i)]) += sample.row(i).transpose();
+      ++counts[static_cast<size_t>(nearest[static_cast<size_t>(i)])];
+    }
+    for (int c = 0; c < cells; ++c) {  // a cell that drew no sample keeps its centroid
+      if (counts[static_cast<size_t>(c)] > 0)
+        centroids_.col(c) = sums.col(c) / static_cast<float>(counts[static_cast<size_t>(c)]);
+    }
+  }
+  spread_.assign(static_cast<size_t>(cells), 0.0f);
+  std::vector<int> counts(static_cast<size_t>(cells), 0);
+  for (Eigen::Index i = 0; i < m; ++i) {
+    const auto c = static_cast<size_t>(nearest[static_cast<size_t>(i)]);
+    spread_[c] +=
+        (sample.row(i).transpose() - centroids_.col(static_cast<Eigen::Index>(c))).squaredNorm();
+    ++counts[c];
+  }
+  for (size_t c = 0; c < spread_.size(); ++c) {
+    if (counts[c] > 0) spread_[c] /= static_cast<float>(counts[c]);
+  }
+  // File every key, a block of keys per product.
+  cells_.assign(static_cast<size_t>(cells), Cell{});
+  slot_.assign(static_cast<size_t>(rows), {-1, -1});
+  for (Eigen::Index first = 0; first < rows; first += kBlock) {
+    const Eigen::Index len = std::min(kBlock, rows - first);
+    dots.noalias() = keys.middleRows(first, len) * centroids_;
+    NearestPerRow(dots, centroid_norms_, nearest);
+    for (Eigen::Index i = 0; i < len; ++i) {
+      const Eigen::RowVectorXf key = keys.row(first + i);
+      Append(nearest[static_cast<size_t>(i)], key, key.squaredNorm(), first + i);
+    }
+  }
+  trained_rows_ = rows;
+}
+
+int ViewCells::Nearest(const Eigen::RowVectorXf& key) const {
+  const Eigen::RowVectorXf dots = key * centroids_;
+  int best = 0;
+  float best_d = centroid_norms_[0] - 2.0f * dots[0];
+  for (Eigen::Index c = 1; c < dots.size(); ++c) {
+    const float d = centroid_norms_[c] - 2.0f * dots[c];
+    if (d < best_d) {
+      best_d = d;
+      best = static_cast<int>(c);
+    }
+  }
+  return best;
+}
+
+void ViewCells::Append(int cell, const Eigen::RowVectorXf& key, float norm, Eigen::Index row) {
+  Cell& c = cells_[static_cast<size_t>(cell)];
+  const auto n = static_cast<Eigen::Index>(c.rows.size());
+  if (n == c.keys.rows()) c.keys.conservativeResize(std::max<Eigen::Index>(16, 2 * n), key.size());
+  c.keys.row(n) = key;
+  c.norms.push_back(norm);
+  c.rows.push_back(row);
+  if (row >= static_cast<Eigen::Index>(slot_.size()))
+    slot_.resize(static_cast<size_t>(row) + 1, {-1, -1});
+  slot_[static_cast<size_t>(row)] = {cell, static_cast<int>(n)};
+}
+
+void ViewCells::Remove(Eigen::Index row) {
+  if (row >= static_cast<Eigen::Index>(slot_.size())) return;
+  const auto [cell, at] = slot_[static_cast<size_t>(row)];
+  if (cell < 0) return;
+  // The cell's last key takes the freed position.
+  Cell& c = cells_[static_cast<size_t>(cell)];
+  const auto last = static_cast<Eigen::Index>(c.rows.size()) - 1;
+  if (at != last) {
+    c.keys.row(at) = c.keys.row(last);
+    c.norms[static_cast<size_t>(at)] = c.norms.back();
+    c.rows[static_cast<size_t>(at)] = c.rows.back();
+    slot_[static_cast<size_t>(c.rows.back())] = {cell, at};
+  }
+  c.norms.pop_back();
+  c.rows.pop_back();
+  slot_[static_cast<size_t>(row)] = {-1, -1};
+}
+
+void ViewCells::File(const Eigen::MatrixXf& keys, Eigen::Index row, float norm) {
+  if (!trained()) throw std::logic_error("view cells: filing before training");
+  const Eigen::RowVectorXf key = keys.row(row);
+  Remove(row);
+  Append(Nearest(key), key, norm, row);
+}
+
+std::vector<float> ViewCells::Estimate(const Eigen::MatrixXf& queries,
+                                       const Eigen::RowVectorXf& query_norms, int groups,
+                                       int group_size, int min_keys) const {
+  if (!trained()) throw std::logic_error("view cells: estimating before training");
+  const auto cells = static_cast<int>(cells_.size());
+  const Eigen::Index m = queries.cols();
+  // Each cell's distance from D: its centroid's from the nearest query.
+  const Eigen::MatrixXf cq = centroids_.transpose() * queries;  // cells x m
+  std::vector<float> reach(static_cast<size_t>(cells));
+  for (int c = 0; c < cells; ++c) {
+    float d = std::numeric_limits<float>::infinity();
+    for (Eigen::Index j = 0; j < m; ++j)
+      d = std::min(d, centroid_norms_[c] + query_norms[j] - 2.0f * cq(c, j));
+    reach[static_cast<size_t>(c)] = std::max(0.0f, d);
+  }
+  std::vector<int> order(static_cast<size_t>(cells));
+  std::iota(order.begin(), order.end(), 0);
+  std::stable_sort(order.begin(), order.end(), [&reach](int a, int b) {
+    return reach[static_cast<size_t>(a)] < reach[static_cast<size_t>(b)];
+  });
+  std::vector<float> out(static_cast<size_t>(groups), std::numeric_limits<float>::infinity());
+  std::vector<uint8_t> read(static_cast<size_t>(groups), 0);  // keys of each group read
+  Eigen::MatrixXf dots;
+  size_t next = 0;
+  for (long long done = 0; next < order.size() && done < min_keys; ++next) {
+    const Cell& c = cells_[static_cast<size_t>(order[next])];
+    const auto n = static_cast<Eigen::Index>(c.rows.size());
+    if (n == 0) continue;
+    dots.resize(n, m);
+    if (simd_ == Simd::kAvx2Fma) {
+      avx2::RowDots(c.keys.data(), c.keys.rows(), static_cast<int>(n),
+                    static_cast<int>(queries.rows()), queries.data(), static_cast<int>(m),
+                    dots.data());
+    } else {
+      dots.noalias() = c.keys.topRows(n) * queries;
+    }
+    for (Eigen::Index i = 0; i < n; ++i) {
+      float d = std::numeric_limits<float>::infinity();
+      for (Eigen::Index j = 0; j < m; ++j) d = std::min(d, query_norms[j] - 2.0f * dots(i, j));
+      const auto g = static_cast<size_t>(c.rows[static_cast<size_t>(i)] / group_size);
+      out[g] = std::min(out[g], c.norms[static_cast<size_t>(i)] + d);
+      ++read[g];
+    }
+    done += n;
+  }
+  // The keys not read: no nearer than the nearest unread cell is expected to hold them.
+  float unread = std::numeric_limits<float>::infinity();
+  for (size_t k = next; k < order.size(); ++k) {
+    const auto c = static_cast<size_t>(order[k]);
+    if (!cells_[c].rows.empty()) unread = std::min(unread, reach[c] + spread_[c]);
+  }
+  for (size_t g = 0; g < out.size(); ++g) {
+    if (read[g] < group_size) out[g] = std::min(out[g], unread);
+  }
+  return out;
+}
+
+}  // namespace tsc
