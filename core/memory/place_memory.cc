@@ -229,13 +229,25 @@ int PlaceMemory::Learn(const DetectedPlace& d) {
   // (places_[i].mean − p.mean).squaredNorm().
   const Eigen::Index dim = p.mean.size();
   const Eigen::Index stride = means_.rows();
-  distances_.resize(places_.size());
-  for (size_t i = 0; i < places_.size(); ++i) {
+  auto gamma = [&](int i) -> double {
     const Eigen::Map<const Eigen::VectorXf, Eigen::AlignedMax> m(
         means_.data() + static_cast<Eigen::Index>(i) * stride, dim);
-    distances_[i] = (m - p.mean).squaredNorm();
+    return (m - p.mean).squaredNorm();
+  };
+  if (view_basis() != nullptr && plain_learnings_ == 0) {
+    // Most places are far from the new one and bounds from the means in the basis settle
+    // them: at 10⁵ places the means are 480 MB, their coordinates 51 MB (same tree).
+    GammaLowerBounds(p.mean, distances_);
+    slink_.InsertBounded(distances_, gamma);
+    // Where the means lie far outside the basis the bounds settle little, and measuring γ
+    // point by point is slower than one stream: the next learnings stream (same tree).
+    if (4 * static_cast<size_t>(slink_.measured()) > places_.size()) plain_learnings_ = 64;
+  } else {
+    if (plain_learnings_ > 0) --plain_learnings_;
+    distances_.resize(places_.size());
+    for (size_t i = 0; i < places_.size(); ++i) distances_[i] = gamma(static_cast<int>(i));
+    slink_.Insert(distances_);
   }
-  slink_.Insert(distances_);
   spacings_.push_back(ViewSpacing(p.samples));
   places_.push_back(std::move(p));
   StoreMeans(static_cast<int>(places_.size()) - 1, static_cast<int>(places_.size()));
@@ -291,6 +303,25 @@ Eigen::MatrixXf PlaceMemory::TrainingSet(int node) const {
   return out;
 }
 
+void PlaceMemory::GammaLowerBounds(const Eigen::VectorXf& mean, std::vector<double>& out) const {
+  const ViewBasis& basis = *view_basis();
+  const Eigen::VectorXf c = basis.Coordinates(mean);
+  // Each coordinate is a sum of input_dimension() float products: off by at most
+  // input_dimension()·u·‖x‖ (u = 2⁻²⁴), so the vector of them by √dimension() times that.
+  const double error = std::sqrt(static_cast<double>(basis.dimension())) *
+                       static_cast<double>(basis.input_dimension()) * 0x1p-24;
+  const double gain2 = basis.max_gain() * basis.max_gain();
+  const double norm = mean.norm();
+  out.resize(places_.size());
+  for (size_t i = 0; i < places_.size(); ++i) {
+    const double apart = std::sqrt(static_cast<double>((view_centres_[i] - c).squaredNorm()));
+    const double root =
+        std::max(0.0, apart * (1.0 - 1e-4) - error * (static_cast<double>(mean_norms_[i]) + norm));
+    // Less 0.1 %: γ itself is a float sum of 1200 squares, off by up to 1200·u of itself.
+    out[i] = (1.0 - 1e-3) * root * root / gain2;
+  }
+}
+
 void PlaceMemory::StoreMeans(int first, int end) {
   if (first >= end) return;
   const Eigen::Index dim = places_[first].mean.size();
@@ -308,6 +339,8 @@ void PlaceMemory::StoreMeans(int first, int end) {
   for (int p = first; p < end; ++p) means_.col(p).head(dim) = places_[p].mean;
   if (view_basis()) {
     if (static_cast<size_t>(end) > view_centres_.size()) view_centres_.resize(end);
+    if (static_cast<size_t>(end) > mean_norms_.size()) mean_norms_.resize(end);
+    for (int p = first; p < end; ++p) mean_norms_[static_cast<size_t>(p)] = places_[p].mean.norm();
     // In blocks of the cache's columns (a few MB at a time); ViewBasis::Coordinates gives a
     // mean the same coordinates whatever block it is in.
     constexpr int kBlock = 512;

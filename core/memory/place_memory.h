@@ -200,6 +200,9 @@ class PlaceMemory {
   void RetrainDiscriminant(int node);
   Eigen::MatrixXf TrainingSet(int node) const;
   bool TrainsDiscriminants() const { return options_.svm_vote; }
+  /// Lower bounds of γ(i, x) between every place's mean and `mean`, from the means'
+  /// coordinates in the view basis (which must be set), for Slink::InsertBounded.
+  void GammaLowerBounds(const Eigen::VectorXf& mean, std::vector<double>& out) const;
   /// Copies the means of places [first, end) into their columns of `means_` (growing it as
   /// needed), takes them into the view basis (view_centres_) and re-keys them in the view index.
   void StoreMeans(int first, int end);
@@ -224,6 +227,8 @@ class PlaceMemory {
   ViewIndex view_index_;  // keys of every place, in place order
   // With a view basis: each place's mean in it (ViewCentre), kept in sync with the means.
   std::vector<Eigen::VectorXf> view_centres_;
+  std::vector<float> mean_norms_;  // with a view basis: ‖mean‖ of each place (GammaLowerBounds)
+  int plain_learnings_ = 0;        // learnings left that measure every γ (Learn)
 
   // Scratch reused across rebuilds (no per-learn allocation).
   std::vector<KeySlot> key_table_;

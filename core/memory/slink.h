@@ -3,7 +3,9 @@
 // (π, λ), the learning step of section 3.6, (3.13)-(3.14). O(n) time and memory per insertion.
 
 #include <Eigen/Core>
+#include <functional>
 #include <limits>
+#include <span>
 #include <utility>
 #include <vector>
 
@@ -20,6 +22,13 @@ class Slink {
 
   /// Inserts point n with distances[i] = γ(i, n) for i < n. Throws if the size is not n.
   void Insert(const std::vector<double>& distances);
+  /// The same insertion, the same state after it, with γ(i, n) known first by lower bounds
+  /// (`lower[i]` ≤ γ(i, n)) and measured by `distance(i)` only where a bound cannot settle
+  /// Sibson's comparison λ(i) ≥ M(i) (issue 23: at 10⁵ places reading every mean is the
+  /// learning's cost, and most points are far from the new one). Throws as Insert does.
+  void InsertBounded(std::span<const double> lower, const std::function<double(int)>& distance);
+  /// How many distances the last InsertBounded measured (benchmarks report the share).
+  int measured() const { return measured_; }
 
   int size() const { return static_cast<int>(pi_.size()); }
   /// π(i): the last point of the cluster i joins at height λ(i).
@@ -37,6 +46,22 @@ class Slink {
   std::vector<double> m_;                       // scratch
   std::vector<std::pair<double, int>> fresh_;   // scratch: entries whose λ changed
   std::vector<std::pair<double, int>> merged_;  // scratch
+  // Scratch of InsertBounded: per point, what it adds to M(π(i)) (exact, or a lower bound of
+  // M(i) when i is proven not to join), and the pointer tree's children in CSR form.
+  std::vector<double> contribution_;
+  std::vector<char> exact_;
+  std::vector<int> child_start_, children_;
+  struct Frame {
+    int node;
+    int next;     // the next child to look at
+    double best;  // the smallest term of M(node) found so far
+  };
+  std::vector<Frame> stack_;
+  int measured_ = 0;
+  // Sets exact_ and contribution_ of `i` to M(i), resolving the children it depends on.
+  double ExactM(int i, std::span<const double> lower, const std::function<double(int)>& distance);
+  // Merges the entries whose λ changed (fresh_) into order_.
+  void UpdateOrder();
 };
 
 /// A binary merge of the single-linkage dendrogram: clusters a and b join at `height`.

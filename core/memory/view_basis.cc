@@ -3,6 +3,7 @@
 #include <Eigen/Eigenvalues>
 #include <algorithm>
 #include <bit>
+#include <cmath>
 #include <cstring>
 #include <stdexcept>
 #include <string>
@@ -52,6 +53,10 @@ ViewBasis::ViewBasis(Eigen::MatrixXf axes, std::string name, Simd simd)
     throw std::invalid_argument("view basis " + name_ + ": axes not orthonormal (off by " +
                                 std::to_string(off) + ")");
   }
+  max_gain_ = std::sqrt(
+      std::max(0.0, Eigen::SelfAdjointEigenSolver<Eigen::MatrixXd>(gram, Eigen::EigenvaluesOnly)
+                        .eigenvalues()
+                        .maxCoeff()));
   if (simd_ == Simd::kAvx2Fma) axes_t_ = axes_.transpose();
 }
 

@@ -36,6 +36,10 @@ class ViewBasis {
   /// carry the same id measure in the same space.
   uint64_t id() const { return id_; }
   const Eigen::MatrixXf& axes() const { return axes_; }
+  /// The largest ‖axes·x‖ / ‖x‖ (1 for exactly orthonormal axes, within 1e-3 of it for any
+  /// accepted basis): a squared distance between coordinates divided by its square is at most
+  /// the squared distance between the descriptors.
+  double max_gain() const { return max_gain_; }
 
   /// The coordinates of descriptors (input_dimension() x n) in the basis: dimension() x n.
   /// Linear, so the coordinates of a mean are the mean of the coordinates. Each column's
@@ -50,6 +54,7 @@ class ViewBasis {
   Simd simd_;
   std::string name_;
   uint64_t id_;
+  double max_gain_ = 1.0;
 };
 
 /// The principal axes of `descriptors` (dim x n, n ≥ 2): the `k` unit eigenvectors of their

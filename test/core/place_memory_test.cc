@@ -7,6 +7,9 @@
 #include <random>
 #include <string>
 
+#include "core/memory/builtin_view_basis.h"
+#include "test/support/synthetic_places.h"
+
 namespace tsc {
 namespace {
 
@@ -438,6 +441,38 @@ TEST(PlaceMemoryViews, ASparseRevisitIsMeasuredInItsOwnStep) {
   EXPECT_EQ(*got.place, 1);
   const views::Room stranger = views::MakeRoom(rng);
   EXPECT_FALSE(stepped.Recognize(views::Visit(stranger, 21, again, 6, -1, 12)).place.has_value());
+}
+
+// With a view basis, learning bounds γ from the means' coordinates in it and measures γ only
+// where a bound cannot settle SLINK's step (Slink::InsertBounded); γ stays the distance of the
+// descriptors' means, so the tree is the one learned without a basis, to the bit.
+TEST(PlaceMemory, LearningWithAViewBasisBuildsTheSameTree) {
+  constexpr uint32_t kSeed = 77;
+  SCOPED_TRACE("seed " + std::to_string(kSeed));
+  // Places near the basis's span, as real descriptors are (the bounds settle most of γ), and
+  // places as drawn, 90 % of their distances outside it (the bounds settle little).
+  for (float residual : {0.033f, 1.0f}) {
+    SCOPED_TRACE("residual " + std::to_string(residual));
+    testing_support::SyntheticPlaces world(kSeed, BuiltinViewBasis()->input_dimension(), 12, 0.02f);
+    world.LieIn(BuiltinViewBasis(), residual);
+    PlaceMemoryOptions with, without;
+    with.view_basis = BuiltinViewBasis();
+    without.view_basis = nullptr;
+    PlaceMemory a(1, with), b(1, without);
+    int measured = 0, asked = 0;
+    for (int p = 0; p < 300; ++p) {
+      const DetectedPlace d = world.Visit(p, static_cast<uint32_t>(p % 3), 6, 6);
+      a.Learn(d);
+      b.Learn(d);
+      measured += a.slink().measured();
+      asked += p;
+      ASSERT_EQ(a.slink().pi(), b.slink().pi()) << "after place " << p;
+      ASSERT_EQ(a.slink().lambda(), b.slink().lambda()) << "after place " << p;
+    }
+    if (residual < 1.0f) {
+      EXPECT_LT(measured, asked / 10) << measured << " of " << asked;
+    }
+  }
 }
 
 }  // namespace

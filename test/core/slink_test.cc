@@ -4,6 +4,7 @@
 
 #include <algorithm>
 #include <random>
+#include <string>
 #include <utility>
 #include <vector>
 
@@ -95,6 +96,67 @@ TEST(Slink, RestoreRejectsInvalidPointerRepresentation) {
 TEST(Slink, InsertRejectsWrongDistanceCount) {
   Slink dut;
   EXPECT_THROW(dut.Insert({1.0}), std::invalid_argument);
+}
+
+// InsertBounded gives the state Insert gives, whatever valid lower bounds it is handed
+// (loose, tight, zero), on points with many tied distances (integer coordinates) and on
+// clustered ones, and measures a distance only where needed.
+TEST(Slink, InsertBoundedEndsInTheStateInsertReaches) {
+  constexpr uint32_t kSeed = 4242;
+  SCOPED_TRACE("seed " + std::to_string(kSeed));
+  std::mt19937 rng(kSeed);
+  long long measured = 0, asked = 0;
+  for (int trial = 0; trial < 60; ++trial) {
+    const bool ties = trial % 2 == 0;
+    const int n = 20 + trial * 3;
+    std::uniform_int_distribution<int> grid(0, 4);
+    std::normal_distribution<double> noise(0.0, 1.0);
+    std::vector<Eigen::VectorXd> x;
+    for (int i = 0; i < n; ++i) {
+      Eigen::VectorXd v(3);
+      const double site = 20.0 * (i % 5);  // five clusters far apart
+      for (int k = 0; k < 3; ++k) v[k] = ties ? grid(rng) + site : noise(rng) + site;
+      x.push_back(v);
+    }
+    Slink reference, dut;
+    for (int i = 0; i < n; ++i) {
+      std::vector<double> exact(static_cast<size_t>(i)), lower(static_cast<size_t>(i));
+      std::uniform_real_distribution<double> loose(0.0, 1.0);
+      for (int j = 0; j < i; ++j) {
+        exact[j] = (x[j] - x[i]).squaredNorm();
+        // A third of the trials tight bounds, a third loose, a third mixed with zeros.
+        const int kind = trial % 3;
+        lower[j] = kind == 0   ? exact[j]
+                   : kind == 1 ? exact[j] * loose(rng)
+                               : (j % 4 == 0 ? 0.0 : exact[j] * 0.9);
+      }
+      reference.Insert(exact);
+      std::vector<char> seen(static_cast<size_t>(i), 0);
+      dut.InsertBounded(lower, [&](int j) {
+        EXPECT_FALSE(seen[j]) << "distance " << j << " asked twice";
+        seen[j] = 1;
+        ++measured;
+        return exact[j];
+      });
+      asked += i;
+      ASSERT_EQ(dut.pi(), reference.pi()) << "trial " << trial << ", point " << i;
+      ASSERT_EQ(dut.lambda(), reference.lambda()) << "trial " << trial << ", point " << i;
+      ASSERT_EQ(dut.order(), reference.order()) << "trial " << trial << ", point " << i;
+    }
+  }
+  // Far clusters are settled by their bounds: fewer than half the distances are measured.
+  EXPECT_LT(measured, asked / 2) << measured << " of " << asked;
+}
+
+TEST(Slink, InsertBoundedRefusesWrongSizesAndBadValues) {
+  Slink s;
+  s.Insert({});
+  s.Insert({1.0});
+  auto one = [](int) { return 1.0; };
+  EXPECT_THROW(s.InsertBounded(std::vector<double>{1.0}, one), std::invalid_argument);
+  EXPECT_THROW(s.InsertBounded(std::vector<double>{1.0, -1.0}, one), std::invalid_argument);
+  EXPECT_THROW(s.InsertBounded(std::vector<double>{0.0, 0.0}, [](int) { return -1.0; }),
+               std::invalid_argument);
 }
 
 }  // namespace
