@@ -10,6 +10,20 @@
 #include "core/assert.h"
 
 namespace tsc {
+namespace {
+
+// An insertion's `values` (a distance or bound per point): n of them, finite, ≥ 0.
+void CheckPerPoint(std::span<const double> values, int n, const std::string& what) {
+  if (static_cast<int>(values.size()) != n) {
+    throw std::invalid_argument("SLINK insert: expected " + std::to_string(n) + " " + what +
+                                "s, got " + std::to_string(values.size()));
+  }
+  for (double d : values) {
+    if (!std::isfinite(d) || d < 0) throw std::invalid_argument("SLINK insert: bad " + what);
+  }
+}
+
+}  // namespace
 
 Slink::Slink(std::vector<int> pi, std::vector<double> lambda)
     : pi_(std::move(pi)), lambda_(std::move(lambda)) {
@@ -34,13 +48,7 @@ Slink::Slink(std::vector<int> pi, std::vector<double> lambda)
 
 void Slink::Insert(const std::vector<double>& distances) {
   const int n = size();
-  if (static_cast<int>(distances.size()) != n) {
-    throw std::invalid_argument("SLINK insert: expected " + std::to_string(n) + " distances, got " +
-                                std::to_string(distances.size()));
-  }
-  for (double d : distances) {
-    if (!std::isfinite(d) || d < 0) throw std::invalid_argument("SLINK insert: bad distance");
-  }
+  CheckPerPoint(distances, n, "distance");
   // Sibson's step: M(i) = d(i, n+1); μ of (3.14) is folded into M as the loop goes.
   m_.assign(distances.begin(), distances.end());
   m_.push_back(kInfinity);
@@ -123,13 +131,7 @@ double Slink::ExactM(int i, std::span<const double> lower,
 void Slink::InsertBounded(std::span<const double> lower,
                           const std::function<double(int)>& distance) {
   const int n = size();
-  if (static_cast<int>(lower.size()) != n) {
-    throw std::invalid_argument("SLINK insert: expected " + std::to_string(n) + " bounds, got " +
-                                std::to_string(lower.size()));
-  }
-  for (double d : lower) {
-    if (!std::isfinite(d) || d < 0) throw std::invalid_argument("SLINK insert: bad bound");
-  }
+  CheckPerPoint(lower, n, "bound");
   measured_ = 0;
   auto checked = [this, &distance](int i) {
     ++measured_;
