@@ -49,11 +49,7 @@ std::optional<int> PlaceMemory::Find(PlaceId id) const {
   return std::nullopt;
 }
 
-Eigen::VectorXf PlaceMemory::Centroid(int node) const {
-  const MemoryNode& nd = nodes_[node];
-  if (nd.terminal()) return places_[nd.place].mean;
-  return centroid_sums_[node] / static_cast<float>(nd.num_places());
-}
+Eigen::VectorXf PlaceMemory::Centroid(int node) const { return CandidateOf(node).Centroid(); }
 
 CostCandidate PlaceMemory::CandidateOf(int node) const {
   const MemoryNode& nd = nodes_[node];

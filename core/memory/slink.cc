@@ -12,15 +12,18 @@
 namespace tsc {
 namespace {
 
-// An insertion's `values` (a distance or bound per point): n of them, finite, ≥ 0.
+// A distance or bound of an insertion: finite and ≥ 0.
+void CheckValue(double d, const std::string& what) {
+  if (!std::isfinite(d) || d < 0) throw std::invalid_argument("SLINK insert: bad " + what);
+}
+
+// An insertion's `values` (a distance or bound per point): n of them, each checked.
 void CheckPerPoint(std::span<const double> values, int n, const std::string& what) {
   if (static_cast<int>(values.size()) != n) {
     throw std::invalid_argument("SLINK insert: expected " + std::to_string(n) + " " + what +
                                 "s, got " + std::to_string(values.size()));
   }
-  for (double d : values) {
-    if (!std::isfinite(d) || d < 0) throw std::invalid_argument("SLINK insert: bad " + what);
-  }
+  for (double d : values) CheckValue(d, what);
 }
 
 }  // namespace
@@ -136,7 +139,7 @@ void Slink::InsertBounded(std::span<const double> lower,
   auto checked = [this, &distance](int i) {
     ++measured_;
     const double d = distance(i);
-    if (!std::isfinite(d) || d < 0) throw std::invalid_argument("SLINK insert: bad distance");
+    CheckValue(d, "distance");
     return d;
   };
   // The pointer tree's children (j < π(j); the last point points at itself).

@@ -94,17 +94,10 @@ void ViewCells::Train(const Eigen::MatrixXf& keys, Eigen::Index rows, Simd simd)
 }
 
 int ViewCells::Nearest(const Eigen::RowVectorXf& key) const {
-  const Eigen::RowVectorXf dots = key * centroids_;
-  int best = 0;
-  float best_d = centroid_norms_[0] - 2.0f * dots[0];
-  for (Eigen::Index c = 1; c < dots.size(); ++c) {
-    const float d = centroid_norms_[c] - 2.0f * dots[c];
-    if (d < best_d) {
-      best_d = d;
-      best = static_cast<int>(c);
-    }
-  }
-  return best;
+  const Eigen::MatrixXf dots = key * centroids_;
+  std::vector<int> nearest;
+  NearestPerRow(dots, centroid_norms_, nearest);
+  return nearest.front();
 }
 
 void ViewCells::Append(int cell, const Eigen::RowVectorXf& key, float norm, Eigen::Index row) {
