@@ -220,12 +220,14 @@ int PlaceMemory::Learn(const DetectedPlace& d) {
                 options_.max_samples_per_place);
   p.detected = {d.index};
   p.members = d.members;
-  // γ of (3.12) between the new place and every learned place, streamed from the contiguous
-  // copy of the means; each column is read as an aligned vector so the value is the same as
-  // (places_[i].mean − p.mean).squaredNorm().
+  // γ of (3.12) between the new place and every learned place. Without a basis every γ is
+  // measured, streamed from the contiguous copy of the means; each column is read as an
+  // aligned vector so the value is the same as (places_[i].mean − p.mean).squaredNorm(),
+  // which is what the basis's few measured γ read.
   const Eigen::Index dim = p.mean.size();
   const Eigen::Index stride = means_.rows();
   auto gamma = [&](int i) -> double {
+    if (means_.size() == 0) return (places_[static_cast<size_t>(i)].mean - p.mean).squaredNorm();
     const Eigen::Map<const Eigen::VectorXf, Eigen::AlignedMax> m(
         means_.data() + static_cast<Eigen::Index>(i) * stride, dim);
     return (m - p.mean).squaredNorm();
@@ -321,30 +323,35 @@ void PlaceMemory::GammaLowerBounds(const Eigen::VectorXf& mean, std::vector<doub
 void PlaceMemory::StoreMeans(int first, int end) {
   if (first >= end) return;
   const Eigen::Index dim = places_[first].mean.size();
-  // Columns padded to a multiple of 16 floats (64 bytes ≥ EIGEN_MAX_ALIGN_BYTES).
-  const Eigen::Index stride = (dim + 15) / 16 * 16;
-  if (means_.rows() != stride) means_.resize(stride, 0);
-  if (end > means_.cols()) {
-    // Grows by half: the cache costs dim·4 bytes per place plus at most 50 % slack.
-    const Eigen::Index capacity = std::max<Eigen::Index>(64, means_.cols() + means_.cols() / 2);
-    Eigen::MatrixXf grown(stride, std::max<Eigen::Index>(capacity, end));
-    grown.leftCols(means_.cols()) = means_;
-    grown.rightCols(grown.cols() - means_.cols()).setZero();
-    means_.swap(grown);
-  }
-  for (int p = first; p < end; ++p) means_.col(p).head(dim) = places_[p].mean;
-  if (view_basis()) {
+  if (const ViewBasis* basis = view_basis()) {
     if (static_cast<size_t>(end) > view_centres_.size()) view_centres_.resize(end);
     if (static_cast<size_t>(end) > mean_norms_.size()) mean_norms_.resize(end);
-    for (int p = first; p < end; ++p) mean_norms_[static_cast<size_t>(p)] = places_[p].mean.norm();
-    // In blocks of the cache's columns (a few MB at a time); ViewBasis::Coordinates gives a
-    // mean the same coordinates whatever block it is in.
+    // In blocks of a few MB; ViewBasis::Coordinates gives a mean the same coordinates
+    // whatever block it is in.
     constexpr int kBlock = 512;
+    Eigen::MatrixXf block(dim, std::min(kBlock, end - first));
     for (int b = first; b < end; b += kBlock) {
       const int len = std::min(kBlock, end - b);
-      const Eigen::MatrixXf centres = view_basis()->Coordinates(means_.block(0, b, dim, len));
-      for (int i = 0; i < len; ++i) view_centres_[static_cast<size_t>(b + i)] = centres.col(i);
+      for (int i = 0; i < len; ++i) block.col(i) = places_[b + i].mean;
+      const Eigen::MatrixXf centres = basis->Coordinates(block.leftCols(len));
+      for (int i = 0; i < len; ++i) {
+        view_centres_[static_cast<size_t>(b + i)] = centres.col(i);
+        mean_norms_[static_cast<size_t>(b + i)] = places_[b + i].mean.norm();
+      }
     }
+  } else {
+    // Columns padded to a multiple of 16 floats (64 bytes ≥ EIGEN_MAX_ALIGN_BYTES).
+    const Eigen::Index stride = (dim + 15) / 16 * 16;
+    if (means_.rows() != stride) means_.resize(stride, 0);
+    if (end > means_.cols()) {
+      // Grows by half: the cache costs dim·4 bytes per place plus at most 50 % slack.
+      const Eigen::Index capacity = std::max<Eigen::Index>(64, means_.cols() + means_.cols() / 2);
+      Eigen::MatrixXf grown(stride, std::max<Eigen::Index>(capacity, end));
+      grown.leftCols(means_.cols()) = means_;
+      grown.rightCols(grown.cols() - means_.cols()).setZero();
+      means_.swap(grown);
+    }
+    for (int p = first; p < end; ++p) means_.col(p).head(dim) = places_[p].mean;
   }
   for (int p = first; p < end; ++p) view_index_.Set(p, ViewCentre(p), places_[p].samples);
 }

@@ -203,8 +203,9 @@ class PlaceMemory {
   /// Lower bounds of γ(i, x) between every place's mean and `mean`, from the means'
   /// coordinates in the view basis (which must be set), for Slink::InsertBounded.
   void GammaLowerBounds(const Eigen::VectorXf& mean, std::vector<double>& out) const;
-  /// Copies the means of places [first, end) into their columns of `means_` (growing it as
-  /// needed), takes them into the view basis (view_centres_) and re-keys them in the view index.
+  /// With a view basis, takes the means of places [first, end) into it (view_centres_,
+  /// mean_norms_); without one, copies them into their columns of `means_` (growing it as
+  /// needed). Then re-keys them in the view index.
   void StoreMeans(int first, int end);
 
   uint32_t robot_;
@@ -219,10 +220,12 @@ class PlaceMemory {
   int root_ = -1;
   uint32_t next_local_ = 1;
 
-  // Place means in one contiguous matrix (a cache of places_[i].mean, kept in sync by Learn,
-  // Update and Restore) so the SLINK distance pass streams memory. Column i holds place i in
-  // rows [0, dim); the stride is padded so every column is aligned like a VectorXf, which
-  // keeps the distances bit-identical to (places_[i].mean − x).squaredNorm().
+  // Without a view basis: place means in one contiguous matrix (a cache of places_[i].mean,
+  // kept in sync by Learn, Update and Restore) so the SLINK distance pass, which measures
+  // every γ, streams memory. Column i holds place i in rows [0, dim); the stride is padded so
+  // every column is aligned like a VectorXf, which keeps the distances bit-identical to
+  // (places_[i].mean − x).squaredNorm(). With a basis, learning measures few γ and reads
+  // them from the places: the cache would be a second copy of every mean (4.8 KB a place).
   Eigen::MatrixXf means_;
   ViewIndex view_index_;  // keys of every place, in place order
   // With a view basis: each place's mean in it (ViewCentre), kept in sync with the means.
