@@ -5,7 +5,8 @@
 // tscd binary is started on it (sim camera at 1 frame/s, LCM on memq://, so nothing leaves
 // the process), and once it has loaded the memory, announced and built its first snapshot
 // the report gives its resident set (VmRSS, and the peak VmHWM) and the database size, in
-// total and per place.
+// total and per place, and the CPU tscd spent over the settling time (idle but for the sim
+// camera's frame a second: announces, snapshots for peers).
 //
 //   build/bin/tscd_footprint [--places N] [--dim D] [--members M] [--settle-s S] [--out FILE]
 
@@ -16,6 +17,7 @@
 #include <cstdlib>
 #include <filesystem>
 #include <fstream>
+#include <iterator>
 #include <optional>
 #include <sstream>
 #include <string>
@@ -48,6 +50,22 @@ double StatusMb(pid_t pid, const std::string& field) {
     return kb / 1024.0;
   }
   return -1;
+}
+
+// utime + stime of a process in seconds (/proc/<pid>/stat fields 14 and 15); -1 when gone.
+double CpuSeconds(pid_t pid) {
+  std::ifstream in("/proc/" + std::to_string(pid) + "/stat");
+  std::string stat((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
+  // The command name (field 2) may hold spaces: fields are counted after its closing ')'.
+  const size_t close = stat.rfind(')');
+  if (close == std::string::npos) return -1;
+  std::istringstream fields(stat.substr(close + 1));
+  std::string field;
+  double ticks = 0;
+  for (int i = 3; i <= 15 && fields >> field; ++i) {
+    if (i >= 14) ticks += std::stod(field);
+  }
+  return ticks / static_cast<double>(sysconf(_SC_CLK_TCK));
 }
 
 uint64_t FileBytes(const fs::path& p) {
@@ -104,7 +122,10 @@ int Main(int argc, char** argv) {
     std::this_thread::sleep_for(std::chrono::milliseconds(100));
   }
   const double ready_s = Seconds(Clock::now() - t_start);
+  // What tscd spends while idle with this memory (announces, snapshots for peers).
+  const double cpu_before = CpuSeconds(tscd.pid());
   std::this_thread::sleep_for(std::chrono::duration<double>(settle_s));
+  const double cpu_s = CpuSeconds(tscd.pid()) - cpu_before;
   const double rss = StatusMb(tscd.pid(), "VmRSS"), hwm = StatusMb(tscd.pid(), "VmHWM");
   tscd.Signal(SIGTERM);
   const std::optional<int> status = tscd.Wait(std::chrono::seconds(60));
@@ -120,10 +141,12 @@ int Main(int argc, char** argv) {
   std::snprintf(report, sizeof report,
                 "places %d (dim %d, %d member views): tscd ready after %.1f s; after %.0f s "
                 "more: RSS %.1f MB (%.1f KB per place), peak %.1f MB (%.1f KB per place); "
-                "database %.1f MB (%.1f KB per place)\n",
+                "database %.1f MB (%.1f KB per place); CPU over those %.0f s %.2f s (%.1f %% of "
+                "a core)\n",
                 places, dim, members, ready_s, settle_s, rss, 1024.0 * rss / places, hwm,
                 1024.0 * hwm / places, static_cast<double>(db_bytes) / (1 << 20),
-                static_cast<double>(db_bytes) / 1024.0 / places);
+                static_cast<double>(db_bytes) / 1024.0 / places, settle_s, cpu_s,
+                100.0 * cpu_s / settle_s);
   std::fputs(report, stdout);
   if (!out.empty()) std::ofstream(out, std::ios::app) << report;
   return 0;
