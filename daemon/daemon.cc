@@ -314,7 +314,7 @@ void Daemon::OnAnnounceTimer() {
   a.sequence = ++announces_sent_;
   // Both branches lvalues: `snapshot_ ? *snapshot_ : MemorySnapshot{}` copied the whole
   // snapshot (110 MB at 10⁴ places) at every announce.
-  static const MemorySnapshot kNoSnapshot;
+  static const MemorySnapshot kNoSnapshot{};
   DescribeInAnnounce(snapshot_ ? *snapshot_ : kNoSnapshot, a);
   a.view_basis = ViewBasisId(settings_.pipeline.memory.view_basis.get());
   a.places = counters_.places;
@@ -483,7 +483,7 @@ void Daemon::OnRequest(const std::string& channel, const uint8_t* data, size_t s
     if (const auto held = HeldSnapshot(req->version)) {
       std::vector<int32_t> indices;
       for (int32_t i : req->missing) {
-        if (i >= 0 && i < static_cast<int32_t>(held->portions.size())) indices.push_back(i);
+        if (i >= 0 && i < held->count()) indices.push_back(i);
       }
       if (!indices.empty()) {
         spdlog::debug("robot {} asked for {} missing portions of version {}", req->requester,
@@ -510,8 +510,8 @@ void Daemon::AnswerRequest(const memory_request_t& req) {
   // longer holds: the current structure, from which the peer sees which bodies it still lacks.
   if (req.missing.empty()) {
     spdlog::debug("robot {} asked for version {}; sending all {} portions of version {}",
-                  req.requester, req.version, snapshot_->portions.size(), snapshot_->version);
-    PublishPortions(snapshot_, PortionsBelow(static_cast<int32_t>(snapshot_->portions.size())));
+                  req.requester, req.version, snapshot_->count(), snapshot_->version);
+    PublishPortions(snapshot_, PortionsBelow(snapshot_->count()));
     return;
   }
   spdlog::debug(
@@ -590,7 +590,7 @@ void Daemon::PublishPortions(std::shared_ptr<const MemorySnapshot> snapshot,
   // Stopping, the loop has nothing else to do: everything at once, before "stopped".
   size_t end = from;
   for (int64_t bytes = 0; end < indices.size() && (stopping_ || bytes < kBytesPerSlice); ++end) {
-    const memory_portion_t& portion = snapshot->portions[static_cast<size_t>(indices[end])];
+    const memory_portion_t portion = snapshot->Portion(indices[end]);
     bytes += portion.getEncodedSize();
     if (!team_.PublishSigned(ChannelFamily::kMemory, channel, portion)) {
       team_.PublishFailed(channel);

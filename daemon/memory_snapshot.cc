@@ -5,7 +5,11 @@
 #include <algorithm>
 #include <bit>
 #include <cmath>
+#include <cstring>
 #include <numeric>
+#include <stdexcept>
+#include <string>
+#include <unordered_map>
 
 #include "daemon/lcm_bus.h"
 
@@ -36,6 +40,65 @@ learned_place_t ToMessage(const LearnedPlace& p) {
   m.num_sources = static_cast<int32_t>(m.sources.size());
   return m;
 }
+
+// Whether `m` is the body ToMessage(p) gives, compared value by value (bit for bit: a place
+// whose floats changed in any way is encoded again).
+bool SameBody(const LearnedPlace& p, const learned_place_t& m) {
+  const auto same_floats = [](const float* a, const float* b, size_t n) {
+    return n == 0 || std::memcmp(a, b, n * sizeof(float)) == 0;
+  };
+  if (m.id.robot != static_cast<int32_t>(p.id.robot) ||
+      m.id.local != static_cast<int32_t>(p.id.local) || m.member_count != p.member_count ||
+      m.dims != p.mean.size() || m.num_samples != p.samples.cols() ||
+      m.view_dims != p.samples.rows() || m.sources.size() != p.sources.size() ||
+      !same_floats(m.mean.data(), p.mean.data(), m.mean.size())) {
+    return false;
+  }
+  for (int j = 0; j < m.num_samples; ++j) {
+    const std::vector<float>& col = m.samples[static_cast<size_t>(j)];
+    if (!same_floats(col.data(), p.samples.col(j).data(), col.size())) return false;
+  }
+  for (size_t k = 0; k < p.sources.size(); ++k) {
+    if (m.sources[k].robot != static_cast<int32_t>(p.sources[k].robot) ||
+        m.sources[k].local != static_cast<int32_t>(p.sources[k].local)) {
+      return false;
+    }
+  }
+  return true;
+}
+
+// The bodies of `previous` by place id, for places whose index moved (after a merge).
+class PreviousBodies {
+ public:
+  explicit PreviousBodies(const MemorySnapshot* previous) : previous_(previous) {}
+
+  // The index in `previous` of the body of place `id`, expected at `hint`; -1 when none.
+  int Find(PlaceId id, size_t hint) {
+    if (previous_ == nullptr) return -1;
+    const auto& bodies = previous_->bodies;
+    const auto is = [&](size_t i) {
+      return bodies[i]->id.robot == static_cast<int32_t>(id.robot) &&
+             bodies[i]->id.local == static_cast<int32_t>(id.local);
+    };
+    if (hint < bodies.size() && is(hint)) return static_cast<int>(hint);
+    if (by_id_.empty()) {
+      for (size_t i = 0; i < bodies.size(); ++i) {
+        by_id_.emplace(Key(bodies[i]->id.robot, bodies[i]->id.local), static_cast<int>(i));
+      }
+    }
+    const auto it =
+        by_id_.find(Key(static_cast<int32_t>(id.robot), static_cast<int32_t>(id.local)));
+    return it == by_id_.end() ? -1 : it->second;
+  }
+
+ private:
+  static uint64_t Key(int32_t robot, int32_t local) {
+    return (static_cast<uint64_t>(static_cast<uint32_t>(robot)) << 32) |
+           static_cast<uint32_t>(local);
+  }
+  const MemorySnapshot* previous_;
+  std::unordered_map<uint64_t, int> by_id_;
+};
 
 place_entry_t ToEntry(const learned_place_t& body, int64_t digest, int pi, double lambda) {
   place_entry_t e;
@@ -78,7 +141,8 @@ map_edge_t ToMessage(const MapEdge& e) {
 }  // namespace
 
 MemorySnapshot BuildSnapshot(const PlaceMemory& memory, const TopologicalMap& map,
-                             const SnapshotHeader& header, int portion_bytes) {
+                             const SnapshotHeader& header, int portion_bytes,
+                             const MemorySnapshot* previous) {
   MemorySnapshot snap;
   snap.version = header.version;
   snap.places = static_cast<int32_t>(memory.places().size());
@@ -104,21 +168,25 @@ MemorySnapshot BuildSnapshot(const PlaceMemory& memory, const TopologicalMap& ma
   const int64_t budget = portion_bytes - 64;
   const int64_t empty_size = blank.getEncodedSize();
 
-  std::vector<memory_portion_t> bodies;
-  bodies.reserve(memory.places().size());
+  PreviousBodies before(previous);
+  snap.bodies.reserve(memory.places().size());
+  snap.body_digests.reserve(memory.places().size());
   std::vector<place_entry_t> entries;
   entries.reserve(memory.places().size());
   const auto& pi = memory.slink().pi();
   const auto& lambda = memory.slink().lambda();
   for (size_t i = 0; i < memory.places().size(); ++i) {
-    memory_portion_t body = blank;
-    body.first_place = static_cast<int32_t>(i);
-    body.places.push_back(ToMessage(memory.places()[i]));
-    body.num_places = 1;
-    const int64_t digest = BodyDigest(body.places.front());
-    snap.body_digests.push_back(digest);
-    entries.push_back(ToEntry(body.places.front(), digest, pi[i], lambda[i]));
-    bodies.push_back(std::move(body));
+    const LearnedPlace& place = memory.places()[i];
+    const int old = before.Find(place.id, i);
+    if (old >= 0 && SameBody(place, *previous->bodies[static_cast<size_t>(old)])) {
+      snap.bodies.push_back(previous->bodies[static_cast<size_t>(old)]);
+      snap.body_digests.push_back(previous->body_digests[static_cast<size_t>(old)]);
+    } else {
+      auto body = std::make_shared<const learned_place_t>(ToMessage(place));
+      snap.body_digests.push_back(BodyDigest(*body));
+      snap.bodies.push_back(std::move(body));
+    }
+    entries.push_back(ToEntry(*snap.bodies.back(), snap.body_digests.back(), pi[i], lambda[i]));
   }
 
   memory_portion_t current = blank;
@@ -127,7 +195,7 @@ MemorySnapshot BuildSnapshot(const PlaceMemory& memory, const TopologicalMap& ma
     current.num_entries = static_cast<int32_t>(current.entries.size());
     current.num_nodes = static_cast<int32_t>(current.nodes.size());
     current.num_edges = static_cast<int32_t>(current.edges.size());
-    snap.portions.push_back(std::move(current));
+    snap.structure.push_back(std::move(current));
     current = blank;
     size = empty_size;
   };
@@ -152,18 +220,42 @@ MemorySnapshot BuildSnapshot(const PlaceMemory& memory, const TopologicalMap& ma
   }
   flush();  // the last (or only, for an empty memory) structure portion
 
-  snap.structure_portions = static_cast<int32_t>(snap.portions.size());
-  for (memory_portion_t& body : bodies) snap.portions.push_back(std::move(body));
-  const int32_t count = static_cast<int32_t>(snap.portions.size());
-  for (int32_t i = 0; i < count; ++i) {
-    memory_portion_t& p = snap.portions[static_cast<size_t>(i)];
+  snap.structure_portions = static_cast<int32_t>(snap.structure.size());
+  const int32_t count = snap.count();
+  for (int32_t i = 0; i < snap.structure_portions; ++i) {
+    memory_portion_t& p = snap.structure[static_cast<size_t>(i)];
     p.index = i;
     p.count = count;
     p.structure_portions = snap.structure_portions;
   }
-  snap.digest = SnapshotDigest(snap.portions);
-  for (auto& p : snap.portions) p.digest = snap.digest;
+  snap.digest = SnapshotDigest(snap.structure);
+  for (auto& p : snap.structure) p.digest = snap.digest;
+  snap.body_header = blank;
+  snap.body_header.count = count;
+  snap.body_header.structure_portions = snap.structure_portions;
+  snap.body_header.digest = snap.digest;
+  snap.body_header.num_places = 1;
   return snap;
+}
+
+memory_portion_t MemorySnapshot::Portion(int32_t index) const {
+  if (index < 0 || index >= count()) {
+    throw std::out_of_range("memory snapshot: no portion " + std::to_string(index) + " of " +
+                            std::to_string(count()));
+  }
+  if (index < structure_portions) return structure[static_cast<size_t>(index)];
+  memory_portion_t p = body_header;
+  p.index = index;
+  p.first_place = index - structure_portions;
+  p.places.push_back(*bodies[static_cast<size_t>(p.first_place)]);
+  return p;
+}
+
+std::vector<memory_portion_t> AllPortions(const MemorySnapshot& snapshot) {
+  std::vector<memory_portion_t> out;
+  out.reserve(static_cast<size_t>(snapshot.count()));
+  for (int32_t i = 0; i < snapshot.count(); ++i) out.push_back(snapshot.Portion(i));
+  return out;
 }
 
 int64_t SnapshotDigest(const std::vector<memory_portion_t>& portions) {
@@ -219,7 +311,7 @@ std::vector<int32_t> PortionsBeyond(const MemorySnapshot& snapshot,
 void DescribeInAnnounce(const MemorySnapshot& snapshot, announce_t& a) {
   a.memory_version = snapshot.version;
   a.memory_digest = snapshot.digest;
-  a.portions = static_cast<int32_t>(snapshot.portions.size());
+  a.portions = snapshot.count();
   a.structure_portions = snapshot.structure_portions;
   a.view_basis = snapshot.view_basis;
 }

@@ -5,6 +5,7 @@
 // structure by its digest, so a change of one place changes the structure and that body only.
 
 #include <cstdint>
+#include <memory>
 #include <unordered_set>
 #include <vector>
 
@@ -17,14 +18,30 @@ namespace tsc {
 
 struct MemorySnapshot {
   int64_t version = 0;
-  int64_t digest = 0;  ///< SnapshotDigest of the structure portions
-  std::vector<memory_portion_t> portions;
-  int32_t structure_portions = 0;     ///< portions [0, structure_portions) are the structure
-  std::vector<int64_t> body_digests;  ///< of place i, whose body is portion structure_portions + i
+  int64_t digest = 0;                       ///< SnapshotDigest of the structure portions
+  std::vector<memory_portion_t> structure;  ///< portions [0, structure_portions)
+  int32_t structure_portions = 0;
+  /// Place i's body, portion structure_portions + i. Shared with the snapshots built before
+  /// and after this one while the place does not change (BuildSnapshot's `previous`), so
+  /// consecutive snapshots hold one copy of what they have in common.
+  std::vector<std::shared_ptr<const learned_place_t>> bodies;
+  std::vector<int64_t> body_digests;  ///< of place i's body
+  /// What every body portion carries besides its body (robot, version, digest, counts).
+  memory_portion_t body_header;
   int32_t places = 0;
   int32_t edges = 0;
   int64_t view_basis = 0;  ///< ViewBasisId of the memory's member views
+
+  /// Portions in all: the structure, then one per place body.
+  int32_t count() const { return structure_portions + static_cast<int32_t>(bodies.size()); }
+  /// Portion `index` as it goes on the wire (a body is assembled here, a structure portion
+  /// copied). Precondition: 0 ≤ index < count().
+  memory_portion_t Portion(int32_t index) const;
 };
+
+/// Every portion of `snapshot`, in index order (tools and tests; tscd publishes them one by one
+/// with MemorySnapshot::Portion).
+std::vector<memory_portion_t> AllPortions(const MemorySnapshot& snapshot);
 
 struct SnapshotHeader {
   int32_t robot = 0;
@@ -35,9 +52,12 @@ struct SnapshotHeader {
 
 /// Cuts `memory` and `map` into structure portions whose encodings stay within `portion_bytes`
 /// and one body portion per place (as large as the place). Deterministic for equal input.
-/// Precondition: portion_bytes ≥ 4096.
+/// `previous` (optional, any earlier snapshot of the same robot): the bodies of places whose
+/// content has not changed since are shared with it rather than encoded and hashed again; the
+/// result is the same. Precondition: portion_bytes ≥ 4096.
 MemorySnapshot BuildSnapshot(const PlaceMemory& memory, const TopologicalMap& map,
-                             const SnapshotHeader& header, int portion_bytes);
+                             const SnapshotHeader& header, int portion_bytes,
+                             const MemorySnapshot* previous = nullptr);
 
 /// First 8 bytes (big endian) of SHA-256 over the encodings of the structure portions among
 /// `portions` (index below structure_portions), in order, each taken with utime, boot_id,

@@ -211,8 +211,11 @@ void PipelineWorker::BuildSnapshot() {
   SnapshotHeader header = header_;
   header.version = counters_.memory_version;
   header.utime = NowUtime();
-  auto built = std::make_shared<const MemorySnapshot>(tsc::BuildSnapshot(
-      pipeline_->memory(), pipeline_->map(), header, settings_.daemon.bus.portion_bytes));
+  // The bodies of places unchanged since the last snapshot are shared with it, not encoded
+  // and hashed again (88 ms a snapshot at 10⁴ places otherwise, and a second copy of them).
+  auto built = std::make_shared<const MemorySnapshot>(
+      tsc::BuildSnapshot(pipeline_->memory(), pipeline_->map(), header,
+                         settings_.daemon.bus.portion_bytes, snapshot().get()));
   std::lock_guard lock(snapshot_mutex_);
   snapshot_ = std::move(built);
 }

@@ -116,14 +116,15 @@ size_t WriteSnapshotSeeds(const fs::path& out) {
   const auto memory = tsc::testing_support::MakeRandomMemory(2, 12, 32, 1, 4);
   const tsc::MemorySnapshot snapshot =
       tsc::BuildSnapshot(memory.memory, memory.map, tsc::SnapshotHeader{2, 77, 3, 0}, 4096);
+  const std::vector<tsc::memory_portion_t> portions = tsc::AllPortions(snapshot);
   std::vector<uint8_t> in_order, shuffled;
-  for (size_t i = 0; i < snapshot.portions.size(); ++i) {
-    const std::vector<uint8_t> bytes = LcmBus::Encode(snapshot.portions[i]);
+  for (size_t i = 0; i < portions.size(); ++i) {
+    const std::vector<uint8_t> bytes = LcmBus::Encode(portions[i]);
     Write(out / "fuzz_lcm_memory_portion_t" / ("portion-" + std::to_string(i)), bytes);
     AppendFramed(in_order, bytes);
   }
-  for (size_t i = snapshot.portions.size(); i-- > 0;) {
-    const std::vector<uint8_t> bytes = LcmBus::Encode(snapshot.portions[i]);
+  for (size_t i = portions.size(); i-- > 0;) {
+    const std::vector<uint8_t> bytes = LcmBus::Encode(portions[i]);
     AppendFramed(shuffled, bytes);
     if (i == 0) AppendFramed(shuffled, bytes);  // a duplicate
   }
@@ -143,10 +144,10 @@ size_t WriteSnapshotSeeds(const fs::path& out) {
   std::vector<uint8_t> two_versions = in_order;
   for (int32_t i :
        tsc::PortionsBeyond(next, {snapshot.body_digests.begin(), snapshot.body_digests.end()})) {
-    AppendFramed(two_versions, LcmBus::Encode(next.portions[static_cast<size_t>(i)]));
+    AppendFramed(two_versions, LcmBus::Encode(next.Portion(i)));
   }
   Write(out / "fuzz_snapshot_assembler/next-version-changed-body-only", two_versions);
-  return snapshot.portions.size();
+  return portions.size();
 }
 
 // A small camera frame.

@@ -2,7 +2,9 @@
 
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <cstdio>
+#include <memory>
 #include <random>
 #include <set>
 
@@ -24,18 +26,18 @@ TEST(MemorySnapshot, StructureStaysWithinTheBudgetBodiesComeOneEachEverythingOnc
   const int budget = 4096;
   const MemorySnapshot dut = BuildSnapshot(f.memory, f.map, {5, 99, 3, 1000}, budget);
   ASSERT_GT(dut.structure_portions, 1);
-  ASSERT_EQ(dut.portions.size(), static_cast<size_t>(dut.structure_portions) + 60);
+  ASSERT_EQ(static_cast<size_t>(dut.count()), static_cast<size_t>(dut.structure_portions) + 60);
   ASSERT_EQ(dut.body_digests.size(), 60u);
   std::set<int32_t> entries, places, nodes;
   size_t edges = 0;
-  for (size_t i = 0; i < dut.portions.size(); ++i) {
-    const memory_portion_t& p = dut.portions[i];
+  for (int32_t i = 0; i < dut.count(); ++i) {
+    const memory_portion_t p = dut.Portion(i);
     const bool structure = p.index < dut.structure_portions;
     if (structure) {
       EXPECT_LE(LcmBus::Encode(p).size(), static_cast<size_t>(budget)) << i;
     }
-    EXPECT_EQ(p.index, static_cast<int32_t>(i));
-    EXPECT_EQ(p.count, static_cast<int32_t>(dut.portions.size()));
+    EXPECT_EQ(p.index, i);
+    EXPECT_EQ(p.count, dut.count());
     EXPECT_EQ(p.structure_portions, dut.structure_portions);
     EXPECT_EQ(p.robot, 5);
     EXPECT_EQ(p.version, 3);
@@ -88,7 +90,61 @@ TEST(MemorySnapshot, APlaceSeenAgainChangesItsBodyAndTheStructureOnly) {
   for (int32_t i = 0; i < after.structure_portions; ++i) want[static_cast<size_t>(i)] = i;
   want.push_back(after.structure_portions + 7);
   EXPECT_EQ(PortionsBeyond(after, {before.body_digests.begin(), before.body_digests.end()}), want);
-  EXPECT_EQ(PortionsBeyond(after, {}).size(), after.portions.size());
+  EXPECT_EQ(PortionsBeyond(after, {}).size(), static_cast<size_t>(after.count()));
+}
+
+// tscd builds each snapshot on the one before: bodies of places that did not change are shared
+// with it (one copy of what consecutive snapshots have in common, nothing encoded again), found
+// by place id wherever they stand, and the result is portion for portion the snapshot built
+// from scratch. A body whose content differs in any value is built again.
+TEST(MemorySnapshot, BuiltOnThePreviousItSharesUnchangedBodiesAndEqualsOneFromScratch) {
+  auto f = Fixture(40);
+  const MemorySnapshot before = BuildSnapshot(f.memory, f.map, {5, 1, 1, 0}, 8192);
+  DetectedPlace revisit;
+  revisit.index = 41;
+  revisit.descriptors = Eigen::MatrixXf::Constant(kDim, 3, 0.25f);
+  revisit.members = {4100, 4101, 4102};
+  f.memory.Update(7, revisit);
+  const SnapshotHeader h{5, 1, 2, 0};
+  const MemorySnapshot scratch = BuildSnapshot(f.memory, f.map, h, 8192);
+  auto same_as_scratch = [&](const MemorySnapshot& dut) {
+    ASSERT_EQ(dut.count(), scratch.count());
+    EXPECT_EQ(dut.digest, scratch.digest);
+    EXPECT_EQ(dut.body_digests, scratch.body_digests);
+    for (int32_t i = 0; i < dut.count(); ++i) {
+      EXPECT_EQ(LcmBus::Encode(dut.Portion(i)), LcmBus::Encode(scratch.Portion(i))) << i;
+    }
+  };
+
+  const MemorySnapshot dut = BuildSnapshot(f.memory, f.map, h, 8192, &before);
+  same_as_scratch(dut);
+  for (size_t i = 0; i < 40; ++i) EXPECT_EQ(dut.bodies[i] == before.bodies[i], i != 7) << i;
+
+  // The previous snapshot's bodies in another order (as after a merge): found by id.
+  MemorySnapshot reversed = before;
+  std::reverse(reversed.bodies.begin(), reversed.bodies.end());
+  std::reverse(reversed.body_digests.begin(), reversed.body_digests.end());
+  const MemorySnapshot from_reversed = BuildSnapshot(f.memory, f.map, h, 8192, &reversed);
+  same_as_scratch(from_reversed);
+  for (size_t i = 0; i < 40; ++i) {
+    EXPECT_EQ(from_reversed.bodies[i] == before.bodies[i], i != 7) << i;
+  }
+
+  // A previous body of the same id whose content differs (one view value, or one source) is
+  // not taken.
+  MemorySnapshot altered = before;
+  auto view = std::make_shared<learned_place_t>(*before.bodies[3]);
+  view->samples[1][2] += 1e-3f;
+  altered.bodies[3] = view;
+  auto source = std::make_shared<learned_place_t>(*before.bodies[4]);
+  source->sources.push_back(source->id);
+  source->num_sources = static_cast<int32_t>(source->sources.size());
+  altered.bodies[4] = source;
+  const MemorySnapshot from_altered = BuildSnapshot(f.memory, f.map, h, 8192, &altered);
+  same_as_scratch(from_altered);
+  EXPECT_NE(from_altered.bodies[3], altered.bodies[3]);
+  EXPECT_NE(from_altered.bodies[4], altered.bodies[4]);
+  EXPECT_EQ(from_altered.bodies[5], altered.bodies[5]);
 }
 
 // Issue 23, "a 10⁴-place memory changing one place sends ≤ 1 % of the full snapshot's bytes",
@@ -107,10 +163,10 @@ TEST(MemorySnapshot, OnePlaceChangedSendsUnderOnePercentOfTheSnapshot) {
   f.memory.Update(250, revisit);
   const MemorySnapshot after = BuildSnapshot(f.memory, f.map, h, 60000);
   int64_t full = 0, delta = 0;
-  for (const memory_portion_t& p : after.portions) full += p.getEncodedSize();
+  for (const memory_portion_t& p : AllPortions(after)) full += p.getEncodedSize();
   for (int32_t i :
        PortionsBeyond(after, {before.body_digests.begin(), before.body_digests.end()})) {
-    delta += after.portions[static_cast<size_t>(i)].getEncodedSize();
+    delta += after.Portion(i).getEncodedSize();
   }
   std::printf(
       "500 places of 1200 dimensions: full snapshot %lld bytes, one place changed %lld "
@@ -132,11 +188,11 @@ TEST(MemorySnapshot, DigestIsDeterministicAndFollowsContent) {
 TEST(MemorySnapshot, EmptyMemoryIsOneStructurePortion) {
   const PlaceMemory empty(2, PlaceMemoryOptions{});
   const MemorySnapshot dut = BuildSnapshot(empty, TopologicalMap{}, {2, 1, 1, 0}, 4096);
-  ASSERT_EQ(dut.portions.size(), 1u);
+  ASSERT_EQ(static_cast<size_t>(dut.count()), 1u);
   EXPECT_EQ(dut.structure_portions, 1);
-  EXPECT_EQ(dut.portions[0].total_places, 0);
-  EXPECT_EQ(dut.portions[0].count, 1);
-  EXPECT_EQ(dut.portions[0].structure_portions, 1);
+  EXPECT_EQ(dut.Portion(0).total_places, 0);
+  EXPECT_EQ(dut.Portion(0).count, 1);
+  EXPECT_EQ(dut.Portion(0).structure_portions, 1);
 }
 
 }  // namespace

@@ -36,7 +36,7 @@ announce_t Announce(int32_t robot, int64_t sequence, const MemorySnapshot& s) {
 TEST(PeerExchange, FetchesOnePeerAtATimeAndAsksAgainForLostPortions) {
   const MemorySnapshot two = MakeSnapshot(2, 20, 3);
   const MemorySnapshot three = MakeSnapshot(3, 5, 1);
-  ASSERT_GE(two.portions.size(), 3u);
+  ASSERT_GE(static_cast<size_t>(two.count()), 3u);
   PeerExchange dut(1, PeerExchangeOptions{});
   Clock::time_point t{};
   EXPECT_TRUE(dut.OnAnnounce(Announce(2, 1, two), t));
@@ -50,12 +50,12 @@ TEST(PeerExchange, FetchesOnePeerAtATimeAndAsksAgainForLostPortions) {
   EXPECT_EQ(dut.fetching(), 2);
 
   // Everything arrives but portion 1 (lost on the way), and a portion of robot 3 (ignored).
-  for (const memory_portion_t& p : two.portions) {
+  for (const memory_portion_t& p : AllPortions(two)) {
     if (p.index != 1) {
       EXPECT_FALSE(dut.OnPortion(p, t).has_value());
     }
   }
-  EXPECT_FALSE(dut.OnPortion(three.portions[0], t).has_value());
+  EXPECT_FALSE(dut.OnPortion(three.Portion(0), t).has_value());
   EXPECT_TRUE(dut.Tick(t + milliseconds(100)).empty());  // not yet time to ask again
   requests = dut.Tick(t + milliseconds(600));
   ASSERT_EQ(requests.size(), 1u);
@@ -63,7 +63,7 @@ TEST(PeerExchange, FetchesOnePeerAtATimeAndAsksAgainForLostPortions) {
   EXPECT_EQ(requests[0].missing, std::vector<int32_t>{1});
   EXPECT_EQ(requests[0].num_missing, 1);
 
-  auto complete = dut.OnPortion(two.portions[1], t + milliseconds(700));
+  auto complete = dut.OnPortion(two.Portion(1), t + milliseconds(700));
   ASSERT_TRUE(complete.has_value());
   std::string reason;
   const auto snap = complete->Take(&reason);
@@ -126,7 +126,7 @@ TEST(PeerExchange, SecondFetchAsksForTheStructureThenOnlyTheChangedBody) {
   dut.OnAnnounce(Announce(2, 1, v1), t);
   ASSERT_TRUE(dut.Tick(t).at(0).missing.empty());  // nothing of robot 2 yet: everything
   std::optional<SnapshotAssembler> complete;
-  for (const memory_portion_t& p : v1.portions) complete = dut.OnPortion(p, t);
+  for (const memory_portion_t& p : AllPortions(v1)) complete = dut.OnPortion(p, t);
   ASSERT_TRUE(complete.has_value());
   dut.MarkMerged(2, {v1.version, v1.digest});
   EXPECT_EQ(dut.known_bodies(), 60u);
@@ -146,13 +146,12 @@ TEST(PeerExchange, SecondFetchAsksForTheStructureThenOnlyTheChangedBody) {
   std::iota(structure.begin(), structure.end(), 0);
   EXPECT_EQ(requests[0].missing, structure);
   for (int32_t i : structure) {
-    EXPECT_FALSE(dut.OnPortion(v2.portions[static_cast<size_t>(i)], t).has_value());
+    EXPECT_FALSE(dut.OnPortion(v2.Portion(i), t).has_value());
   }
   requests = dut.Tick(t + milliseconds(100));  // at once, not after the retry period
   ASSERT_EQ(requests.size(), 1u);
   EXPECT_EQ(requests[0].missing, std::vector<int32_t>{v2.structure_portions + 33});
-  complete = dut.OnPortion(v2.portions[static_cast<size_t>(v2.structure_portions + 33)],
-                           t + milliseconds(150));
+  complete = dut.OnPortion(v2.Portion(v2.structure_portions + 33), t + milliseconds(150));
   ASSERT_TRUE(complete.has_value());
   std::string reason;
   const auto snap = complete->Take(&reason);
@@ -177,11 +176,11 @@ TEST(PeerExchange, AsksAgainForTheVersionBeingAssembled) {
   Clock::time_point t{};
   dut.OnAnnounce(Announce(2, 1, v1), t);
   ASSERT_EQ(dut.Tick(t).at(0).version, 1);
-  EXPECT_FALSE(dut.OnPortion(v2.portions[0], t).has_value());  // a broadcast of version 2
+  EXPECT_FALSE(dut.OnPortion(v2.Portion(0), t).has_value());  // a broadcast of version 2
   const auto requests = dut.Tick(t + milliseconds(600));
   ASSERT_EQ(requests.size(), 1u);
   EXPECT_EQ(requests[0].version, 2);
-  EXPECT_EQ(requests[0].missing.size(), v2.portions.size() - 1);
+  EXPECT_EQ(requests[0].missing.size(), static_cast<size_t>(v2.count()) - 1);
 }
 
 TEST(PeerExchange, GivesUpOnASilentPeerAndForgetsIt) {
@@ -209,7 +208,7 @@ TEST(PeerExchange, ForgedPortionIsCountedNotKept) {
   Clock::time_point t{};
   dut.OnAnnounce(Announce(2, 1, two), t);
   dut.Tick(t);
-  memory_portion_t forged = two.portions[static_cast<size_t>(two.structure_portions)];
+  memory_portion_t forged = two.Portion(two.structure_portions);
   forged.places[0].mean[0] = std::numeric_limits<float>::quiet_NaN();
   EXPECT_FALSE(dut.OnPortion(forged, t).has_value());
   EXPECT_EQ(dut.rejected_portions(), 1);

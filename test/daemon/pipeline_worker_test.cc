@@ -50,12 +50,12 @@ class Signal {
 // that keeps the datagram's framing).
 SnapshotAssembler PeerMemory(int places, bool corrupt = false) {
   const auto memory = testing_support::MakeRandomMemory(2, places, 32, 7);
-  MemorySnapshot published =
-      BuildSnapshot(memory.memory, memory.map, SnapshotHeader{2, 4242, 3, 1}, 60000);
+  std::vector<memory_portion_t> published =
+      AllPortions(BuildSnapshot(memory.memory, memory.map, SnapshotHeader{2, 4242, 3, 1}, 60000));
   // A body other than the structure names (its digest fails on the worker).
-  if (corrupt) published.portions.back().places.front().mean.front() += 1.0f;
+  if (corrupt) published.back().places.front().mean.front() += 1.0f;
   SnapshotAssembler assembler(2);
-  for (const memory_portion_t& p : published.portions) assembler.Accept(p);
+  for (const memory_portion_t& p : published) assembler.Accept(p);
   if (!assembler.complete()) throw std::runtime_error("peer snapshot incomplete");
   return assembler;
 }

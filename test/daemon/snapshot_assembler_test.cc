@@ -21,8 +21,8 @@ MemorySnapshot MakeSnapshot(int places, int64_t version, int portion_bytes = 600
 
 TEST(SnapshotAssembler, CompletesFromShuffledDuplicatedPortionsAfterAskingForTheLostOne) {
   const MemorySnapshot snap = MakeSnapshot(30, 4);
-  ASSERT_GE(snap.portions.size(), 3u);
-  std::vector<memory_portion_t> order = snap.portions;
+  ASSERT_GE(static_cast<size_t>(snap.count()), 3u);
+  std::vector<memory_portion_t> order = AllPortions(snap);
   std::mt19937 rng(1);
   std::shuffle(order.begin(), order.end(), rng);
   const memory_portion_t lost = order.back();
@@ -45,7 +45,7 @@ TEST(SnapshotAssembler, CompletesFromShuffledDuplicatedPortionsAfterAskingForThe
   EXPECT_EQ(got->version, 4);
   EXPECT_EQ(got->edges.size(), 29u);
   std::vector<learned_place_t> sent;
-  for (const memory_portion_t& p : snap.portions)
+  for (const memory_portion_t& p : AllPortions(snap))
     sent.insert(sent.end(), p.places.begin(), p.places.end());
   ASSERT_EQ(sent.size(), 30u);
   for (size_t i = 0; i < sent.size(); ++i) EXPECT_EQ(got->places[i]->mean, sent[i].mean) << i;
@@ -56,11 +56,11 @@ TEST(SnapshotAssembler, CompletesFromShuffledDuplicatedPortionsAfterAskingForThe
 TEST(SnapshotAssembler, RejectsForeignNonFiniteAndInconsistentPortions) {
   const MemorySnapshot snap = MakeSnapshot(12, 1);
   SnapshotAssembler dut(2);
-  memory_portion_t other = snap.portions[0];
+  memory_portion_t other = snap.Portion(0);
   other.robot = 3;
   EXPECT_EQ(dut.Accept(other).verdict, SnapshotAssembler::Verdict::kRejected);
 
-  const memory_portion_t& body = snap.portions[static_cast<size_t>(snap.structure_portions)];
+  const memory_portion_t& body = snap.Portion(snap.structure_portions);
   memory_portion_t nan = body;
   ASSERT_EQ(nan.places.size(), 1u);
   nan.places[0].mean[3] = std::nanf("");
@@ -89,16 +89,16 @@ TEST(SnapshotAssembler, RejectsForeignNonFiniteAndInconsistentPortions) {
   two.num_places = 2;
   EXPECT_EQ(dut.Accept(two).verdict, SnapshotAssembler::Verdict::kRejected);
 
-  memory_portion_t lambda = snap.portions[0];
+  memory_portion_t lambda = snap.Portion(0);
   ASSERT_FALSE(lambda.entries.empty());
   lambda.entries[0].slink_lambda = std::nan("");
   EXPECT_EQ(dut.Accept(lambda).verdict, SnapshotAssembler::Verdict::kRejected);
 
-  memory_portion_t bodies = snap.portions[0];  // more places than bodies
+  memory_portion_t bodies = snap.Portion(0);  // more places than bodies
   bodies.total_places += 1;
   EXPECT_EQ(dut.Accept(bodies).verdict, SnapshotAssembler::Verdict::kRejected);
 
-  memory_portion_t index = snap.portions[0];
+  memory_portion_t index = snap.Portion(0);
   index.index = index.count;
   EXPECT_EQ(dut.Accept(index).verdict, SnapshotAssembler::Verdict::kRejected);
   EXPECT_FALSE(dut.started());  // nothing kept
@@ -109,8 +109,8 @@ TEST(SnapshotAssembler, RejectsForeignNonFiniteAndInconsistentPortions) {
 TEST(SnapshotAssembler, PortionsOfOneVersionAgreeOnTheViewBasis) {
   const MemorySnapshot snap = MakeSnapshot(12, 1);
   SnapshotAssembler dut(2);
-  ASSERT_EQ(dut.Accept(snap.portions[0]).verdict, SnapshotAssembler::Verdict::kAccepted);
-  memory_portion_t other = snap.portions[1];
+  ASSERT_EQ(dut.Accept(snap.Portion(0)).verdict, SnapshotAssembler::Verdict::kAccepted);
+  memory_portion_t other = snap.Portion(1);
   other.view_basis = 99;
   const SnapshotAssembler::Result r = dut.Accept(other);
   EXPECT_EQ(r.verdict, SnapshotAssembler::Verdict::kRejected);
@@ -121,7 +121,7 @@ TEST(SnapshotAssembler, TamperedContentFailsTheDigests) {
   const MemorySnapshot snap = MakeSnapshot(8, 1);
   {
     SnapshotAssembler dut(2);
-    for (memory_portion_t p : snap.portions) {
+    for (memory_portion_t p : AllPortions(snap)) {
       if (!p.places.empty()) p.places[0].mean[0] += 0.25f;  // finite, plausible, wrong
       ASSERT_EQ(dut.Accept(p).verdict, SnapshotAssembler::Verdict::kAccepted);
     }
@@ -132,7 +132,7 @@ TEST(SnapshotAssembler, TamperedContentFailsTheDigests) {
   }
   {
     SnapshotAssembler dut(2);
-    for (memory_portion_t p : snap.portions) {
+    for (memory_portion_t p : AllPortions(snap)) {
       for (place_entry_t& e : p.entries) e.slink_lambda += 0.25;  // the structure changed
       ASSERT_EQ(dut.Accept(p).verdict, SnapshotAssembler::Verdict::kAccepted);
     }
@@ -148,7 +148,7 @@ TEST(SnapshotAssembler, KnownBodiesLeaveOnlyTheChangedPlaceToAskFor) {
   auto m = testing_support::MakeRandomMemory(2, 80, kDim, 80);
   const MemorySnapshot v1 = BuildSnapshot(m.memory, m.map, {2, 77, 1, 1}, 4096);
   SnapshotAssembler first(2);
-  for (const memory_portion_t& p : v1.portions) first.Accept(p);
+  for (const memory_portion_t& p : AllPortions(v1)) first.Accept(p);
   ASSERT_TRUE(first.complete());
   const auto known = std::make_shared<const PlaceBodies>(first.Bodies());
   EXPECT_EQ(known->size(), 80u);
@@ -165,15 +165,14 @@ TEST(SnapshotAssembler, KnownBodiesLeaveOnlyTheChangedPlaceToAskFor) {
   SnapshotAssembler dut(2, known);
   EXPECT_TRUE(dut.Missing().empty());  // nothing has come: the caller asks for the structure
   for (int32_t i = 0; i + 1 < v2.structure_portions; ++i) {
-    ASSERT_EQ(dut.Accept(v2.portions[static_cast<size_t>(i)]).verdict,
-              SnapshotAssembler::Verdict::kAccepted);
+    ASSERT_EQ(dut.Accept(v2.Portion(i)).verdict, SnapshotAssembler::Verdict::kAccepted);
   }
   // Structure incomplete: only the structure is asked for, not bodies that may be known.
   EXPECT_EQ(dut.Missing(), std::vector<int32_t>{v2.structure_portions - 1});
-  dut.Accept(v2.portions[static_cast<size_t>(v2.structure_portions - 1)]);
+  dut.Accept(v2.Portion(v2.structure_portions - 1));
   ASSERT_TRUE(dut.structure_complete());
   EXPECT_EQ(dut.Missing(), std::vector<int32_t>{v2.structure_portions + 12});
-  EXPECT_EQ(dut.Accept(v2.portions[static_cast<size_t>(v2.structure_portions + 12)]).verdict,
+  EXPECT_EQ(dut.Accept(v2.Portion(v2.structure_portions + 12)).verdict,
             SnapshotAssembler::Verdict::kAccepted);
   ASSERT_TRUE(dut.complete());
   EXPECT_EQ(dut.buffered(), static_cast<size_t>(v2.structure_portions) + 1);
@@ -182,8 +181,7 @@ TEST(SnapshotAssembler, KnownBodiesLeaveOnlyTheChangedPlaceToAskFor) {
   ASSERT_TRUE(got.has_value()) << reason;
   ASSERT_EQ(got->places.size(), 80u);
   for (size_t i = 0; i < 80; ++i) {
-    const learned_place_t& want =
-        v2.portions[static_cast<size_t>(v2.structure_portions) + i].places[0];
+    const learned_place_t& want = *v2.bodies[i];
     EXPECT_EQ(got->places[i]->mean, want.mean) << i;
     EXPECT_EQ(got->places[i]->samples, want.samples) << i;
   }
@@ -204,17 +202,16 @@ TEST(SnapshotAssembler, BodiesOfAReplacedVersionCarryOverToTheNext) {
   const MemorySnapshot v2 = BuildSnapshot(m.memory, m.map, {2, 77, 2, 2}, 4096);
 
   SnapshotAssembler dut(2);
-  for (size_t i = static_cast<size_t>(v1.structure_portions); i < v1.portions.size(); ++i) {
-    ASSERT_EQ(dut.Accept(v1.portions[i]).verdict, SnapshotAssembler::Verdict::kAccepted);
+  for (int32_t i = v1.structure_portions; i < v1.count(); ++i) {
+    ASSERT_EQ(dut.Accept(v1.Portion(i)).verdict, SnapshotAssembler::Verdict::kAccepted);
   }
   ASSERT_FALSE(dut.complete());  // version 1's structure was lost
   for (int32_t i = 0; i < v2.structure_portions; ++i) {
-    ASSERT_EQ(dut.Accept(v2.portions[static_cast<size_t>(i)]).verdict,
-              SnapshotAssembler::Verdict::kAccepted);
+    ASSERT_EQ(dut.Accept(v2.Portion(i)).verdict, SnapshotAssembler::Verdict::kAccepted);
   }
   EXPECT_EQ(dut.version(), 2);
   EXPECT_EQ(dut.Missing(), std::vector<int32_t>{v2.structure_portions + 12});
-  dut.Accept(v2.portions[static_cast<size_t>(v2.structure_portions + 12)]);
+  dut.Accept(v2.Portion(v2.structure_portions + 12));
   ASSERT_TRUE(dut.complete());
   std::string reason;
   const auto got = dut.Take(&reason);
@@ -227,14 +224,13 @@ TEST(SnapshotAssembler, BodiesOfAReplacedVersionCarryOverToTheNext) {
 TEST(SnapshotAssembler, AReceivedBodyMustMatchItsEntry) {
   const MemorySnapshot snap = MakeSnapshot(5, 1);
   SnapshotAssembler first(2);
-  for (const memory_portion_t& p : snap.portions) first.Accept(p);
+  for (const memory_portion_t& p : AllPortions(snap)) first.Accept(p);
   ASSERT_TRUE(first.complete());
   SnapshotAssembler dut(2, std::make_shared<const PlaceBodies>(first.Bodies()));
-  memory_portion_t swapped = snap.portions[static_cast<size_t>(snap.structure_portions) + 1];
-  swapped.places[0] = snap.portions[static_cast<size_t>(snap.structure_portions)].places[0];
+  memory_portion_t swapped = snap.Portion(snap.structure_portions + 1);
+  swapped.places[0] = snap.Portion(snap.structure_portions).places[0];
   swapped.first_place = 1;
-  for (int32_t i = 0; i < snap.structure_portions; ++i)
-    dut.Accept(snap.portions[static_cast<size_t>(i)]);
+  for (int32_t i = 0; i < snap.structure_portions; ++i) dut.Accept(snap.Portion(i));
   ASSERT_TRUE(dut.complete());  // every body known
   ASSERT_EQ(dut.Accept(swapped).verdict, SnapshotAssembler::Verdict::kAccepted);
   std::string reason;
@@ -246,11 +242,11 @@ TEST(SnapshotAssembler, NewerVersionRestartsOlderIsStale) {
   const MemorySnapshot v1 = MakeSnapshot(8, 1);
   const MemorySnapshot v2 = MakeSnapshot(9, 2);
   SnapshotAssembler dut(2);
-  ASSERT_EQ(dut.Accept(v1.portions[0]).verdict, SnapshotAssembler::Verdict::kAccepted);
-  ASSERT_EQ(dut.Accept(v2.portions[0]).verdict, SnapshotAssembler::Verdict::kAccepted);
+  ASSERT_EQ(dut.Accept(v1.Portion(0)).verdict, SnapshotAssembler::Verdict::kAccepted);
+  ASSERT_EQ(dut.Accept(v2.Portion(0)).verdict, SnapshotAssembler::Verdict::kAccepted);
   EXPECT_EQ(dut.version(), 2);
-  EXPECT_EQ(dut.Accept(v1.portions[0]).verdict, SnapshotAssembler::Verdict::kStale);
-  for (const memory_portion_t& p : v2.portions) dut.Accept(p);
+  EXPECT_EQ(dut.Accept(v1.Portion(0)).verdict, SnapshotAssembler::Verdict::kStale);
+  for (const memory_portion_t& p : AllPortions(v2)) dut.Accept(p);
   std::string reason;
   const auto got = dut.Take(&reason);
   ASSERT_TRUE(got.has_value()) << reason;
@@ -260,13 +256,14 @@ TEST(SnapshotAssembler, NewerVersionRestartsOlderIsStale) {
 TEST(SnapshotAssembler, BrokenTreeIsRefusedAsAWhole) {
   MemorySnapshot snap = MakeSnapshot(6, 1, 60000);
   ASSERT_EQ(snap.structure_portions, 1);
-  memory_portion_t& p = snap.portions[0];
+  std::vector<memory_portion_t> portions = AllPortions(snap);
+  memory_portion_t& p = portions[0];
   ASSERT_GE(p.nodes.size(), 2u);
   p.nodes.back().children.push_back(p.nodes.back().index);  // a node its own child
   p.nodes.back().num_children += 1;
-  p.digest = snap.digest = SnapshotDigest(snap.portions);  // an honest digest of a bad tree
+  p.digest = snap.digest = SnapshotDigest(portions);  // an honest digest of a bad tree
   SnapshotAssembler dut(2);
-  for (memory_portion_t& q : snap.portions) {
+  for (memory_portion_t& q : portions) {
     q.digest = snap.digest;
     ASSERT_EQ(dut.Accept(q).verdict, SnapshotAssembler::Verdict::kAccepted);
   }

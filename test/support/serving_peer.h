@@ -68,9 +68,7 @@ class ServingPeer {
     if (r.version == self->snapshot_.version && !r.missing.empty()) {
       self->wanted_.insert(r.missing.begin(), r.missing.end());
     } else {
-      for (size_t i = 0; i < self->snapshot_.portions.size(); ++i) {
-        self->wanted_.insert(static_cast<int32_t>(i));
-      }
+      for (int32_t i = 0; i < self->snapshot_.count(); ++i) self->wanted_.insert(i);
     }
   }
   static void OnAnnounce(const lcm::ReceiveBuffer* rbuf, const std::string&, ServingPeer* self) {
@@ -93,8 +91,8 @@ class ServingPeer {
       // asked for meanwhile go out in the next batch.
       const std::set<int32_t> batch = std::exchange(wanted_, {});
       for (int32_t i : batch) {
-        lcm_.publish("TSC_MEMORY_" + std::to_string(robot_),
-                     &snapshot_.portions[static_cast<size_t>(i)]);
+        const memory_portion_t portion = snapshot_.Portion(i);
+        lcm_.publish("TSC_MEMORY_" + std::to_string(robot_), &portion);
         std::this_thread::sleep_for(std::chrono::microseconds(300));
         lcm_.handleTimeout(0);
       }
