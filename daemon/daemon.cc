@@ -589,8 +589,9 @@ void Daemon::PublishPortions(std::shared_ptr<const MemorySnapshot> snapshot,
   const std::string channel = "TSC_MEMORY_" + std::to_string(robot_);
   // Stopping, the loop has nothing else to do: everything at once, before "stopped".
   size_t end = from;
+  memory_portion_t scratch;  // a body portion being published (structure portions are not copied)
   for (int64_t bytes = 0; end < indices.size() && (stopping_ || bytes < kBytesPerSlice); ++end) {
-    const memory_portion_t portion = snapshot->Portion(indices[end]);
+    const memory_portion_t& portion = snapshot->Portion(indices[end], scratch);
     bytes += portion.getEncodedSize();
     if (!team_.PublishSigned(ChannelFamily::kMemory, channel, portion)) {
       team_.PublishFailed(channel);

@@ -238,17 +238,22 @@ MemorySnapshot BuildSnapshot(const PlaceMemory& memory, const TopologicalMap& ma
   return snap;
 }
 
-memory_portion_t MemorySnapshot::Portion(int32_t index) const {
+const memory_portion_t& MemorySnapshot::Portion(int32_t index, memory_portion_t& scratch) const {
   if (index < 0 || index >= count()) {
     throw std::out_of_range("memory snapshot: no portion " + std::to_string(index) + " of " +
                             std::to_string(count()));
   }
   if (index < structure_portions) return structure[static_cast<size_t>(index)];
-  memory_portion_t p = body_header;
-  p.index = index;
-  p.first_place = index - structure_portions;
-  p.places.push_back(*bodies[static_cast<size_t>(p.first_place)]);
-  return p;
+  scratch = body_header;
+  scratch.index = index;
+  scratch.first_place = index - structure_portions;
+  scratch.places.push_back(*bodies[static_cast<size_t>(scratch.first_place)]);
+  return scratch;
+}
+
+memory_portion_t MemorySnapshot::Portion(int32_t index) const {
+  memory_portion_t scratch;
+  return Portion(index, scratch);
 }
 
 std::vector<memory_portion_t> AllPortions(const MemorySnapshot& snapshot) {

@@ -34,8 +34,10 @@ struct MemorySnapshot {
 
   /// Portions in all: the structure, then one per place body.
   int32_t count() const { return structure_portions + static_cast<int32_t>(bodies.size()); }
-  /// Portion `index` as it goes on the wire (a body is assembled here, a structure portion
-  /// copied). Precondition: 0 ≤ index < count().
+  /// Portion `index` as it goes on the wire: a structure portion as held, a body portion
+  /// assembled in `scratch` around its shared body. Precondition: 0 ≤ index < count().
+  const memory_portion_t& Portion(int32_t index, memory_portion_t& scratch) const;
+  /// The same, as a copy (tools and tests).
   memory_portion_t Portion(int32_t index) const;
 };
 
