@@ -1,9 +1,9 @@
 // libjpeg's warnings ("Corrupt JPEG data: 3 extraneous bytes before marker 0xd9") through
-// tscd's log. OpenCV decodes JPEG frames with libjpeg, whose default error manager prints its
-// warnings to stderr itself, past the log: no time, level or robot under a terminal, no
-// priority in the journal. tscd defines jpeg_std_error, which the dynamic linker binds
-// OpenCV's call to (an executable's definition comes first): it sets up libjpeg's own
-// manager, then sends its messages to the log as warnings. Errors stay with OpenCV, which
+// tscd's log. tscd decodes JPEG frames with libjpeg (drivers/image/jpeg_decoder.cc), whose
+// default error manager prints its warnings to stderr itself, past the log: no time, level or
+// robot under a terminal, no priority in the journal. tscd defines jpeg_std_error, which the
+// decoder's call binds to (an executable's definition comes first): it sets up libjpeg's own
+// manager, then sends its messages to the log as warnings. Errors stay with the decoder, which
 // replaces error_exit and reports a frame it cannot decode.
 
 #include <dlfcn.h>

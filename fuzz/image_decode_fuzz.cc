@@ -26,19 +26,19 @@ extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
 
   tsc::ImageLimits limits;
   limits.max_pixels = 256 * 256;  // a 256x256 BGR image: 192 KiB
-  const tsc::DecodedImage any = tsc::DecodeBounded(bytes, cv::IMREAD_COLOR, limits);
+  const tsc::DecodedImage any = tsc::DecodeBounded(bytes, tsc::PixelLayout::kBgr, limits);
   Require(any.ok() == any.error.empty(), "an error exactly when nothing decoded");
   if (header && header->pixels() > limits.max_pixels) Require(!any.ok(), "over the limit refused");
   if (any.ok()) {
     Require(any.header.has_value(), "a decoded image had a header");
     Require(static_cast<int64_t>(any.image.total()) == any.header->pixels(),
             "decoded at the claimed size");
-    Require(any.image.type() == CV_8UC3, "IMREAD_COLOR gives BGR");
+    Require(any.image.type() == CV_8UC3, "PixelLayout::kBgr gives BGR");
   }
 
   // As the Axis camera reads a part: only the requested size.
   limits.exact_size = cv::Size(32, 24);
-  const tsc::DecodedImage axis = tsc::DecodeBounded(bytes, cv::IMREAD_COLOR, limits);
+  const tsc::DecodedImage axis = tsc::DecodeBounded(bytes, tsc::PixelLayout::kBgr, limits);
   if (axis.ok()) {
     Require(axis.image.size() == cv::Size(32, 24) || axis.image.size() == cv::Size(24, 32),
             "only the expected size decodes");

@@ -13,7 +13,6 @@
 #include <cstring>
 #include <deque>
 #include <fstream>
-#include <opencv2/imgcodecs.hpp>
 #include <span>
 #include <sstream>
 #include <stdexcept>
@@ -460,7 +459,7 @@ std::optional<CameraFrame> AxisCamera::Next() {
   limits.exact_size = cv::Size(options_.width, options_.height);
   DecodedImage decoded =
       DecodeBounded(std::span(reinterpret_cast<const uint8_t*>(jpeg.data()), jpeg.size()),
-                    cv::IMREAD_COLOR, limits);
+                    PixelLayout::kBgr, limits);
   if (decoded.ok() && decoded.header->format != ImageFormat::kJpeg) {
     decoded.error = "a PNG, not a JPEG";
     decoded.image.release();

@@ -5,13 +5,12 @@
 #include <cmath>
 #include <cstdio>
 #include <filesystem>
-#include <opencv2/imgcodecs.hpp>
-#include <opencv2/videoio.hpp>
 #include <span>
 #include <stdexcept>
 #include <system_error>
 
 #include "drivers/camera/frame_convert.h"
+#include "drivers/camera/opencv_video.h"
 
 namespace tsc {
 namespace {
@@ -27,55 +26,11 @@ bool PathMissing(const std::string& device) {
   return !IsIndex(device) && !std::filesystem::exists(device, ec);
 }
 
-constexpr uint32_t FourCc(const char (&code)[5]) {
-  return static_cast<uint32_t>(code[0]) | static_cast<uint32_t>(code[1]) << 8 |
-         static_cast<uint32_t>(code[2]) << 16 | static_cast<uint32_t>(code[3]) << 24;
-}
-
 /// A compressed frame as a device hands it over: bytes in one row (or column) of CV_8UC1.
 bool IsCompressed(const cv::Mat& raw) {
   return raw.type() == CV_8UC1 && (raw.rows == 1 || raw.cols == 1) && raw.total() >= 2 &&
          raw.isContinuous();
 }
-
-class V4l2Device : public VideoDevice {
- public:
-  explicit V4l2Device(const DeviceCameraOptions& options) : options_(options) {}
-
-  bool Open() override {
-    capture_.release();
-    // V4L2 only: other backends would take a device path for a file or a pipeline. A missing
-    // path is not handed to OpenCV at all (it would log a warning per attempt).
-    if (IsIndex(options_.device)) {
-      capture_.open(std::stoi(options_.device), cv::CAP_V4L2);
-    } else if (!PathMissing(options_.device)) {
-      capture_.open(options_.device, cv::CAP_V4L2);
-    }
-    if (!capture_.isOpened()) return false;
-    if (options_.width > 0) capture_.set(cv::CAP_PROP_FRAME_WIDTH, options_.width);
-    if (options_.height > 0) capture_.set(cv::CAP_PROP_FRAME_HEIGHT, options_.height);
-    if (options_.fps > 0.0) capture_.set(cv::CAP_PROP_FPS, options_.fps);
-    // An MJPEG device's frames are taken undecoded so that DeviceCamera can read the JPEG
-    // header first: OpenCV's own decode would allocate whatever size a frame claims.
-    const auto fourcc = static_cast<uint32_t>(capture_.get(cv::CAP_PROP_FOURCC));
-    if (fourcc == FourCc("MJPG") || fourcc == FourCc("JPEG")) {
-      capture_.set(cv::CAP_PROP_CONVERT_RGB, 0);
-    }
-    return true;
-  }
-  void Close() override { capture_.release(); }
-  bool IsOpen() const override { return capture_.isOpened(); }
-  bool Grab() override { return capture_.grab(); }
-  bool Retrieve(cv::Mat* frame) override { return capture_.retrieve(*frame) && !frame->empty(); }
-  cv::Size FrameSize() const override {
-    return {static_cast<int>(capture_.get(cv::CAP_PROP_FRAME_WIDTH)),
-            static_cast<int>(capture_.get(cv::CAP_PROP_FRAME_HEIGHT))};
-  }
-
- private:
-  DeviceCameraOptions options_;
-  cv::VideoCapture capture_;
-};
 
 VideoDevice& OpenOrThrow(const DeviceCameraOptions& options, VideoDevice& device) {
   options.Validate();
@@ -97,7 +52,7 @@ cv::Mat Decoded(const cv::Mat& raw, const DeviceCameraOptions& options, int64_t 
   ImageLimits limits;
   limits.max_pixels = options.max_image_pixels;
   DecodedImage decoded =
-      DecodeBounded(std::span(raw.ptr<uint8_t>(), raw.total()), cv::IMREAD_COLOR, limits);
+      DecodeBounded(std::span(raw.ptr<uint8_t>(), raw.total()), PixelLayout::kBgr, limits);
   if (!decoded.ok()) {
     throw CameraError("device:" + options.device + ": frame " + std::to_string(number) + " (" +
                           std::to_string(raw.total()) + " bytes) refused: " + decoded.error,
@@ -127,7 +82,13 @@ int64_t Micros(double seconds) { return static_cast<int64_t>(std::llround(second
 }  // namespace
 
 std::unique_ptr<VideoDevice> MakeV4l2Device(const DeviceCameraOptions& options) {
-  return std::make_unique<V4l2Device>(options);
+  OpencvDeviceRequest request;
+  request.path = IsIndex(options.device) ? "" : options.device.c_str();
+  request.index = IsIndex(options.device) ? std::stoi(options.device) : -1;
+  request.width = options.width;
+  request.height = options.height;
+  request.fps = options.fps;
+  return std::unique_ptr<VideoDevice>(OpencvVideo().v4l2_device(&request));
 }
 
 void DeviceCameraOptions::Validate() const {

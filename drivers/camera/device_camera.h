@@ -1,7 +1,7 @@
 #pragma once
-// A V4L2 / USB camera through OpenCV's videoio. Survives the device going away: a failed read
-// is a recoverable CameraError and later calls reopen the device with a bounded exponential
-// backoff.
+// A V4L2 / USB camera through OpenCV's videoio (loaded as a module, drivers/camera/opencv_video.h).
+// Survives the device going away: a failed read is a recoverable CameraError and later calls reopen
+// the device with a bounded exponential backoff.
 
 #include <memory>
 #include <opencv2/core.hpp>
@@ -9,6 +9,7 @@
 #include <string>
 
 #include "drivers/camera/camera_source.h"
+#include "drivers/camera/video_device.h"
 #include "drivers/clock.h"
 #include "drivers/image/bounded_decode.h"
 
@@ -29,26 +30,9 @@ struct DeviceCameraOptions {
   void Validate() const;
 };
 
-/// What DeviceCamera needs from a capture device; the seam that lets tests unplug one.
-class VideoDevice {
- public:
-  virtual ~VideoDevice() = default;
-  /// Opens (or reopens) the device; false when it is not available.
-  virtual bool Open() = 0;
-  virtual void Close() = 0;
-  virtual bool IsOpen() const = 0;
-  /// Waits for the next frame and keeps it undecoded; false when the device stopped delivering.
-  virtual bool Grab() = 0;
-  /// The last grabbed frame: pixels, or a compressed frame as it came from the device (JPEG
-  /// bytes in one CV_8UC1 row), which DeviceCamera decodes under its size bound. False when
-  /// there is none.
-  virtual bool Retrieve(cv::Mat* frame) = 0;
-  /// Frame size the open device reports; 0x0 when it does not say.
-  virtual cv::Size FrameSize() const = 0;
-};
-
-/// The V4L2 device of options.device through cv::VideoCapture (requesting options' size and
-/// rate). Does not open it.
+/// The V4L2 device of options.device through cv::VideoCapture of OpenCV's video module
+/// (drivers/camera/opencv_video.h; requesting options' size and rate). Does not open it.
+/// Throws CameraError(recoverable = false) when the module cannot be loaded.
 std::unique_ptr<VideoDevice> MakeV4l2Device(const DeviceCameraOptions& options);
 
 class DeviceCamera : public CameraSource {

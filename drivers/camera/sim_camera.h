@@ -13,10 +13,10 @@
 #include "drivers/base/motor_base.h"
 #include "drivers/camera/camera_source.h"
 #include "drivers/clock.h"
-#include "drivers/world/dataset_writer.h"
 #include "drivers/world/renderer.h"
 #include "drivers/world/routes.h"
 #include "drivers/world/scenario.h"
+#include "drivers/world/sim_options.h"
 #include "drivers/world/world.h"
 
 namespace tsc {

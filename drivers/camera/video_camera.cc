@@ -4,29 +4,30 @@
 #include <system_error>
 
 #include "drivers/camera/frame_convert.h"
+#include "drivers/camera/opencv_video.h"
 
 namespace tsc {
 namespace fs = std::filesystem;
 namespace {
 
-cv::VideoCapture OpenCapture(const fs::path& file) {
+std::unique_ptr<VideoFileReader> OpenCapture(const fs::path& file) {
   std::error_code ec;
   if (!fs::is_regular_file(file, ec)) {
     throw CameraError("video:" + file.string() + ": no such file", false);
   }
-  cv::VideoCapture capture;
-  if (!capture.open(file.string(), cv::CAP_ANY) || !capture.isOpened()) {
+  std::unique_ptr<VideoFileReader> reader(OpencvVideo().video_file(file.c_str()));
+  if (reader == nullptr) {
     throw CameraError("video:" + file.string() + ": OpenCV cannot open it (container or codec)",
                       false);
   }
-  return capture;
+  return reader;
 }
 
 /// Frame size from the container, or from the first frame when the container does not say.
 CameraIntrinsics IntrinsicsOf(const fs::path& file, double hfov_deg, int64_t max_pixels) {
-  cv::VideoCapture capture = OpenCapture(file);
-  int width = static_cast<int>(capture.get(cv::CAP_PROP_FRAME_WIDTH));
-  int height = static_cast<int>(capture.get(cv::CAP_PROP_FRAME_HEIGHT));
+  const std::unique_ptr<VideoFileReader> capture = OpenCapture(file);
+  int width = capture->FrameSize().width;
+  int height = capture->FrameSize().height;
   if (int64_t{width} * height > max_pixels) {
     throw CameraError("video:" + file.string() + ": its frames are " + std::to_string(width) + "x" +
                           std::to_string(height) + " pixels, more than the limit of " +
@@ -35,7 +36,7 @@ CameraIntrinsics IntrinsicsOf(const fs::path& file, double hfov_deg, int64_t max
   }
   if (width <= 0 || height <= 0) {
     cv::Mat first;
-    if (!capture.read(first) || first.empty()) {
+    if (!capture->Read(&first)) {
       throw CameraError("video:" + file.string() + ": no decodable frame", false);
     }
     width = first.cols;
@@ -71,13 +72,13 @@ VideoCamera::VideoCamera(const VideoCameraOptions& options, Clock& clock)
 }
 
 void VideoCamera::Open() {
-  capture_ = OpenCapture(options_.file);
+  reader_ = OpenCapture(options_.file);
   read_since_open_ = 0;
 }
 
 bool VideoCamera::Read(cv::Mat* bgr) {
   cv::Mat raw;
-  if (!capture_.read(raw) || raw.empty()) return false;
+  if (!reader_->Read(&raw)) return false;
   *bgr = ToBgrOfSize(raw, intrinsics_);
   ++read_since_open_;
   return true;

@@ -1,14 +1,15 @@
 #pragma once
-// A video file as a camera (any container and codec OpenCV's videoio reads), paced to a frame
-// rate, optionally looping.
+// A video file as a camera (any container and codec OpenCV's videoio reads, loaded as a module:
+// drivers/camera/opencv_video.h), paced to a frame rate, optionally looping.
 
 #include <cstdint>
 #include <filesystem>
-#include <opencv2/videoio.hpp>
+#include <memory>
 #include <optional>
 #include <string>
 
 #include "drivers/camera/camera_source.h"
+#include "drivers/camera/video_file_reader.h"
 #include "drivers/clock.h"
 
 namespace tsc {
@@ -29,9 +30,9 @@ struct VideoCameraOptions {
 class VideoCamera : public CameraSource {
  public:
   /// Opens the file and reads its frame size. Throws CameraError(recoverable = false) naming
-  /// the file when it is missing, OpenCV cannot decode it or its frames are larger than
-  /// max_image_pixels (naming the declared size), std::invalid_argument for bad
-  /// options. `clock` must outlive the camera.
+  /// the file when it is missing, OpenCV's video module cannot be loaded or cannot decode it or its
+  /// frames are larger than max_image_pixels (naming the declared size), std::invalid_argument for
+  /// bad options. `clock` must outlive the camera.
   explicit VideoCamera(const VideoCameraOptions& options, Clock& clock = Clock::System());
 
   /// The next decoded frame (CV_8UC3), at most fps per second; nullopt at the end of the file
@@ -48,7 +49,7 @@ class VideoCamera : public CameraSource {
 
   VideoCameraOptions options_;
   Clock& clock_;
-  cv::VideoCapture capture_;
+  std::unique_ptr<VideoFileReader> reader_;
   CameraIntrinsics intrinsics_;
   Pacer pacer_;
   int64_t delivered_ = 0;

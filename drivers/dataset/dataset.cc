@@ -8,7 +8,6 @@
 #include <fstream>
 #include <iterator>
 #include <map>
-#include <opencv2/imgcodecs.hpp>
 #include <sstream>
 #include <system_error>
 #include <utility>
@@ -38,19 +37,19 @@ std::vector<uint8_t> ReadBytes(const fs::path& file) {
 }
 
 // Decodes `file` as a JPEG or PNG (DecodeBounded: by its first bytes, never another decoder —
-// cv::imread picks one by content, and GDCM aborts the process on a malformed "*.png" holding
+// cv::imread picked one by content, and GDCM aborted the process on a malformed "*.png" holding
 // "DICM", found by fuzz/dataset_fuzz, regression in fuzz/regressions/fuzz_dataset_image) and
 // only once its header passes `limits`: a 1 MB PNG claiming 20000x20000 is refused before
 // anything is allocated for it. Throws DatasetError naming the file, its claimed size and
 // `what` it is ("image", "depth image").
-cv::Mat ReadJpegOrPng(const fs::path& file, int flags, const ImageLimits& limits,
+cv::Mat ReadJpegOrPng(const fs::path& file, PixelLayout layout, const ImageLimits& limits,
                       const char* what) {
   const std::vector<uint8_t> bytes = ReadBytes(file);
   if (bytes.empty()) Fail(file, std::string("unreadable ") + what + " (missing or empty)");
   if (!LooksLikePngOrJpeg(bytes)) {
     Fail(file, std::string("unreadable ") + what + " (not a JPEG/PNG by its first bytes)");
   }
-  DecodedImage decoded = DecodeBounded(bytes, flags, limits);
+  DecodedImage decoded = DecodeBounded(bytes, layout, limits);
   if (!decoded.ok()) Fail(file, std::string("unreadable ") + what + ": " + decoded.error);
   return std::move(decoded.image);
 }
@@ -364,7 +363,7 @@ Dataset Dataset::Open(const fs::path& folder, const DatasetOptions& options) {
   // to be sure it can be.
   ImageLimits first_limits;
   first_limits.max_pixels = options.max_image_pixels;
-  const cv::Mat first = ReadJpegOrPng(*sized, cv::IMREAD_COLOR, first_limits, "image");
+  const cv::Mat first = ReadJpegOrPng(*sized, PixelLayout::kBgr, first_limits, "image");
 
   std::vector<fs::path> depths;
   const fs::path depth_dir = folder / "depth";
@@ -450,7 +449,7 @@ std::vector<Observation> Dataset::Load(int i) const {
   limits.max_pixels = options_.max_image_pixels;
   limits.exact_size = frame_size_;
   Observation obs;
-  obs.bgr = ReadJpegOrPng(file, cv::IMREAD_COLOR, limits, "image");
+  obs.bgr = ReadJpegOrPng(file, PixelLayout::kBgr, limits, "image");
   if (obs.bgr.size() != frame_size_) {  // a JPEG turned by its EXIF orientation
     Fail(file, "image is " + std::to_string(obs.bgr.cols) + "x" + std::to_string(obs.bgr.rows) +
                    " but the dataset's frames are " + std::to_string(frame_size_.width) + "x" +
@@ -458,7 +457,7 @@ std::vector<Observation> Dataset::Load(int i) const {
   }
   if (has_depth()) {
     const fs::path& dfile = depths_[i];
-    const cv::Mat raw = ReadJpegOrPng(dfile, cv::IMREAD_UNCHANGED, limits, "depth image");
+    const cv::Mat raw = ReadJpegOrPng(dfile, PixelLayout::kUnchanged, limits, "depth image");
     if (raw.type() != CV_16UC1) Fail(dfile, "depth must be a single-channel 16-bit PNG (mm)");
     if (raw.size() != obs.bgr.size()) {
       Fail(dfile, "depth is " + std::to_string(raw.cols) + "x" + std::to_string(raw.rows) +

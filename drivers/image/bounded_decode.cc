@@ -1,8 +1,10 @@
 #include "drivers/image/bounded_decode.h"
 
 #include <limits>
-#include <opencv2/imgcodecs.hpp>
 #include <stdexcept>
+#include <utility>
+
+#include "drivers/image/png_decoder.h"
 
 namespace tsc {
 namespace {
@@ -40,7 +42,8 @@ std::optional<std::string> CheckImageHeader(const ImageHeader& header, const Ima
   return std::nullopt;
 }
 
-DecodedImage DecodeBounded(std::span<const uint8_t> bytes, int flags, const ImageLimits& limits) {
+DecodedImage DecodeBounded(std::span<const uint8_t> bytes, PixelLayout layout,
+                           const ImageLimits& limits) {
   DecodedImage out;
   std::string why;
   out.header = ParseImageHeader(bytes, &why);
@@ -56,22 +59,16 @@ DecodedImage DecodeBounded(std::span<const uint8_t> bytes, int flags, const Imag
     out.error = "a file of " + std::to_string(bytes.size()) + " bytes is too large to decode";
     return out;
   }
-  try {
-    // imdecode takes a Mat header over the bytes (no copy); it does not write to them.
-    const cv::Mat buffer(1, static_cast<int>(bytes.size()), CV_8U,
-                         const_cast<uint8_t*>(bytes.data()));
-    out.image = cv::imdecode(buffer, flags);
-  } catch (const cv::Exception& e) {
-    out.image.release();
-    out.error = std::string("the decoder failed: ") + e.what();
-    return out;
-  }
-  if (out.image.empty()) {
+  DecoderResult decoded = out.header->format == ImageFormat::kPng ? DecodePng(bytes, layout)
+                                                                  : DecodeJpeg(bytes, layout);
+  if (decoded.image.empty()) {
     out.error = "not a decodable " +
                 std::string(out.header->format == ImageFormat::kPng ? "PNG" : "JPEG") +
-                " (its header claims " + out.header->SizeText() + ")";
+                " (its header claims " + out.header->SizeText() + ")" +
+                (decoded.error.empty() ? "" : ": " + decoded.error);
     return out;
   }
+  out.image = std::move(decoded.image);
   // The decoder read the same header: anything else is a decoder we did not expect.
   if (!SameOrTurned(out.image.size(), out.header->width, out.header->height)) {
     out.error = "decoded as " + SizeText(out.image.size()) + " but its header claims " +

@@ -3,8 +3,10 @@
 // only after its header has shown that the result is of a size we accept: a decoder allocates
 // what the header claims before it reads a row, so a small crafted file (a "decompression
 // bomb": a 1 MB PNG of deflated zeros claiming 20000x20000, a 578-byte JPEG claiming
-// 20512x35225) would otherwise cost gigabytes. Only PNG and JPEG are decoded: cv::imdecode
-// picks a decoder by content, and some of Debian's (GDCM for DICOM) abort on a malformed file.
+// 20512x35225) would otherwise cost gigabytes. Only PNG and JPEG are decoded, with libpng and
+// libjpeg directly (drivers/image/png_decoder.h, jpeg_decoder.h; until session 31
+// cv::imdecode, which picks a decoder by content, and some of Debian's, GDCM for DICOM, abort
+// on a malformed file).
 
 #include <cstdint>
 #include <opencv2/core.hpp>
@@ -13,6 +15,7 @@
 #include <string>
 
 #include "drivers/image/image_header.h"
+#include "drivers/image/jpeg_decoder.h"
 
 namespace tsc {
 
@@ -41,10 +44,11 @@ struct DecodedImage {
   bool ok() const { return !image.empty(); }
 };
 
-/// Decodes the PNG or JPEG in `bytes` with cv::imdecode(`flags`), but only once its header
-/// passes `limits`: nothing is allocated for a refused image. Never throws for bad input (an
-/// OpenCV exception from the decoder becomes the error); the error does not name the source,
-/// the caller adds the file or camera and frame.
-DecodedImage DecodeBounded(std::span<const uint8_t> bytes, int flags, const ImageLimits& limits);
+/// Decodes the PNG or JPEG in `bytes` into `layout` (as cv::imdecode with IMREAD_COLOR or
+/// IMREAD_UNCHANGED), but only once its header passes `limits`: nothing is allocated for a
+/// refused image. Never throws for bad input (the decoder's message becomes the error); the
+/// error does not name the source, the caller adds the file or camera and frame.
+DecodedImage DecodeBounded(std::span<const uint8_t> bytes, PixelLayout layout,
+                           const ImageLimits& limits);
 
 }  // namespace tsc

@@ -26,37 +26,6 @@ std::string Stem(int frame_1based) {
 
 }  // namespace
 
-LightingMode ParseLightingMode(const std::string& name) {
-  if (name == "day") return LightingMode::kDay;
-  if (name == "dim") return LightingMode::kDim;
-  if (name == "flicker") return LightingMode::kFlicker;
-  if (name == "mixed") return LightingMode::kMixed;
-  throw std::invalid_argument("unknown lighting '" + name + "' (day, dim, flicker or mixed)");
-}
-
-void SimOptions::Validate() const {
-  render.Validate();
-  route.Validate();
-  if (robots < 1 || robots > 64) {
-    throw std::invalid_argument("robots " + std::to_string(robots) + " must be in [1, 64]");
-  }
-  if (!(jitter_heading_deg >= 0.0 && jitter_heading_deg <= 10.0) ||
-      !(jitter_position_m >= 0.0 && jitter_position_m <= 0.2)) {
-    throw std::invalid_argument("camera jitter must be within 10° and 0.2 m");
-  }
-  if (!(shutter_fraction >= 0.0 && shutter_fraction <= 1.0)) {
-    throw std::invalid_argument("shutter fraction " + std::to_string(shutter_fraction) +
-                                " must be in [0, 1]");
-  }
-  if (!(glitch_probability >= 0.0 && glitch_probability <= 1.0)) {
-    throw std::invalid_argument("glitch probability " + std::to_string(glitch_probability) +
-                                " must be in [0, 1]");
-  }
-  if (max_frames < 0) {
-    throw std::invalid_argument("max frames " + std::to_string(max_frames) + " must be ≥ 0");
-  }
-}
-
 int WriteRobotDataset(const fs::path& folder, const World& world,
                       const std::vector<RouteFrame>& route, const SimOptions& options,
                       std::mt19937& rng) {

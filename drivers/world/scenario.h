@@ -9,9 +9,9 @@
 #include <string>
 #include <vector>
 
-#include "drivers/world/dataset_writer.h"
 #include "drivers/world/renderer.h"
 #include "drivers/world/routes.h"
+#include "drivers/world/sim_options.h"
 #include "drivers/world/world.h"
 
 namespace tsc::sim {

@@ -17,7 +17,7 @@ TEST(DecodeBounded, DecodesAnImageWithinTheLimits) {
   for (const char* ext : {".png", ".jpg"}) {
     ImageLimits limits;
     limits.exact_size = cv::Size(40, 30);
-    const DecodedImage d = DecodeBounded(ts::EncodeImage(ext, 40, 30), cv::IMREAD_COLOR, limits);
+    const DecodedImage d = DecodeBounded(ts::EncodeImage(ext, 40, 30), PixelLayout::kBgr, limits);
     ASSERT_TRUE(d.ok()) << ext << ": " << d.error;
     EXPECT_EQ(d.image.size(), cv::Size(40, 30));
     EXPECT_EQ(d.image.type(), CV_8UC3);
@@ -32,7 +32,7 @@ TEST(DecodeBounded, RefusesBombsByTheirHeaderWithoutAllocating) {
   const long before_kb = ts::RssKb();
   for (const auto& [bytes, claim] : {std::pair{ts::ForgedJpegBomb(), std::string("20512x35225")},
                                      std::pair{ts::ForgedPngBomb(), std::string("20000x20000")}}) {
-    const DecodedImage d = DecodeBounded(bytes, cv::IMREAD_COLOR, ImageLimits{});
+    const DecodedImage d = DecodeBounded(bytes, PixelLayout::kBgr, ImageLimits{});
     EXPECT_FALSE(d.ok());
     EXPECT_NE(d.error.find(claim), std::string::npos) << d.error;
     EXPECT_NE(d.error.find("camera.max_image_pixels"), std::string::npos) << d.error;
@@ -48,7 +48,7 @@ TEST(DecodeBounded, RefusesAnotherSizeThanTheExpectedOneButAcceptsItTurned) {
   ImageLimits limits;
   limits.exact_size = cv::Size(32, 24);
   const DecodedImage other =
-      DecodeBounded(ts::EncodeImage(".jpg", 48, 24), cv::IMREAD_COLOR, limits);
+      DecodeBounded(ts::EncodeImage(".jpg", 48, 24), PixelLayout::kBgr, limits);
   EXPECT_FALSE(other.ok());
   EXPECT_NE(other.error.find("48x24"), std::string::npos) << other.error;
   EXPECT_NE(other.error.find("32x24"), std::string::npos) << other.error;
@@ -59,9 +59,9 @@ TEST(DecodeBounded, RefusesAnotherSizeThanTheExpectedOneButAcceptsItTurned) {
 TEST(DecodeBounded, TheLimitIsInclusive) {
   ImageLimits limits;
   limits.max_pixels = 40 * 30;
-  EXPECT_TRUE(DecodeBounded(ts::EncodeImage(".png", 40, 30), cv::IMREAD_COLOR, limits).ok());
+  EXPECT_TRUE(DecodeBounded(ts::EncodeImage(".png", 40, 30), PixelLayout::kBgr, limits).ok());
   limits.max_pixels = 40 * 30 - 1;
-  const DecodedImage d = DecodeBounded(ts::EncodeImage(".png", 40, 30), cv::IMREAD_COLOR, limits);
+  const DecodedImage d = DecodeBounded(ts::EncodeImage(".png", 40, 30), PixelLayout::kBgr, limits);
   EXPECT_FALSE(d.ok());
   EXPECT_NE(d.error.find("40x30"), std::string::npos) << d.error;
 }
@@ -72,13 +72,13 @@ TEST(DecodeBounded, OtherFormatsAndGarbageAreRefusedUndecoded) {
     cv::imencode(".bmp", cv::Mat(8, 8, CV_8UC3, cv::Scalar(1, 2, 3)), b);
     return b;
   }();
-  const DecodedImage d = DecodeBounded(bmp, cv::IMREAD_COLOR, ImageLimits{});
+  const DecodedImage d = DecodeBounded(bmp, PixelLayout::kBgr, ImageLimits{});
   EXPECT_FALSE(d.ok());
   EXPECT_NE(d.error.find("not a PNG or JPEG"), std::string::npos) << d.error;
   // A JPEG header with nothing decodable after it.
   std::vector<uint8_t> jpeg = ts::EncodeImage(".jpg", 8, 8);
   jpeg.resize(jpeg.size() / 2);
-  const DecodedImage half = DecodeBounded(jpeg, cv::IMREAD_COLOR, ImageLimits{});
+  const DecodedImage half = DecodeBounded(jpeg, PixelLayout::kBgr, ImageLimits{});
   if (!half.ok()) {
     EXPECT_FALSE(half.error.empty());
   }

@@ -3,10 +3,10 @@
 # the README expect it; a second install keeps an edited tscd.ini; the installed lcm-spy-tsc
 # and tscd-logdump.jar find the installed types jar.
 #   install_test.sh CMAKE BUILD DESTDIR BINDIR DATADIR SYSCONFDIR UNITDIR SYSUSERSDIR
-#                   JAVA(yes|no) PROGRAMS(comma-separated)
+#                   JAVA(yes|no) PROGRAMS(comma-separated) LIBDIR
 set -euo pipefail
 cmake=$1 build=$2 dest=$3 bindir=$4 datadir=$5 sysconfdir=$6 unitdir=$7 sysusersdir=$8
-java=$9 programs=${10}
+java=$9 programs=${10} libdir=${11}
 
 failures=0
 fail() { echo "FAIL: $*"; failures=$((failures + 1)); }
@@ -23,6 +23,20 @@ for program in "${program_list[@]}"; do
   expect_exec "${bindir}/${program}"
 done
 expect_exec "${bindir}/lcm-spy-tsc"
+# OpenCV's video I/O, which the installed tscd loads for camera.source device or video
+# (drivers/camera/opencv_video.h): the installed program finds the installed module. A file
+# that is no video gets OpenCV's refusal, not a missing module.
+expect_file "${libdir}/tscd/libtscd_opencv_video.so"
+if [[ ,${programs}, == *,tscd,* ]]; then
+  not_video=${dest}.not-a-video
+  echo "not a video" >"${not_video}"
+  out=$("${dest}${bindir}/tscd" --robot 1 --state-dir "${dest}.state" --set lcm.url=memq:// \
+          --set camera.source=video --set "camera.path=${not_video}" 2>&1) && status=0 ||
+    status=$?
+  [[ ${status} -ne 0 && ${out} == *"OpenCV cannot open it"* && ${out} != *"cannot load"* ]] &&
+    echo "ok: the installed tscd loads the installed video module" ||
+    fail "installed tscd with camera.source=video (exit ${status}): ${out}"
+fi
 expect_file "${unitdir}/tscd@.service"
 expect_file "${sysusersdir}/tscd.conf"
 expect_file "${sysconfdir}/tscd/tscd.ini"
