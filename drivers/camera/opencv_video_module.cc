@@ -17,6 +17,22 @@ constexpr uint32_t FourCc(const char (&code)[5]) {
          static_cast<uint32_t>(code[2]) << 16 | static_cast<uint32_t>(code[3]) << 24;
 }
 
+// OpenCV throws cv::Exception from a backend it cannot drive: the interfaces say false.
+template <typename Call>
+bool WithoutThrowing(Call call) {
+  try {
+    return call();
+  } catch (const std::exception&) {
+    return false;
+  }
+}
+
+// The frame size the device or container declares (0x0 when it does not say).
+cv::Size DeclaredSize(const cv::VideoCapture& capture) {
+  return {static_cast<int>(capture.get(cv::CAP_PROP_FRAME_WIDTH)),
+          static_cast<int>(capture.get(cv::CAP_PROP_FRAME_HEIGHT))};
+}
+
 class V4l2Device : public VideoDevice {
  public:
   explicit V4l2Device(const OpencvDeviceRequest& request)
@@ -57,23 +73,12 @@ class V4l2Device : public VideoDevice {
   void Close() override { capture_.release(); }
   bool IsOpen() const override { return capture_.isOpened(); }
   bool Grab() override {
-    try {
-      return capture_.grab();
-    } catch (const std::exception&) {
-      return false;
-    }
+    return WithoutThrowing([this] { return capture_.grab(); });
   }
   bool Retrieve(cv::Mat* frame) override {
-    try {
-      return capture_.retrieve(*frame) && !frame->empty();
-    } catch (const std::exception&) {
-      return false;
-    }
+    return WithoutThrowing([&] { return capture_.retrieve(*frame) && !frame->empty(); });
   }
-  cv::Size FrameSize() const override {
-    return {static_cast<int>(capture_.get(cv::CAP_PROP_FRAME_WIDTH)),
-            static_cast<int>(capture_.get(cv::CAP_PROP_FRAME_HEIGHT))};
-  }
+  cv::Size FrameSize() const override { return DeclaredSize(capture_); }
 
  private:
   std::string path_;
@@ -87,23 +92,12 @@ class V4l2Device : public VideoDevice {
 class CvVideoFile : public VideoFileReader {
  public:
   bool Open(const char* path) {
-    try {
-      return capture_.open(path, cv::CAP_ANY) && capture_.isOpened();
-    } catch (const std::exception&) {
-      return false;
-    }
+    return WithoutThrowing([&] { return capture_.open(path, cv::CAP_ANY) && capture_.isOpened(); });
   }
   bool Read(cv::Mat* frame) override {
-    try {
-      return capture_.read(*frame) && !frame->empty();
-    } catch (const std::exception&) {
-      return false;
-    }
+    return WithoutThrowing([&] { return capture_.read(*frame) && !frame->empty(); });
   }
-  cv::Size FrameSize() const override {
-    return {static_cast<int>(capture_.get(cv::CAP_PROP_FRAME_WIDTH)),
-            static_cast<int>(capture_.get(cv::CAP_PROP_FRAME_HEIGHT))};
-  }
+  cv::Size FrameSize() const override { return DeclaredSize(capture_); }
 
  private:
   cv::VideoCapture capture_;
