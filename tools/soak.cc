@@ -21,8 +21,8 @@ constexpr const char* kFixedColumns =
     "places,edges,memory_version,snapshots_received,merges_completed,merges_changed,"
     "merges_failed,exchanges_given_up,messages_rejected,publish_failures,queue_frames,"
     "merge_inbox,"
-    "pending_commits,peers,merged_peers,buffered_portions";
-constexpr size_t kFixedCount = 27;
+    "pending_commits,peers,merged_peers,buffered_portions,db_mb";
+constexpr size_t kFixedCount = 28;
 constexpr size_t kTrafficColumns = 4;  // sent, received, sent_bytes, received_bytes
 
 std::string Num(double v, int decimals) {
@@ -115,7 +115,7 @@ std::string SoakCsvRow(const SoakSample& s) {
     << s.merges_completed << ',' << s.merges_changed << ',' << s.merges_failed << ','
     << s.exchanges_given_up << ',' << s.messages_rejected << ',' << s.publish_failures << ','
     << s.queue_frames << ',' << s.merge_inbox << ',' << s.pending_commits << ',' << s.peers << ','
-    << s.merged_peers << ',' << s.buffered_portions;
+    << s.merged_peers << ',' << s.buffered_portions << ',' << Num(s.db_mb, 3);
   for (const SoakTraffic& t : s.traffic) {
     o << ',' << t.sent << ',' << t.received << ',' << t.sent_bytes << ',' << t.received_bytes;
   }
@@ -172,6 +172,7 @@ std::vector<SoakSample> ReadSoakCsv(const fs::path& file) {
                          &s.merged_peers,
                          &s.buffered_portions};
     for (size_t k = 0; k < std::size(counts); ++k) *counts[k] = i64(9 + k);
+    s.db_mb = v[kFixedCount - 1];
     for (size_t f = 0; f < kSoakFamilies.size(); ++f) {
       const size_t at = kFixedCount + kTrafficColumns * f;
       s.traffic[f] = {i64(at), i64(at + 2), i64(at + 1), i64(at + 3)};
@@ -270,6 +271,7 @@ struct RobotSeries {
   // After the run's and the process' warm-up: (t, RSS), (t, places), (places, RSS) per life.
   std::map<int, std::vector<std::pair<double, double>>> rss_by_life, places_by_life, rss_by_places;
   std::vector<double> middle, late;  // RSS in the middle third and the last sixth of the run
+  std::vector<std::pair<double, double>> db;  // (t, database MB) after the run's warm-up
 };
 
 // The series of one robot's samples over a run of `d` seconds, and the figures read along.
@@ -281,6 +283,11 @@ RobotSeries Collect(const std::vector<const SoakSample*>& rows, double d,
   int cpu_n = 0;
   bool first_after_warmup = true;
   for (const SoakSample* s : rows) {
+    if (s->t_s >= warm_end && s->db_mb > 0) {  // the file, whether the process is up or not
+      if (series.db.empty()) f.db_first_mb = s->db_mb;
+      f.db_last_mb = s->db_mb;
+      series.db.emplace_back(s->t_s, s->db_mb);
+    }
     if (!s->alive) continue;
     series.last_of_life[s->life] = s;
     auto [span, fresh] = series.life_span.try_emplace(s->life, s->t_s, s->t_s);
@@ -320,6 +327,7 @@ RobotSeries Collect(const std::vector<const SoakSample*>& rows, double d,
   f.rss_slope_mb_per_min = 60.0 * WithinGroupSlope(series.rss_by_life);
   f.places_slope_per_min = 60.0 * WithinGroupSlope(series.places_by_life);
   f.rss_mb_per_place = WithinGroupSlope(series.rss_by_places);
+  f.db_slope_mb_per_min = 60.0 * WithinGroupSlope({{0, series.db}});
   f.rss_middle_median_mb = Median(series.middle);
   f.rss_late_median_mb = Median(series.late);
   return series;
@@ -460,9 +468,13 @@ std::string SoakVerdictJson(const SoakVerdict& v) {
       << ",\"places_first\":" << f.places_first << ",\"places_last\":" << f.places_last
       << ",\"places_max\":" << f.places_max
       << ",\"places_slope_per_min\":" << JsonNumber(f.places_slope_per_min)
-      << ",\"rss_mb_per_place\":" << JsonNumber(f.rss_mb_per_place) << ",\"frames\":" << f.frames
-      << ",\"merges\":" << f.merges << ",\"merges_changed\":" << f.merges_changed
-      << ",\"merges_failed\":" << f.merges_failed << ",\"max_queue_frames\":" << f.max_queue_frames
+      << ",\"rss_mb_per_place\":" << JsonNumber(f.rss_mb_per_place)
+      << ",\"db_first_mb\":" << JsonNumber(f.db_first_mb)
+      << ",\"db_last_mb\":" << JsonNumber(f.db_last_mb)
+      << ",\"db_slope_mb_per_min\":" << JsonNumber(f.db_slope_mb_per_min)
+      << ",\"frames\":" << f.frames << ",\"merges\":" << f.merges
+      << ",\"merges_changed\":" << f.merges_changed << ",\"merges_failed\":" << f.merges_failed
+      << ",\"max_queue_frames\":" << f.max_queue_frames
       << ",\"max_merge_inbox\":" << f.max_merge_inbox
       << ",\"max_pending_commits\":" << f.max_pending_commits << ",\"max_peers\":" << f.max_peers
       << ",\"max_merged_peers\":" << f.max_merged_peers
@@ -489,7 +501,7 @@ std::string SoakVerdictText(const SoakVerdict& v) {
     << " restarted lives completed a merge (" << v.lives_after_restart_idle
     << " more had no new peer memory to merge)\n";
   o << "robot lives samples  rss first  last   max  slope MB/min  cpu%  places first last  "
-       "merges  msg/s sent recv  KB/s sent recv\n";
+       "merges  msg/s sent recv  KB/s sent recv  db MB last slope/min\n";
   for (const SoakRobotFigures& f : v.robots) {
     double sent = 0, received = 0;
     for (size_t k = 0; k < kSoakFamilies.size(); ++k) {
@@ -503,6 +515,7 @@ std::string SoakVerdictText(const SoakVerdict& v) {
       << std::setw(13) << f.places_first << std::setw(5) << f.places_last << std::setw(8)
       << f.merges << std::setw(15) << Num(sent, 1) << std::setw(5) << Num(received, 1)
       << std::setw(11) << Num(f.sent_kb_per_s, 1) << std::setw(5) << Num(f.received_kb_per_s, 1)
+      << std::setw(13) << Num(f.db_last_mb, 1) << std::setw(10) << Num(f.db_slope_mb_per_min, 3)
       << "\n";
   }
   o << (v.ok ? "verdict: bounded (no unbounded growth found)\n" : "verdict: FAILED\n");

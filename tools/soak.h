@@ -55,6 +55,9 @@ struct SoakSample {
   int64_t peers = 0;
   int64_t merged_peers = 0;
   int64_t buffered_portions = 0;
+  /// The robot's state database on disk (memory.db with its WAL), MB; sampled also while the
+  /// process is down (the file stays).
+  double db_mb = 0.0;
   std::array<SoakTraffic, kSoakFamilies.size()> traffic{};
 };
 
@@ -111,6 +114,9 @@ struct SoakRobotFigures {
   /// Slope of RSS over the place count within each life after the warm-ups, MB per place:
   /// what a learned place costs when the place count grows.
   double rss_mb_per_place = 0.0;
+  /// The database after the run's warm-up (first and last sample, MB) and its least-squares
+  /// slope over time across every life (the file outlives the processes), MB per minute.
+  double db_first_mb = 0.0, db_last_mb = 0.0, db_slope_mb_per_min = 0.0;
   int64_t merges = 0;  ///< completed over all lives
   int64_t merges_changed = 0;
   int64_t merges_failed = 0;

@@ -82,12 +82,25 @@ struct Robot {
 
 double Seconds(Clock::duration d) { return std::chrono::duration<double>(d).count(); }
 
+// The robot's state database on disk, MB: memory.db and its write-ahead log (0 before tscd
+// creates it).
+double DatabaseMb(const fs::path& state_dir) {
+  double bytes = 0;
+  for (const char* name : {"memory.db", "memory.db-wal"}) {
+    std::error_code ec;
+    const auto size = fs::file_size(state_dir / name, ec);
+    if (!ec) bytes += static_cast<double>(size);
+  }
+  return bytes / (1 << 20);
+}
+
 SoakSample Sample(Robot& r, double t, Clock::time_point now) {
   SoakSample s;
   s.t_s = t;
   s.robot = r.id;
   s.life = r.life;
   s.pid = r.pid;
+  s.db_mb = DatabaseMb(r.dir);
   if (r.state == RobotState::kDown) return s;
   const ProcessSample p = SampleProcess(r.pid);
   s.alive = p.alive;

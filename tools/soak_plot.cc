@@ -149,7 +149,7 @@ cv::Mat DrawSoak(const std::vector<SoakSample>& samples, const std::vector<SoakR
   double t_max = 1.0;
   for (const SoakSample& s : samples) t_max = std::max(t_max, s.t_s);
   const int width = 1200, panel = 210, header = 56, footer = 40;
-  const int panels = 5;
+  const int panels = 6;
   cv::Mat img(header + panels * panel + footer, width, CV_8UC3, kWhite);
 
   // Header: what, and the restart marks.
@@ -169,6 +169,8 @@ cv::Mat DrawSoak(const std::vector<SoakSample>& samples, const std::vector<SoakR
       samples, team_size, [](const SoakSample& s) { return s.rss_mb; }, false);
   const std::vector<Series> places = PerRobot(
       samples, team_size, [](const SoakSample& s) { return static_cast<double>(s.places); }, true);
+  const std::vector<Series> database = PerRobot(
+      samples, team_size, [](const SoakSample& s) { return s.db_mb; }, false);
 
   // CPU and merges need the robot's earlier lives: CPU as 10 s means, merges summed over lives.
   std::vector<Series> cpu, merges;
@@ -248,6 +250,8 @@ cv::Mat DrawSoak(const std::vector<SoakSample>& samples, const std::vector<SoakR
   DrawPanel(img, area(), "resident set (VmRSS), MB", rss, t_max, restarts, false);
   DrawPanel(img, area(), "CPU, % of one core (10 s means)", cpu, t_max, restarts, false);
   DrawPanel(img, area(), "learned places", places, t_max, restarts, false);
+  DrawPanel(img, area(), "state database (memory.db and its WAL), MB", database, t_max, restarts,
+            false);
   DrawPanel(img, area(), "merges completed (all lives)", merges, t_max, restarts, false);
   DrawPanel(img, area(), "team messages per second (10 s means)", rates, t_max, restarts, true);
   const std::string axis = "time since the soak started, minutes";

@@ -50,6 +50,7 @@ std::vector<SoakSample> MadeUp(double seconds, double leak_mb_per_min,
       s.merges_completed = s.life_s > 15 ? 3 : 0;
       s.peers = 4;
       s.merged_peers = 4;
+      s.db_mb = 2.0 + r + 0.01 * t;  // the file grows 0.6 MB a minute, down or up
       s.traffic[0] = {static_cast<int64_t>(s.life_s), 100 * static_cast<int64_t>(s.life_s),
                       4 * static_cast<int64_t>(s.life_s), 400 * static_cast<int64_t>(s.life_s)};
       out.push_back(s);
@@ -121,6 +122,21 @@ TEST(SoakAnalysis, RestartedLifeWithoutMergeIsAProblem) {
   EXPECT_EQ(idle.lives_after_restart_idle, 1);
 }
 
+TEST(SoakAnalysis, TheDatabaseSlopeSpansEveryLife) {
+  std::vector<SoakRestart> restarts;
+  const auto samples = MadeUp(300, 0.0, &restarts);
+  const SoakVerdict v = AnalyseSoak(samples, restarts, 5, SoakCheckOptions{});
+  ASSERT_EQ(v.robots.size(), 5u);
+  for (const SoakRobotFigures& f : v.robots) {
+    EXPECT_NEAR(f.db_slope_mb_per_min, 0.6, 1e-6) << "robot " << f.robot;
+    EXPECT_NEAR(f.db_first_mb, 2.0 + f.robot + 1.0, 1e-9) << "after the warm-up: t = 100 s";
+    EXPECT_NEAR(f.db_last_mb, 2.0 + f.robot + 3.0, 1e-9);
+  }
+  EXPECT_NE(SoakVerdictJson(v).find("\"db_slope_mb_per_min\":"), std::string::npos)
+      << SoakVerdictJson(v);
+  EXPECT_NE(SoakVerdictText(v).find("db MB last"), std::string::npos);
+}
+
 TEST(SoakCsv, RoundTripsAndNamesTheBadLine) {
   testing_support::TempDir dir("soak_test");
   std::vector<SoakRestart> restarts;
@@ -136,6 +152,7 @@ TEST(SoakCsv, RoundTripsAndNamesTheBadLine) {
   ASSERT_EQ(back.size(), samples.size());
   EXPECT_EQ(SoakCsvRow(back[37]), SoakCsvRow(samples[37]));
   EXPECT_EQ(back[37].traffic[0].received_bytes, samples[37].traffic[0].received_bytes);
+  EXPECT_DOUBLE_EQ(back[37].db_mb, samples[37].db_mb);
   const auto r = ReadRestartsCsv(dir.path() / "restarts.csv");
   ASSERT_EQ(r.size(), 1u);
   EXPECT_EQ(r[0].signal, "TERM");
@@ -228,6 +245,7 @@ TEST(SoakRun, FiveRobotsUnderLossAndRestartsStayBounded) {
   const SoakVerdict v = AnalyseSoak(samples, restarts, 5, check);
   EXPECT_TRUE(v.ok) << SoakVerdictText(v);
   for (const SoakRobotFigures& f : v.robots) {
+    EXPECT_GT(f.db_last_mb, 0.0) << "robot " << f.robot << "'s memory.db was sampled";
     EXPECT_LT(f.rss_slope_mb_per_min, check.max_rss_slope_mb_per_min) << "robot " << f.robot;
     EXPECT_GT(f.rss_first_mb, 1.0) << "robot " << f.robot;
     EXPECT_GT(f.merges, 0) << "robot " << f.robot;
