@@ -319,11 +319,23 @@ std::vector<ConfigKey> BuildTable() {
       "of g_N may come from the means (the smaller counts; a pan sweep's preset); 0 = views only",
       "descriptor distance^2", RecognitionCostOptions::kMeanUnitRange,
       [](auto& o) -> auto& { return o.pipeline.memory.cost.mean_unit; }));
+  t.push_back(Number(
+      "memory.coincide_factor",
+      "two children of N hold one place (the ratio's N2 skips the copy) when their views "
+      "nearest D lie, in the median, within the larger of memory.vote_radius and this factor "
+      "times g_N's distance term; 0 = the vote radius alone",
+      "", RecognitionCostOptions::kCoincideFactorRange,
+      [](auto& o) -> auto& { return o.pipeline.memory.cost.coincide_factor; }));
   t.push_back(Bool(
       "memory.svm_vote",
       "vote V_N of (3.8) from the thesis' one-class SVM d_N (trained per node) instead of the "
       "member views",
       [](auto& o) -> auto& { return o.pipeline.memory.svm_vote; }));
+  t.push_back(Bool(
+      "memory.copies_keep_outer_ratio",
+      "where every other child of N holds N1's place again, the ratio term is the one N1's node "
+      "had one level up instead of 1",
+      [](auto& o) -> auto& { return o.pipeline.memory.copies_keep_outer_ratio; }));
   t.push_back(Number(
       "memory.tau_l", "tau_l, levels the hybrid traversal climbs", "levels",
       PlaceMemoryOptions::kTauLRange, [](auto& o) -> auto& { return o.pipeline.memory.tau_l; }));

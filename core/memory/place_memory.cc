@@ -158,15 +158,25 @@ Recognition PlaceMemory::Descend(const DetectedPlace& d, int start) const {
 Recognition PlaceMemory::Descend(const ViewDistances& vd, const Votes& votes, int start) const {
   Recognition r;
   r.start_nodes.push_back(start);
+  // The ratio N¹ had one level up, against its nearest competitor there (1 at the start).
+  double outer_ratio = 1.0;
   for (int node = start;;) {
     r.visited.push_back(node);
     r.terms = Cost(vd, votes, node);
+    if (r.terms.only_copies && options_.copies_keep_outer_ratio) {
+      // N's children are one place held several times (DESIGN §3.3 amended: near-tied
+      // siblings are one candidate). Choosing among its copies discriminates nothing, so the
+      // ratio is not that of a lone child (1) but the one that led into N.
+      r.terms.cost += outer_ratio - r.terms.ratio;
+      r.terms.ratio = outer_ratio;
+    }
     r.cost = r.terms.cost;
     if (r.cost > options_.tau_r) return r;  // (3.11) fails: not recognised
     if (nodes_[r.terms.best].terminal()) {
       r.place = nodes_[r.terms.best].place;
       return r;
     }
+    outer_ratio = r.terms.ratio;
     node = r.terms.best;
   }
 }

@@ -51,6 +51,10 @@ struct PlaceMemoryOptions {
   /// view; true, the thesis' one-class SVM d_{N¹}, trained per node (docs/decisions.md
   /// "Recognition cost": it accepted no fresh view at the sizes a place has).
   bool svm_vote = false;
+  /// Where N's children are all one place held again (they coincide with N¹), the ratio term
+  /// is the one N¹'s node had one level up instead of a lone child's 1 (docs/decisions.md
+  /// "Recognition cost": repeat laps).
+  bool copies_keep_outer_ratio = true;
   /// The unit u of the distance term and the vote radius, a squared descriptor distance: 0
   /// takes the memory's median view spacing (adapts to any camera); > 0 fixes it for a
   /// camera kind (a preset, docs/decisions.md "Recognition cost").

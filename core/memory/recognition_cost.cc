@@ -144,6 +144,7 @@ ViewDistances::ViewDistances(const Eigen::MatrixXf& votes, std::vector<const Lea
 void RecognitionCostOptions::Validate() const {
   kVoteRadiusRange.Check("memory.vote_radius", vote_radius);
   kMeanUnitRange.Check("memory.mean_distance_unit", mean_unit);
+  kCoincideFactorRange.Check("memory.coincide_factor", coincide_factor);
 }
 
 CostTerms RecognitionCost(const ViewDistances& vd, const Eigen::VectorXf& mean,
@@ -213,7 +214,15 @@ CostTerms RecognitionCost(const ViewDistances& vd, const Eigen::VectorXf& mean,
     }
     if (next == candidates.size()) break;
     tried[next] = 1;
-    if (Coincides(vd, best, nearest[next], options.vote_radius)) continue;
+    // The radius within which two children's nearest views hold one place: the vote radius,
+    // or, when D itself lies further from N¹, that distance times the factor (two copies of a
+    // room are no nearer each other than a revisit is to either).
+    const double radius = std::max(options.vote_radius, options.coincide_factor * t.distance);
+    if (Coincides(vd, best, nearest[next], radius)) {
+      t.only_copies = true;
+      continue;
+    }
+    t.only_copies = false;
     second = gamma[next];
     break;
   }

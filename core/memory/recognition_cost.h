@@ -98,15 +98,26 @@ struct CostTerms {
   double ratio = 1.0;     ///< γ̃(D,N¹)/γ̃(D,N²)
   double vote = 0.0;      ///< V
   double cost = 0.0;      ///< term 1 + ratio + (1 − V), (3.8)
+  /// Every other child holds N¹'s place again (coincides with it): the ratio term is then 1,
+  /// as with one child; a descent may take the ratio N¹'s node had one level up instead.
+  bool only_copies = false;
 };
 
 struct RecognitionCostOptions {
   double vote_radius = 2.0;  ///< V counts x_j with δ_j(N¹) ≤ vote_radius · u_j
   /// Unit of ‖Ī_D − c(N¹)‖² when the distance term may also come from the means; 0: views only.
   double mean_unit = 0.0;
-  // Valid ranges (also the configuration's, memory.vote_radius and memory.mean_distance_unit).
+  /// Two children coincide (N² skips the copy) when their views nearest D's points lie, in the
+  /// median, within the larger of vote_radius and this factor times the distance term (D's
+  /// own distance to N¹, in units u). 0: the vote radius alone. Two copies of a room learned
+  /// on different laps hold other views of it, often further apart than 2 u, and a revisit
+  /// lies at about the distance term from either (docs/decisions.md "Recognition cost").
+  double coincide_factor = 2.0;
+  // Valid ranges (also the configuration's, memory.vote_radius, memory.mean_distance_unit and
+  // memory.coincide_factor).
   static constexpr Range kVoteRadiusRange{0, 1000, /*min_open=*/true};
   static constexpr Range kMeanUnitRange{0, 1e6};
+  static constexpr Range kCoincideFactorRange{0, 100};
   void Validate() const;
 };
 

@@ -394,6 +394,35 @@ TEST(PlaceMemoryViews, ARevisitIsRecognisedWhenItsRoomIsHeldTwice) {
   EXPECT_TRUE(*got.place == 0 || *got.place == 1) << *got.place;
 }
 
+// A room held twice sits under one node of the tree whose children are its two copies: there
+// the choice between copies discriminates nothing, so the ratio term is the one the copies'
+// node had against the other rooms one level up (memory.copies_keep_outer_ratio), not the
+// lone child's 1, which made such a revisit pay the whole ratio (repeat laps, session 31).
+TEST(PlaceMemoryViews, BetweenCopiesOfARoomTheRatioIsTheOneLevelUp) {
+  std::mt19937 rng(13);
+  PlaceMemoryOptions options = views::ViewOptions();
+  PlaceMemoryOptions lone = options;
+  lone.copies_keep_outer_ratio = false;
+  PlaceMemory dut(1, options), before(1, lone);
+  const views::Room twice = views::MakeRoom(rng);
+  std::vector<DetectedPlace> visits = {views::Visit(twice, 1, rng), views::Visit(twice, 2, rng)};
+  for (int r = 0; r < 4; ++r) visits.push_back(views::Visit(views::MakeRoom(rng), 3 + r, rng));
+  for (const DetectedPlace& v : visits) {
+    dut.Learn(v);
+    before.Learn(v);
+  }
+  const DetectedPlace revisit = views::Visit(twice, 10, rng);
+  const Recognition old_rule = before.Recognize(revisit);
+  const Recognition got = dut.Recognize(revisit);
+  // The old rule: at the copies' node the ratio is 1.
+  ASSERT_GE(old_rule.visited.size(), 2u) << "the copies share a node below the root";
+  EXPECT_EQ(old_rule.terms.ratio, 1.0);
+  ASSERT_TRUE(got.place.has_value()) << "cost " << got.cost << " ratio " << got.terms.ratio;
+  EXPECT_TRUE(*got.place == 0 || *got.place == 1) << *got.place;
+  EXPECT_LT(got.terms.ratio, 1.0);
+  EXPECT_LT(got.cost, old_rule.cost);
+}
+
 // A memory of one place recognises a revisit of it (the ratio term is 1 by the rule for a
 // node of one child, so the other two terms must leave room under τ_r), and not another room.
 TEST(PlaceMemoryViews, AOnePlaceMemoryRecognisesItsPlace) {
