@@ -82,9 +82,10 @@ int64_t Micros(double seconds) { return static_cast<int64_t>(std::llround(second
 }  // namespace
 
 std::unique_ptr<VideoDevice> MakeV4l2Device(const DeviceCameraOptions& options) {
+  const bool index = IsIndex(options.device);
   OpencvDeviceRequest request;
-  request.path = IsIndex(options.device) ? "" : options.device.c_str();
-  request.index = IsIndex(options.device) ? std::stoi(options.device) : -1;
+  request.path = index ? "" : options.device.c_str();
+  request.index = index ? std::stoi(options.device) : -1;
   request.width = options.width;
   request.height = options.height;
   request.fps = options.fps;

@@ -35,8 +35,7 @@ OpencvVideoModule Load() {
   if (module == nullptr) {
     const char* why = dlerror();
     throw CameraError(
-        "cannot load OpenCV's video module (camera.source device or video needs "
-        "it): " +
+        "cannot load OpenCV's video module (camera.source device or video needs it): " +
             std::string(why != nullptr ? why : path),
         false);
   }

@@ -6,7 +6,6 @@
 // live in a module (libtscd_opencv_video.so, found relative to the running program's folder)
 // that the device and video cameras load on first use.
 
-#include <memory>
 #include <string>
 
 #include "drivers/camera/video_device.h"

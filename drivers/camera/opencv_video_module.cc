@@ -43,12 +43,12 @@ class V4l2Device : public VideoDevice {
         fps_(request.fps) {}
 
   bool Open() override {
-    try {
-      capture_.release();
-      // V4L2 only: other backends would take a device path for a file or a pipeline. A missing
-      // path is not handed to OpenCV at all (it would log a warning per attempt).
-      std::error_code ec;
-      if (!path_.empty() && !std::filesystem::exists(path_, ec)) return false;
+    capture_.release();
+    // V4L2 only: other backends would take a device path for a file or a pipeline. A missing
+    // path is not handed to OpenCV at all (it would log a warning per attempt).
+    std::error_code ec;
+    if (!path_.empty() && !std::filesystem::exists(path_, ec)) return false;
+    const bool opened = WithoutThrowing([this] {
       if (path_.empty()) {
         capture_.open(index_, cv::CAP_V4L2);
       } else {
@@ -65,10 +65,9 @@ class V4l2Device : public VideoDevice {
         capture_.set(cv::CAP_PROP_CONVERT_RGB, 0);
       }
       return true;
-    } catch (const std::exception&) {  // cv::Exception: a device OpenCV cannot drive
-      capture_.release();
-      return false;
-    }
+    });
+    if (!opened) capture_.release();  // half open, or a device OpenCV cannot drive
+    return opened;
   }
   void Close() override { capture_.release(); }
   bool IsOpen() const override { return capture_.isOpened(); }

@@ -26,8 +26,9 @@ std::unique_ptr<VideoFileReader> OpenCapture(const fs::path& file) {
 /// Frame size from the container, or from the first frame when the container does not say.
 CameraIntrinsics IntrinsicsOf(const fs::path& file, double hfov_deg, int64_t max_pixels) {
   const std::unique_ptr<VideoFileReader> capture = OpenCapture(file);
-  int width = capture->FrameSize().width;
-  int height = capture->FrameSize().height;
+  const cv::Size declared = capture->FrameSize();
+  int width = declared.width;
+  int height = declared.height;
   if (int64_t{width} * height > max_pixels) {
     throw CameraError("video:" + file.string() + ": its frames are " + std::to_string(width) + "x" +
                           std::to_string(height) + " pixels, more than the limit of " +

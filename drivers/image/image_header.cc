@@ -5,6 +5,8 @@
 #include <cstdio>
 #include <stdexcept>
 
+#include "drivers/image/byte_order.h"
+
 namespace tsc {
 namespace {
 
@@ -16,12 +18,11 @@ bool StartsWith(std::span<const uint8_t> bytes, const std::array<uint8_t, N>& pr
   return bytes.size() >= N && std::equal(prefix.begin(), prefix.end(), bytes.begin());
 }
 
-uint32_t BigEndian32(std::span<const uint8_t> b, size_t at) {
-  return (uint32_t{b[at]} << 24) | (uint32_t{b[at + 1]} << 16) | (uint32_t{b[at + 2]} << 8) |
-         uint32_t{b[at + 3]};
-}
+uint32_t BigEndian32(std::span<const uint8_t> b, size_t at) { return ReadUnsigned(b, at, 4); }
 
-int BigEndian16(std::span<const uint8_t> b, size_t at) { return (b[at] << 8) | b[at + 1]; }
+int BigEndian16(std::span<const uint8_t> b, size_t at) {
+  return static_cast<int>(ReadUnsigned(b, at, 2));
+}
 
 std::optional<ImageHeader> Refuse(std::string* why, const std::string& reason) {
   if (why != nullptr) *why = reason;

@@ -8,6 +8,8 @@
 #include <cstddef>
 #include <cstdio>
 
+#include "drivers/image/byte_order.h"
+
 namespace tsc {
 namespace {
 
@@ -23,15 +25,6 @@ void ErrorExit(j_common_ptr info) {
   auto* errors = reinterpret_cast<ErrorManager*>(info->err);
   (*info->err->format_message)(info, errors->message);
   std::longjmp(errors->jump, 1);
-}
-
-uint32_t Read(std::span<const uint8_t> b, size_t at, int bytes, bool little) {
-  uint32_t v = 0;
-  for (int i = 0; i < bytes; ++i) {
-    const uint32_t byte = b[at + static_cast<size_t>(i)];
-    v |= little ? byte << (8 * i) : byte << (8 * (bytes - 1 - i));
-  }
-  return v;
 }
 
 // libjpeg's state and its error manager, together so that the jump finds both.
@@ -52,16 +45,16 @@ int ExifOrientation(std::span<const uint8_t> app1) {
   } else if (!(tiff[0] == 'M' && tiff[1] == 'M')) {
     return 1;
   }
-  if (Read(tiff, 2, 2, little) != 42) return 1;
-  const size_t ifd = Read(tiff, 4, 4, little);
+  if (ReadUnsigned(tiff, 2, 2, little) != 42) return 1;
+  const size_t ifd = ReadUnsigned(tiff, 4, 4, little);
   if (ifd > tiff.size() || tiff.size() - ifd < 2) return 1;
-  const size_t entries = Read(tiff, ifd, 2, little);
+  const size_t entries = ReadUnsigned(tiff, ifd, 2, little);
   for (size_t e = 0; e < entries; ++e) {
     const size_t at = ifd + 2 + 12 * e;
     if (at > tiff.size() || tiff.size() - at < 12) return 1;
-    if (Read(tiff, at, 2, little) != 0x0112) continue;
+    if (ReadUnsigned(tiff, at, 2, little) != 0x0112) continue;
     // A SHORT held in the first two bytes of the value field.
-    const uint32_t value = Read(tiff, at + 8, 2, little);
+    const uint32_t value = ReadUnsigned(tiff, at + 8, 2, little);
     return value >= 1 && value <= 8 ? static_cast<int>(value) : 1;
   }
   return 1;
