@@ -100,9 +100,9 @@ class PreviousBodies {
   std::unordered_map<uint64_t, int> by_id_;
 };
 
-place_entry_t ToEntry(const learned_place_t& body, int64_t digest, int pi, double lambda) {
+place_entry_t ToEntry(PlaceId id, int64_t digest, int pi, double lambda) {
   place_entry_t e;
-  e.id = body.id;
+  e.id = Ref(id);
   e.body_digest = digest;
   e.slink_pi = pi;
   e.slink_lambda = std::isinf(lambda) ? -1.0 : lambda;
@@ -138,12 +138,9 @@ map_edge_t ToMessage(const MapEdge& e) {
   return m;
 }
 
-}  // namespace
-
-MemorySnapshot BuildSnapshot(const PlaceMemory& memory, const TopologicalMap& map,
-                             const SnapshotHeader& header, int portion_bytes,
-                             const MemorySnapshot* previous) {
-  MemorySnapshot snap;
+// The rest of `snap` around the bodies chosen (snap.bodies, snap.body_digests, one per place).
+void Cut(const PlaceMemory& memory, const TopologicalMap& map, const SnapshotHeader& header,
+         int portion_bytes, MemorySnapshot& snap) {
   snap.version = header.version;
   snap.places = static_cast<int32_t>(memory.places().size());
   snap.view_basis = ViewBasisId(memory.view_basis());
@@ -168,25 +165,12 @@ MemorySnapshot BuildSnapshot(const PlaceMemory& memory, const TopologicalMap& ma
   const int64_t budget = portion_bytes - 64;
   const int64_t empty_size = blank.getEncodedSize();
 
-  PreviousBodies before(previous);
-  snap.bodies.reserve(memory.places().size());
-  snap.body_digests.reserve(memory.places().size());
   std::vector<place_entry_t> entries;
   entries.reserve(memory.places().size());
   const auto& pi = memory.slink().pi();
   const auto& lambda = memory.slink().lambda();
   for (size_t i = 0; i < memory.places().size(); ++i) {
-    const LearnedPlace& place = memory.places()[i];
-    const int old = before.Find(place.id, i);
-    if (old >= 0 && SameBody(place, *previous->bodies[static_cast<size_t>(old)])) {
-      snap.bodies.push_back(previous->bodies[static_cast<size_t>(old)]);
-      snap.body_digests.push_back(previous->body_digests[static_cast<size_t>(old)]);
-    } else {
-      auto body = std::make_shared<const learned_place_t>(ToMessage(place));
-      snap.body_digests.push_back(BodyDigest(*body));
-      snap.bodies.push_back(std::move(body));
-    }
-    entries.push_back(ToEntry(*snap.bodies.back(), snap.body_digests.back(), pi[i], lambda[i]));
+    entries.push_back(ToEntry(memory.places()[i].id, snap.body_digests[i], pi[i], lambda[i]));
   }
 
   memory_portion_t current = blank;
@@ -235,10 +219,55 @@ MemorySnapshot BuildSnapshot(const PlaceMemory& memory, const TopologicalMap& ma
   snap.body_header.structure_portions = snap.structure_portions;
   snap.body_header.digest = snap.digest;
   snap.body_header.num_places = 1;
+}
+
+}  // namespace
+
+learned_place_t BodyOf(const LearnedPlace& place) { return ToMessage(place); }
+
+MemorySnapshot BuildSnapshot(const PlaceMemory& memory, const TopologicalMap& map,
+                             const SnapshotHeader& header, int portion_bytes,
+                             const MemorySnapshot* previous) {
+  MemorySnapshot snap;
+  PreviousBodies before(previous);
+  snap.bodies.reserve(memory.places().size());
+  snap.body_digests.reserve(memory.places().size());
+  for (size_t i = 0; i < memory.places().size(); ++i) {
+    const LearnedPlace& place = memory.places()[i];
+    const int old = before.Find(place.id, i);
+    if (old >= 0 && SameBody(place, *previous->bodies[static_cast<size_t>(old)])) {
+      snap.bodies.push_back(previous->bodies[static_cast<size_t>(old)]);
+      snap.body_digests.push_back(previous->body_digests[static_cast<size_t>(old)]);
+    } else {
+      auto body = std::make_shared<const learned_place_t>(ToMessage(place));
+      snap.body_digests.push_back(BodyDigest(*body));
+      snap.bodies.push_back(std::move(body));
+    }
+  }
+  Cut(memory, map, header, portion_bytes, snap);
   return snap;
 }
 
-const memory_portion_t& MemorySnapshot::Portion(int32_t index, memory_portion_t& scratch) const {
+MemorySnapshot BuildSnapshotWithoutBodies(const PlaceMemory& memory, const TopologicalMap& map,
+                                          const SnapshotHeader& header, int portion_bytes,
+                                          const MemorySnapshot* previous,
+                                          const std::unordered_set<int>& changed) {
+  MemorySnapshot snap;
+  const size_t n = memory.places().size();
+  snap.bodies.resize(n);
+  snap.body_digests.reserve(n);
+  const size_t known = previous ? previous->body_digests.size() : 0;
+  for (size_t i = 0; i < n; ++i) {
+    snap.body_digests.push_back(i < known && !changed.count(static_cast<int>(i))
+                                    ? previous->body_digests[i]
+                                    : BodyDigest(ToMessage(memory.places()[i])));
+  }
+  Cut(memory, map, header, portion_bytes, snap);
+  return snap;
+}
+
+const memory_portion_t& MemorySnapshot::Portion(int32_t index, memory_portion_t& scratch,
+                                                const learned_place_t* body) const {
   if (index < 0 || index >= count()) {
     throw std::out_of_range("memory snapshot: no portion " + std::to_string(index) + " of " +
                             std::to_string(count()));
@@ -247,7 +276,12 @@ const memory_portion_t& MemorySnapshot::Portion(int32_t index, memory_portion_t&
   scratch = body_header;
   scratch.index = index;
   scratch.first_place = index - structure_portions;
-  scratch.places.push_back(*bodies[static_cast<size_t>(scratch.first_place)]);
+  if (body == nullptr) body = bodies[static_cast<size_t>(scratch.first_place)].get();
+  if (body == nullptr) {
+    throw std::logic_error("memory snapshot: body " + std::to_string(scratch.first_place) +
+                           " is not held");
+  }
+  scratch.places.push_back(*body);
   return scratch;
 }
 
@@ -319,6 +353,66 @@ void DescribeInAnnounce(const MemorySnapshot& snapshot, announce_t& a) {
   a.portions = snapshot.count();
   a.structure_portions = snapshot.structure_portions;
   a.view_basis = snapshot.view_basis;
+}
+
+void SnapshotBodies::Track(const std::shared_ptr<const MemorySnapshot>& snapshot) {
+  Prune();
+  tracked_.push_back(Tracked{snapshot, snapshot->places, {}});
+}
+
+void SnapshotBodies::BeforeUpdate(const PlaceMemory& memory, int place) {
+  Prune();
+  std::shared_ptr<const learned_place_t> body;  // encoded once for every snapshot that needs it
+  for (Tracked& t : tracked_) {
+    if (place >= t.places || t.kept.count(place)) continue;
+    if (!body) {
+      body = std::make_shared<const learned_place_t>(
+          ToMessage(memory.places().at(static_cast<size_t>(place))));
+    }
+    t.kept.emplace(place, body);
+  }
+}
+
+void SnapshotBodies::BeforeReplace(const PlaceMemory& memory) {
+  Prune();
+  int most = 0;
+  for (const Tracked& t : tracked_) most = std::max(most, t.places);
+  for (int place = 0; place < most; ++place) BeforeUpdate(memory, place);
+}
+
+std::optional<std::unordered_set<int>> SnapshotBodies::ChangedSince(
+    const MemorySnapshot& snapshot) {
+  const Tracked* t = Find(snapshot);
+  if (t == nullptr) return std::nullopt;
+  std::unordered_set<int> changed;
+  for (const auto& [place, body] : t->kept) changed.insert(place);
+  return changed;
+}
+
+std::shared_ptr<const learned_place_t> SnapshotBodies::Body(const MemorySnapshot& snapshot,
+                                                            int place, const PlaceMemory& memory) {
+  const Tracked* t = Find(snapshot);
+  if (t == nullptr) return nullptr;
+  if (const auto kept = t->kept.find(place); kept != t->kept.end()) return kept->second;
+  return std::make_shared<const learned_place_t>(
+      ToMessage(memory.places().at(static_cast<size_t>(place))));
+}
+
+size_t SnapshotBodies::tracked() {
+  Prune();
+  return tracked_.size();
+}
+
+SnapshotBodies::Tracked* SnapshotBodies::Find(const MemorySnapshot& snapshot) {
+  for (Tracked& t : tracked_) {
+    // Alive, so no other snapshot has its address.
+    if (t.snapshot.lock().get() == &snapshot) return &t;
+  }
+  return nullptr;
+}
+
+void SnapshotBodies::Prune() {
+  std::erase_if(tracked_, [](const Tracked& t) { return t.snapshot.expired(); });
 }
 
 int64_t ViewBasisId(const ViewBasis* basis) {

@@ -6,6 +6,8 @@
 
 #include <cstdint>
 #include <memory>
+#include <optional>
+#include <unordered_map>
 #include <unordered_set>
 #include <vector>
 
@@ -23,7 +25,8 @@ struct MemorySnapshot {
   int32_t structure_portions = 0;
   /// Place i's body, portion structure_portions + i. Shared with the snapshots built before
   /// and after this one while the place does not change (BuildSnapshot's `previous`), so
-  /// consecutive snapshots hold one copy of what they have in common.
+  /// consecutive snapshots hold one copy of what they have in common. All null in a snapshot
+  /// built without bodies (BuildSnapshotWithoutBodies: SnapshotBodies serves them).
   std::vector<std::shared_ptr<const learned_place_t>> bodies;
   std::vector<int64_t> body_digests;  ///< of place i's body
   /// What every body portion carries besides its body (robot, version, digest, counts).
@@ -35,8 +38,10 @@ struct MemorySnapshot {
   /// Portions in all: the structure, then one per place body.
   int32_t count() const { return structure_portions + static_cast<int32_t>(bodies.size()); }
   /// Portion `index` as it goes on the wire: a structure portion as held, a body portion
-  /// assembled in `scratch` around its shared body. Precondition: 0 ≤ index < count().
-  const memory_portion_t& Portion(int32_t index, memory_portion_t& scratch) const;
+  /// assembled in `scratch` around `body` (by default the one held). Preconditions:
+  /// 0 ≤ index < count(); a body portion has a body (given or held).
+  const memory_portion_t& Portion(int32_t index, memory_portion_t& scratch,
+                                  const learned_place_t* body = nullptr) const;
   /// The same, as a copy (tools and tests).
   memory_portion_t Portion(int32_t index) const;
 };
@@ -60,6 +65,55 @@ struct SnapshotHeader {
 MemorySnapshot BuildSnapshot(const PlaceMemory& memory, const TopologicalMap& map,
                              const SnapshotHeader& header, int portion_bytes,
                              const MemorySnapshot* previous = nullptr);
+
+/// BuildSnapshot for an owner of `memory` that serves the bodies itself (SnapshotBodies) and
+/// knows which places changed since `previous` (optional) was built: the snapshot holds no body
+/// (it is the memory's structure, digests and counts: a second copy of every body is what made
+/// tscd's footprint, issue 23). A place of `previous` (same index) not in `changed` keeps its
+/// digest unread; the others are encoded and hashed. Equal to BuildSnapshot but for `bodies`.
+/// Precondition: every place of `memory` below previous->places and not in `changed` is the one
+/// `previous` was built of, unchanged.
+MemorySnapshot BuildSnapshotWithoutBodies(const PlaceMemory& memory, const TopologicalMap& map,
+                                          const SnapshotHeader& header, int portion_bytes,
+                                          const MemorySnapshot* previous,
+                                          const std::unordered_set<int>& changed);
+
+/// Place `place`'s body as a snapshot names it (BodyDigest) and sends it.
+learned_place_t BodyOf(const LearnedPlace& place);
+
+/// The bodies of snapshots built without them, for the owner of their memory (tscd's worker
+/// thread; not thread-safe): a body is read from the memory while its place is unchanged, and
+/// kept, encoded just before the place changes, for as long as a snapshot naming it is alive.
+/// So a snapshot serves the portions it named whatever the memory learned since, and the
+/// bodies cost one copy (the memory's) plus the places changed since a live snapshot.
+class SnapshotBodies {
+ public:
+  /// `snapshot` was just built (BuildSnapshotWithoutBodies) of the memory as it is.
+  void Track(const std::shared_ptr<const MemorySnapshot>& snapshot);
+  /// Place `place` of `memory` is about to change.
+  void BeforeUpdate(const PlaceMemory& memory, int place);
+  /// `memory` is about to be replaced (a merge): every body the live snapshots read is kept.
+  void BeforeReplace(const PlaceMemory& memory);
+  /// The places of the memory changed since `snapshot` was built (BuildSnapshotWithoutBodies's
+  /// `changed`); nullopt when it is not tracked.
+  std::optional<std::unordered_set<int>> ChangedSince(const MemorySnapshot& snapshot);
+  /// Body `place` of `snapshot` (tracked, alive) as it was built, `memory` being the memory now.
+  /// Null when `snapshot` is not tracked. Precondition: 0 ≤ place < snapshot.places.
+  std::shared_ptr<const learned_place_t> Body(const MemorySnapshot& snapshot, int place,
+                                              const PlaceMemory& memory);
+  /// Live snapshots tracked (tests).
+  size_t tracked();
+
+ private:
+  struct Tracked {
+    std::weak_ptr<const MemorySnapshot> snapshot;
+    int places = 0;
+    std::unordered_map<int, std::shared_ptr<const learned_place_t>> kept;  ///< changed since
+  };
+  Tracked* Find(const MemorySnapshot& snapshot);
+  void Prune();
+  std::vector<Tracked> tracked_;
+};
 
 /// First 8 bytes (big endian) of SHA-256 over the encodings of the structure portions among
 /// `portions` (index below structure_portions), in order, each taken with utime, boot_id,

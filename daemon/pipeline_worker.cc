@@ -160,6 +160,8 @@ PipelineWorker::PipelineWorker(const Settings& settings, const CameraSource& cam
   started_empty_ = memory.places().empty();
   pipeline_ = std::make_unique<Pipeline>(camera.intrinsics(), pipeline, std::move(memory),
                                          std::move(map), state);
+  pipeline_->set_before_update(
+      [this](int place) { bodies_.BeforeUpdate(pipeline_->memory(), place); });
   BuildSnapshot();  // version 1, what the first announce names
 }
 
@@ -171,6 +173,10 @@ PipelineWorker::~PipelineWorker() {
 
 void PipelineWorker::Start(JoinGate& join) {
   join_ = &join;
+  {
+    std::lock_guard lock(body_mutex_);
+    serving_bodies_ = true;
+  }
   thread_ = std::thread([this] { Loop(); });
 }
 
@@ -198,6 +204,37 @@ void PipelineWorker::RequestSnapshot() {
   queue_.Wake();
 }
 
+void PipelineWorker::RequestBodies(std::shared_ptr<const MemorySnapshot> snapshot,
+                                   std::vector<int32_t> places, std::function<void(Bodies)> done) {
+  {
+    std::lock_guard lock(body_mutex_);
+    if (serving_bodies_) {
+      body_requests_.push_back({std::move(snapshot), std::move(places), std::move(done)});
+      queue_.Wake();
+      return;
+    }
+  }
+  // No thread runs: the caller is the memory's owner now (the mutex orders it after the thread).
+  done(ReadBodies(*snapshot, places));
+}
+
+void PipelineWorker::ServeBodies() {
+  std::vector<BodyRequest> requests;
+  {
+    std::lock_guard lock(body_mutex_);
+    requests.swap(body_requests_);
+  }
+  for (BodyRequest& r : requests) r.done(ReadBodies(*r.snapshot, r.places));
+}
+
+PipelineWorker::Bodies PipelineWorker::ReadBodies(const MemorySnapshot& snapshot,
+                                                  const std::vector<int32_t>& places) {
+  Bodies bodies;
+  bodies.reserve(places.size());
+  for (int32_t place : places) bodies.push_back(bodies_.Body(snapshot, place, pipeline_->memory()));
+  return bodies;
+}
+
 void PipelineWorker::ServeSnapshot(bool stale) {
   const bool wanted = snapshot_wanted_.exchange(false);
   if (!wanted && !stale) return;
@@ -213,9 +250,14 @@ void PipelineWorker::BuildSnapshot() {
   header.utime = NowUtime();
   // The bodies of places unchanged since the last snapshot are shared with it, not encoded
   // and hashed again (88 ms a snapshot at 10⁴ places otherwise, and a second copy of them).
-  auto built = std::make_shared<const MemorySnapshot>(
-      tsc::BuildSnapshot(pipeline_->memory(), pipeline_->map(), header,
-                         settings_.daemon.bus.portion_bytes, snapshot().get()));
+  // The snapshot holds no body (a second copy of the memory): bodies_ serves them.
+  const std::shared_ptr<const MemorySnapshot> latest = snapshot();
+  const std::optional<std::unordered_set<int>> changed =
+      latest ? bodies_.ChangedSince(*latest) : std::nullopt;
+  auto built = std::make_shared<const MemorySnapshot>(tsc::BuildSnapshotWithoutBodies(
+      pipeline_->memory(), pipeline_->map(), header, settings_.daemon.bus.portion_bytes,
+      changed ? latest.get() : nullptr, changed ? *changed : std::unordered_set<int>{}));
+  bodies_.Track(built);
   std::lock_guard lock(snapshot_mutex_);
   snapshot_ = std::move(built);
 }
@@ -226,9 +268,18 @@ void PipelineWorker::Loop() {
     std::optional<BasePoint> item = queue_.Pop(std::chrono::milliseconds(500));
     MergePeers();
     ServeSnapshot(false);
+    ServeBodies();
     if (!item) {
       if (queue_.closed()) {
         ServeSnapshot(true);  // the memory as it ends, for the last broadcast at stop
+        // The last requests; later ones are served by the caller (RequestBodies).
+        std::vector<BodyRequest> last;
+        {
+          std::lock_guard lock(body_mutex_);
+          serving_bodies_ = false;
+          last.swap(body_requests_);
+        }
+        for (BodyRequest& r : last) r.done(ReadBodies(*r.snapshot, r.places));
         return;
       }
       RetryStore();
@@ -369,7 +420,10 @@ void PipelineWorker::MergePeer(const PeerSnapshot& snapshot) {
     }
     TopologicalMap map = MergeMaps(pipeline_->map(), peer_map, merged.memory);
     changed = MergeChangesAnything(merged, map, pipeline_->map());
-    if (changed) pipeline_->AdoptMerged(std::move(merged.memory), std::move(map));
+    if (changed) {
+      bodies_.BeforeReplace(pipeline_->memory());
+      pipeline_->AdoptMerged(std::move(merged.memory), std::move(map));
+    }
     places_after = pipeline_->memory().places().size();
     counters_.places = static_cast<int32_t>(places_after);
     counters_.edges = static_cast<int32_t>(pipeline_->map().edges().size());

@@ -89,6 +89,14 @@ class PipelineWorker {
   /// hooks.snapshot_ready. Cheap; requests made before it builds are served together.
   void RequestSnapshot();
 
+  using Bodies = std::vector<std::shared_ptr<const learned_place_t>>;
+  /// Thread-safe: asks for the bodies of places `places` of `snapshot` (one this worker built,
+  /// which holds none) as it named them; the worker, which owns the memory they are read from,
+  /// reads them between base points and merges and calls `done` on its thread with them in
+  /// order. Before Start() and once the thread has ended, at once on the calling thread.
+  void RequestBodies(std::shared_ptr<const MemorySnapshot> snapshot, std::vector<int32_t> places,
+                     std::function<void(Bodies)> done);
+
   /// Thread-safe: true while the store fails or is missing (results are kept meanwhile).
   bool store_degraded() const { return degraded_store_; }
   /// Thread-safe: results not yet in the store.
@@ -110,6 +118,9 @@ class PipelineWorker {
   /// changed since the latest).
   void ServeSnapshot(bool stale);
   void BuildSnapshot();
+  /// Answers the bodies asked for (RequestBodies).
+  void ServeBodies();
+  Bodies ReadBodies(const MemorySnapshot& snapshot, const std::vector<int32_t>& places);
   /// Commits what is kept (results, a merge) when the store works; while it fails, at most
   /// once a second unless `now`.
   void RetryStore(bool now = false);
@@ -156,6 +167,18 @@ class PipelineWorker {
   // The hand-over: the worker replaces the pointer, readers copy it; held for nothing else.
   mutable std::mutex snapshot_mutex_;
   std::shared_ptr<const MemorySnapshot> snapshot_;
+
+  // What the snapshots name of the memory, read from it or kept from before a change
+  // (the worker thread's, as the memory is).
+  SnapshotBodies bodies_;
+  struct BodyRequest {
+    std::shared_ptr<const MemorySnapshot> snapshot;
+    std::vector<int32_t> places;
+    std::function<void(Bodies)> done;
+  };
+  std::mutex body_mutex_;
+  std::vector<BodyRequest> body_requests_;  // under body_mutex_
+  bool serving_bodies_ = false;             // under body_mutex_: the thread takes requests
 
   std::thread thread_;
 };

@@ -232,6 +232,7 @@ void Pipeline::HandleDetection(const std::vector<DetectionEvent>& events, BaseIn
       PlaceEvent e = MakeEvent(EventKind::kLearned, k, closed->place);
       if (r.place) {
         place = *r.place;
+        if (before_update_) before_update_(place);
         memory_.Update(place, d);
         e.kind = EventKind::kRecognized;
         e.hybrid = r.hybrid;

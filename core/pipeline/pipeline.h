@@ -4,6 +4,7 @@
 // FrameResult (one transaction per result) and publishes its events.
 
 #include <deque>
+#include <functional>
 #include <optional>
 #include <span>
 #include <utility>
@@ -142,6 +143,11 @@ class Pipeline {
   /// place that absorbed it. Throws std::invalid_argument when `memory` belongs to another robot.
   void AdoptMerged(PlaceMemory memory, TopologicalMap map);
 
+  /// Called with a learned place's index just before the pipeline changes that place (it
+  /// recognised it: PlaceMemory::Update); places are otherwise only appended, or all replaced
+  /// by AdoptMerged. tscd keeps there what its snapshots of the memory still serve.
+  void set_before_update(std::function<void(int place)> hook) { before_update_ = std::move(hook); }
+
   const PlaceMemory& memory() const { return memory_; }
   const TopologicalMap& map() const { return map_; }
   const PipelineOptions& options() const { return options_; }
@@ -168,6 +174,7 @@ class Pipeline {
   DescriptorComputer computer_;
   PlaceDetector detector_;
   PlaceMemory memory_;
+  std::function<void(int place)> before_update_;
   TopologicalMap map_;
   BaseIndex next_base_;
   std::optional<PlaceId> previous_place_;

@@ -11,6 +11,7 @@
 #include <future>
 #include <mutex>
 #include <string>
+#include <thread>
 #include <vector>
 
 #include "test/support/random_memory.h"
@@ -48,13 +49,14 @@ class Signal {
 // a snapshot, every portion received (checked by the worker).
 // `corrupt`: one value of a place changed after the digest was taken (as on a faulty link
 // that keeps the datagram's framing).
-SnapshotAssembler PeerMemory(int places, bool corrupt = false) {
-  const auto memory = testing_support::MakeRandomMemory(2, places, 32, 7);
-  std::vector<memory_portion_t> published =
-      AllPortions(BuildSnapshot(memory.memory, memory.map, SnapshotHeader{2, 4242, 3, 1}, 60000));
+SnapshotAssembler PeerMemory(int places, bool corrupt = false, int32_t robot = 2) {
+  const auto memory = testing_support::MakeRandomMemory(static_cast<uint32_t>(robot), places, 32,
+                                                        static_cast<unsigned>(5 + robot));
+  std::vector<memory_portion_t> published = AllPortions(
+      BuildSnapshot(memory.memory, memory.map, SnapshotHeader{robot, 4242, 3, 1}, 60000));
   // A body other than the structure names (its digest fails on the worker).
   if (corrupt) published.back().places.front().mean.front() += 1.0f;
-  SnapshotAssembler assembler(2);
+  SnapshotAssembler assembler(robot);
   for (const memory_portion_t& p : published) assembler.Accept(p);
   if (!assembler.complete()) throw std::runtime_error("peer snapshot incomplete");
   return assembler;
@@ -151,6 +153,56 @@ TEST_F(PipelineWorkerTest, APeerMemoryFailingItsDigestIsDroppedOnTheWorkerAndFet
   EXPECT_EQ(counters_.memory_version, 1);
   queue_.Close();
   dut.Join();
+}
+
+// The bodies of `snapshot` at every place, as the worker serves them to the loop.
+PipelineWorker::Bodies AllBodies(PipelineWorker& dut,
+                                 const std::shared_ptr<const MemorySnapshot>& snapshot) {
+  std::promise<PipelineWorker::Bodies> served;
+  dut.RequestBodies(snapshot, PortionsBelow(snapshot->places),
+                    [&](PipelineWorker::Bodies b) { served.set_value(std::move(b)); });
+  return served.get_future().get();
+}
+
+// Each body as the snapshot named it (its digest): what a peer checks it by.
+void ExpectNamedBodies(const MemorySnapshot& snapshot, const PipelineWorker::Bodies& bodies) {
+  ASSERT_EQ(bodies.size(), static_cast<size_t>(snapshot.places));
+  for (size_t i = 0; i < bodies.size(); ++i) {
+    ASSERT_NE(bodies[i], nullptr) << i;
+    EXPECT_EQ(BodyDigest(*bodies[i]), snapshot.body_digests[i]) << i;
+  }
+}
+
+// The worker's snapshots hold no body (issue 23): it serves them from its memory, and a
+// snapshot the loop still holds keeps serving what it named after a merge replaced the memory,
+// also once the thread has ended (the last broadcast at stop).
+TEST_F(PipelineWorkerTest, ASnapshotServesTheBodiesItNamedAfterTheMemoryChanged) {
+  release_merge_.Set();
+  PipelineWorker dut(settings_, camera_, SnapshotHeader{1, 99, 0, 0}, counters_, queue_, Hooks());
+  dut.Start(join_);
+  const auto current = [&](int64_t merges) {
+    while (counters_.merges_completed < merges) std::this_thread::yield();
+    dut.RequestSnapshot();
+    while (dut.snapshot()->version != counters_.memory_version) std::this_thread::yield();
+    return dut.snapshot();
+  };
+  dut.Enqueue(PeerMemory(20));
+  const std::shared_ptr<const MemorySnapshot> two = current(1);
+  ASSERT_EQ(two->places, 20);
+  for (const auto& b : two->bodies) EXPECT_EQ(b, nullptr);
+  const PipelineWorker::Bodies before = AllBodies(dut, two);
+  ExpectNamedBodies(*two, before);
+
+  dut.Enqueue(PeerMemory(12, false, 3));
+  const std::shared_ptr<const MemorySnapshot> three = current(2);
+  ASSERT_GT(three->places, 20);
+  ExpectNamedBodies(*two, AllBodies(dut, two));
+  ExpectNamedBodies(*three, AllBodies(dut, three));
+
+  queue_.Close();
+  dut.Join();
+  ExpectNamedBodies(*two, AllBodies(dut, two));
+  ExpectNamedBodies(*three, AllBodies(dut, three));
 }
 
 }  // namespace
