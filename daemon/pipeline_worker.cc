@@ -218,11 +218,12 @@ void PipelineWorker::RequestBodies(std::shared_ptr<const MemorySnapshot> snapsho
   done(ReadBodies(*snapshot, places));
 }
 
-void PipelineWorker::ServeBodies() {
+void PipelineWorker::ServeBodies(bool last) {
   std::vector<BodyRequest> requests;
   {
     std::lock_guard lock(body_mutex_);
     requests.swap(body_requests_);
+    if (last) serving_bodies_ = false;  // later requests are served by their caller
   }
   for (BodyRequest& r : requests) r.done(ReadBodies(*r.snapshot, r.places));
 }
@@ -272,14 +273,7 @@ void PipelineWorker::Loop() {
     if (!item) {
       if (queue_.closed()) {
         ServeSnapshot(true);  // the memory as it ends, for the last broadcast at stop
-        // The last requests; later ones are served by the caller (RequestBodies).
-        std::vector<BodyRequest> last;
-        {
-          std::lock_guard lock(body_mutex_);
-          serving_bodies_ = false;
-          last.swap(body_requests_);
-        }
-        for (BodyRequest& r : last) r.done(ReadBodies(*r.snapshot, r.places));
+        ServeBodies(true);
         return;
       }
       RetryStore();

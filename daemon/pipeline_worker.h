@@ -118,8 +118,8 @@ class PipelineWorker {
   /// changed since the latest).
   void ServeSnapshot(bool stale);
   void BuildSnapshot();
-  /// Answers the bodies asked for (RequestBodies).
-  void ServeBodies();
+  /// Answers the bodies asked for (RequestBodies); `last`: the thread takes no more requests.
+  void ServeBodies(bool last = false);
   Bodies ReadBodies(const MemorySnapshot& snapshot, const std::vector<int32_t>& places);
   /// Commits what is kept (results, a merge) when the store works; while it fails, at most
   /// once a second unless `now`.
