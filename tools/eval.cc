@@ -31,6 +31,7 @@ class RunRecorder {
       // A partial recognition is superseded by the decision taken when the place closes.
       const bool recognized = e.kind == EventKind::kRecognized && !e.partial;
       if (recognized || e.kind == EventKind::kLearned) Decided(e, recognized);
+      if (e.kind == EventKind::kRecognized && e.partial) partial_[e.detected_place] = e;
     }
   }
   std::vector<Assignment> assignments;
@@ -49,7 +50,13 @@ class RunRecorder {
     std::vector<int> frames;
     for (BaseIndex k : d.members) frames.push_back(static_cast<int>(k));  // base k = frame k
     assignments.push_back({frames, *e.place, recognized});
-    run_.detected.push_back({e.detected_place, frames, *e.place, recognized});
+    run_.detected.push_back(
+        {e.detected_place, frames, *e.place, recognized, e.cost, e.terms, std::nullopt, 0.0});
+    if (const auto partial = partial_.find(e.detected_place); partial != partial_.end()) {
+      run_.detected.back().partial_place = partial->second.place;
+      run_.detected.back().partial_cost = partial->second.cost;
+      partial_.erase(partial);
+    }
     auto& of = run_.frames_of[*e.place];
     of.insert(of.end(), frames.begin(), frames.end());
     if (recognized) {
@@ -64,6 +71,7 @@ class RunRecorder {
   EvalRun& run_;
   std::vector<BaseStatus>* status_;
   std::map<DetectedPlaceIndex, DetectedPlace> closed_;  // closed, not yet decided
+  std::map<DetectedPlaceIndex, PlaceEvent> partial_;    // its recognition when it opened
   PlaceMembersMirror mirror_;
 };
 
@@ -282,6 +290,41 @@ void WriteRecognition(JsonWriter& w, const EvalResult& r) {
   w.End('}');
 }
 
+// "decisions": the main run's decision on each detected place with its cost terms and how
+// the scoring judged it, so a miss or a wrong recognition can be read off.
+void WriteDecisions(JsonWriter& w, const EvalResult& r) {
+  const std::vector<RecognitionScore::Verdict>& verdicts = r.main.recognition.verdicts;
+  w.Key("decisions").Begin('[');
+  for (size_t i = 0; i < r.main.detected.size(); ++i) {
+    const EvalDetectedPlace& d = r.main.detected[i];
+    w.Begin('{');
+    w.Key("detected_place").Int(d.index);
+    w.Key("first_frame").Int(d.frames.empty() ? -1 : d.frames.front());
+    w.Key("last_frame").Int(d.frames.empty() ? -1 : d.frames.back());
+    w.Key("base_points").Int(static_cast<long long>(d.frames.size()));
+    if (r.truth.has_labels()) w.Key("label").String(MajorityLabel(r.truth, d.frames));
+    w.Key("decision").String(d.recognized ? "recognized" : "learned");
+    w.Key("place").String(d.place.ToString());
+    w.Key("cost").Number(d.cost);
+    w.Key("terms").Begin('{');
+    w.Key("distance").Number(d.terms.distance).Key("ratio").Number(d.terms.ratio);
+    w.Key("vote").Number(d.terms.vote);
+    w.End('}');
+    if (d.partial_place) {
+      w.Key("partial").Begin('{');
+      w.Key("place").String(d.partial_place->ToString()).Key("cost").Number(d.partial_cost);
+      w.End('}');
+    }
+    if (i < verdicts.size()) {
+      w.Key("should_be_recognized").Bool(verdicts[i].should);
+      if (r.truth.has_poses()) w.Key("view_should_be_recognized").Bool(verdicts[i].view_should);
+      w.Key("correct").Bool(verdicts[i].correct);
+    }
+    w.End('}');
+  }
+  w.End(']');
+}
+
 // "loop_closure": frame level (DESIGN §7.1b); only ground truth can tell a revisit.
 void WriteLoopClosure(JsonWriter& w, const EvalResult& r) {
   if (!r.truth.has_labels() && !r.truth.has_revisits()) return;
@@ -370,6 +413,7 @@ void WriteEvalJson(std::ostream& out, const EvalResult& r) {
     w.End('}');
   }
   WriteRecognition(w, r);
+  WriteDecisions(w, r);
   WriteLoopClosure(w, r);
   w.Key("map").Begin('{');
   w.Key("places").Int(static_cast<long long>(r.main.map.places().size()));

@@ -44,6 +44,11 @@ struct EvalDetectedPlace {
   std::vector<int> frames;  ///< 0-based member frames, increasing
   PlaceId place;            ///< learned place it was assigned to
   bool recognized = false;  ///< recognised (true) or learned (false)
+  double cost = 0.0;        ///< g_N of the decision (recognised), or the last one tried
+  CostTerms terms;          ///< its terms
+  /// The recognition tried when the place opened (pipeline.recognize_partial), if it named one.
+  std::optional<PlaceId> partial_place;
+  double partial_cost = 0.0;
 };
 
 /// One pass of the pipeline over the stored descriptors, at one τ_r.
@@ -112,6 +117,11 @@ EvalResult Evaluate(const Dataset& dataset, const PipelineOptions& options,
 ///                     "precision","recall","recall_at_full_precision",
 ///                     "pr_curve": [[τ_r,P,R],...]}
 ///                    (with labels or revisits),
+///    "decisions": [{"detected_place","first_frame","last_frame","base_points","label" (with
+///                   labels),"decision","place","cost","terms":{"distance","ratio","vote"},
+///                   "partial":{"place","cost"} (when recognised on opening),
+///                   "should_be_recognized","view_should_be_recognized" (with poses),
+///                   "correct"}, ...] (the main run, in decision order),
 ///    "map": {"places","edges","edge_precision","correct_edges" (with labels)},
 ///    "timing": {"descriptor_ms_median","frame_ms_median"},
 ///    "config": {every configuration key: value}, "sweep": {"from","to","step"}}

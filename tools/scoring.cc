@@ -95,13 +95,15 @@ RecognitionScore ScoreRecognition(const GroundTruth& truth, const std::vector<As
     }
     s.should_be_recognized += should;
     s.view_should_be_recognized += view_should;
+    bool correct = false;
     if (a.recognized) {
       ++s.recognitions;
       auto it = learned.find(a.place);
-      const bool correct = it != learned.end() && FramesMatch(truth, a.frames, it->second);
+      correct = it != learned.end() && FramesMatch(truth, a.frames, it->second);
       s.correct += correct;
       s.view_correct += correct && view_should;
     }
+    s.verdicts.push_back({should, view_should, correct});
     auto& frames = learned[a.place];
     frames.insert(frames.end(), a.frames.begin(), a.frames.end());
   }

@@ -58,6 +58,13 @@ struct RecognitionScore {
   int view_should_be_recognized = 0;
   int view_correct = 0;
   double view_recall = 0.0;  ///< view_correct / view_should_be_recognized (0 when none)
+  /// How each assignment was judged, in the order given (why a figure is what it is).
+  struct Verdict {
+    bool should = false;       ///< matches a place learned before it
+    bool view_should = false;  ///< and shares a view with it (with poses)
+    bool correct = false;      ///< recognised as a place it matches
+  };
+  std::vector<Verdict> verdicts;
 };
 /// A detected place should be recognised when it matches some place learned before it; a
 /// recognition is correct when the learned place it went to (the frames assigned to that
@@ -210,7 +217,7 @@ class PlaceMembersMirror {
 /// detected places, correct when the peer place's label agrees with the detected place's.
 struct TeamMemoryForScoring {
   std::map<PlaceId, std::string> own_labels;  ///< this robot's own places and their labels
-  std::vector<std::vector<PlaceId>> groups;  ///< per place of its final memory: id + sources
+  std::vector<std::vector<PlaceId>> groups;   ///< per place of its final memory: id + sources
   /// Detected places this robot's pipeline assigned to a peer's place: (that place, label).
   std::vector<std::pair<PlaceId, std::string>> peer_recognitions;
   /// Poses of the frames of each own place (none without poses in the ground truth).

@@ -209,6 +209,28 @@ TEST_F(EvalTest, LabelledDatasetScoresBoundariesEdgesAndDrawsFloorPlan) {
   }
   ExpectCurve(root, "loop_closure", "pr_curve", 4);
   ExpectCurve(root, "recognition", "view_pr_curve", 4);
+  // One decision per detected place, agreeing with the totals.
+  const JsonValue* decisions = root.Find("decisions");
+  ASSERT_NE(decisions, nullptr);
+  ASSERT_EQ(decisions->items.size(), r.main.detected.size());
+  int recognised = 0, correct = 0, should = 0;
+  for (const JsonValue& d : decisions->items) {
+    const auto field = [&d](const char* key) {
+      const JsonValue* v = d.Find(key);
+      return v != nullptr ? *v : JsonValue{};
+    };
+    const bool is_recognised = field("decision").text == "recognized";
+    recognised += is_recognised;
+    correct += field("correct").boolean;
+    should += field("should_be_recognized").boolean;
+    EXPECT_FALSE(!is_recognised && field("correct").boolean);
+    EXPECT_LE(field("first_frame").number, field("last_frame").number);
+    EXPECT_NE(field("terms").Find("vote"), nullptr);
+    EXPECT_FALSE(field("label").text.empty());
+  }
+  EXPECT_EQ(recognised, r.main.recognition.recognitions);
+  EXPECT_EQ(correct, r.main.recognition.correct);
+  EXPECT_EQ(should, r.main.recognition.should_be_recognized);
   // Route a b c b a: every frame of the second b and the second a (10 each) has an earlier
   // revisit; a detection per frame of a recognised place, at most one per frame.
   EXPECT_EQ(r.main.loop_closure.frames_with_revisit, 20);

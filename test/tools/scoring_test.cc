@@ -46,6 +46,15 @@ TEST(Scoring, PrecisionAndRecallFollowDesignRules) {
   EXPECT_EQ(s.should_be_recognized, 2);
   EXPECT_DOUBLE_EQ(s.precision, 0.5);
   EXPECT_DOUBLE_EQ(s.recall, 0.5);
+  // The same judgement place by place, in the order given (tsc eval's "decisions").
+  ASSERT_EQ(s.verdicts.size(), seq.size());
+  const bool should[] = {false, false, true, true, false};
+  const bool correct[] = {false, false, true, false, false};
+  for (size_t i = 0; i < seq.size(); ++i) {
+    EXPECT_EQ(s.verdicts[i].should, should[i]) << i;
+    EXPECT_EQ(s.verdicts[i].correct, correct[i]) << i;
+    EXPECT_FALSE(s.verdicts[i].view_should) << i;  // no poses
+  }
 }
 
 TEST(Scoring, RecognitionCorrectWrongAndMissed) {
