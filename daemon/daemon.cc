@@ -619,7 +619,11 @@ void Daemon::PublishPortions(std::shared_ptr<const MemorySnapshot> snapshot,
                   end](PipelineWorker::Bodies bodies) mutable {
     memory_portion_t scratch;
     for (size_t k = 0, first = end - bodies.size(); k < bodies.size(); ++k) {
-      if (!bodies[k]) continue;  // never: the snapshot is alive while it is published
+      if (!bodies[k]) {  // the place changed under the snapshot: peers would refuse it
+        spdlog::error("memory snapshot {}: place body {} no longer matches its digest; not sent",
+                      snapshot->version, indices[first + k] - snapshot->structure_portions);
+        continue;
+      }
       PublishPortion(snapshot->Portion(indices[first + k], scratch, bodies[k].get()));
     }
     if (end < indices.size()) PublishPortions(std::move(snapshot), std::move(indices), end);

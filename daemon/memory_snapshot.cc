@@ -394,8 +394,12 @@ std::shared_ptr<const learned_place_t> SnapshotBodies::Body(const MemorySnapshot
   const Tracked* t = Find(snapshot);
   if (t == nullptr) return nullptr;
   if (const auto kept = t->kept.find(place); kept != t->kept.end()) return kept->second;
-  return std::make_shared<const learned_place_t>(
+  auto body = std::make_shared<const learned_place_t>(
       ToMessage(memory.places().at(static_cast<size_t>(place))));
+  // A place changed without BeforeUpdate would go out under its old body's digest, which every
+  // peer refuses: refused here instead, where tscd can say so.
+  if (BodyDigest(*body) != snapshot.body_digests.at(static_cast<size_t>(place))) return nullptr;
+  return body;
 }
 
 size_t SnapshotBodies::tracked() {

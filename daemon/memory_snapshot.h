@@ -98,7 +98,8 @@ class SnapshotBodies {
   /// `changed`); nullopt when it is not tracked.
   std::optional<std::unordered_set<int>> ChangedSince(const MemorySnapshot& snapshot);
   /// Body `place` of `snapshot` (tracked, alive) as it was built, `memory` being the memory now.
-  /// Null when `snapshot` is not tracked. Precondition: 0 ≤ place < snapshot.places.
+  /// Null when `snapshot` is not tracked, or when the place changed without BeforeUpdate (its
+  /// body no longer has the digest the snapshot named). Precondition: 0 ≤ place < snapshot.places.
   std::shared_ptr<const learned_place_t> Body(const MemorySnapshot& snapshot, int place,
                                               const PlaceMemory& memory);
   /// Live snapshots tracked (tests).

@@ -246,6 +246,14 @@ TEST(SnapshotBodies, ASnapshotServesTheBodiesItNamedAfterTheMemoryChanged) {
   first.reset();
   EXPECT_EQ(dut.tracked(), 1u);
   EXPECT_EQ(dut.Body(*second, 3, f.memory)->id.local, second_scratch.bodies[3]->id.local);
+
+  // A place changed without BeforeUpdate is not served under the digest of its old body.
+  auto third = std::make_shared<const MemorySnapshot>(
+      BuildSnapshotWithoutBodies(f.memory, f.map, {5, 1, 3, 0}, 8192, nullptr, {}));
+  dut.Track(third);
+  f.memory.Update(3, Revisit());
+  EXPECT_EQ(dut.Body(*third, 3, f.memory), nullptr);
+  EXPECT_NE(dut.Body(*third, 4, f.memory), nullptr);
 }
 
 // Issue 23, "a 10⁴-place memory changing one place sends ≤ 1 % of the full snapshot's bytes",
