@@ -2,9 +2,11 @@
 
 #include <algorithm>
 #include <cmath>
+#include <functional>
 #include <limits>
 #include <stdexcept>
 #include <string>
+#include <utility>
 
 #include "core/memory/member_views.h"
 #include "core/memory/simd.h"
@@ -57,6 +59,54 @@ bool Coincides(const ViewDistances& vd, const Nearest& best, const Nearest& othe
   }
   return !r.empty() && Median(r) <= vote_radius;
 }
+
+// The candidates other than N¹ with places, in order of γ̃ then index. The first usually
+// settles N², so it is found by one scan (a full sort of ~150 children per place was a
+// thirtieth of a merge); only when it is a copy of N¹ are the rest put in a heap. Rescanning
+// instead made a 10⁵ + 10⁵ merge quadratic in its crowded hyper-terminals (1500 children,
+// tens of copies each: a fifth of the merge).
+class CandidatesByGamma {
+ public:
+  CandidatesByGamma(std::span<const CostCandidate> candidates, const std::vector<double>& gamma,
+                    size_t best)
+      : candidates_(candidates), gamma_(gamma), best_(best) {}
+
+  /// The next candidate, or candidates.size() when none is left.
+  size_t Next() {
+    const size_t none = candidates_.size();
+    if (first_ == kUnscanned) {
+      first_ = none;
+      for (size_t c = 0; c < candidates_.size(); ++c) {
+        if (!Eligible(c)) continue;
+        if (first_ == none || gamma_[c] < gamma_[first_]) first_ = c;
+      }
+      return first_;
+    }
+    if (!heaped_) {
+      heaped_ = true;
+      for (size_t c = 0; c < candidates_.size(); ++c) {
+        if (c != first_ && Eligible(c)) heap_.emplace_back(gamma_[c], c);
+      }
+      std::make_heap(heap_.begin(), heap_.end(), std::greater<>());
+    }
+    if (heap_.empty()) return none;
+    std::pop_heap(heap_.begin(), heap_.end(), std::greater<>());
+    const size_t next = heap_.back().second;
+    heap_.pop_back();
+    return next;
+  }
+
+ private:
+  static constexpr size_t kUnscanned = std::numeric_limits<size_t>::max();
+  bool Eligible(size_t c) const { return c != best_ && !candidates_[c].places.empty(); }
+
+  std::span<const CostCandidate> candidates_;
+  const std::vector<double>& gamma_;
+  size_t best_;
+  size_t first_ = kUnscanned;
+  bool heaped_ = false;
+  std::vector<std::pair<double, size_t>> heap_;  // (γ̃, index): the scan's order, ties by index
+};
 
 }  // namespace
 
@@ -201,23 +251,14 @@ CostTerms RecognitionCost(const ViewDistances& vd, const Eigen::VectorXf& mean,
     t.distance = std::min(t.distance, to_mean / options.mean_unit);
   }
   // N²: the nearest other child that is not the same place held again, looked for in order
-  // of γ̃ (then index); the first usually is (a full sort of ~150 children per place was a
-  // thirtieth of a merge).
+  // of γ̃ (then index).
+  // The radius within which two children's nearest views hold one place: the vote radius,
+  // or, when D itself lies further from N¹, that distance times the factor (two copies of a
+  // room are no nearer each other than a revisit is to either).
+  const double radius = std::max(options.vote_radius, options.coincide_factor * t.distance);
   double second = std::numeric_limits<double>::infinity();
-  std::vector<char> tried(candidates.size(), 0);
-  tried[static_cast<size_t>(t.best)] = 1;
-  for (;;) {
-    size_t next = candidates.size();
-    for (size_t c = 0; c < candidates.size(); ++c) {
-      if (tried[c] || candidates[c].places.empty()) continue;
-      if (next == candidates.size() || gamma[c] < gamma[next]) next = c;
-    }
-    if (next == candidates.size()) break;
-    tried[next] = 1;
-    // The radius within which two children's nearest views hold one place: the vote radius,
-    // or, when D itself lies further from N¹, that distance times the factor (two copies of a
-    // room are no nearer each other than a revisit is to either).
-    const double radius = std::max(options.vote_radius, options.coincide_factor * t.distance);
+  CandidatesByGamma order(candidates, gamma, static_cast<size_t>(t.best));
+  for (size_t next = order.Next(); next < candidates.size(); next = order.Next()) {
     if (Coincides(vd, best, nearest[next], radius)) {
       t.only_copies = true;
       continue;

@@ -3,10 +3,12 @@
 #include <gtest/gtest.h>
 
 #include <Eigen/Core>
+#include <algorithm>
 #include <cmath>
 #include <iostream>
 #include <limits>
 #include <random>
+#include <span>
 #include <stdexcept>
 #include <vector>
 
@@ -122,6 +124,73 @@ TEST_F(ViewDistancesTest, RejectsViewsOfAnotherDimension) {
   EXPECT_THROW(ViewDistances(votes_, pointers_, units_), std::invalid_argument);
   EXPECT_THROW(ViewDistances(votes_, pointers_, units_, {}, Simd::kPortable),
                std::invalid_argument);
+}
+
+
+// N² is the nearest child that does not hold N¹'s place again, however many copies of N¹ lie
+// nearer D than it (a merge's crowded hyper-terminal has tens): twenty copies of N¹ and
+// thirty other places, shuffled among the candidates; the ratio is γ̃(N¹) over the smallest
+// γ̃ of the others, found here by brute force.
+TEST(RecognitionCostTest, RatioSkipsEveryCopyOfTheNearestPlace) {
+  std::cout << "seed " << kSeed << "\n";
+  std::mt19937 rng(kSeed);
+  const Eigen::MatrixXf votes = Views(rng, 8);
+  // Squared norms of the offsets, in units u: N¹ lies 1 u from D's points, its copies 0.01 to
+  // 0.2 u from N¹'s views, the others 3 to 32 u from D's points.
+  const double unit = 1e-6;
+  auto offset = [&rng](const Eigen::MatrixXf& from, double squared) {
+    std::normal_distribution<float> n(0.0f, static_cast<float>(std::sqrt(squared / kDim)));
+    Eigen::MatrixXf m = from;
+    for (Eigen::Index i = 0; i < m.size(); ++i) m.data()[i] += n(rng);
+    return m;
+  };
+  std::vector<LearnedPlace> places;
+  std::vector<char> is_copy;
+  places.push_back(PlaceOf(1, offset(votes, unit)));
+  is_copy.push_back(0);
+  for (int k = 0; k < 20; ++k) {
+    places.push_back(PlaceOf(2 + k, offset(places[0].samples, unit * 0.01 * (1 + k))));
+    is_copy.push_back(1);
+  }
+  for (int k = 0; k < 30; ++k) {
+    places.push_back(PlaceOf(22 + k, offset(votes, unit * (3 + k))));
+    is_copy.push_back(0);
+  }
+  std::vector<int> order(places.size());
+  for (size_t i = 0; i < order.size(); ++i) order[i] = static_cast<int>(i);
+  std::shuffle(order.begin(), order.end(), rng);
+  std::vector<const LearnedPlace*> pointers;
+  for (int i : order) pointers.push_back(&places[static_cast<size_t>(i)]);
+  const ViewDistances vd(votes, pointers, std::vector<double>(places.size(), unit));
+  std::vector<int> columns(places.size());
+  for (size_t c = 0; c < columns.size(); ++c) columns[c] = static_cast<int>(c);
+  std::vector<CostCandidate> candidates(places.size());
+  for (size_t c = 0; c < candidates.size(); ++c) {
+    candidates[c].places = std::span<const int>(columns).subspan(c, 1);
+    candidates[c].centroid_sum = &pointers[c]->mean;
+  }
+  const CostTerms t = RecognitionCost(vd, votes.rowwise().mean(), candidates, {});
+  ASSERT_GE(t.best, 0);
+  EXPECT_EQ(order[static_cast<size_t>(t.best)], 0);  // N¹ itself, not one of its copies
+  auto gamma = [&vd](int c) {
+    std::vector<double> d;
+    for (int j = 0; j < vd.num_votes(); ++j) d.push_back(vd.distance(j, c));
+    std::nth_element(d.begin(), d.begin() + static_cast<std::ptrdiff_t>(d.size() / 2), d.end());
+    return d[d.size() / 2];
+  };
+  double second = std::numeric_limits<double>::infinity();
+  int copies_nearer = 0;
+  for (size_t c = 0; c < candidates.size(); ++c) {
+    if (!is_copy[static_cast<size_t>(order[c])] && static_cast<int>(c) != t.best)
+      second = std::min(second, gamma(static_cast<int>(c)));
+  }
+  for (size_t c = 0; c < candidates.size(); ++c) {
+    copies_nearer += is_copy[static_cast<size_t>(order[c])] && gamma(static_cast<int>(c)) < second;
+  }
+  EXPECT_EQ(copies_nearer, 20);  // every copy is tried before N²
+  EXPECT_FALSE(t.only_copies);
+  EXPECT_NEAR(t.ratio, gamma(t.best) / second, 1e-12);
+  EXPECT_LT(t.ratio, 0.5);
 }
 
 }  // namespace
