@@ -126,7 +126,6 @@ TEST_F(ViewDistancesTest, RejectsViewsOfAnotherDimension) {
                std::invalid_argument);
 }
 
-
 // N² is the nearest child that does not hold N¹'s place again, however many copies of N¹ lie
 // nearer D than it (a merge's crowded hyper-terminal has tens): twenty copies of N¹ and
 // thirty other places, shuffled among the candidates; the ratio is γ̃(N¹) over the smallest
