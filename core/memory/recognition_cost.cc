@@ -2,11 +2,9 @@
 
 #include <algorithm>
 #include <cmath>
-#include <functional>
 #include <limits>
 #include <stdexcept>
 #include <string>
-#include <utility>
 
 #include "core/memory/member_views.h"
 #include "core/memory/simd.h"
@@ -60,53 +58,37 @@ bool Coincides(const ViewDistances& vd, const Nearest& best, const Nearest& othe
   return !r.empty() && Median(r) <= vote_radius;
 }
 
-// The candidates other than N¹ with places, in order of γ̃ then index. The first usually
-// settles N², so it is found by one scan (a full sort of ~150 children per place was a
-// thirtieth of a merge); only when it is a copy of N¹ are the rest put in a heap. Rescanning
-// instead made a 10⁵ + 10⁵ merge quadratic in its crowded hyper-terminals (1500 children,
-// tens of copies each: a fifth of the merge).
-class CandidatesByGamma {
- public:
-  CandidatesByGamma(std::span<const CostCandidate> candidates, const std::vector<double>& gamma,
-                    size_t best)
-      : candidates_(candidates), gamma_(gamma), best_(best) {}
-
-  /// The next candidate, or candidates.size() when none is left.
-  size_t Next() {
-    const size_t none = candidates_.size();
-    if (first_ == kUnscanned) {
-      first_ = none;
-      for (size_t c = 0; c < candidates_.size(); ++c) {
-        if (!Eligible(c)) continue;
-        if (first_ == none || gamma_[c] < gamma_[first_]) first_ = c;
-      }
-      return first_;
+// The children N² is looked for among (every one with places but N¹), in order of γ̃ then
+// index, up to the first that cannot be a copy of N¹: copies are found only among the children
+// with a measured place, so the order is theirs, sorted, with the nearest unmeasured child
+// put in its place and nothing after it. One pass over the children, then a sort of a few
+// dozen: rescanning every child for each copy made a 10⁵ + 10⁵ merge quadratic in its crowded
+// hyper-terminals (1500 children, tens of copies: a fifth of its CPU).
+std::vector<size_t> OrderOfSecond(std::span<const CostCandidate> candidates,
+                                  const std::vector<double>& gamma,
+                                  const std::vector<int>& nearest_of, int best) {
+  const auto before = [&gamma](size_t a, size_t b) {
+    return gamma[a] < gamma[b] || (gamma[a] == gamma[b] && a < b);
+  };
+  std::vector<size_t> order;
+  size_t unmeasured = candidates.size();
+  for (size_t c = 0; c < candidates.size(); ++c) {
+    if (static_cast<int>(c) == best || candidates[c].places.empty()) continue;
+    if (nearest_of[c] >= 0) {
+      order.push_back(c);
+    } else if (unmeasured == candidates.size() || gamma[c] < gamma[unmeasured]) {
+      unmeasured = c;
     }
-    if (!heaped_) {
-      heaped_ = true;
-      for (size_t c = 0; c < candidates_.size(); ++c) {
-        if (c != first_ && Eligible(c)) heap_.emplace_back(gamma_[c], c);
-      }
-      std::make_heap(heap_.begin(), heap_.end(), std::greater<>());
-    }
-    if (heap_.empty()) return none;
-    std::pop_heap(heap_.begin(), heap_.end(), std::greater<>());
-    const size_t next = heap_.back().second;
-    heap_.pop_back();
-    return next;
   }
-
- private:
-  static constexpr size_t kUnscanned = std::numeric_limits<size_t>::max();
-  bool Eligible(size_t c) const { return c != best_ && !candidates_[c].places.empty(); }
-
-  std::span<const CostCandidate> candidates_;
-  const std::vector<double>& gamma_;
-  size_t best_;
-  size_t first_ = kUnscanned;
-  bool heaped_ = false;
-  std::vector<std::pair<double, size_t>> heap_;  // (γ̃, index): the scan's order, ties by index
-};
+  std::sort(order.begin(), order.end(), before);
+  if (unmeasured < candidates.size()) {
+    const auto at =
+        std::find_if(order.begin(), order.end(), [&](size_t c) { return before(unmeasured, c); });
+    order.erase(at, order.end());
+    order.push_back(unmeasured);
+  }
+  return order;
+}
 
 }  // namespace
 
@@ -200,37 +182,35 @@ void RecognitionCostOptions::Validate() const {
 CostTerms RecognitionCost(const ViewDistances& vd, const Eigen::VectorXf& mean,
                           std::span<const CostCandidate> candidates,
                           const RecognitionCostOptions& options) {
+  // Per-point nearest views only of the children with a measured place (a merge's N* has
+  // ~1500 children, a few dozen measured): `nearest_of` is a child's entry in `nearest`, or −1.
   std::vector<Nearest> nearest;
-  std::vector<double> gamma;
-  std::vector<char> measured;
-  nearest.reserve(candidates.size());
-  for (const CostCandidate& c : candidates) {
-    measured.push_back(
-        std::any_of(c.places.begin(), c.places.end(), [&vd](int p) { return vd.measured(p); }));
-    if (measured.back()) {
-      nearest.push_back(NearestIn(vd, c));
+  std::vector<int> nearest_of(candidates.size(), -1);
+  std::vector<double> gamma(candidates.size(), std::numeric_limits<double>::infinity());
+  for (size_t c = 0; c < candidates.size(); ++c) {
+    const std::span<const int> places = candidates[c].places;
+    if (std::any_of(places.begin(), places.end(), [&vd](int p) { return vd.measured(p); })) {
+      nearest_of[c] = static_cast<int>(nearest.size());
+      nearest.push_back(NearestIn(vd, candidates[c]));
       std::vector<double> d = nearest.back().distance;
-      gamma.push_back(Median(d));
+      gamma[c] = Median(d);
       continue;
     }
-    // A child with no place in the shortlist (most of a merge's N*, whose ~150 children were
-    // each given per-point distances, all infinite): no nearest view, so it never coincides
-    // with N¹, and its rough distance, good enough for N² (it is never N¹, and the places
-    // nearest D are the ones measured).
-    nearest.emplace_back();
-    gamma.push_back(std::numeric_limits<double>::infinity());
-    for (int p : c.places) gamma.back() = std::min<double>(gamma.back(), vd.estimate(p));
+    // A child with no place in the shortlist: no nearest view, so it never coincides with N¹,
+    // and its rough distance, good enough for N² (it is never N¹, and the places nearest D
+    // are the ones measured).
+    for (int p : places) gamma[c] = std::min<double>(gamma[c], vd.estimate(p));
   }
   CostTerms t;
   for (size_t c = 0; c < candidates.size(); ++c) {
-    if (!candidates[c].may_be_best || candidates[c].places.empty() || !measured[c]) continue;
+    if (!candidates[c].may_be_best || nearest_of[c] < 0) continue;
     if (t.best < 0 || gamma[c] < gamma[static_cast<size_t>(t.best)]) t.best = static_cast<int>(c);
   }
   if (t.best < 0) {  // none may be N¹, or none has a place measured
     t.cost = std::numeric_limits<double>::infinity();
     return t;
   }
-  const Nearest& best = nearest[static_cast<size_t>(t.best)];
+  const Nearest& best = nearest[static_cast<size_t>(nearest_of[static_cast<size_t>(t.best)])];
   t.gamma = gamma[static_cast<size_t>(t.best)];
   std::vector<double> scaled;
   int accepted = 0;
@@ -257,9 +237,9 @@ CostTerms RecognitionCost(const ViewDistances& vd, const Eigen::VectorXf& mean,
   // room are no nearer each other than a revisit is to either).
   const double radius = std::max(options.vote_radius, options.coincide_factor * t.distance);
   double second = std::numeric_limits<double>::infinity();
-  CandidatesByGamma order(candidates, gamma, static_cast<size_t>(t.best));
-  for (size_t next = order.Next(); next < candidates.size(); next = order.Next()) {
-    if (Coincides(vd, best, nearest[next], radius)) {
+  for (const size_t next : OrderOfSecond(candidates, gamma, nearest_of, t.best)) {
+    if (nearest_of[next] >= 0 &&
+        Coincides(vd, best, nearest[static_cast<size_t>(nearest_of[next])], radius)) {
       t.only_copies = true;
       continue;
     }
