@@ -363,7 +363,15 @@ void PlaceMemory::StoreMeans(int first, int end) {
     }
     for (int p = first; p < end; ++p) means_.col(p).head(dim) = places_[p].mean;
   }
-  for (int p = first; p < end; ++p) view_index_.Set(p, ViewCentre(p), places_[p].samples);
+  // New places are filed in the index's cells once, at the end (a restore appends them all).
+  for (int p = first; p < end; ++p) {
+    if (p == view_index_.size()) {
+      view_index_.Append(ViewCentre(p), places_[p].samples);
+    } else {
+      view_index_.Set(p, ViewCentre(p), places_[p].samples);
+    }
+  }
+  view_index_.FileAppended();
 }
 
 void PlaceMemory::RetrainDiscriminant(int node) {

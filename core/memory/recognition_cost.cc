@@ -43,19 +43,47 @@ Nearest NearestIn(const ViewDistances& vd, const CostCandidate& c) {
 
 // Whether candidate `other` coincides with N¹ for D: the views of `other` nearest to D's
 // points lie, in the median, within the vote radius of N¹'s nearest views (N¹'s vote would
-// accept them), so the two hold the same place.
+// accept them), so the two hold the same place. Decided as soon as more than half of the
+// pairs fall on one side, and a pair of views that several of D's points share is measured
+// once: a crowded N* (a 10⁵ + 10⁵ merge) holds tens of copies of N¹ to check, each of D's 32
+// points a product of two views.
 bool Coincides(const ViewDistances& vd, const Nearest& best, const Nearest& other,
                double vote_radius) {
   if (other.place.empty()) return false;  // not measured: no nearest view to compare
-  std::vector<double> r;
-  for (int j = 0; j < vd.num_votes(); ++j) {
+  const int n = vd.num_votes();
+  int pairs = 0;
+  for (int j = 0; j < n; ++j) {
+    pairs += best.place[static_cast<size_t>(j)] >= 0 && other.place[static_cast<size_t>(j)] >= 0;
+  }
+  if (pairs == 0) return false;
+  // The median (the element at pairs / 2 once sorted) is within the radius when more than
+  // pairs / 2 of them are, and beyond it when at least pairs − pairs / 2 are.
+  const int needed_within = pairs / 2 + 1, needed_beyond = pairs - pairs / 2;
+  struct Pair {
+    int pa, va, pb, vb;
+    bool within;
+  };
+  std::vector<Pair> seen;
+  int within = 0, beyond = 0;
+  for (int j = 0; j < n; ++j) {
     const int pa = best.place[static_cast<size_t>(j)], pb = other.place[static_cast<size_t>(j)];
     if (pa < 0 || pb < 0) continue;
-    const auto a = vd.place(pa).samples.col(vd.view(j, pa));
-    const auto b = vd.place(pb).samples.col(vd.view(j, pb));
-    r.push_back((a - b).squaredNorm() / vd.unit(pa));
+    const int va = vd.view(j, pa), vb = vd.view(j, pb);
+    const auto known = std::find_if(seen.begin(), seen.end(), [&](const Pair& s) {
+      return s.pa == pa && s.va == va && s.pb == pb && s.vb == vb;
+    });
+    bool in;
+    if (known != seen.end()) {
+      in = known->within;
+    } else {
+      const auto a = vd.place(pa).samples.col(va);
+      const auto b = vd.place(pb).samples.col(vb);
+      in = static_cast<double>((a - b).squaredNorm()) / vd.unit(pa) <= vote_radius;
+      seen.push_back({pa, va, pb, vb, in});
+    }
+    if (in ? ++within >= needed_within : ++beyond >= needed_beyond) return in;
   }
-  return !r.empty() && Median(r) <= vote_radius;
+  return false;  // unreachable: within + beyond reaches pairs
 }
 
 // The children N² is looked for among (every one with places but N¹), in order of γ̃ then

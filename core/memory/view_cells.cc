@@ -15,20 +15,25 @@ constexpr int kIterations = 8;
 constexpr Eigen::Index kBlock = 4096;  // keys filed per product when training
 
 // Column of the smallest ‖c‖² − 2 cᵀk per row of `dots` (rows x cells: kᵀc), the first on ties.
+// Column by column, each a contiguous run the compiler vectorises: row by row read `dots` a
+// column-stride apart (16 KB for a block of keys), the restore of a 10⁵ + 10⁵ merge's most
+// sampled function.
 void NearestPerRow(const Eigen::MatrixXf& dots, const Eigen::VectorXf& centroid_norms,
                    std::vector<int>& out) {
-  out.resize(static_cast<size_t>(dots.rows()));
-  for (Eigen::Index r = 0; r < dots.rows(); ++r) {
-    int best = 0;
-    float best_d = centroid_norms[0] - 2.0f * dots(r, 0);
-    for (Eigen::Index c = 1; c < dots.cols(); ++c) {
-      const float d = centroid_norms[c] - 2.0f * dots(r, c);
-      if (d < best_d) {
-        best_d = d;
-        best = static_cast<int>(c);
-      }
+  const Eigen::Index rows = dots.rows();
+  out.assign(static_cast<size_t>(rows), 0);
+  Eigen::VectorXf best = (centroid_norms[0] - 2.0f * dots.col(0).array()).matrix();
+  int* const at = out.data();
+  for (Eigen::Index c = 1; c < dots.cols(); ++c) {
+    const float norm = centroid_norms[c];
+    const float* d = dots.col(c).data();
+    float* b = best.data();
+    for (Eigen::Index r = 0; r < rows; ++r) {
+      const float v = norm - 2.0f * d[r];
+      const bool nearer = v < b[r];  // strictly: the first column keeps a tie
+      b[r] = nearer ? v : b[r];
+      at[r] = nearer ? static_cast<int>(c) : at[r];
     }
-    out[static_cast<size_t>(r)] = best;
   }
 }
 
@@ -135,6 +140,23 @@ void ViewCells::File(const Eigen::MatrixXf& keys, Eigen::Index row, float norm) 
   const Eigen::RowVectorXf key = keys.row(row);
   Remove(row);
   Append(Nearest(key), key, norm, row);
+}
+
+void ViewCells::FileRows(const Eigen::MatrixXf& keys, Eigen::Index first, Eigen::Index end,
+                         const std::vector<float>& norms) {
+  if (!trained()) throw std::logic_error("view cells: filing before training");
+  std::vector<int> nearest;
+  Eigen::MatrixXf dots;
+  for (Eigen::Index b = first; b < end; b += kBlock) {
+    const Eigen::Index len = std::min(kBlock, end - b);
+    dots.noalias() = keys.middleRows(b, len) * centroids_;
+    NearestPerRow(dots, centroid_norms_, nearest);
+    for (Eigen::Index i = 0; i < len; ++i) {
+      Remove(b + i);
+      Append(nearest[static_cast<size_t>(i)], keys.row(b + i), norms[static_cast<size_t>(b + i)],
+             b + i);
+    }
+  }
 }
 
 std::vector<float> ViewCells::Estimate(const Eigen::MatrixXf& queries,

@@ -32,6 +32,10 @@ class ViewCells {
   /// Files row `row` of `keys` (its norm `norm`) under its nearest centroid, moving it when it
   /// is filed already. Precondition: trained().
   void File(const Eigen::MatrixXf& keys, Eigen::Index row, float norm);
+  /// File for rows first.. end−1 of `keys` (norms `norms`, per key row), a block of rows per
+  /// product. Precondition: trained().
+  void FileRows(const Eigen::MatrixXf& keys, Eigen::Index first, Eigen::Index end,
+                const std::vector<float>& norms);
 
   /// For each of `groups` groups of `group_size` consecutive key rows (a place's keys), the
   /// smallest ‖k − q‖² over its keys k and the columns q of `queries` (dim x m, norms

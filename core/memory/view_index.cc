@@ -60,6 +60,45 @@ float ViewIndex::Unprojected(float projected) {
 }
 
 void ViewIndex::Set(int place, const Eigen::VectorXf& centre, const Eigen::MatrixXf& views) {
+  if (place == size()) {
+    Append(centre, views);
+    FileAppended();
+    return;
+  }
+  Key(place, centre, views);
+  const Eigen::Index first = static_cast<Eigen::Index>(place) * kKeysPerPlace;
+  if (!cells_.trained() || first >= filed_rows_) return;  // filed when FileAppended runs
+  for (int k = 0; k < kKeysPerPlace; ++k)
+    cells_.File(keys_, first + k, key_norms_[static_cast<size_t>(first + k)]);
+}
+
+void ViewIndex::Append(const Eigen::VectorXf& centre, const Eigen::MatrixXf& views) {
+  Key(size(), centre, views);
+}
+
+void ViewIndex::FileAppended() {
+  const auto rows = static_cast<Eigen::Index>(key_norms_.size());
+  if (!use_cells_ || size() < kCellsFrom) {
+    filed_rows_ = rows;
+    return;
+  }
+  // Set trains when the rows reach kCellsFrom places' keys, then each time they double; only
+  // the last of those trainings within the appended rows decides the cells.
+  Eigen::Index train_at = 0;
+  for (Eigen::Index next = cells_.trained() ? 2 * cells_.trained_rows()
+                                            : Eigen::Index{kCellsFrom} * kKeysPerPlace;
+       next <= rows; next *= 2) {
+    train_at = next;
+  }
+  if (train_at > 0) {
+    cells_.Train(keys_, train_at, simd_);
+    filed_rows_ = std::max(filed_rows_, train_at);
+  }
+  cells_.FileRows(keys_, filed_rows_, rows, key_norms_);
+  filed_rows_ = rows;
+}
+
+void ViewIndex::Key(int place, const Eigen::VectorXf& centre, const Eigen::MatrixXf& views) {
   if (place < 0 || place > size()) {
     throw std::out_of_range("view index: place " + std::to_string(place) + " of " +
                             std::to_string(size()));
@@ -97,18 +136,12 @@ void ViewIndex::Set(int place, const Eigen::VectorXf& centre, const Eigen::Matri
   for (int k = 0; k < kKeysPerPlace; ++k) {
     key_norms_[static_cast<size_t>(first + k)] = projected.col(k).squaredNorm();
   }
-  if (!use_cells_ || size() < kCellsFrom) return;
-  const auto rows = static_cast<Eigen::Index>(key_norms_.size());
-  if (rows >= 2 * cells_.trained_rows()) {  // first trained, or the memory doubled since
-    cells_.Train(keys_, rows, simd_);
-    return;
-  }
-  for (int k = 0; k < kKeysPerPlace; ++k)
-    cells_.File(keys_, first + k, key_norms_[static_cast<size_t>(first + k)]);
 }
 
 std::vector<float> ViewIndex::Estimate(const Eigen::MatrixXf& queries) const {
   const int places = size();
+  if (filed_rows_ != static_cast<Eigen::Index>(key_norms_.size()))
+    throw std::logic_error("view index: estimating before FileAppended");
   const Eigen::MatrixXf q = ProjectQueries(queries);
   const Eigen::RowVectorXf q_norms = q.colwise().squaredNorm();
   if (cells_.trained()) {
@@ -160,6 +193,7 @@ ViewIndex ViewIndex::Subset(std::span<const int> places) const {
   out.projection_t_ = projection_t_;
   out.keys_.resize(static_cast<Eigen::Index>(places.size()) * kKeysPerPlace, kDimensions);
   out.key_norms_.resize(static_cast<size_t>(out.keys_.rows()));
+  out.filed_rows_ = out.keys_.rows();  // no cells
   Eigen::Index row = 0;
   for (int p : places) {
     if (p < 0 || p >= size()) throw std::out_of_range("view index: no place " + std::to_string(p));

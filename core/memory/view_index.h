@@ -42,6 +42,13 @@ class ViewIndex {
   /// `centre`, its mean in the space of its member views `views` (dim x k, k ≥ 1;
   /// core/memory/view_basis.h), and two spread views. Precondition: place ≤ size().
   void Set(int place, const Eigen::VectorXf& centre, const Eigen::MatrixXf& views);
+  /// Keys a new place (place size()) as Set does but leaves the cells to FileAppended, which a
+  /// run of appends then calls once: the cells end as Set one place at a time leaves them,
+  /// trained once where Set would train last and the later keys filed in blocks (restoring a
+  /// merged 2·10⁵ places trained them four times and filed 4·10⁵ keys one by one: a tenth of
+  /// a 10⁵ + 10⁵ merge). Estimate requires every appended place filed.
+  void Append(const Eigen::VectorXf& centre, const Eigen::MatrixXf& views);
+  void FileAppended();
   int size() const { return static_cast<int>(key_norms_.size() / kKeysPerPlace); }
 
   /// What D asks the index with, from its vote points (dim x n, n ≥ 1): the index keys each
@@ -61,6 +68,8 @@ class ViewIndex {
   ViewIndex Subset(std::span<const int> places) const;
 
  private:
+  // Writes place `place`'s keys (place ≤ size()), leaving the cells as they are.
+  void Key(int place, const Eigen::VectorXf& centre, const Eigen::MatrixXf& views);
   Eigen::MatrixXf Project(const Eigen::MatrixXf& x) const;
   // Project(queries) after checking them (dim x m, m ≥ 1, the index's dimension).
   Eigen::MatrixXf ProjectQueries(const Eigen::MatrixXf& queries) const;
@@ -75,7 +84,8 @@ class ViewIndex {
   std::vector<float> key_norms_;
   Simd simd_;
   bool use_cells_;
-  ViewCells cells_;  // trained once kCellsFrom places are keyed
+  ViewCells cells_;              // trained once kCellsFrom places are keyed
+  Eigen::Index filed_rows_ = 0;  // key rows the cells are up to date with (FileAppended)
 };
 
 }  // namespace tsc
