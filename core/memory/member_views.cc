@@ -42,10 +42,11 @@ Eigen::MatrixXf EvenlySpaced(const Eigen::MatrixXf& x, int cap) {
   return out;
 }
 
-Eigen::MatrixXf ThinViews(const Eigen::MatrixXf& pool, int cap) {
+namespace {
+
+// ThinViews with the pool's pairwise squared distances `d` given (n > cap).
+Eigen::MatrixXf Thinned(const Eigen::MatrixXf& pool, int cap, const Eigen::MatrixXf& d) {
   const Eigen::Index n = pool.cols();
-  if (n <= cap) return pool;
-  const Eigen::MatrixXf d = PairwiseSquared(pool);
   std::vector<char> kept(static_cast<size_t>(n), 1);
   // Each kept view's nearest earlier kept view (−1: none), so a round looks at n views
   // instead of n² pairs; only views whose nearest was dropped look again.
@@ -86,16 +87,36 @@ Eigen::MatrixXf ThinViews(const Eigen::MatrixXf& pool, int cap) {
   return out;
 }
 
-double ViewSpacing(const Eigen::MatrixXf& views) {
-  const Eigen::Index n = views.cols();
-  if (n < 2) return 0.0;
-  Eigen::MatrixXf d = PairwiseSquared(views);
-  d.diagonal().setConstant(std::numeric_limits<float>::infinity());
-  std::vector<float> nearest(static_cast<size_t>(n));
-  for (Eigen::Index j = 0; j < n; ++j) nearest[static_cast<size_t>(j)] = d.col(j).minCoeff();
+// ViewSpacing from the views' pairwise squared distances `d` (n ≥ 2).
+double Spacing(const Eigen::MatrixXf& d) {
+  const Eigen::Index n = d.cols();
+  std::vector<float> nearest(static_cast<size_t>(n), std::numeric_limits<float>::infinity());
+  for (Eigen::Index j = 0; j < n; ++j) {
+    for (Eigen::Index i = 0; i < n; ++i) {
+      if (i != j)
+        nearest[static_cast<size_t>(j)] = std::min(nearest[static_cast<size_t>(j)], d(i, j));
+    }
+  }
   auto mid = nearest.begin() + static_cast<std::ptrdiff_t>(n / 2);
   std::nth_element(nearest.begin(), mid, nearest.end());
   return *mid;
+}
+
+}  // namespace
+
+Eigen::MatrixXf ThinViews(const Eigen::MatrixXf& pool, int cap) {
+  if (pool.cols() <= cap) return pool;
+  return Thinned(pool, cap, PairwiseSquared(pool));
+}
+
+double ViewSpacing(const Eigen::MatrixXf& views) {
+  return views.cols() < 2 ? 0.0 : Spacing(PairwiseSquared(views));
+}
+
+ViewSummary SummariseViews(const Eigen::MatrixXf& views, int spread_cap) {
+  if (views.cols() < 2) return {0.0, views};  // nothing to thin (spread_cap ≥ 1)
+  const Eigen::MatrixXf d = PairwiseSquared(views);
+  return {Spacing(d), views.cols() <= spread_cap ? views : Thinned(views, spread_cap, d)};
 }
 
 }  // namespace tsc

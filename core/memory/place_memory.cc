@@ -256,9 +256,8 @@ int PlaceMemory::Learn(const DetectedPlace& d) {
     for (size_t i = 0; i < places_.size(); ++i) distances_[i] = gamma(static_cast<int>(i));
     slink_.Insert(distances_);
   }
-  spacings_.push_back(ViewSpacing(p.samples));
   places_.push_back(std::move(p));
-  StoreMeans(static_cast<int>(places_.size()) - 1, static_cast<int>(places_.size()));
+  StoreDerived(static_cast<int>(places_.size()) - 1, static_cast<int>(places_.size()));
   ++next_local_;
   RebuildTree(nullptr);
   return static_cast<int>(places_.size()) - 1;
@@ -278,10 +277,9 @@ void PlaceMemory::Update(int place, const DetectedPlace& d) {
   Eigen::MatrixXf pool(p.samples.rows(), p.samples.cols() + visit.cols());
   pool << p.samples, visit;
   p.samples = ThinViews(pool, options_.max_samples_per_place);
-  spacings_[static_cast<size_t>(place)] = ViewSpacing(p.samples);
   p.detected.push_back(d.index);
   p.members.insert(p.members.end(), d.members.begin(), d.members.end());
-  StoreMeans(place, place + 1);
+  StoreDerived(place, place + 1);
   // The place's path to the root: centroids move, discriminants see new members.
   const Eigen::VectorXf delta = p.mean - old_mean;
   RetrainDiscriminant(place);
@@ -330,7 +328,7 @@ void PlaceMemory::GammaLowerBounds(const Eigen::VectorXf& mean, std::vector<doub
   }
 }
 
-void PlaceMemory::StoreMeans(int first, int end) {
+void PlaceMemory::StoreDerived(int first, int end) {
   if (first >= end) return;
   const Eigen::Index dim = places_[first].mean.size();
   if (const ViewBasis* basis = view_basis()) {
@@ -363,12 +361,17 @@ void PlaceMemory::StoreMeans(int first, int end) {
     }
     for (int p = first; p < end; ++p) means_.col(p).head(dim) = places_[p].mean;
   }
+  // The spacings and the index's keys from one set of pairwise view distances (the index
+  // keys a place by views ThinViews spreads; thinned already, they are kept as they are).
   // New places are filed in the index's cells once, at the end (a restore appends them all).
+  if (static_cast<size_t>(end) > spacings_.size()) spacings_.resize(static_cast<size_t>(end));
   for (int p = first; p < end; ++p) {
+    ViewSummary views = SummariseViews(places_[p].samples, ViewIndex::kKeysPerPlace - 1);
+    spacings_[static_cast<size_t>(p)] = views.spacing;
     if (p == view_index_.size()) {
-      view_index_.Append(ViewCentre(p), places_[p].samples);
+      view_index_.Append(ViewCentre(p), views.spread);
     } else {
-      view_index_.Set(p, ViewCentre(p), places_[p].samples);
+      view_index_.Set(p, ViewCentre(p), views.spread);
     }
   }
   view_index_.FileAppended();
@@ -609,9 +612,7 @@ PlaceMemory PlaceMemory::Restore(uint32_t robot, PlaceMemoryOptions options,
   memory.slink_ = std::move(slink);
   memory.next_local_ = next_local;
   // All at once: the cache is sized once and the means taken into the basis in blocks.
-  memory.StoreMeans(0, static_cast<int>(memory.places_.size()));
-  memory.spacings_.reserve(memory.places_.size());
-  for (const LearnedPlace& p : memory.places_) memory.spacings_.push_back(ViewSpacing(p.samples));
+  memory.StoreDerived(0, static_cast<int>(memory.places_.size()));
   if (!memory.places_.empty()) memory.RebuildTree(&saved);
   return memory;
 }

@@ -209,8 +209,8 @@ class PlaceMemory {
   void GammaLowerBounds(const Eigen::VectorXf& mean, std::vector<double>& out) const;
   /// With a view basis, takes the means of places [first, end) into it (view_centres_,
   /// mean_norms_); without one, copies them into their columns of `means_` (growing it as
-  /// needed). Then re-keys them in the view index.
-  void StoreMeans(int first, int end);
+  /// needed). Then measures their view spacings and re-keys them in the view index.
+  void StoreDerived(int first, int end);
 
   uint32_t robot_;
   PlaceMemoryOptions options_;
