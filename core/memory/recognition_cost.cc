@@ -88,28 +88,24 @@ bool Coincides(const ViewDistances& vd, const Nearest& best, const Nearest& othe
 
 // The children N² is looked for among (every one with places but N¹), in order of γ̃ then
 // index, up to the first that cannot be a copy of N¹: copies are found only among the children
-// with a measured place, so the order is theirs, sorted, with the nearest unmeasured child
-// put in its place and nothing after it. One pass over the children, then a sort of a few
-// dozen: rescanning every child for each copy made a 10⁵ + 10⁵ merge quadratic in its crowded
-// hyper-terminals (1500 children, tens of copies: a fifth of its CPU).
-std::vector<size_t> OrderOfSecond(std::span<const CostCandidate> candidates,
-                                  const std::vector<double>& gamma,
-                                  const std::vector<int>& nearest_of, int best) {
+// with a measured place (`measured`, in increasing index), so the order is theirs, sorted,
+// with the nearest unmeasured child (`unmeasured`, or none: candidates.size()) put in its
+// place and nothing after it. A sort of a few dozen: rescanning every child for each copy
+// made a 10⁵ + 10⁵ merge quadratic in its crowded hyper-terminals (1500 children, tens of
+// copies: a fifth of its CPU).
+std::vector<size_t> OrderOfSecond(size_t candidates, const std::vector<double>& gamma,
+                                  const std::vector<size_t>& measured, size_t unmeasured,
+                                  size_t best) {
   const auto before = [&gamma](size_t a, size_t b) {
     return gamma[a] < gamma[b] || (gamma[a] == gamma[b] && a < b);
   };
   std::vector<size_t> order;
-  size_t unmeasured = candidates.size();
-  for (size_t c = 0; c < candidates.size(); ++c) {
-    if (static_cast<int>(c) == best || candidates[c].places.empty()) continue;
-    if (nearest_of[c] >= 0) {
-      order.push_back(c);
-    } else if (unmeasured == candidates.size() || gamma[c] < gamma[unmeasured]) {
-      unmeasured = c;
-    }
+  order.reserve(measured.size());
+  for (size_t c : measured) {
+    if (c != best) order.push_back(c);
   }
   std::sort(order.begin(), order.end(), before);
-  if (unmeasured < candidates.size()) {
+  if (unmeasured < candidates) {
     const auto at =
         std::find_if(order.begin(), order.end(), [&](size_t c) { return before(unmeasured, c); });
     order.erase(at, order.end());
@@ -213,25 +209,41 @@ CostTerms RecognitionCost(const ViewDistances& vd, const Eigen::VectorXf& mean,
   // Per-point nearest views only of the children with a measured place (a merge's N* has
   // ~1500 children, a few dozen measured): `nearest_of` is a child's entry in `nearest`, or −1.
   std::vector<Nearest> nearest;
+  // One pass over the children: a crowded N*'s 1500 were scanned three times per place.
   std::vector<int> nearest_of(candidates.size(), -1);
   std::vector<double> gamma(candidates.size(), std::numeric_limits<double>::infinity());
+  std::vector<size_t> measured;           // the children with a measured place, in order
+  size_t unmeasured = candidates.size();  // the first of the nearest other children with places
   for (size_t c = 0; c < candidates.size(); ++c) {
     const std::span<const int> places = candidates[c].places;
-    if (std::any_of(places.begin(), places.end(), [&vd](int p) { return vd.measured(p); })) {
+    // A child with no place in the shortlist: no nearest view, so it never coincides with N¹,
+    // and its rough distance, good enough for N² (it is never N¹, and the places nearest D
+    // are the ones measured).
+    double estimate = std::numeric_limits<double>::infinity();
+    bool any_measured = false;
+    for (int p : places) {
+      if (vd.measured(p)) {
+        any_measured = true;
+        break;
+      }
+      estimate = std::min<double>(estimate, vd.estimate(p));
+    }
+    if (any_measured) {
       nearest_of[c] = static_cast<int>(nearest.size());
       nearest.push_back(NearestIn(vd, candidates[c]));
       std::vector<double> d = nearest.back().distance;
       gamma[c] = Median(d);
+      measured.push_back(c);
       continue;
     }
-    // A child with no place in the shortlist: no nearest view, so it never coincides with N¹,
-    // and its rough distance, good enough for N² (it is never N¹, and the places nearest D
-    // are the ones measured).
-    for (int p : places) gamma[c] = std::min<double>(gamma[c], vd.estimate(p));
+    gamma[c] = estimate;
+    if (!places.empty() && (unmeasured == candidates.size() || gamma[c] < gamma[unmeasured])) {
+      unmeasured = c;
+    }
   }
   CostTerms t;
-  for (size_t c = 0; c < candidates.size(); ++c) {
-    if (!candidates[c].may_be_best || nearest_of[c] < 0) continue;
+  for (size_t c : measured) {
+    if (!candidates[c].may_be_best) continue;
     if (t.best < 0 || gamma[c] < gamma[static_cast<size_t>(t.best)]) t.best = static_cast<int>(c);
   }
   if (t.best < 0) {  // none may be N¹, or none has a place measured
@@ -265,7 +277,8 @@ CostTerms RecognitionCost(const ViewDistances& vd, const Eigen::VectorXf& mean,
   // room are no nearer each other than a revisit is to either).
   const double radius = std::max(options.vote_radius, options.coincide_factor * t.distance);
   double second = std::numeric_limits<double>::infinity();
-  for (const size_t next : OrderOfSecond(candidates, gamma, nearest_of, t.best)) {
+  for (const size_t next :
+       OrderOfSecond(candidates.size(), gamma, measured, unmeasured, static_cast<size_t>(t.best))) {
     if (nearest_of[next] >= 0 &&
         Coincides(vd, best, nearest[static_cast<size_t>(nearest_of[next])], radius)) {
       t.only_copies = true;
