@@ -15,9 +15,8 @@ constexpr int kIterations = 8;
 constexpr Eigen::Index kBlock = 4096;  // keys filed per product when training
 
 // Column of the smallest ‖c‖² − 2 cᵀk per row of `dots` (rows x cells: kᵀc), the first on ties.
-// Column by column, each a contiguous run the compiler vectorises: row by row read `dots` a
-// column-stride apart (16 KB for a block of keys), the restore of a 10⁵ + 10⁵ merge's most
-// sampled function.
+// Column by column, each a contiguous run: row by row read `dots` a column stride apart
+// (16 KB for a block of keys), the restore of a 10⁵ + 10⁵ merge's most sampled function.
 void NearestPerRow(const Eigen::MatrixXf& dots, const Eigen::VectorXf& centroid_norms,
                    std::vector<int>& out) {
   const Eigen::Index rows = dots.rows();
