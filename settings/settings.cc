@@ -233,6 +233,12 @@ std::vector<ConfigKey> BuildTable() {
       "bubble.patch_px", "side of the resampled d_phi x d_phi image patch", "pixels",
       BubbleSurfaceOptions::kPatchPxRange,
       [](auto& o) -> auto& { return o.pipeline.surface.patch_px; }));
+  t.push_back(Number(
+      "bubble.orientation_blur_deg",
+      "sigma of the Gaussian blur before the orientation gradients (0 = none; 1.25 keeps dim "
+      "revisits legible, not yet adopted: docs/calibration.md, fifteenth pass)",
+      "degrees", BubbleSurfaceOptions::kOrientationBlurDegRange,
+      [](auto& o) -> auto& { return o.pipeline.surface.orientation_blur_deg; }));
   // [descriptor] — (A.3)-(A.7)
   t.push_back(Number(
       "descriptor.harmonics_pan", "H1, harmonics of the Fourier series in pan", "",

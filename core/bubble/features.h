@@ -75,13 +75,16 @@ struct FeatureImages {
   cv::Mat depth;                  ///< CV_32F in [0,1], 0 = no reading
   std::array<cv::Mat, 4> orient;  ///< CV_32F gradient energy along 0°, 45°, 90°, 135°
   /// Buffers ComputeOrientationImages reuses from frame to frame (no meaning outside it).
-  std::array<cv::Mat, 6> gradient_scratch;
+  std::array<cv::Mat, 7> gradient_scratch;
 };
 
 /// Fills `out.orient` from `grey`: per pixel, with (gx, gy) the central-difference gradient
 /// and m its magnitude, the doubled-angle vector m·(cos 2θ, sin 2θ) = ((gx²−gy²), 2gx·gy)/m
 /// split into its four half-wave parts (0°: cos 2θ > 0, 90°: < 0; 45°: sin 2θ > 0, 135°: < 0).
-void ComputeOrientationImages(const cv::Mat& grey, FeatureImages& out);
+/// With `blur_px` > 0 the gradients are taken of `grey` blurred by a Gaussian of that σ
+/// (pixels; borders reflected), so that they follow the scene's edges rather than sensor noise
+/// and compression blocks (docs/calibration.md, fifteenth pass).
+void ComputeOrientationImages(const cv::Mat& grey, FeatureImages& out, double blur_px = 0.0);
 
 /// Computes feature values on square patches of side `patch_px` of a prepared image.
 /// The grating kernels are zero-mean and unit-norm; a response is the magnitude of the

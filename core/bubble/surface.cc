@@ -65,6 +65,7 @@ void BubbleSurfaceOptions::Validate() const {
   kRestRadiusRange.Check("bubble.rest_radius", rest_radius);
   kMaxDepthMRange.Check("bubble.max_depth_m", max_depth_m);
   kPatchPxRange.Check("bubble.patch_px", patch_px);
+  kOrientationBlurDegRange.Check("bubble.orientation_blur_deg", orientation_blur_deg);
 }
 
 BubbleSurface::BubbleSurface(FeatureSet features, CameraIntrinsics camera,
@@ -202,7 +203,12 @@ void BubbleSurface::Observe(const Observation& obs) {
   if (need_grey) {
     cv::cvtColor(scratch_.small_bgr, scratch_.grey8, cv::COLOR_BGR2GRAY);
     scratch_.grey8.convertTo(images.grey, CV_32F, 1.0 / 255.0);
-    if (features_.NeedsOrientation()) ComputeOrientationImages(images.grey, images);
+    if (features_.NeedsOrientation()) {
+      // In resized pixels, where d_phi spans patch_px: the blur is an angle of view whatever
+      // the camera's resolution.
+      const double blur_px = options_.orientation_blur_deg * options_.patch_px / options_.d_phi_deg;
+      ComputeOrientationImages(images.grey, images, blur_px);
+    }
   }
   if (need_hue) {
     // Unit hue vectors weighted by saturation, averaged per patch (circular mean).

@@ -41,11 +41,14 @@ struct BubbleSurfaceOptions {
   float rest_radius = 0.0f;   ///< rho_0, radius of unobserved directions
   double max_depth_m = 10.0;  ///< range that maps to depth feature value 1
   int patch_px = 12;          ///< side of the resampled d_phi x d_phi patch, pixels
+  /// σ of the Gaussian blur before the orientation gradients, degrees of view (0 = none).
+  double orientation_blur_deg = 0.0;
   // Valid ranges (also the configuration's, bubble.*); d_phi_deg must also divide 180.
   static constexpr Range kDPhiDegRange{0, 90, /*min_open=*/true};
   static constexpr Range kRestRadiusRange{0, 1};
   static constexpr Range kMaxDepthMRange{0, 1000, /*min_open=*/true};
   static constexpr Range kPatchPxRange{6, 64};
+  static constexpr Range kOrientationBlurDegRange{0, 10};
   void Validate() const;  ///< throws std::invalid_argument naming the bad field
 };
 

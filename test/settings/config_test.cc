@@ -58,6 +58,7 @@ TEST_F(ConfigTest, TableKeysAreUniqueAndDocumented) {
                                "bubble.rest_radius",
                                "bubble.max_depth_m",
                                "bubble.patch_px",
+                               "bubble.orientation_blur_deg",
                                "descriptor.harmonics_pan",
                                "descriptor.harmonics_tilt",
                                "descriptor.amplitude",

@@ -11,6 +11,7 @@
 #include <vector>
 
 #include "core/bubble/surface.h"
+#include "core/split_mix64.h"
 
 namespace tsc {
 namespace {
@@ -231,6 +232,58 @@ TEST(OrientationShares, DimmerLightKeepsTheRatiosBetweenShares) {
     }
   }
   EXPECT_GT(factor, 0.7f);
+}
+
+// The four orientation shares of a 12-pixel patch at (18, 18) of a 48x48 scene painted with
+// `value(x, y)` under light `gain·q + offset`, with `noise` times a fixed pseudo-random field
+// (SplitMix64 of the pixel index, seed 0x5eed; values in [-1, 1]) added; gradients of the
+// frame blurred by `blur_px`. Returned as proportions (summing to 1), which is what the
+// descriptor's block normalisation keeps of them.
+std::array<double, 4> NoisyOrientationProportions(const std::function<double(int, int)>& value,
+                                                  double gain, double offset, double noise,
+                                                  double blur_px) {
+  constexpr int kSide = 48, kPatch = 12, kCorner = 18;
+  constexpr uint64_t kSeed = 0x5eed;
+  cv::Mat grey(kSide, kSide, CV_32F);
+  for (int y = 0; y < kSide; ++y) {
+    for (int x = 0; x < kSide; ++x) {
+      const uint64_t h = SplitMix64(kSeed + static_cast<uint64_t>(y * kSide + x));
+      const double r = 2.0 * static_cast<double>(h >> 11) / static_cast<double>(1ull << 53) - 1.0;
+      grey.at<float>(y, x) = static_cast<float>(gain * value(x, y) + offset + noise * r);
+    }
+  }
+  FeatureImages images;
+  images.grey = grey;
+  ComputeOrientationImages(grey, images, blur_px);
+  const FeatureSet set(
+      {Feature::kOrient0, Feature::kOrient45, Feature::kOrient90, Feature::kOrient135});
+  std::array<float, 4> q{};
+  PatchFeatureExtractor(kPatch).Compute(set, images, kCorner, kCorner, q.data());
+  const double total = static_cast<double>(q[0] + q[1] + q[2] + q[3]);
+  EXPECT_GT(total, 0.0);
+  std::array<double, 4> p{};
+  for (size_t b = 0; b < 4; ++b) p[b] = static_cast<double>(q[b]) / total;
+  return p;
+}
+
+TEST(OrientationShares, BlurKeepsANoisyDimEdgeLikeItsDaylightView) {
+  // A wall corner (a vertical step) and a fainter horizontal one crossing the patch. At night
+  // (the simulator's dim: gain 0.27, black lifted by 0.09) with sensor noise of ±0.04, the
+  // unblurred shares are noise's four equal ones; blurred over half a patch they keep the
+  // edges' proportions.
+  const auto corner = [](int x, int y) { return 0.3 + 0.4 * (x >= 24) + 0.15 * (y >= 26); };
+  const auto distance = [&corner](double blur_px) {
+    const std::array<double, 4> day = NoisyOrientationProportions(corner, 1.0, 0.0, 0.0, blur_px);
+    const std::array<double, 4> night =
+        NoisyOrientationProportions(corner, 0.27, 0.09, 0.04, blur_px);
+    double d = 0.0;
+    for (size_t b = 0; b < 4; ++b) d += std::abs(day[b] - night[b]);
+    return d;
+  };
+  const double sharp = distance(0.0), blurred = distance(6.0);
+  EXPECT_GT(sharp, 0.3) << "noise should spread the unblurred shares";
+  EXPECT_LT(blurred, 0.5 * sharp) << "sharp " << sharp;
+  EXPECT_THROW(NoisyOrientationProportions(corner, 1.0, 0.0, 0.0, -1.0), std::invalid_argument);
 }
 
 TEST(HuePair, RedDoesNotWrapAndGreyIsNoColour) {
