@@ -268,9 +268,8 @@ std::array<double, 4> NoisyOrientationProportions(const std::function<double(int
 
 TEST(OrientationShares, BlurKeepsANoisyDimEdgeLikeItsDaylightView) {
   // A wall corner (a vertical step) and a fainter horizontal one crossing the patch. At night
-  // (the simulator's dim: gain 0.27, black lifted by 0.09) with sensor noise of ±0.04, the
-  // unblurred shares are noise's four equal ones; blurred over half a patch they keep the
-  // edges' proportions.
+  // (the simulator's dim: gain 0.27, black lifted by 0.09) with sensor noise of ±0.04, noise
+  // fills every unblurred share; blurred over half a patch they keep the edges' proportions.
   const auto corner = [](int x, int y) { return 0.3 + 0.4 * (x >= 24) + 0.15 * (y >= 26); };
   const auto distance = [&corner](double blur_px) {
     const std::array<double, 4> day = NoisyOrientationProportions(corner, 1.0, 0.0, 0.0, blur_px);
