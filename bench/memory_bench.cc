@@ -162,10 +162,12 @@ BENCHMARK(BM_ViewIndexEstimate)->Arg(1000)->Arg(10000)->Unit(benchmark::kMicrose
 // the AVX2 kernel. The argument is the places held: 32 gives the same 32 every time (hot);
 // 2048 (300 MB, ten times the last-level cache) and 10⁴ (1.5 GB, as BM_RecognizeAtDefaultCaps)
 // give 32 of them in a seeded random order, as a shortlist of a large memory falls (cold). The
-// gap is what memory, not arithmetic, costs a recognition.
+// gap is what memory, not arithmetic, costs a recognition. Second argument: the kernel's
+// lanes, 8 (AVX2) or 16 (AVX-512: the same results, core/memory/simd.h).
 void BM_ViewProducts(benchmark::State& state) {
-  if (FastestSimd() != Simd::kAvx2Fma) {
-    state.SkipWithError("no AVX2/FMA on this machine");
+  const Lanes lanes = state.range(1) == 16 ? Lanes::k16 : Lanes::k8;
+  if (FastestSimd() != Simd::kAvx2Fma || (lanes == Lanes::k16 && WidestLanes() != Lanes::k16)) {
+    state.SkipWithError("no AVX2/FMA (or no AVX-512 for 16 lanes) on this machine");
     return;
   }
   constexpr int kVotes = 32, kViews = 32, kShortlist = 32;
@@ -190,15 +192,17 @@ void BM_ViewProducts(benchmark::State& state) {
           c + 1 < kShortlist ? &views[static_cast<size_t>(chosen[static_cast<size_t>(c + 1)])]
                              : nullptr;
       avx2::ColumnDots(votes.data(), kVotes, v.data(), kViews, kDim, out.data(), norms.data(),
-                       next != nullptr ? next->data() : nullptr,
-                       next != nullptr ? next->size() : 0);
+                       next != nullptr ? next->data() : nullptr, next != nullptr ? next->size() : 0,
+                       lanes);
     }
     benchmark::DoNotOptimize(out.data());
   }
   state.counters["multiply_adds"] = static_cast<double>(kVotes) * kViews * kDim * kShortlist;
   state.SetLabel(cold ? "cold: 32 of them at random" : "hot: the same 32");
 }
-BENCHMARK(BM_ViewProducts)->Arg(32)->Arg(2048)->Arg(10000)->Unit(benchmark::kMicrosecond);
+BENCHMARK(BM_ViewProducts)
+    ->ArgsProduct({{32, 2048, 10000}, {8, 16}})
+    ->Unit(benchmark::kMicrosecond);
 
 // Args: places; 0 views as descriptors, 1 in the builtin basis, 2 in the basis with places of
 // WorldInBasis(). Counter `gamma_measured`: the share of the distances γ learning measured

@@ -18,6 +18,18 @@ enum class Simd {
 /// kAvx2Fma where the CPU (and the OS) supports AVX2 and FMA, else kPortable.
 Simd FastestSimd();
 
+/// The width ColumnDots runs at. Each of its outputs is a sum over an 8-lane accumulator, each
+/// lane a fixed sequence of FMAs; 16 lanes run two such accumulators side by side, so both
+/// widths give the same results bit for bit and the width changes only the speed.
+enum class Lanes {
+  k8,   ///< AVX2 and FMA
+  k16,  ///< AVX-512F and AVX-512VL, where the CPU has them
+};
+
+/// k16 where the CPU (and the OS) supports AVX-512F and AVX-512VL as well as AVX2 and FMA,
+/// else k8.
+Lanes WidestLanes();
+
 namespace avx2 {
 
 // Preconditions for every kernel: FastestSimd() == Simd::kAvx2Fma (they throw
@@ -28,8 +40,10 @@ namespace avx2 {
 /// `next` (may be null): `next_floats` floats the caller reads next (the next place's views),
 /// fetched into cache while the products run. Each sum runs over the dimensions in the same
 /// order for every column, so results do not depend on na, nb or a column's position.
+/// `lanes`: k16 only where WidestLanes() names it.
 void ColumnDots(const float* a, int na, const float* b, int nb, int dim, float* out, float* b_norms,
-                const float* next = nullptr, std::ptrdiff_t next_floats = 0);
+                const float* next = nullptr, std::ptrdiff_t next_floats = 0,
+                Lanes lanes = WidestLanes());
 
 /// out[r + j·rows] = Σ_k a[r + k·lda] · q[k + j·dim]: the rows x dim block `a` (leading
 /// dimension lda ≥ rows) times the dim x nq matrix `q`; out is rows x nq.

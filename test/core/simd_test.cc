@@ -46,6 +46,9 @@ TEST(Simd, FastestIsPortableOrAvxAndStaysTheSame) {
   const Simd first = FastestSimd();
   EXPECT_TRUE(first == Simd::kPortable || first == Simd::kAvx2Fma);
   EXPECT_EQ(FastestSimd(), first);
+  // 16 lanes only on top of AVX2 and FMA.
+  EXPECT_TRUE(WidestLanes() == Lanes::k8 || first == Simd::kAvx2Fma);
+  EXPECT_EQ(WidestLanes(), WidestLanes());
 }
 
 // Every block shape and tail: sizes around the kernel's 4 x 3 blocks and 8 lanes.
@@ -84,6 +87,32 @@ TEST_F(AvxKernels, ColumnDotsOfAColumnAreTheSameInEveryBlock) {
       float one = 0.0f;
       avx2::ColumnDots(a.col(i).data(), 1, b.col(j).data(), 1, dim, &one, nullptr);
       EXPECT_EQ(one, all(i, j)) << i << ", " << j;
+    }
+  }
+}
+
+// 16 lanes run the 8-lane sums two at a time: the same floats bit for bit, at every block
+// shape and tail (odd counts of columns, dimensions that are no multiple of 8).
+TEST_F(AvxKernels, ColumnDotsOnSixteenLanesAreTheEightLanesBitForBit) {
+  if (WidestLanes() != Lanes::k16) GTEST_SKIP() << "the CPU has no AVX-512F and VL";
+  for (int dim : {1, 7, 8, 9, 17, 128, 1200}) {
+    for (int na : {1, 2, 3, 4, 5, 9, 12}) {
+      for (int nb : {1, 2, 3, 4, 5, 6, 7, 11, 12, 32}) {
+        const Eigen::MatrixXf a = Random(rng_, dim, na), b = Random(rng_, dim, nb);
+        Eigen::MatrixXf out8(na, nb), out16(na, nb);
+        Eigen::VectorXf norms8(nb), norms16(nb);
+        avx2::ColumnDots(a.data(), na, b.data(), nb, dim, out8.data(), norms8.data(), nullptr, 0,
+                         Lanes::k8);
+        avx2::ColumnDots(a.data(), na, b.data(), nb, dim, out16.data(), norms16.data(), b.data(),
+                         b.size(), Lanes::k16);
+        for (int j = 0; j < nb; ++j) {
+          ASSERT_EQ(norms8[j], norms16[j]) << "dim " << dim << " column " << j;
+          for (int i = 0; i < na; ++i) {
+            ASSERT_EQ(out8(i, j), out16(i, j))
+                << "dim " << dim << ", " << na << " x " << nb << " at " << i << ", " << j;
+          }
+        }
+      }
     }
   }
 }
