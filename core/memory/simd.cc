@@ -195,35 +195,50 @@ TSC_AVX2 void SquaredNorms(const float* b, int dim, float* out) {
   for (int j = 0; j < kB; ++j) out[j] = Sum(acc[j]);
 }
 
+// SquaredNorms of `count` ≤ 3 columns.
+TSC_AVX2 void SquaredNormsOf(const float* b, int count, int dim, float* out) {
+  switch (count) {
+    case 1:
+      return SquaredNorms<1>(b, dim, out);
+    case 2:
+      return SquaredNorms<2>(b, dim, out);
+    default:
+      return SquaredNorms<3>(b, dim, out);
+  }
+}
+
+// The next call's b fetched from memory while this one computes: its cache lines spread over
+// the `blocks` blocks of products, Step() after each.
+class Prefetch {
+ public:
+  Prefetch(const float* next, std::ptrdiff_t next_floats, std::ptrdiff_t blocks)
+      : next_(next),
+        lines_(next == nullptr ? 0 : (next_floats + 15) / 16),
+        per_block_((lines_ + blocks - 1) / blocks) {}
+  void Step() {
+    for (std::ptrdiff_t l = 0; l < per_block_ && line_ < lines_; ++l, ++line_)
+      _mm_prefetch(reinterpret_cast<const char*>(next_ + 16 * line_), _MM_HINT_T1);
+  }
+
+ private:
+  const float* next_;
+  std::ptrdiff_t lines_, per_block_, line_ = 0;
+};
+
 TSC_AVX2 void ColumnDots8(const float* a, int na, const float* b, int nb, int dim, float* out,
                           float* b_norms, const float* next, std::ptrdiff_t next_floats) {
   const std::ptrdiff_t stride = dim;
-  // The next call's b comes from memory while this one computes: its cache lines are spread
-  // over the blocks below.
-  const std::ptrdiff_t blocks = static_cast<std::ptrdiff_t>((nb + 2) / 3) * ((na + 3) / 4);
-  const std::ptrdiff_t lines = next == nullptr ? 0 : (next_floats + 15) / 16;
-  const std::ptrdiff_t per_block = (lines + blocks - 1) / blocks;
-  std::ptrdiff_t line = 0;
+  Prefetch prefetch(next, next_floats, static_cast<std::ptrdiff_t>((nb + 2) / 3) * ((na + 3) / 4));
   // Three columns of b at a time, each against every four of a: the three stay in L1.
   for (int j = 0; j < nb; j += 3) {
-    if (b_norms != nullptr) {
-      switch (std::min(3, nb - j)) {
-        case 1:
-          SquaredNorms<1>(b + j * stride, dim, b_norms + j);
-          break;
-        case 2:
-          SquaredNorms<2>(b + j * stride, dim, b_norms + j);
-          break;
-        default:
-          SquaredNorms<3>(b + j * stride, dim, b_norms + j);
-      }
-    }
+    const int kb = std::min(3, nb - j);
+    if (b_norms != nullptr) SquaredNormsOf(b + j * stride, kb, dim, b_norms + j);
     for (int i = 0; i < na; i += 4) {
       const float* ai = a + i * stride;
       const float* bj = b + j * stride;
       float* o = out + i + static_cast<std::ptrdiff_t>(j) * na;
       const int ka = std::min(4, na - i);
-      switch (std::min(3, nb - j)) {
+      switch (kb) {
         case 1:
           DotRow<1>(ka, ai, bj, dim, o, na);
           break;
@@ -233,8 +248,7 @@ TSC_AVX2 void ColumnDots8(const float* a, int na, const float* b, int nb, int di
         default:
           DotRow<3>(ka, ai, bj, dim, o, na);
       }
-      for (std::ptrdiff_t l = 0; l < per_block && line < lines; ++l, ++line)
-        _mm_prefetch(reinterpret_cast<const char*>(next + 16 * line), _MM_HINT_T1);
+      prefetch.Step();
     }
   }
 }
@@ -337,25 +351,12 @@ TSC_AVX512 void DotRow16(int ka, const float* a, const float* b, bool odd, int d
 TSC_AVX512 void ColumnDots16(const float* a, int na, const float* b, int nb, int dim, float* out,
                              float* b_norms, const float* next, std::ptrdiff_t next_floats) {
   const std::ptrdiff_t stride = dim;
-  const std::ptrdiff_t blocks = static_cast<std::ptrdiff_t>((nb + 5) / 6) * ((na + 3) / 4);
-  const std::ptrdiff_t lines = next == nullptr ? 0 : (next_floats + 15) / 16;
-  const std::ptrdiff_t per_block = (lines + blocks - 1) / blocks;
-  std::ptrdiff_t line = 0;
+  Prefetch prefetch(next, next_floats, static_cast<std::ptrdiff_t>((nb + 5) / 6) * ((na + 3) / 4));
   for (int j = 0; j < nb; j += 6) {
     const int kb = std::min(6, nb - j);
-    if (b_norms != nullptr) {
-      for (int n = 0; n < kb; n += 3) {  // 8-lane norms: the same sums, and cheap
-        switch (std::min(3, kb - n)) {
-          case 1:
-            SquaredNorms<1>(b + (j + n) * stride, dim, b_norms + j + n);
-            break;
-          case 2:
-            SquaredNorms<2>(b + (j + n) * stride, dim, b_norms + j + n);
-            break;
-          default:
-            SquaredNorms<3>(b + (j + n) * stride, dim, b_norms + j + n);
-        }
-      }
+    if (b_norms != nullptr) {  // 8-lane norms: the same sums, and cheap
+      for (int n = 0; n < kb; n += 3)
+        SquaredNormsOf(b + (j + n) * stride, std::min(3, kb - n), dim, b_norms + j + n);
     }
     const bool odd = kb % 2 != 0;
     for (int i = 0; i < na; i += 4) {
@@ -373,8 +374,7 @@ TSC_AVX512 void ColumnDots16(const float* a, int na, const float* b, int nb, int
         default:
           DotRow16<3>(ka, ai, bj, odd, dim, o, na);
       }
-      for (std::ptrdiff_t l = 0; l < per_block && line < lines; ++l, ++line)
-        _mm_prefetch(reinterpret_cast<const char*>(next + 16 * line), _MM_HINT_T1);
+      prefetch.Step();
     }
   }
 }
