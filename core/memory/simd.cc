@@ -8,8 +8,8 @@
 #define TSC_AVX2_KERNELS 1
 #endif
 
-// No Eigen here: this file's functions are compiled for AVX2 and FMA one by one (the target
-// attribute) while the file, like the rest of the build, targets the baseline.
+// No Eigen here: this file's functions are compiled for AVX2 and FMA, or AVX-512, one by one
+// (the target attribute) while the file, like the rest of the build, targets the baseline.
 
 namespace tsc {
 
