@@ -127,7 +127,7 @@ void BM_MergeMemories(benchmark::State& state) {
         peer.places()[static_cast<size_t>(k) * peer.places().size() / static_cast<size_t>(sample)];
     DetectedPlace d;
     d.index = k + 1;
-    d.descriptors = p.samples;
+    d.descriptors = p.samples.Decoded();
     d.members.assign(static_cast<size_t>(p.samples.cols()), 0);
     const Recognition r = relearner.Recognize(d);
     if (r.place) {

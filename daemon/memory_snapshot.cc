@@ -32,9 +32,10 @@ learned_place_t ToMessage(const LearnedPlace& p) {
   m.num_samples = static_cast<int32_t>(p.samples.cols());
   m.view_dims = static_cast<int32_t>(p.samples.rows());
   m.samples.resize(static_cast<size_t>(m.num_samples));
+  const Eigen::MatrixXf views = p.samples.Decoded();
   for (int j = 0; j < m.num_samples; ++j) {
-    const float* col = p.samples.col(j).data();
-    m.samples[static_cast<size_t>(j)].assign(col, col + p.samples.rows());
+    const float* col = views.col(j).data();
+    m.samples[static_cast<size_t>(j)].assign(col, col + views.rows());
   }
   for (const PlaceId& s : p.sources) m.sources.push_back(Ref(s));
   m.num_sources = static_cast<int32_t>(m.sources.size());
@@ -54,9 +55,10 @@ bool SameBody(const LearnedPlace& p, const learned_place_t& m) {
       !same_floats(m.mean.data(), p.mean.data(), m.mean.size())) {
     return false;
   }
+  const Eigen::MatrixXf views = p.samples.Decoded();
   for (int j = 0; j < m.num_samples; ++j) {
     const std::vector<float>& col = m.samples[static_cast<size_t>(j)];
-    if (!same_floats(col.data(), p.samples.col(j).data(), col.size())) return false;
+    if (!same_floats(col.data(), views.col(j).data(), col.size())) return false;
   }
   for (size_t k = 0; k < p.sources.size(); ++k) {
     if (m.sources[k].robot != static_cast<int32_t>(p.sources[k].robot) ||

@@ -58,11 +58,12 @@ PlaceMemory ToPlaceMemory(const PeerSnapshot& snapshot, const PlaceMemoryOptions
     p.id = PlaceId{static_cast<uint32_t>(m.id.robot), static_cast<uint32_t>(m.id.local)};
     p.mean = Eigen::Map<const Eigen::VectorXf>(m.mean.data(), m.dims);
     p.member_count = m.member_count;
-    p.samples.resize(m.view_dims, m.num_samples);
+    Eigen::MatrixXf views(m.view_dims, m.num_samples);
     for (int j = 0; j < m.num_samples; ++j) {
-      p.samples.col(j) =
+      views.col(j) =
           Eigen::Map<const Eigen::VectorXf>(m.samples[static_cast<size_t>(j)].data(), m.view_dims);
     }
+    p.samples = CompactViews(views);
     for (const place_ref_t& s : m.sources) {
       p.sources.push_back(PlaceId{static_cast<uint32_t>(s.robot), static_cast<uint32_t>(s.local)});
     }

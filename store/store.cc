@@ -530,6 +530,8 @@ class Row {
       return out;
     });
     if (!m.allFinite()) Fail(name, "non-finite value");
+    // Member views are kept in 16 bits a coordinate (core/memory/compact_views.h).
+    if (m.size() > 0 && m.cwiseAbs().maxCoeff() >= 0x1p30f) Fail(name, "value beyond 2^30");
     return m;
   }
 
@@ -721,7 +723,7 @@ void UpsertLearnedPlaces(const Db& db, const PlaceMemory& memory, const std::vec
         .Int(3, p.id.local)
         .Blob(4, EncodeVector(p.mean))
         .Int(5, p.member_count)
-        .Blob(6, EncodeSamples(p.samples))
+        .Blob(6, EncodeSamples(p.samples.Decoded()))
         .Blob(7, EncodeArray(std::span<const int64_t>(p.detected)))
         .Blob(8, EncodeArray(std::span<const int64_t>(p.members)))
         .Blob(9, EncodeSources(p.sources))
@@ -902,7 +904,7 @@ std::vector<LearnedPlace> ReadLearnedPlaces(const Db& db) {
                            std::to_string(places.front().mean.size()) + " of position 0");
     }
     p.member_count = row.Int(4, "member_count", 1);
-    p.samples = row.Samples(5, "samples");
+    p.samples = CompactViews(row.Samples(5, "samples"));
     // Their dimension is the view basis' (or the mean's, before views were kept in a basis):
     // Load checks it against the configured basis (PlaceMemory::Restore).
     if (p.samples.rows() == 0 || p.samples.cols() == 0) {

@@ -7,6 +7,7 @@
 #include <vector>
 
 #include "core/detect/place_detector.h"
+#include "core/memory/compact_views.h"
 #include "core/memory/place_id.h"
 
 namespace tsc {
@@ -26,8 +27,9 @@ struct LearnedPlace {
   Eigen::VectorXf mean;      ///< Ī_p over all member base points
   int64_t member_count = 0;  ///< base points averaged into `mean`
   /// dim x k member views (core/memory/member_views.h): descriptors of member base points
-  /// spread over every heading and visit; recognition measures distances to them.
-  Eigen::MatrixXf samples;
+  /// spread over every heading and visit; recognition measures distances to them. Kept in
+  /// 16 bits a coordinate (core/memory/compact_views.h).
+  CompactViews samples;
   std::vector<DetectedPlaceIndex> detected;  ///< detected places that compose it
   std::vector<BaseIndex> members;            ///< member base points (this robot's stream)
   /// Ids of other robots' places merged into this one (core/merge), sorted, without `id`.

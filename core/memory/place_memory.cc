@@ -224,10 +224,10 @@ int PlaceMemory::Learn(const DetectedPlace& d) {
   }
   p.member_count = d.descriptors.cols();
   // Thinning compares every pair: a long place is first spaced evenly to twice the cap.
-  p.samples =
+  p.samples = CompactViews(
       ThinViews(ViewCoordinates(view_basis(),
                                 EvenlySpaced(d.descriptors, 2 * options_.max_samples_per_place)),
-                options_.max_samples_per_place);
+                options_.max_samples_per_place));
   p.detected = {d.index};
   p.members = d.members;
   // γ of (3.12) between the new place and every learned place. Without a basis every γ is
@@ -275,8 +275,8 @@ void PlaceMemory::Update(int place, const DetectedPlace& d) {
   const Eigen::MatrixXf visit =
       ViewCoordinates(view_basis(), EvenlySpaced(d.descriptors, options_.max_samples_per_place));
   Eigen::MatrixXf pool(p.samples.rows(), p.samples.cols() + visit.cols());
-  pool << p.samples, visit;
-  p.samples = ThinViews(pool, options_.max_samples_per_place);
+  pool << p.samples.Decoded(), visit;
+  p.samples = CompactViews(ThinViews(pool, options_.max_samples_per_place));
   p.detected.push_back(d.index);
   p.members.insert(p.members.end(), d.members.begin(), d.members.end());
   StoreDerived(place, place + 1);
@@ -298,11 +298,11 @@ Eigen::MatrixXf PlaceMemory::TrainingSet(int node) const {
   // Column j of the result is sample ⌊j·total/cap⌋ of the node's places in leaf order.
   Eigen::Index offset = 0, j = 0;
   for (int i = nd.first_leaf; i < nd.end_leaf && j < cap; ++i) {
-    const Eigen::MatrixXf& s = places_[leaf_order_[i]].samples;
+    const CompactViews& s = places_[leaf_order_[i]].samples;
     while (j < cap) {
       const Eigen::Index want = j * total / cap;
       if (want >= offset + s.cols()) break;
-      out.col(j++) = s.col(want - offset);
+      out.col(j++) = s.Col(want - offset);
     }
     offset += s.cols();
   }
@@ -366,7 +366,7 @@ void PlaceMemory::StoreDerived(int first, int end) {
   // New places are filed in the index's cells once, at the end (a restore appends them all).
   if (static_cast<size_t>(end) > spacings_.size()) spacings_.resize(static_cast<size_t>(end));
   for (int p = first; p < end; ++p) {
-    ViewSummary views = SummariseViews(places_[p].samples, ViewIndex::kKeysPerPlace - 1);
+    ViewSummary views = SummariseViews(places_[p].samples.Decoded(), ViewIndex::kKeysPerPlace - 1);
     spacings_[static_cast<size_t>(p)] = views.spacing;
     if (p == view_index_.size()) {
       view_index_.Append(ViewCentre(p), views.spread);
@@ -585,7 +585,7 @@ PlaceMemory PlaceMemory::Restore(uint32_t robot, PlaceMemoryOptions options,
     // principal basis for member views").
     for (LearnedPlace& p : places) {
       if (p.samples.rows() == basis->input_dimension() && p.samples.rows() != basis->dimension()) {
-        p.samples = basis->Coordinates(p.samples);
+        p.samples = CompactViews(basis->Coordinates(p.samples.Decoded()));
       }
     }
   }

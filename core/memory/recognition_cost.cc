@@ -76,8 +76,8 @@ bool Coincides(const ViewDistances& vd, const Nearest& best, const Nearest& othe
     if (known != seen.end()) {
       in = known->within;
     } else {
-      const auto a = vd.place(pa).samples.col(va);
-      const auto b = vd.place(pb).samples.col(vb);
+      const Eigen::VectorXf a = vd.place(pa).samples.Col(va);
+      const Eigen::VectorXf b = vd.place(pb).samples.Col(vb);
       in = static_cast<double>((a - b).squaredNorm()) / vd.unit(pa) <= vote_radius;
       seen.push_back({pa, va, pb, vb, in});
     }
@@ -129,7 +129,7 @@ ViewDistances::ViewDistances(const Eigen::MatrixXf& votes, std::vector<const Lea
   std::vector<int> measured;  // the measured places, in increasing order: their columns
   for (size_t p = 0; p < places_.size(); ++p) {
     if (places_[p] == nullptr) continue;
-    const Eigen::MatrixXf& s = places_[p]->samples;
+    const CompactViews& s = places_[p]->samples;
     if (s.rows() != votes.rows() || s.cols() == 0) {
       throw std::invalid_argument("place " + places_[p]->id.ToString() + " has " +
                                   std::to_string(s.cols()) + " views of dimension " +
@@ -147,24 +147,28 @@ ViewDistances::ViewDistances(const Eigen::MatrixXf& votes, std::vector<const Lea
   // fastest (sᵀ·votes packed a row-major sᵀ for every place). The AVX2 kernel reads votes.
   const Eigen::MatrixXf votes_t =
       simd == Simd::kPortable ? Eigen::MatrixXf(votes.transpose()) : Eigen::MatrixXf();
-  auto samples_of = [this, &measured](size_t c) -> const Eigen::MatrixXf& {
+  auto samples_of = [this, &measured](size_t c) -> const CompactViews& {
     return places_[static_cast<size_t>(measured[c])]->samples;
   };
   Eigen::Index most = 0;
   for (size_t c = 0; c < measured.size(); ++c) most = std::max(most, samples_of(c).cols());
   Eigen::MatrixXf dots(n, most);  // votes x views of one place, reused for every place
   Eigen::RowVectorXf view_sq(most);
+  Eigen::MatrixXf views(votes.rows(), most);  // one place's views decoded, reused
   for (size_t c = 0; c < measured.size(); ++c) {
-    const Eigen::MatrixXf& s = samples_of(c);
-    const Eigen::Index k = s.cols();
+    const CompactViews& compact = samples_of(c);
+    const Eigen::Index k = compact.cols();
+    compact.DecodeInto(views.data());
+    const auto s = views.leftCols(k);
     auto xs = dots.leftCols(k);
     if (simd == Simd::kAvx2Fma) {
-      // The next place's views are fetched from memory while this one's products run.
-      const Eigen::MatrixXf* next = c + 1 < measured.size() ? &samples_of(c + 1) : nullptr;
+      // The next place's views are fetched from memory while this one's products run (their
+      // 16-bit integers: `next_floats` counts 4-byte words).
+      const CompactViews* next = c + 1 < measured.size() ? &samples_of(c + 1) : nullptr;
       avx2::ColumnDots(votes.data(), static_cast<int>(n), s.data(), static_cast<int>(k),
                        static_cast<int>(votes.rows()), xs.data(), view_sq.data(),
-                       next != nullptr ? next->data() : nullptr,
-                       next != nullptr ? next->size() : 0);
+                       next != nullptr ? reinterpret_cast<const float*>(next->values()) : nullptr,
+                       next != nullptr ? static_cast<std::ptrdiff_t>(next->bytes() / 4) : 0);
     } else {
       view_sq.head(k) = s.colwise().squaredNorm();
       xs.noalias() = votes_t * s;

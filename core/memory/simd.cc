@@ -412,6 +412,17 @@ TSC_AVX2 void RowDots(const float* a, std::ptrdiff_t lda, int rows, int dim, con
   }
 }
 
+TSC_AVX2 void ScaleInt16(const int16_t* v, std::ptrdiff_t n, float scale, float* out) {
+  const __m256 factor = _mm256_set1_ps(scale);
+  std::ptrdiff_t k = 0;
+  for (; k + 8 <= n; k += 8) {
+    const __m256i w =
+        _mm256_cvtepi16_epi32(_mm_loadu_si128(reinterpret_cast<const __m128i*>(v + k)));
+    _mm256_storeu_ps(out + k, _mm256_mul_ps(_mm256_cvtepi32_ps(w), factor));
+  }
+  for (; k < n; ++k) out[k] = static_cast<float>(v[k]) * scale;
+}
+
 #undef TSC_AVX2
 
 #else  // no AVX2 kernels in this build: FastestSimd() never names them
@@ -423,6 +434,10 @@ void ColumnDots(const float*, int, const float*, int, int, float*, float*, const
 
 void RowDots(const float*, std::ptrdiff_t, int, int, const float*, int, float*) {
   throw std::logic_error("avx2::RowDots: not in this build");
+}
+
+void ScaleInt16(const int16_t*, std::ptrdiff_t, float, float*) {
+  throw std::logic_error("avx2::ScaleInt16: not in this build");
 }
 
 #endif

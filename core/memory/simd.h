@@ -6,6 +6,7 @@
 // sets (Eigen's inline templates would then differ between translation units).
 
 #include <cstddef>
+#include <cstdint>
 
 namespace tsc {
 
@@ -49,6 +50,9 @@ void ColumnDots(const float* a, int na, const float* b, int nb, int dim, float* 
 /// dimension lda ≥ rows) times the dim x nq matrix `q`; out is rows x nq.
 void RowDots(const float* a, std::ptrdiff_t lda, int rows, int dim, const float* q, int nq,
              float* out);
+
+/// out[k] = v[k] · scale for k < n (core/memory/compact_views.h).
+void ScaleInt16(const int16_t* v, std::ptrdiff_t n, float scale, float* out);
 
 }  // namespace avx2
 }  // namespace tsc

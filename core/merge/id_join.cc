@@ -135,12 +135,11 @@ void Absorb(LearnedPlace& target, const LearnedPlace& p, int max_samples) {
     // Nothing to thin (ThinViews would return the pool as it is): p's views are appended in
     // place. Pooling into a new matrix and copying it out again was a quarter of a 10⁴ + 10⁴
     // merge, most of it faulting in fresh pages for the two copies.
-    target.samples.conservativeResize(Eigen::NoChange, pooled);
-    target.samples.rightCols(p.samples.cols()) = p.samples;
+    target.samples.Append(p.samples);
   } else {
     Eigen::MatrixXf both(target.samples.rows(), pooled);
-    both << target.samples, p.samples;
-    target.samples = ThinViews(both, max_samples);
+    both << target.samples.Decoded(), p.samples.Decoded();
+    target.samples = CompactViews(ThinViews(both, max_samples));
   }
   AddSource(target, p.id);
   for (PlaceId s : p.sources) AddSource(target, s);

@@ -14,7 +14,7 @@ double ViewBound(const PlaceMemory& memory, const Eigen::VectorXf& centre) {
   for (size_t i = 0; i < memory.places().size(); ++i) {
     const LearnedPlace& p = memory.places()[i];
     const Eigen::VectorXf& c = memory.ViewCentre(static_cast<int>(i));
-    const double spread = (p.samples.colwise() - c).colwise().norm().maxCoeff();
+    const double spread = (p.samples.Decoded().colwise() - c).colwise().norm().maxCoeff();
     bound = std::max(bound, (p.mean - centre).norm() + spread);
   }
   return bound;

@@ -83,8 +83,9 @@ double RecognitionCost(const PlaceMemory& base, const StarCandidates& star, cons
   // 10⁴ synthetic places: N* of ~156 terminals, 1.6·10⁶ place measurements, 19 s).
   std::vector<const LearnedPlace*> places = star.places;
   std::vector<float> estimates;
+  const Eigen::MatrixXf views = p.samples.Decoded();
   if (base.options().Shortlists(places.size())) {
-    estimates = star.keys.Estimate(ViewIndex::Queries(p.samples));
+    estimates = star.keys.Estimate(ViewIndex::Queries(views));
     std::vector<char> measured(places.size(), 0);
     for (int column : Shortlist(estimates, base.options().shortlist))
       measured[static_cast<size_t>(column)] = 1;
@@ -92,7 +93,7 @@ double RecognitionCost(const PlaceMemory& base, const StarCandidates& star, cons
       if (!measured[column]) places[column] = nullptr;
     }
   }
-  const ViewDistances vd(p.samples, std::move(places), star.units, std::move(estimates));
+  const ViewDistances vd(views, std::move(places), star.units, std::move(estimates));
   const CostTerms t = RecognitionCost(vd, p.mean, star.candidates, base.options().cost);
   if (t.best < 0) {  // no terminal child of N* can absorb p (RecognitionCost)
     *best = -1;

@@ -750,7 +750,7 @@ TEST(MergeMemories, AbsorptionCostsWhatRecognitionCosts) {
   const MemoryMerge dut = MergeMemories(base, incoming);
   ASSERT_EQ(dut.absorbed.size(), 1u);
   DetectedPlace views;
-  views.descriptors = incoming.places()[0].samples;
+  views.descriptors = incoming.places()[0].samples.Decoded();
   const Recognition r = base.Recognize(views);
   ASSERT_TRUE(r.place.has_value());
   // The place recognition picks absorbed the incoming 1:1; the merged place carries the

@@ -366,7 +366,7 @@ TEST(PlaceMemoryViews, UpdateKeepsViewsOfEveryVisit) {
   const DetectedPlace second = views::Visit(room, 2, rng, 100, 200);
   dut.Learn(first);
   dut.Update(0, second);
-  const Eigen::MatrixXf& kept = dut.places()[0].samples;
+  const Eigen::MatrixXf kept = dut.places()[0].samples.Decoded();
   ASSERT_EQ(kept.cols(), dut.options().max_samples_per_place);
   int from_first = 0;
   for (Eigen::Index j = 0; j < kept.cols(); ++j) {

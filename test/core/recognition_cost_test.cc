@@ -33,7 +33,7 @@ LearnedPlace PlaceOf(uint32_t local, Eigen::MatrixXf samples) {
   p.id = PlaceId{1, local};
   p.mean = samples.rowwise().mean();
   p.member_count = samples.cols();
-  p.samples = std::move(samples);
+  p.samples = CompactViews(samples);
   return p;
 }
 
@@ -49,7 +49,7 @@ class ViewDistancesTest : public ::testing::Test {
     std::normal_distribution<float> noise(0.0f, 0.01f);
     votes_ = Views(rng, 13);
     for (int j = 0; j < 13; j += 2) {
-      const Eigen::MatrixXf& s = places_[static_cast<size_t>(j) % places_.size()].samples;
+      const Eigen::MatrixXf s = places_[static_cast<size_t>(j) % places_.size()].samples.Decoded();
       votes_.col(j) = s.col(j % s.cols());
       for (Eigen::Index i = 0; i < kDim; ++i) votes_(i, j) *= 1.0f + noise(rng);
     }
@@ -101,7 +101,7 @@ TEST_F(ViewDistancesTest, NearestViewsEqualBruteForceWithEitherSimd) {
   const ViewDistances fastest(votes_, pointers_, units_, {}, FastestSimd());
   int near = 0;
   for (int p = 0; p < static_cast<int>(places_.size()); ++p) {
-    const Eigen::MatrixXd s = places_[static_cast<size_t>(p)].samples.cast<double>();
+    const Eigen::MatrixXd s = places_[static_cast<size_t>(p)].samples.Decoded().cast<double>();
     for (int j = 0; j < votes_.cols(); ++j) {
       const Eigen::VectorXd x = votes_.col(j).cast<double>();
       const Eigen::RowVectorXd d = (s.colwise() - x).colwise().squaredNorm();
@@ -120,7 +120,7 @@ TEST_F(ViewDistancesTest, NearestViewsEqualBruteForceWithEitherSimd) {
 }
 
 TEST_F(ViewDistancesTest, RejectsViewsOfAnotherDimension) {
-  places_[2].samples = Eigen::MatrixXf::Ones(kDim - 1, 3);
+  places_[2].samples = CompactViews(Eigen::MatrixXf::Ones(kDim - 1, 3));
   EXPECT_THROW(ViewDistances(votes_, pointers_, units_), std::invalid_argument);
   EXPECT_THROW(ViewDistances(votes_, pointers_, units_, {}, Simd::kPortable),
                std::invalid_argument);
@@ -148,7 +148,7 @@ TEST(RecognitionCostTest, RatioSkipsEveryCopyOfTheNearestPlace) {
   places.push_back(PlaceOf(1, offset(votes, unit)));
   is_copy.push_back(0);
   for (int k = 0; k < 20; ++k) {
-    places.push_back(PlaceOf(2 + k, offset(places[0].samples, unit * 0.01 * (1 + k))));
+    places.push_back(PlaceOf(2 + k, offset(places[0].samples.Decoded(), unit * 0.01 * (1 + k))));
     is_copy.push_back(1);
   }
   for (int k = 0; k < 30; ++k) {

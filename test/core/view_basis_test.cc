@@ -168,14 +168,15 @@ TEST(ViewBasis, AMemoryKeptBeforeTheBasisIsTakenIntoItOnRestore) {
       PlaceMemory::Restore(1, options, old.places(), old.slink(), old.next_local_id(), {});
   ASSERT_EQ(restored.places().size(), 5u);
   for (size_t i = 0; i < 5; ++i) {
-    const Eigen::MatrixXf want = options.view_basis->Coordinates(old.places()[i].samples);
-    EXPECT_TRUE(restored.places()[i].samples.isApprox(want));
+    const Eigen::MatrixXf want = options.view_basis->Coordinates(old.places()[i].samples.Decoded());
+    // Kept in 16 bits a coordinate: 2⁻¹² relative at most.
+    EXPECT_TRUE(restored.places()[i].samples.Decoded().isApprox(want, 1e-3f));
     EXPECT_TRUE(restored.ViewCentre(static_cast<int>(i))
                     .isApprox(options.view_basis->Coordinates(old.places()[i].mean)));
   }
   // Views of another dimension than the basis gives cannot be taken in: a clear refusal.
   std::vector<LearnedPlace> odd = restored.places();
-  odd[2].samples = Eigen::MatrixXf::Ones(5, 3);
+  odd[2].samples = CompactViews(Eigen::MatrixXf::Ones(5, 3));
   try {
     PlaceMemory::Restore(1, options, odd, old.slink(), old.next_local_id(), {});
     FAIL() << "restored views of dimension 5 into a basis of 8";

@@ -84,7 +84,7 @@ inline std::vector<std::string> Differences(const Knowledge& a, const Knowledge&
     const std::string at = "place at position " + std::to_string(i) + " (" + p.id.ToString() + ")";
     if (!(p.id == q.id)) out.push_back(at + ": id " + q.id.ToString());
     if (!BitwiseEqual(p.mean, q.mean)) out.push_back(at + ": mean differs");
-    if (!BitwiseEqual(p.samples, q.samples)) out.push_back(at + ": samples differ");
+    if (!(p.samples == q.samples)) out.push_back(at + ": samples differ");
     if (p.member_count != q.member_count) out.push_back(at + ": member count differs");
     if (p.detected != q.detected) out.push_back(at + ": detected places differ");
     if (p.members != q.members) out.push_back(at + ": members differ");

@@ -85,9 +85,9 @@ inline LearnedPlace SyntheticLearnedPlace(uint32_t robot, const SyntheticPlaces&
   lp.id = PlaceId{robot, static_cast<uint32_t>(p + 1)};
   lp.mean = d.Mean();
   lp.member_count = d.descriptors.cols();
-  lp.samples = ViewCoordinates(options.view_basis.get(),
-                               d.descriptors.leftCols(std::min<Eigen::Index>(
-                                   options.max_samples_per_place, d.descriptors.cols())));
+  lp.samples = CompactViews(ViewCoordinates(
+      options.view_basis.get(), d.descriptors.leftCols(std::min<Eigen::Index>(
+                                    options.max_samples_per_place, d.descriptors.cols()))));
   lp.detected = {d.index};
   lp.members = d.members;
   return lp;

@@ -1,0 +1,130 @@
+// Member views in 16 bits a coordinate (core/memory/compact_views.h): every coordinate within
+// 2⁻¹⁵ of the largest, decoding the same on every instruction set, and views that were decoded
+// once encode to the same bits (they travel through the wire, the store and merges).
+
+#include "core/memory/compact_views.h"
+
+#include <gtest/gtest.h>
+
+#include <bit>
+#include <cmath>
+#include <cstdint>
+#include <iostream>
+#include <random>
+#include <stdexcept>
+#include <vector>
+
+#include "core/memory/simd.h"
+
+namespace tsc {
+namespace {
+
+constexpr uint32_t kSeed = 1623;
+
+Eigen::MatrixXf RandomViews(std::mt19937& rng, Eigen::Index rows, Eigen::Index cols, float scale) {
+  std::normal_distribution<float> n(0.0f, scale);
+  Eigen::MatrixXf m(rows, cols);
+  for (Eigen::Index k = 0; k < m.size(); ++k) m.data()[k] = n(rng);
+  return m;
+}
+
+TEST(CompactViews, KeepEveryCoordinateWithinTwoToTheMinusFifteenOfTheLargest) {
+  std::cout << "seed " << kSeed << "\n";
+  std::mt19937 rng(kSeed);
+  for (float scale : {1e-9f, 1e-4f, 0.01f, 1.0f, 3e4f, 1e8f}) {
+    const Eigen::MatrixXf views = RandomViews(rng, 128, 32, scale);
+    const CompactViews compact(views);
+    ASSERT_EQ(compact.rows(), 128);
+    ASSERT_EQ(compact.cols(), 32);
+    EXPECT_EQ(compact.bytes(), 128u * 32u * 2u);
+    const Eigen::MatrixXf back = compact.Decoded();
+    const float most = views.cwiseAbs().maxCoeff();
+    // Rounded to the nearest step of the grid, the step at most 2⁻¹⁴ of the largest.
+    EXPECT_LE((back - views).cwiseAbs().maxCoeff(), most * 0x1p-15f) << "scale " << scale;
+    // Not coarser than it needs: the step is more than 2⁻¹⁶ of the largest.
+    EXPECT_GT((back - views).cwiseAbs().maxCoeff(), most * 0x1p-18f) << "scale " << scale;
+  }
+}
+
+// Decoded views encode to the same bits, however often they travel; the largest coordinate
+// rounding up to the next power of two included.
+TEST(CompactViews, DecodedViewsEncodeToTheSameBits) {
+  std::mt19937 rng(kSeed);
+  int rounded_up = 0;
+  for (int k = 0; k < 300; ++k) {
+    const int e = k % 40 - 20;
+    Eigen::MatrixXf views = RandomViews(rng, 16, 5, std::ldexp(0.1f, e));
+    if (k % 3 == 0) {
+      views(3, 2) = std::ldexp(0.99999f, e);  // rounds up to 2^e on the grid
+      ++rounded_up;
+    }
+    const CompactViews once(views);
+    const CompactViews twice(once.Decoded());
+    ASSERT_EQ(twice, once) << k;
+    if (k % 3 == 0) {
+      ASSERT_EQ(once.Decoded()(3, 2), std::ldexp(1.0f, e)) << k;
+    }
+  }
+  EXPECT_EQ(rounded_up, 100);
+}
+
+// The AVX2 decoding gives the portable one's floats; Col gives the columns of Decoded.
+TEST(CompactViews, DecodingIsTheSameOnEveryInstructionSet) {
+  std::mt19937 rng(kSeed);
+  const CompactViews compact(RandomViews(rng, 37, 7, 0.003f));  // a tail past 8 lanes
+  const Eigen::MatrixXf all = compact.Decoded();
+  for (Eigen::Index j = 0; j < compact.cols(); ++j) {
+    const Eigen::VectorXf col = compact.Col(j);
+    for (Eigen::Index r = 0; r < compact.rows(); ++r) {
+      ASSERT_EQ(std::bit_cast<uint32_t>(col[r]), std::bit_cast<uint32_t>(all(r, j)));
+    }
+  }
+  if (FastestSimd() != Simd::kAvx2Fma) GTEST_SKIP() << "no AVX2 on this CPU";
+  const float scale = 0x1p-20f;
+  std::vector<float> fast(static_cast<size_t>(compact.size()));
+  avx2::ScaleInt16(compact.values(), compact.size(), scale, fast.data());
+  for (Eigen::Index k = 0; k < compact.size(); ++k) {
+    const float want = static_cast<float>(compact.values()[k]) * scale;
+    ASSERT_EQ(std::bit_cast<uint32_t>(fast[static_cast<size_t>(k)]), std::bit_cast<uint32_t>(want));
+  }
+}
+
+TEST(CompactViews, AppendingKeepsEveryView) {
+  std::mt19937 rng(kSeed);
+  const Eigen::MatrixXf a = RandomViews(rng, 12, 3, 0.01f), b = RandomViews(rng, 12, 4, 0.01f),
+                        c = RandomViews(rng, 12, 2, 50.0f);  // another power of two
+  CompactViews ab(a);
+  ab.Append(CompactViews(b));
+  ASSERT_EQ(ab.cols(), 7);
+  if (ab == CompactViews(Eigen::MatrixXf(ab.Decoded()))) {  // one power of two: appended as is
+    EXPECT_EQ(ab.Decoded().leftCols(3), CompactViews(a).Decoded());
+    EXPECT_EQ(ab.Decoded().rightCols(4), CompactViews(b).Decoded());
+  }
+  EXPECT_TRUE(ab.Decoded().leftCols(3).isApprox(a, 1e-3f));
+  EXPECT_TRUE(ab.Decoded().rightCols(4).isApprox(b, 1e-3f));
+  CompactViews abc = ab;
+  abc.Append(CompactViews(c));
+  ASSERT_EQ(abc.cols(), 9);
+  EXPECT_TRUE(abc.Decoded().rightCols(2).isApprox(c, 1e-3f));
+  EXPECT_LE((abc.Decoded().leftCols(7) - ab.Decoded()).cwiseAbs().maxCoeff(),
+            abc.Decoded().cwiseAbs().maxCoeff() * 0x1p-15f);
+  CompactViews empty;
+  empty.Append(CompactViews(a));
+  EXPECT_EQ(empty, CompactViews(a));
+  EXPECT_THROW(ab.Append(CompactViews(Eigen::MatrixXf::Ones(5, 1))), std::invalid_argument);
+}
+
+TEST(CompactViews, RefusesWhatItCannotKeep) {
+  Eigen::MatrixXf views = Eigen::MatrixXf::Ones(4, 2);
+  views(1, 1) = NAN;
+  EXPECT_THROW(CompactViews{views}, std::invalid_argument);
+  views(1, 1) = INFINITY;
+  EXPECT_THROW(CompactViews{views}, std::invalid_argument);
+  views(1, 1) = 0x1p31f;
+  EXPECT_THROW(CompactViews{views}, std::invalid_argument);
+  EXPECT_EQ(CompactViews(Eigen::MatrixXf::Zero(3, 3)).Decoded(), Eigen::MatrixXf::Zero(3, 3));
+  EXPECT_THROW(CompactViews(Eigen::MatrixXf::Ones(4, 2)).Col(2), std::out_of_range);
+}
+
+}  // namespace
+}  // namespace tsc
