@@ -1,7 +1,8 @@
 // tscd_footprint: what a learned memory of N places costs tscd in RAM and on disk (issue 23,
 // deliver 3; DESIGN §8: RSS ≤ 200 MB at 10⁴ places). A whole-program measurement, not a
 // Google Benchmark: a store holding N synthetic places (test/support/synthetic_places.h, the
-// descriptor dimension of the default features, 12 member views each) is written, the real
+// descriptor dimension of the default features, as many member views as a place keeps at
+// most, 32, unless --members says otherwise) is written, the real
 // tscd binary is started on it (sim camera at 1 frame/s, LCM on memq://, so nothing leaves
 // the process), and once it has loaded the memory, announced and built its first snapshot
 // the report gives its resident set (VmRSS, and the peak VmHWM) and the database size, in
@@ -81,7 +82,9 @@ int Main(int argc, char** argv) {
   if (!args) return 2;
   const int places = static_cast<int>(NumberArg(*args, "places", 10000));
   const int dim = static_cast<int>(NumberArg(*args, "dim", 1200));
-  const int members = static_cast<int>(NumberArg(*args, "members", 12));
+  // A place of a long-lived memory holds the cap (memory.max_samples_per_place).
+  const int members =
+      static_cast<int>(NumberArg(*args, "members", PlaceMemoryOptions{}.max_samples_per_place));
   const double settle_s = NumberArg(*args, "settle-s", 15);
   const std::string out = args->count("out") ? args->at("out") : "";
   if (places < 1 || dim < 1 || members < 1) {

@@ -26,7 +26,7 @@ namespace {
 // Schema. kMigrations[v] takes a database from version v to v + 1; a step that has shipped is
 // never edited, a change is a new step appended here.
 
-constexpr std::array<const char*, 3> kMigrations = {
+constexpr std::array<const char*, 4> kMigrations = {
     // Version 1: the initial schema, after appendix D.2.
     R"sql(
 CREATE TABLE meta(key TEXT PRIMARY KEY, value) WITHOUT ROWID;
@@ -99,6 +99,12 @@ ALTER TABLE learned_places ADD COLUMN sources BLOB NOT NULL DEFAULT x'';
     // only when its digest changes).
     R"sql(
 ALTER TABLE peers ADD COLUMN digest INTEGER NOT NULL DEFAULT 0;
+)sql",
+    // Version 4: learned_places.samples written as 16-bit views (EncodeSamples); rows of the
+    // float32 layout are still read. No table changes: the version keeps an older tscd from
+    // reading views it cannot decode.
+    R"sql(
+SELECT 1;
 )sql",
 };
 static_assert(static_cast<int>(kMigrations.size()) == Store::kSchemaVersion);
@@ -240,10 +246,19 @@ Bytes EncodeVector(const Eigen::VectorXf& v) {
   return EncodeArray(std::span<const float>(v.data(), static_cast<size_t>(v.size())));
 }
 
-Bytes EncodeSamples(const Eigen::MatrixXf& m) {
+// Member views as the memory keeps them (core/memory/compact_views.h): the marker
+// kCompactSamples, int32 rows, int32 cols, int32 shift, then rows x cols int16 column-major.
+// Schema versions before 4 wrote int32 rows, int32 cols and float32 values (a row count is
+// never negative, so the marker tells the layouts apart); both are read.
+constexpr int32_t kCompactSamples = -1;
+
+Bytes EncodeSamples(const CompactViews& v) {
   BlobWriter w;
-  w.PutOne(static_cast<int32_t>(m.rows())).PutOne(static_cast<int32_t>(m.cols()));
-  w.Put(std::span<const float>(m.data(), static_cast<size_t>(m.size())));
+  w.PutOne(kCompactSamples)
+      .PutOne(static_cast<int32_t>(v.rows()))
+      .PutOne(static_cast<int32_t>(v.cols()))
+      .PutOne(static_cast<int32_t>(v.shift()));
+  w.Put(std::span<const int16_t>(v.values(), static_cast<size_t>(v.size())));
   return w.Finish();
 }
 
@@ -511,28 +526,50 @@ class Row {
     if (!m.allFinite()) Fail(name, "non-finite value");
     return m;
   }
-  /// The samples layout: int32 rows, int32 cols, then rows x cols float32 column-major.
-  Eigen::MatrixXf Samples(int col, const char* name) const {
-    Eigen::MatrixXf m = Decode(col, name, [](BlobReader& r) {
-      const int32_t rows = r.TakeOne<int32_t>(), cols = r.TakeOne<int32_t>();
+  /// Member views in either layout of EncodeSamples.
+  CompactViews Samples(int col, const char* name) const {
+    // Sizes are checked before anything of rows x cols is allocated.
+    const auto count_of = [](BlobReader& r, int32_t rows, int32_t cols, size_t value_bytes) {
       if (rows < 0 || cols < 0) {
         throw BlobError("negative size " + std::to_string(rows) + " x " + std::to_string(cols));
       }
       const uint64_t count = uint64_t{static_cast<uint32_t>(rows)} * static_cast<uint32_t>(cols);
-      if (count > r.remaining() / sizeof(float)) {
-        throw BlobError(std::to_string(rows) + " x " + std::to_string(cols) + " floats need " +
-                        std::to_string(count * sizeof(float)) + " bytes, " +
+      if (count > r.remaining() / value_bytes) {
+        throw BlobError(std::to_string(rows) + " x " + std::to_string(cols) + " values need " +
+                        std::to_string(count * value_bytes) + " bytes, " +
                         std::to_string(r.remaining()) + " left");
       }
-      Eigen::MatrixXf out(rows, cols);
-      r.TakeInto(out.data(), static_cast<size_t>(count));
-      r.ExpectEnd();
-      return out;
+      return static_cast<size_t>(count);
+    };
+    std::optional<CompactViews> compact;
+    Eigen::MatrixXf floats;
+    Decode(col, name, [&](BlobReader& r) {
+      const int32_t first = r.TakeOne<int32_t>();
+      if (first == kCompactSamples) {
+        const int32_t rows = r.TakeOne<int32_t>(), cols = r.TakeOne<int32_t>();
+        const int32_t shift = r.TakeOne<int32_t>();
+        std::vector<int16_t> values = r.Take<int16_t>(count_of(r, rows, cols, sizeof(int16_t)));
+        r.ExpectEnd();
+        try {
+          compact.emplace(rows, cols, shift, std::move(values));
+        } catch (const std::invalid_argument& e) {
+          throw BlobError(e.what());
+        }
+      } else {
+        const int32_t cols = r.TakeOne<int32_t>();
+        const size_t count = count_of(r, first, cols, sizeof(float));
+        floats.resize(first, cols);
+        r.TakeInto(floats.data(), count);
+        r.ExpectEnd();
+      }
+      return 0;
     });
-    if (!m.allFinite()) Fail(name, "non-finite value");
-    // Member views are kept in 16 bits a coordinate (core/memory/compact_views.h).
-    if (m.size() > 0 && m.cwiseAbs().maxCoeff() >= 0x1p30f) Fail(name, "value beyond 2^30");
-    return m;
+    if (compact) return *std::move(compact);
+    if (!floats.allFinite()) Fail(name, "non-finite value");
+    if (floats.size() > 0 && floats.cwiseAbs().maxCoeff() >= 0x1p30f) {
+      Fail(name, "value beyond 2^30");
+    }
+    return CompactViews(floats);
   }
 
  private:
@@ -723,7 +760,7 @@ void UpsertLearnedPlaces(const Db& db, const PlaceMemory& memory, const std::vec
         .Int(3, p.id.local)
         .Blob(4, EncodeVector(p.mean))
         .Int(5, p.member_count)
-        .Blob(6, EncodeSamples(p.samples.Decoded()))
+        .Blob(6, EncodeSamples(p.samples))
         .Blob(7, EncodeArray(std::span<const int64_t>(p.detected)))
         .Blob(8, EncodeArray(std::span<const int64_t>(p.members)))
         .Blob(9, EncodeSources(p.sources))
@@ -904,7 +941,7 @@ std::vector<LearnedPlace> ReadLearnedPlaces(const Db& db) {
                            std::to_string(places.front().mean.size()) + " of position 0");
     }
     p.member_count = row.Int(4, "member_count", 1);
-    p.samples = CompactViews(row.Samples(5, "samples"));
+    p.samples = row.Samples(5, "samples");
     // Their dimension is the view basis' (or the mean's, before views were kept in a basis):
     // Load checks it against the configured basis (PlaceMemory::Restore).
     if (p.samples.rows() == 0 || p.samples.cols() == 0) {

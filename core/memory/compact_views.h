@@ -21,6 +21,11 @@ class CompactViews {
   /// Throws std::invalid_argument when a coordinate is not finite or its magnitude is 2³⁰
   /// or more (descriptor coordinates are below 1).
   explicit CompactViews(const Eigen::MatrixXf& views);
+  /// Views as stored (store/): rows x cols `values` column-major, a coordinate value · 2^−shift.
+  /// Throws std::invalid_argument unless they are what encoding some views gives: the sizes
+  /// agree, and the largest |value| lies in [2¹⁴, 2¹⁵) (or every value is 0 with shift 0), with
+  /// shift in [−15, 140] (at 140, of views below 2⁻¹²⁵, any largest value below 2¹⁵).
+  CompactViews(Eigen::Index rows, Eigen::Index cols, int shift, std::vector<int16_t> values);
 
   Eigen::Index rows() const { return rows_; }
   Eigen::Index cols() const { return cols_; }
@@ -30,11 +35,14 @@ class CompactViews {
   Eigen::MatrixXf Decoded() const;
   /// Column j as floats. Precondition: 0 ≤ j < cols().
   Eigen::VectorXf Col(Eigen::Index j) const;
+  /// Writes the rows() floats of Col(j) to `out`, allocating nothing.
+  void DecodeColInto(Eigen::Index j, float* out) const;
   /// Writes the size() floats of Decoded(), column-major, to `out`.
   void DecodeInto(float* out) const;
 
   /// The stored integers (for prefetching) and the bytes they take.
   const int16_t* values() const { return values_.data(); }
+  int shift() const { return shift_; }
   std::size_t bytes() const { return values_.size() * sizeof(int16_t); }
 
   /// Appends the columns of `more` (of the same rows, or to an empty matrix): the integers as

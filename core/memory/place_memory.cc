@@ -302,7 +302,7 @@ Eigen::MatrixXf PlaceMemory::TrainingSet(int node) const {
     while (j < cap) {
       const Eigen::Index want = j * total / cap;
       if (want >= offset + s.cols()) break;
-      out.col(j++) = s.Col(want - offset);
+      s.DecodeColInto(want - offset, out.col(j++).data());
     }
     offset += s.cols();
   }

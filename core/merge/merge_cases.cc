@@ -11,10 +11,13 @@ namespace {
 // space of the views (a view basis shortens distances, never lengthens them).
 double ViewBound(const PlaceMemory& memory, const Eigen::VectorXf& centre) {
   double bound = 0.0;
+  Eigen::MatrixXf views;  // one place's, decoded; reused
   for (size_t i = 0; i < memory.places().size(); ++i) {
     const LearnedPlace& p = memory.places()[i];
     const Eigen::VectorXf& c = memory.ViewCentre(static_cast<int>(i));
-    const double spread = (p.samples.Decoded().colwise() - c).colwise().norm().maxCoeff();
+    views.resize(p.samples.rows(), p.samples.cols());
+    p.samples.DecodeInto(views.data());
+    const double spread = (views.colwise() - c).colwise().norm().maxCoeff();
     bound = std::max(bound, (p.mean - centre).norm() + spread);
   }
   return bound;

@@ -114,6 +114,31 @@ TEST(CompactViews, AppendingKeepsEveryView) {
   EXPECT_THROW(ab.Append(CompactViews(Eigen::MatrixXf::Ones(5, 1))), std::invalid_argument);
 }
 
+// The store keeps views as their parts: the parts of an encoding give it back, and parts no
+// encoding gives are refused (a decoded copy of them would not encode to the same bits).
+TEST(CompactViews, FromTheirPartsOnlyWhatEncodingGives) {
+  std::mt19937 rng(kSeed);
+  const CompactViews views(RandomViews(rng, 9, 4, 0.02f));
+  const std::vector<int16_t> values(views.values(), views.values() + views.size());
+  EXPECT_EQ(CompactViews(9, 4, views.shift(), values), views);
+  EXPECT_EQ(CompactViews(2, 1, 0, {0, 0}), CompactViews(Eigen::MatrixXf::Zero(2, 1)));
+  EXPECT_THROW(CompactViews(9, 3, views.shift(), values), std::invalid_argument);  // sizes
+  EXPECT_THROW(CompactViews(1, 1, 3, {5}), std::invalid_argument);                 // too small
+  EXPECT_THROW(CompactViews(1, 1, 3, {-32768}), std::invalid_argument);            // too large
+  EXPECT_THROW(CompactViews(1, 1, -16, {20000}), std::invalid_argument);           // 2^30 up
+  EXPECT_THROW(CompactViews(2, 1, 7, {0, 0}), std::invalid_argument);              // zero, shifted
+  EXPECT_EQ(CompactViews(1, 1, 0, {20000}).Decoded()(0, 0), 20000.0f);
+}
+
+// Views too small for the grid of the largest shift keep what the grid holds, exactly again.
+TEST(CompactViews, TinyViewsRoundTripAtTheLargestShift) {
+  const Eigen::MatrixXf tiny = Eigen::MatrixXf::Constant(3, 2, 1e-40f);
+  const CompactViews once(tiny);
+  EXPECT_EQ(once.shift(), 140);
+  EXPECT_NEAR(once.Decoded()(0, 0), 1e-40f, 0x1p-141f);
+  EXPECT_EQ(CompactViews(once.Decoded()), once);
+}
+
 TEST(CompactViews, RefusesWhatItCannotKeep) {
   Eigen::MatrixXf views = Eigen::MatrixXf::Ones(4, 2);
   views(1, 1) = NAN;

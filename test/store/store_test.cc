@@ -7,8 +7,10 @@
 
 #include <algorithm>
 #include <array>
+#include <bit>
 #include <chrono>
 #include <filesystem>
+#include <optional>
 #include <random>
 #include <set>
 #include <string>
@@ -212,6 +214,19 @@ class StoreTest : public ::testing::Test {
     return Pipeline(Camera(), Options(), std::move(s.memory), std::move(s.map), s.pipeline);
   }
 
+  /// Writes a store at path_ whose robot went through three rooms and the first again (rooms
+  /// of `seed`), and returns the memory it learned.
+  PlaceMemory WriteThreeRoomsAndARevisit(uint32_t seed) {
+    Stream stream(seed);
+    for (int c = 0; c < 3; ++c) stream.AddCluster();
+    Committed committed;
+    Store dut = Store::Open(path_);
+    Pipeline pipeline = Continue(dut);
+    for (int c : {0, 1, 2, 0}) Feed(pipeline, dut, stream.Visit(c, 14), committed);
+    Finish(pipeline, dut, committed);
+    return pipeline.memory();
+  }
+
   testing_support::TempDir temp_;
   fs::path dir_;
   fs::path path_;
@@ -370,8 +385,8 @@ TEST_F(StoreTest, RecommittingAResultIsHarmless) {
 
 TEST_F(StoreTest, NewDatabaseHasTheCurrentSchemaVersionAndAnEmptyMemory) {
   Store dut = Store::Open(path_);
-  EXPECT_EQ(dut.schema_version(), 3);
-  EXPECT_EQ(Store::kSchemaVersion, 3);
+  EXPECT_EQ(dut.schema_version(), 4);
+  EXPECT_EQ(Store::kSchemaVersion, 4);
   EXPECT_EQ(dut.path(), path_);
   const StoredState loaded = dut.Load(kRobot, Options().memory);
   EXPECT_TRUE(loaded.memory.empty());
@@ -380,7 +395,7 @@ TEST_F(StoreTest, NewDatabaseHasTheCurrentSchemaVersionAndAnEmptyMemory) {
   ExpectSameState(PipelineState{}, loaded.pipeline);
   // Reopening an up-to-date database changes nothing.
   Store again = Store::Open(path_);
-  EXPECT_EQ(again.schema_version(), 3);
+  EXPECT_EQ(again.schema_version(), 4);
   EXPECT_EQ(Sql(path_, "SELECT COUNT(*) FROM schema_version"), 1);
 }
 
@@ -402,15 +417,15 @@ TEST_F(StoreTest, OpenExistingRefusesAMissingDatabaseAndCreatesNothing) {
 
 TEST_F(StoreTest, OpenRefusesANewerSchemaVersion) {
   { Store::Open(path_); }
-  Sql(path_, "UPDATE schema_version SET version = 4");
+  Sql(path_, "UPDATE schema_version SET version = 5");
   try {
     Store::Open(path_);
-    FAIL() << "a database of schema version 4 was opened";
+    FAIL() << "a database of schema version 5 was opened";
   } catch (const StoreError& e) {
     const std::string what = e.what();
     EXPECT_NE(what.find(path_.string()), std::string::npos) << what;
+    EXPECT_NE(what.find("version 5"), std::string::npos) << what;
     EXPECT_NE(what.find("version 4"), std::string::npos) << what;
-    EXPECT_NE(what.find("version 3"), std::string::npos) << what;
   }
 }
 
@@ -436,28 +451,86 @@ TEST_F(StoreTest, AssignmentsListDetectedPlacesWithTheirPlaceAndMembers) {
 }
 
 TEST_F(StoreTest, MigratesAVersionOneDatabaseKeepingItsKnowledge) {
-  Stream stream(23);
-  for (int c = 0; c < 3; ++c) stream.AddCluster();
-  Committed committed;
-  std::optional<PlaceMemory> memory;
-  {
-    Store dut = Store::Open(path_);
-    Pipeline pipeline = Continue(dut);
-    for (int c : {0, 1, 2, 0}) Feed(pipeline, dut, stream.Visit(c, 14), committed);
-    Finish(pipeline, dut, committed);
-    memory = pipeline.memory();
-  }
-  ASSERT_GE(memory->places().size(), 2u);
+  const PlaceMemory memory = WriteThreeRoomsAndARevisit(23);
+  ASSERT_GE(memory.places().size(), 2u);
   // Turn it into what version 1 wrote: no sources column.
   Sql(path_, "ALTER TABLE learned_places DROP COLUMN sources");
   Sql(path_, "ALTER TABLE peers DROP COLUMN digest");
   Sql(path_, "UPDATE schema_version SET version = 1");
   Store dut = Store::Open(path_);
-  EXPECT_EQ(dut.schema_version(), 3);
+  EXPECT_EQ(dut.schema_version(), 4);
   EXPECT_TRUE(dut.LoadPeers().empty());
   const StoredState loaded = dut.Load(kRobot, Options().memory);
-  ExpectSameMemory(*memory, loaded.memory);
+  ExpectSameMemory(memory, loaded.memory);
   for (const LearnedPlace& p : loaded.memory.places()) EXPECT_TRUE(p.sources.empty());
+}
+
+// The float32 layout of member views that schema versions 1-3 wrote (int32 rows, int32 cols,
+// float32 column-major) as an SQL blob literal.
+std::string Float32SamplesLiteral(const Eigen::MatrixXf& views) {
+  std::vector<unsigned char> bytes(8 + static_cast<size_t>(views.size()) * 4);
+  const auto put = [&bytes](size_t at, uint32_t word) {
+    for (int b = 0; b < 4; ++b) bytes[at + b] = static_cast<unsigned char>(word >> (8 * b));
+  };
+  put(0, static_cast<uint32_t>(views.rows()));
+  put(4, static_cast<uint32_t>(views.cols()));
+  for (Eigen::Index k = 0; k < views.size(); ++k) {
+    put(8 + static_cast<size_t>(k) * 4, std::bit_cast<uint32_t>(views.data()[k]));
+  }
+  std::string hex = "X'";
+  for (unsigned char c : bytes) {
+    constexpr char kDigits[] = "0123456789abcdef";
+    hex += kDigits[c >> 4];
+    hex += kDigits[c & 15];
+  }
+  return hex + "'";
+}
+
+// A store of schema version 3 holds member views as float32: they are read, and kept in 16 bits
+// they are the views the memory had (decoded views encode to the same bits).
+TEST_F(StoreTest, ReadsMemberViewsOfTheFloat32Layout) {
+  const PlaceMemory memory = WriteThreeRoomsAndARevisit(37);
+  ASSERT_GE(memory.places().size(), 2u);
+  for (size_t i = 0; i < memory.places().size(); ++i) {
+    Sql(path_, "UPDATE learned_places SET samples = " +
+                   Float32SamplesLiteral(memory.places()[i].samples.Decoded()) +
+                   " WHERE position = " + std::to_string(i));
+  }
+  Sql(path_, "UPDATE schema_version SET version = 3");
+  EXPECT_EQ(Sql(path_,
+                "SELECT COUNT(*) FROM learned_places WHERE substr(samples, 1, 4) = "
+                "X'ffffffff'"),
+            0);
+  Store dut = Store::Open(path_);
+  EXPECT_EQ(dut.schema_version(), 4);
+  ExpectSameMemory(memory, dut.Load(kRobot, Options().memory).memory);
+}
+
+// Views that encoding could not have given are refused with the column named, not decoded.
+TEST_F(StoreTest, RefusesMemberViewsThatAreNotAnEncoding) {
+  Stream stream(41);
+  stream.AddCluster();
+  Committed committed;
+  {
+    Store dut = Store::Open(path_);
+    Pipeline pipeline = Continue(dut);
+    Feed(pipeline, dut, stream.Visit(0, 14), committed);
+    Finish(pipeline, dut, committed);
+  }
+  ASSERT_GE(Sql(path_, "SELECT COUNT(*) FROM learned_places"), 1);
+  // Marker, 1 x 1 view, shift 3, value 5: the largest value must lie in [2^14, 2^15).
+  Sql(path_,
+      "UPDATE learned_places SET samples = X'ffffffff0100000001000000030000000500' "
+      "WHERE position = 0");
+  Store dut = Store::Open(path_);
+  try {
+    dut.Load(kRobot, Options().memory);
+    FAIL() << "loaded views that are not an encoding";
+  } catch (const StoreError& e) {
+    const std::string what = e.what();
+    EXPECT_NE(what.find("samples"), std::string::npos) << what;
+    EXPECT_NE(what.find("not what encoding views gives"), std::string::npos) << what;
+  }
 }
 
 TEST_F(StoreTest, ReplaceKnowledgeRoundTripsMergedPlacesAndMap) {
