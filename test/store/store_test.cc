@@ -1001,15 +1001,7 @@ TEST_F(StoreTest, ASpillTakenInEqualsResultsCommittedOneByOne) {
 
 // The crash tests' comparison sees one bit of one mean, one traversal and one merged version.
 TEST_F(StoreTest, StructuralComparisonNamesTheSmallestDifference) {
-  Stream stream(43);
-  for (int c = 0; c < 3; ++c) stream.AddCluster();
-  Committed committed;
-  {
-    Store dut = Store::Open(path_);
-    Pipeline pipeline = Continue(dut);
-    for (int c : {0, 1, 2, 0}) Feed(pipeline, dut, stream.Visit(c, 14), committed);
-    Finish(pipeline, dut, committed);
-  }
+  WriteThreeRoomsAndARevisit(43);
   const auto a = testing_support::LoadKnowledge(path_, kRobot, Options().memory);
   ASSERT_GE(a.state.memory.places().size(), 2u);
   EXPECT_EQ(testing_support::DescribeDifferences(
