@@ -541,35 +541,27 @@ class Row {
       }
       return static_cast<size_t>(count);
     };
-    std::optional<CompactViews> compact;
-    Eigen::MatrixXf floats;
-    Decode(col, name, [&](BlobReader& r) {
-      const int32_t first = r.TakeOne<int32_t>();
-      if (first == kCompactSamples) {
-        const int32_t rows = r.TakeOne<int32_t>(), cols = r.TakeOne<int32_t>();
-        const int32_t shift = r.TakeOne<int32_t>();
-        std::vector<int16_t> values = r.Take<int16_t>(count_of(r, rows, cols, sizeof(int16_t)));
-        r.ExpectEnd();
-        try {
-          compact.emplace(rows, cols, shift, std::move(values));
-        } catch (const std::invalid_argument& e) {
-          throw BlobError(e.what());
+    return Decode(col, name, [&](BlobReader& r) {
+      try {
+        const int32_t first = r.TakeOne<int32_t>();
+        if (first == kCompactSamples) {
+          const int32_t rows = r.TakeOne<int32_t>(), cols = r.TakeOne<int32_t>();
+          const int32_t shift = r.TakeOne<int32_t>();
+          std::vector<int16_t> values = r.Take<int16_t>(count_of(r, rows, cols, sizeof(int16_t)));
+          r.ExpectEnd();
+          return CompactViews(rows, cols, shift, std::move(values));
         }
-      } else {
         const int32_t cols = r.TakeOne<int32_t>();
         const size_t count = count_of(r, first, cols, sizeof(float));
-        floats.resize(first, cols);
+        Eigen::MatrixXf floats(first, cols);
         r.TakeInto(floats.data(), count);
         r.ExpectEnd();
+        if (!floats.allFinite()) throw BlobError("non-finite value");
+        return CompactViews(floats);
+      } catch (const std::invalid_argument& e) {  // views no encoding gives, or too large
+        throw BlobError(e.what());
       }
-      return 0;
     });
-    if (compact) return *std::move(compact);
-    if (!floats.allFinite()) Fail(name, "non-finite value");
-    if (floats.size() > 0 && floats.cwiseAbs().maxCoeff() >= 0x1p30f) {
-      Fail(name, "value beyond 2^30");
-    }
-    return CompactViews(floats);
   }
 
  private:
