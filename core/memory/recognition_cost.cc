@@ -3,8 +3,10 @@
 #include <algorithm>
 #include <cmath>
 #include <limits>
+#include <span>
 #include <stdexcept>
 #include <string>
+#include <vector>
 
 #include "core/memory/member_views.h"
 #include "core/memory/simd.h"
@@ -18,27 +20,53 @@ double Median(std::vector<double>& v) {
   return *mid;
 }
 
-// Per vote point: the nearest view of candidate `c` (its distance and place).
+// Per vote point: the nearest view of a candidate (its distance and place), viewed in the
+// rows of a NearestTable.
 struct Nearest {
-  std::vector<double> distance;
-  std::vector<int> place;
+  std::span<const double> distance;
+  std::span<const int> place;
 };
 
-Nearest NearestIn(const ViewDistances& vd, const CostCandidate& c) {
-  const int n = vd.num_votes();
-  Nearest out{std::vector<double>(static_cast<size_t>(n), std::numeric_limits<double>::infinity()),
-              std::vector<int>(static_cast<size_t>(n), -1)};
-  for (int p : c.places) {
-    if (!vd.measured(p)) continue;  // infinitely far: never nearer
-    for (int j = 0; j < n; ++j) {
-      const double d = vd.distance(j, p);
-      if (d < out.distance[static_cast<size_t>(j)]) {
-        out.distance[static_cast<size_t>(j)] = d;
-        out.place[static_cast<size_t>(j)] = p;
+// The Nearest of every child with a measured place, one row each in two flat arrays: a
+// merge's recognition measures dozens of children per level, and two vectors a child were a
+// tenth of a 10⁴ + 10⁴ merge in the allocator.
+class NearestTable {
+ public:
+  explicit NearestTable(int votes) : n_(static_cast<size_t>(votes)) {}
+  size_t size() const { return place_.size() / std::max<size_t>(n_, 1); }
+  Nearest operator[](size_t row) const {
+    return {std::span<const double>(distance_).subspan(row * n_, n_),
+            std::span<const int>(place_).subspan(row * n_, n_)};
+  }
+  // Appends the row of candidate `c`.
+  void Add(const ViewDistances& vd, const CostCandidate& c) {
+    const size_t row = size() * n_;
+    distance_.resize(row + n_, std::numeric_limits<double>::infinity());
+    place_.resize(row + n_, -1);
+    double* distance = distance_.data() + row;
+    int* place = place_.data() + row;
+    for (int p : c.places) {
+      if (!vd.measured(p)) continue;  // infinitely far: never nearer
+      for (size_t j = 0; j < n_; ++j) {
+        const double d = vd.distance(static_cast<int>(j), p);
+        if (d < distance[j]) {
+          distance[j] = d;
+          place[j] = p;
+        }
       }
     }
   }
-  return out;
+
+ private:
+  size_t n_;
+  std::vector<double> distance_;
+  std::vector<int> place_;
+};
+
+// The median of `v` (the element at size / 2 once sorted), through `scratch`.
+double MedianOf(std::span<const double> v, std::vector<double>& scratch) {
+  scratch.assign(v.begin(), v.end());
+  return Median(scratch);
 }
 
 // Whether candidate `other` coincides with N¹ for D: the views of `other` nearest to D's
@@ -48,7 +76,7 @@ Nearest NearestIn(const ViewDistances& vd, const CostCandidate& c) {
 // once: a crowded N* (a 10⁵ + 10⁵ merge) holds tens of copies of N¹ to check, each of D's 32
 // points a product of two views.
 bool Coincides(const ViewDistances& vd, const Nearest& best, const Nearest& other,
-               double vote_radius) {
+               double vote_radius, Eigen::VectorXf& a, Eigen::VectorXf& b) {
   if (other.place.empty()) return false;  // not measured: no nearest view to compare
   const int n = vd.num_votes();
   int pairs = 0;
@@ -76,8 +104,10 @@ bool Coincides(const ViewDistances& vd, const Nearest& best, const Nearest& othe
     if (known != seen.end()) {
       in = known->within;
     } else {
-      const Eigen::VectorXf a = vd.place(pa).samples.Col(va);
-      const Eigen::VectorXf b = vd.place(pb).samples.Col(vb);
+      a.resize(vd.place(pa).samples.rows());
+      b.resize(vd.place(pb).samples.rows());
+      vd.place(pa).samples.DecodeColInto(va, a.data());
+      vd.place(pb).samples.DecodeColInto(vb, b.data());
       in = static_cast<double>((a - b).squaredNorm()) / vd.unit(pa) <= vote_radius;
       seen.push_back({pa, va, pb, vb, in});
     }
@@ -212,7 +242,8 @@ CostTerms RecognitionCost(const ViewDistances& vd, const Eigen::VectorXf& mean,
                           const RecognitionCostOptions& options) {
   // Per-point nearest views only of the children with a measured place (a merge's N* has
   // ~1500 children, a few dozen measured): `nearest_of` is a child's entry in `nearest`, or −1.
-  std::vector<Nearest> nearest;
+  NearestTable nearest(vd.num_votes());
+  std::vector<double> scratch;  // Median's copies
   // One pass over the children: a crowded N*'s 1500 were scanned three times per place.
   std::vector<int> nearest_of(candidates.size(), -1);
   std::vector<double> gamma(candidates.size(), std::numeric_limits<double>::infinity());
@@ -234,9 +265,8 @@ CostTerms RecognitionCost(const ViewDistances& vd, const Eigen::VectorXf& mean,
     }
     if (any_measured) {
       nearest_of[c] = static_cast<int>(nearest.size());
-      nearest.push_back(NearestIn(vd, candidates[c]));
-      std::vector<double> d = nearest.back().distance;
-      gamma[c] = Median(d);
+      nearest.Add(vd, candidates[c]);
+      gamma[c] = MedianOf(nearest[nearest.size() - 1].distance, scratch);
       measured.push_back(c);
       continue;
     }
@@ -254,9 +284,10 @@ CostTerms RecognitionCost(const ViewDistances& vd, const Eigen::VectorXf& mean,
     t.cost = std::numeric_limits<double>::infinity();
     return t;
   }
-  const Nearest& best = nearest[static_cast<size_t>(nearest_of[static_cast<size_t>(t.best)])];
+  const Nearest best = nearest[static_cast<size_t>(nearest_of[static_cast<size_t>(t.best)])];
   t.gamma = gamma[static_cast<size_t>(t.best)];
-  std::vector<double> scaled;
+  std::vector<double>& scaled = scratch;
+  scaled.clear();
   int accepted = 0;
   for (int j = 0; j < vd.num_votes(); ++j) {
     const double u = vd.unit(best.place[static_cast<size_t>(j)]);
@@ -281,10 +312,11 @@ CostTerms RecognitionCost(const ViewDistances& vd, const Eigen::VectorXf& mean,
   // room are no nearer each other than a revisit is to either).
   const double radius = std::max(options.vote_radius, options.coincide_factor * t.distance);
   double second = std::numeric_limits<double>::infinity();
+  Eigen::VectorXf view_a, view_b;  // Coincides' decoded views
   for (const size_t next :
        OrderOfSecond(candidates.size(), gamma, measured, unmeasured, static_cast<size_t>(t.best))) {
-    if (nearest_of[next] >= 0 &&
-        Coincides(vd, best, nearest[static_cast<size_t>(nearest_of[next])], radius)) {
+    if (nearest_of[next] >= 0 && Coincides(vd, best, nearest[static_cast<size_t>(nearest_of[next])],
+                                           radius, view_a, view_b)) {
       t.only_copies = true;
       continue;
     }
