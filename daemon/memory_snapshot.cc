@@ -31,11 +31,12 @@ learned_place_t ToMessage(const LearnedPlace& p) {
   m.mean.assign(p.mean.data(), p.mean.data() + p.mean.size());
   m.num_samples = static_cast<int32_t>(p.samples.cols());
   m.view_dims = static_cast<int32_t>(p.samples.rows());
+  m.view_shift = static_cast<int16_t>(p.samples.shift());
   m.samples.resize(static_cast<size_t>(m.num_samples));
-  const Eigen::MatrixXf views = p.samples.Decoded();
+  const int16_t* values = p.samples.values();
   for (int j = 0; j < m.num_samples; ++j) {
-    const float* col = views.col(j).data();
-    m.samples[static_cast<size_t>(j)].assign(col, col + views.rows());
+    const int16_t* col = values + static_cast<std::ptrdiff_t>(j) * m.view_dims;
+    m.samples[static_cast<size_t>(j)].assign(col, col + m.view_dims);
   }
   for (const PlaceId& s : p.sources) m.sources.push_back(Ref(s));
   m.num_sources = static_cast<int32_t>(m.sources.size());
@@ -43,7 +44,7 @@ learned_place_t ToMessage(const LearnedPlace& p) {
 }
 
 // Whether `m` is the body ToMessage(p) gives, compared value by value (bit for bit: a place
-// whose floats changed in any way is encoded again).
+// whose floats or views changed in any way is encoded again).
 bool SameBody(const LearnedPlace& p, const learned_place_t& m) {
   const auto same_floats = [](const float* a, const float* b, size_t n) {
     return n == 0 || std::memcmp(a, b, n * sizeof(float)) == 0;
@@ -51,14 +52,19 @@ bool SameBody(const LearnedPlace& p, const learned_place_t& m) {
   if (m.id.robot != static_cast<int32_t>(p.id.robot) ||
       m.id.local != static_cast<int32_t>(p.id.local) || m.member_count != p.member_count ||
       m.dims != p.mean.size() || m.num_samples != p.samples.cols() ||
-      m.view_dims != p.samples.rows() || m.sources.size() != p.sources.size() ||
+      m.view_dims != p.samples.rows() || m.view_shift != p.samples.shift() ||
+      m.sources.size() != p.sources.size() ||
       !same_floats(m.mean.data(), p.mean.data(), m.mean.size())) {
     return false;
   }
-  const Eigen::MatrixXf views = p.samples.Decoded();
+  const int16_t* values = p.samples.values();
   for (int j = 0; j < m.num_samples; ++j) {
-    const std::vector<float>& col = m.samples[static_cast<size_t>(j)];
-    if (!same_floats(col.data(), views.col(j).data(), col.size())) return false;
+    const std::vector<int16_t>& col = m.samples[static_cast<size_t>(j)];
+    if (col.size() != static_cast<size_t>(m.view_dims) ||
+        !std::equal(col.begin(), col.end(),
+                    values + static_cast<std::ptrdiff_t>(j) * m.view_dims)) {
+      return false;
+    }
   }
   for (size_t k = 0; k < p.sources.size(); ++k) {
     if (m.sources[k].robot != static_cast<int32_t>(p.sources[k].robot) ||

@@ -17,6 +17,21 @@ bool AllBounded(const std::vector<float>& v) {
   return true;
 }
 
+// A body's member views as the memory keeps them. Throws std::invalid_argument unless the
+// integers are what encoding some views gives (core/memory/compact_views.h).
+CompactViews ViewsOf(const learned_place_t& m) {
+  std::vector<int16_t> values;
+  values.reserve(static_cast<size_t>(m.num_samples) * static_cast<size_t>(m.view_dims));
+  for (const std::vector<int16_t>& col : m.samples)
+    values.insert(values.end(), col.begin(), col.end());
+  return CompactViews(m.view_dims, m.num_samples, m.view_shift, std::move(values));
+}
+
+// Whether views of `shift` stay within kMaxDescriptorValue (every |value| is below 2¹⁵).
+bool ShiftBounded(int shift) {
+  return std::ldexp(32768.0, -shift) <= SnapshotAssembler::kMaxDescriptorValue;
+}
+
 // Why one place of a portion cannot be right, or "".
 // (A memory may hold places of other robots once it has merged theirs.)
 std::string CheckPlace(const learned_place_t& p) {
@@ -28,7 +43,13 @@ std::string CheckPlace(const learned_place_t& p) {
   }
   if (p.view_dims <= 0 || p.view_dims > SnapshotAssembler::kMaxDims) return "bad view dimension";
   for (const auto& s : p.samples) {
-    if (s.size() != static_cast<size_t>(p.view_dims) || !AllBounded(s)) return "bad sample";
+    if (s.size() != static_cast<size_t>(p.view_dims)) return "bad sample";
+  }
+  if (!ShiftBounded(p.view_shift)) return "out-of-range member views";
+  try {
+    ViewsOf(p);
+  } catch (const std::invalid_argument&) {
+    return "member views that are no 16-bit encoding";
   }
   if (p.member_count < 1) return "place without members";
   if (p.id.robot <= 0 || p.id.local <= 0) return "bad place id";
@@ -58,12 +79,7 @@ PlaceMemory ToPlaceMemory(const PeerSnapshot& snapshot, const PlaceMemoryOptions
     p.id = PlaceId{static_cast<uint32_t>(m.id.robot), static_cast<uint32_t>(m.id.local)};
     p.mean = Eigen::Map<const Eigen::VectorXf>(m.mean.data(), m.dims);
     p.member_count = m.member_count;
-    Eigen::MatrixXf views(m.view_dims, m.num_samples);
-    for (int j = 0; j < m.num_samples; ++j) {
-      views.col(j) =
-          Eigen::Map<const Eigen::VectorXf>(m.samples[static_cast<size_t>(j)].data(), m.view_dims);
-    }
-    p.samples = CompactViews(views);
+    p.samples = ViewsOf(m);
     for (const place_ref_t& s : m.sources) {
       p.sources.push_back(PlaceId{static_cast<uint32_t>(s.robot), static_cast<uint32_t>(s.local)});
     }

@@ -81,9 +81,10 @@ void LearnedPlace(WireWalker& w) {
   w.Array(dims, 4);  // mean
   const int64_t samples = w.Length(4);
   const int64_t view_dims = w.Length(4);  // samples[num_samples][view_dims]
+  w.Skip(2);                              // view_shift
   if (w.Fits(samples) && view_dims > 0) {
-    if (samples * view_dims > INT32_MAX) w.Fits(-1);  // more floats than any message can hold
-    w.Array(samples * view_dims, 4);
+    if (samples * view_dims > INT32_MAX) w.Fits(-1);  // more values than any message can hold
+    w.Array(samples * view_dims, 2);
   }
   w.Array(w.Length(4), kPlaceRef);  // sources
 }

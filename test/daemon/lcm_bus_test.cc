@@ -58,7 +58,7 @@ memory_portion_t SamplePortion(int32_t dims) {
   place.mean.assign(static_cast<size_t>(dims), 0.5f);
   place.num_samples = 1;
   place.view_dims = dims;
-  place.samples.assign(1, std::vector<float>(static_cast<size_t>(dims), 0.25f));
+  place.samples.assign(1, std::vector<int16_t>(static_cast<size_t>(dims), 16384));
   place.num_sources = 0;
   p.places = {place};
   p.num_places = 1;
@@ -168,10 +168,11 @@ TEST(LcmBus, DecodeRoundTripsEveryArrayShape) {
 TEST(LcmBus, ForgedHugeArrayLengthIsRefusedBeforeAllocating) {
   const std::vector<uint8_t> good = LcmBus::Encode(SamplePortion(3));
   ASSERT_TRUE(LcmBus::Decode<memory_portion_t>(good.data(), good.size()).has_value());
-  // Field offsets in `good`: mean holds 3 floats, samples one row of 3.
+  // Field offsets in `good`: mean holds 3 floats, then view_shift (int16) and samples one
+  // row of 3 int16.
   const size_t num_samples = kDims + 4 + 12;
   const size_t view_dims = num_samples + 4;
-  const size_t num_sources = view_dims + 4 + 12;
+  const size_t num_sources = view_dims + 4 + 2 + 6;
   const size_t num_nodes = num_sources + 4;
   const size_t num_children = num_nodes + 4 + 20;
   const size_t num_edges = num_children + 4 + 4;
@@ -194,7 +195,7 @@ TEST(LcmBus, ForgedHugeArrayLengthIsRefusedBeforeAllocating) {
     PutInt32(forged, at, INT32_MAX);
     ExpectRefusedCheaply<memory_portion_t>(forged, what);
   }
-  // Rows of zero floats take no bytes: 2^31 empty sample rows would still be 48 GB of vectors.
+  // Rows of zero values take no bytes: 2^31 empty sample rows would still be 48 GB of vectors.
   std::vector<uint8_t> empty_rows = LcmBus::Encode(SamplePortion(0));
   ASSERT_EQ(GetInt32(empty_rows, kDims + 4), 1) << "offset of num_samples";
   PutInt32(empty_rows, kDims + 4, INT32_MAX);

@@ -136,7 +136,7 @@ TEST(MemorySnapshot, BuiltOnThePreviousItSharesUnchangedBodiesAndEqualsOneFromSc
   // not taken.
   MemorySnapshot altered = before;
   auto view = std::make_shared<learned_place_t>(*before.bodies[3]);
-  view->samples[1][2] += 1e-3f;
+  view->samples[1][2] ^= 1;
   altered.bodies[3] = view;
   auto source = std::make_shared<learned_place_t>(*before.bodies[4]);
   source->sources.push_back(source->id);

@@ -108,7 +108,12 @@ tsc::learned_place_t Place(int32_t robot, int32_t local, float base) {
   p.member_count = 10 + local;
   p.dims = 3;
   p.mean = {base, base + 0.5F, base + 1.0F};
-  p.samples = {{base, base, base}, {base + 0.25F, base + 0.5F, base + 0.75F}};
+  // Views base base base and base+0.25 base+0.5 base+0.75 as values times 2^-14 (the largest
+  // |coordinate| of both places lies in [1, 2), so the largest value in [2^14, 2^15)).
+  p.view_shift = 14;
+  const auto value = [](float v) { return static_cast<int16_t>(std::lround(v * 16384.0F)); };
+  p.samples = {{value(base), value(base), value(base)},
+               {value(base + 0.25F), value(base + 0.5F), value(base + 0.75F)}};
   p.num_samples = static_cast<int32_t>(p.samples.size());
   p.view_dims = 3;
   if (local == 2) {
