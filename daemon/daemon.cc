@@ -244,7 +244,7 @@ void Daemon::OnExchangeTimer() {
 
 void Daemon::OnPeerPortion(const std::string& channel, const uint8_t* data, size_t size) {
   if (channel == "TSC_MEMORY_" + std::to_string(robot_)) return;  // our own, looped back
-  auto portion = team_.Authentic<memory_portion_t>(channel, data, size, "memory portion");
+  auto portion = team_.Authentic<memory_portion_v2_t>(channel, data, size, "memory portion");
   if (!portion) return;
   team_.CountReceived(ChannelFamily::kMemory, size);
   const int64_t rejected_before = exchange_.rejected_portions();
@@ -600,8 +600,8 @@ void Daemon::PublishPortions(std::shared_ptr<const MemorySnapshot> snapshot,
       continue;
     }
     if (!places.empty()) break;  // in order: the bodies asked for go first
-    memory_portion_t unused;     // structure portions are not copied
-    const memory_portion_t& portion = snapshot->Portion(index, unused);
+    memory_portion_v2_t unused;  // structure portions are not copied
+    const memory_portion_v2_t& portion = snapshot->Portion(index, unused);
     bytes += portion.getEncodedSize();
     PublishPortion(portion);
   }
@@ -617,7 +617,7 @@ void Daemon::PublishPortions(std::shared_ptr<const MemorySnapshot> snapshot,
   // between base points and hands them back (at once when it has ended, as when stopping).
   auto publish = [this, snapshot, indices = std::move(indices),
                   end](PipelineWorker::Bodies bodies) mutable {
-    memory_portion_t scratch;
+    memory_portion_v2_t scratch;
     for (size_t k = 0, first = end - bodies.size(); k < bodies.size(); ++k) {
       if (!bodies[k]) {  // the place changed under the snapshot: peers would refuse it
         spdlog::error("memory snapshot {}: place body {} no longer matches its digest; not sent",
@@ -637,7 +637,7 @@ void Daemon::PublishPortions(std::shared_ptr<const MemorySnapshot> snapshot,
       });
 }
 
-void Daemon::PublishPortion(const memory_portion_t& portion) {
+void Daemon::PublishPortion(const memory_portion_v2_t& portion) {
   const std::string channel = "TSC_MEMORY_" + std::to_string(robot_);
   if (!team_.PublishSigned(ChannelFamily::kMemory, channel, portion)) {
     team_.PublishFailed(channel);

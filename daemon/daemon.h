@@ -109,7 +109,7 @@ class Daemon {
   /// of the loop (the rest posted), so timers and LCM run in between; all at once when stopping.
   void PublishPortions(std::shared_ptr<const MemorySnapshot> snapshot, std::vector<int32_t> indices,
                        size_t from = 0);
-  void PublishPortion(const memory_portion_t& portion);
+  void PublishPortion(const memory_portion_v2_t& portion);
   void Reload();
   void Shutdown();
   std::string StatusLine() const;

@@ -23,8 +23,8 @@ place_ref_t Ref(PlaceId id) {
   return r;
 }
 
-learned_place_t ToMessage(const LearnedPlace& p) {
-  learned_place_t m;
+learned_place_v2_t ToMessage(const LearnedPlace& p) {
+  learned_place_v2_t m;
   m.id = Ref(p.id);
   m.member_count = p.member_count;
   m.dims = static_cast<int32_t>(p.mean.size());
@@ -45,7 +45,7 @@ learned_place_t ToMessage(const LearnedPlace& p) {
 
 // Whether `m` is the body ToMessage(p) gives, compared value by value (bit for bit: a place
 // whose floats or views changed in any way is encoded again).
-bool SameBody(const LearnedPlace& p, const learned_place_t& m) {
+bool SameBody(const LearnedPlace& p, const learned_place_v2_t& m) {
   const auto same_floats = [](const float* a, const float* b, size_t n) {
     return n == 0 || std::memcmp(a, b, n * sizeof(float)) == 0;
   };
@@ -154,7 +154,7 @@ void Cut(const PlaceMemory& memory, const TopologicalMap& map, const SnapshotHea
   snap.view_basis = ViewBasisId(memory.view_basis());
   snap.edges = static_cast<int32_t>(map.edges().size());
 
-  memory_portion_t blank;
+  memory_portion_v2_t blank;
   blank.utime = header.utime;
   blank.robot = header.robot;
   blank.boot_id = header.boot_id;
@@ -181,7 +181,7 @@ void Cut(const PlaceMemory& memory, const TopologicalMap& map, const SnapshotHea
     entries.push_back(ToEntry(memory.places()[i].id, snap.body_digests[i], pi[i], lambda[i]));
   }
 
-  memory_portion_t current = blank;
+  memory_portion_v2_t current = blank;
   int64_t size = empty_size;
   auto flush = [&] {
     current.num_entries = static_cast<int32_t>(current.entries.size());
@@ -215,7 +215,7 @@ void Cut(const PlaceMemory& memory, const TopologicalMap& map, const SnapshotHea
   snap.structure_portions = static_cast<int32_t>(snap.structure.size());
   const int32_t count = snap.count();
   for (int32_t i = 0; i < snap.structure_portions; ++i) {
-    memory_portion_t& p = snap.structure[static_cast<size_t>(i)];
+    memory_portion_v2_t& p = snap.structure[static_cast<size_t>(i)];
     p.index = i;
     p.count = count;
     p.structure_portions = snap.structure_portions;
@@ -231,7 +231,7 @@ void Cut(const PlaceMemory& memory, const TopologicalMap& map, const SnapshotHea
 
 }  // namespace
 
-learned_place_t BodyOf(const LearnedPlace& place) { return ToMessage(place); }
+learned_place_v2_t BodyOf(const LearnedPlace& place) { return ToMessage(place); }
 
 MemorySnapshot BuildSnapshot(const PlaceMemory& memory, const TopologicalMap& map,
                              const SnapshotHeader& header, int portion_bytes,
@@ -247,7 +247,7 @@ MemorySnapshot BuildSnapshot(const PlaceMemory& memory, const TopologicalMap& ma
       snap.bodies.push_back(previous->bodies[static_cast<size_t>(old)]);
       snap.body_digests.push_back(previous->body_digests[static_cast<size_t>(old)]);
     } else {
-      auto body = std::make_shared<const learned_place_t>(ToMessage(place));
+      auto body = std::make_shared<const learned_place_v2_t>(ToMessage(place));
       snap.body_digests.push_back(BodyDigest(*body));
       snap.bodies.push_back(std::move(body));
     }
@@ -274,8 +274,8 @@ MemorySnapshot BuildSnapshotWithoutBodies(const PlaceMemory& memory, const Topol
   return snap;
 }
 
-const memory_portion_t& MemorySnapshot::Portion(int32_t index, memory_portion_t& scratch,
-                                                const learned_place_t* body) const {
+const memory_portion_v2_t& MemorySnapshot::Portion(int32_t index, memory_portion_v2_t& scratch,
+                                                   const learned_place_v2_t* body) const {
   if (index < 0 || index >= count()) {
     throw std::out_of_range("memory snapshot: no portion " + std::to_string(index) + " of " +
                             std::to_string(count()));
@@ -293,26 +293,26 @@ const memory_portion_t& MemorySnapshot::Portion(int32_t index, memory_portion_t&
   return scratch;
 }
 
-memory_portion_t MemorySnapshot::Portion(int32_t index) const {
-  memory_portion_t scratch;
+memory_portion_v2_t MemorySnapshot::Portion(int32_t index) const {
+  memory_portion_v2_t scratch;
   return Portion(index, scratch);
 }
 
-std::vector<memory_portion_t> AllPortions(const MemorySnapshot& snapshot) {
-  std::vector<memory_portion_t> out;
+std::vector<memory_portion_v2_t> AllPortions(const MemorySnapshot& snapshot) {
+  std::vector<memory_portion_v2_t> out;
   out.reserve(static_cast<size_t>(snapshot.count()));
   for (int32_t i = 0; i < snapshot.count(); ++i) out.push_back(snapshot.Portion(i));
   return out;
 }
 
-int64_t SnapshotDigest(const std::vector<memory_portion_t>& portions) {
+int64_t SnapshotDigest(const std::vector<memory_portion_v2_t>& portions) {
   EVP_MD_CTX* sha = EVP_MD_CTX_new();
   EVP_DigestInit_ex(sha, EVP_sha256(), nullptr);
-  for (const memory_portion_t& p : portions) {
+  for (const memory_portion_v2_t& p : portions) {
     if (p.index >= p.structure_portions) continue;  // a body: named by its digest in the entries
     // Content only: the same memory republished under another version, boot or time keeps
     // its digest, so peers do not fetch it again.
-    memory_portion_t unsigned_portion = p;
+    memory_portion_v2_t unsigned_portion = p;
     unsigned_portion.utime = 0;
     unsigned_portion.boot_id = 0;
     unsigned_portion.version = 0;
@@ -327,7 +327,7 @@ int64_t SnapshotDigest(const std::vector<memory_portion_t>& portions) {
   return digest;
 }
 
-int64_t BodyDigest(const learned_place_t& body) {
+int64_t BodyDigest(const learned_place_v2_t& body) {
   std::vector<uint8_t> bytes(static_cast<size_t>(body._getEncodedSizeNoHash()));
   body._encodeNoHash(bytes.data(), 0, static_cast<int>(bytes.size()));
   EVP_MD_CTX* sha = EVP_MD_CTX_new();
@@ -370,11 +370,11 @@ void SnapshotBodies::Track(const std::shared_ptr<const MemorySnapshot>& snapshot
 
 void SnapshotBodies::BeforeUpdate(const PlaceMemory& memory, int place) {
   Prune();
-  std::shared_ptr<const learned_place_t> body;  // encoded once for every snapshot that needs it
+  std::shared_ptr<const learned_place_v2_t> body;  // encoded once for every snapshot that needs it
   for (Tracked& t : tracked_) {
     if (place >= t.places || t.kept.count(place)) continue;
     if (!body) {
-      body = std::make_shared<const learned_place_t>(
+      body = std::make_shared<const learned_place_v2_t>(
           ToMessage(memory.places().at(static_cast<size_t>(place))));
     }
     t.kept.emplace(place, body);
@@ -397,12 +397,13 @@ std::optional<std::unordered_set<int>> SnapshotBodies::ChangedSince(
   return changed;
 }
 
-std::shared_ptr<const learned_place_t> SnapshotBodies::Body(const MemorySnapshot& snapshot,
-                                                            int place, const PlaceMemory& memory) {
+std::shared_ptr<const learned_place_v2_t> SnapshotBodies::Body(const MemorySnapshot& snapshot,
+                                                               int place,
+                                                               const PlaceMemory& memory) {
   const Tracked* t = Find(snapshot);
   if (t == nullptr) return nullptr;
   if (const auto kept = t->kept.find(place); kept != t->kept.end()) return kept->second;
-  auto body = std::make_shared<const learned_place_t>(
+  auto body = std::make_shared<const learned_place_v2_t>(
       ToMessage(memory.places().at(static_cast<size_t>(place))));
   // A place changed without BeforeUpdate would go out under its old body's digest, which every
   // peer refuses: refused here instead, where tscd can say so.

@@ -14,23 +14,23 @@
 #include "core/map/topological_map.h"
 #include "core/memory/place_memory.h"
 #include "tsc/announce_t.hpp"
-#include "tsc/memory_portion_t.hpp"
+#include "tsc/memory_portion_v2_t.hpp"
 
 namespace tsc {
 
 struct MemorySnapshot {
   int64_t version = 0;
-  int64_t digest = 0;                       ///< SnapshotDigest of the structure portions
-  std::vector<memory_portion_t> structure;  ///< portions [0, structure_portions)
+  int64_t digest = 0;                          ///< SnapshotDigest of the structure portions
+  std::vector<memory_portion_v2_t> structure;  ///< portions [0, structure_portions)
   int32_t structure_portions = 0;
   /// Place i's body, portion structure_portions + i. Shared with the snapshots built before
   /// and after this one while the place does not change (BuildSnapshot's `previous`), so
   /// consecutive snapshots hold one copy of what they have in common. All null in a snapshot
   /// built without bodies (BuildSnapshotWithoutBodies: SnapshotBodies serves them).
-  std::vector<std::shared_ptr<const learned_place_t>> bodies;
+  std::vector<std::shared_ptr<const learned_place_v2_t>> bodies;
   std::vector<int64_t> body_digests;  ///< of place i's body
   /// What every body portion carries besides its body (robot, version, digest, counts).
-  memory_portion_t body_header;
+  memory_portion_v2_t body_header;
   int32_t places = 0;
   int32_t edges = 0;
   int64_t view_basis = 0;  ///< ViewBasisId of the memory's member views
@@ -40,15 +40,15 @@ struct MemorySnapshot {
   /// Portion `index` as it goes on the wire: a structure portion as held, a body portion
   /// assembled in `scratch` around `body` (by default the one held). Preconditions:
   /// 0 ≤ index < count(); a body portion has a body (given or held).
-  const memory_portion_t& Portion(int32_t index, memory_portion_t& scratch,
-                                  const learned_place_t* body = nullptr) const;
+  const memory_portion_v2_t& Portion(int32_t index, memory_portion_v2_t& scratch,
+                                     const learned_place_v2_t* body = nullptr) const;
   /// The same, as a copy (tools and tests).
-  memory_portion_t Portion(int32_t index) const;
+  memory_portion_v2_t Portion(int32_t index) const;
 };
 
 /// Every portion of `snapshot`, in index order (tools and tests; tscd publishes them one by one
 /// with MemorySnapshot::Portion).
-std::vector<memory_portion_t> AllPortions(const MemorySnapshot& snapshot);
+std::vector<memory_portion_v2_t> AllPortions(const MemorySnapshot& snapshot);
 
 struct SnapshotHeader {
   int32_t robot = 0;
@@ -79,7 +79,7 @@ MemorySnapshot BuildSnapshotWithoutBodies(const PlaceMemory& memory, const Topol
                                           const std::unordered_set<int>& changed);
 
 /// Place `place`'s body as a snapshot names it (BodyDigest) and sends it.
-learned_place_t BodyOf(const LearnedPlace& place);
+learned_place_v2_t BodyOf(const LearnedPlace& place);
 
 /// The bodies of snapshots built without them, for the owner of their memory (tscd's worker
 /// thread; not thread-safe): a body is read from the memory while its place is unchanged, and
@@ -100,8 +100,8 @@ class SnapshotBodies {
   /// Body `place` of `snapshot` (tracked, alive) as it was built, `memory` being the memory now.
   /// Null when `snapshot` is not tracked, or when the place changed without BeforeUpdate (its
   /// body no longer has the digest the snapshot named). Precondition: 0 ≤ place < snapshot.places.
-  std::shared_ptr<const learned_place_t> Body(const MemorySnapshot& snapshot, int place,
-                                              const PlaceMemory& memory);
+  std::shared_ptr<const learned_place_v2_t> Body(const MemorySnapshot& snapshot, int place,
+                                                 const PlaceMemory& memory);
   /// Live snapshots tracked (tests).
   size_t tracked();
 
@@ -109,7 +109,7 @@ class SnapshotBodies {
   struct Tracked {
     std::weak_ptr<const MemorySnapshot> snapshot;
     int places = 0;
-    std::unordered_map<int, std::shared_ptr<const learned_place_t>> kept;  ///< changed since
+    std::unordered_map<int, std::shared_ptr<const learned_place_v2_t>> kept;  ///< changed since
   };
   Tracked* Find(const MemorySnapshot& snapshot);
   void Prune();
@@ -120,10 +120,10 @@ class SnapshotBodies {
 /// `portions` (index below structure_portions), in order, each taken with utime, boot_id,
 /// version and digest zero and no HMAC (content only): what BuildSnapshot puts in `digest`
 /// and receivers check. The structure names every body by its digest, so this covers them.
-int64_t SnapshotDigest(const std::vector<memory_portion_t>& portions);
+int64_t SnapshotDigest(const std::vector<memory_portion_v2_t>& portions);
 
 /// First 8 bytes (big endian) of SHA-256 over the body's LCM encoding (without fingerprint).
-int64_t BodyDigest(const learned_place_t& body);
+int64_t BodyDigest(const learned_place_v2_t& body);
 
 /// Portion indices 0 .. n−1: a whole snapshot (n = its portions) or its structure.
 std::vector<int32_t> PortionsBelow(int32_t n);
@@ -133,7 +133,7 @@ std::vector<int32_t> PortionsBelow(int32_t n);
 std::vector<int32_t> PortionsBeyond(const MemorySnapshot& snapshot,
                                     const std::unordered_set<int64_t>& known);
 
-/// What the exchange calls a view basis (memory_portion_t.view_basis, announce_t.view_basis):
+/// What the exchange calls a view basis (memory_portion_v2_t.view_basis, announce_t.view_basis):
 /// its id, 0 for none (views kept as descriptors).
 int64_t ViewBasisId(const ViewBasis* basis);
 

@@ -111,7 +111,7 @@ size_t PeerExchange::known_bodies() const {
   return n;
 }
 
-std::optional<SnapshotAssembler> PeerExchange::OnPortion(const memory_portion_t& p,
+std::optional<SnapshotAssembler> PeerExchange::OnPortion(const memory_portion_v2_t& p,
                                                          Clock::time_point now) {
   if (!fetching_ || p.robot != *fetching_ || !assembler_) return std::nullopt;
   const bool had_structure = assembler_->structure_complete();

@@ -50,7 +50,7 @@ class PeerExchange {
   /// the memory, its portions, still to be joined and checked by the caller
   /// (SnapshotAssembler::Take: the digest over every portion, the slow part) where that holds
   /// up nothing else; the exchange with that peer ends here either way.
-  std::optional<SnapshotAssembler> OnPortion(const memory_portion_t& p, Clock::time_point now);
+  std::optional<SnapshotAssembler> OnPortion(const memory_portion_v2_t& p, Clock::time_point now);
   /// Requests to send now: the first request of a new exchange, or a repeat for what is
   /// missing. At most one peer at a time.
   std::vector<memory_request_t> Tick(Clock::time_point now);

@@ -89,7 +89,7 @@ class PipelineWorker {
   /// hooks.snapshot_ready. Cheap; requests made before it builds are served together.
   void RequestSnapshot();
 
-  using Bodies = std::vector<std::shared_ptr<const learned_place_t>>;
+  using Bodies = std::vector<std::shared_ptr<const learned_place_v2_t>>;
   /// Thread-safe: asks for the bodies of places `places` of `snapshot` (one this worker built,
   /// which holds none) as it named them; the worker, which owns the memory they are read from,
   /// reads them between base points and merges and calls `done` on its thread with them in

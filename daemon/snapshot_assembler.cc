@@ -19,7 +19,7 @@ bool AllBounded(const std::vector<float>& v) {
 
 // A body's member views as the memory keeps them. Throws std::invalid_argument unless the
 // integers are what encoding some views gives (core/memory/compact_views.h).
-CompactViews ViewsOf(const learned_place_t& m) {
+CompactViews ViewsOf(const learned_place_v2_t& m) {
   std::vector<int16_t> values;
   values.reserve(static_cast<size_t>(m.num_samples) * static_cast<size_t>(m.view_dims));
   for (const std::vector<int16_t>& col : m.samples)
@@ -34,7 +34,7 @@ bool ShiftBounded(int shift) {
 
 // Why one place of a portion cannot be right, or "".
 // (A memory may hold places of other robots once it has merged theirs.)
-std::string CheckPlace(const learned_place_t& p) {
+std::string CheckPlace(const learned_place_v2_t& p) {
   if (p.dims <= 0 || p.dims > SnapshotAssembler::kMaxDims) return "bad descriptor dimension";
   if (p.mean.size() != static_cast<size_t>(p.dims)) return "mean of the wrong size";
   if (!AllBounded(p.mean)) return "non-finite or out-of-range mean";
@@ -74,7 +74,7 @@ PlaceMemory ToPlaceMemory(const PeerSnapshot& snapshot, const PlaceMemoryOptions
   std::vector<double> lambda;
   places.reserve(snapshot.places.size());
   for (size_t i = 0; i < snapshot.places.size(); ++i) {
-    const learned_place_t& m = *snapshot.places[i];
+    const learned_place_v2_t& m = *snapshot.places[i];
     LearnedPlace p;
     p.id = PlaceId{static_cast<uint32_t>(m.id.robot), static_cast<uint32_t>(m.id.local)};
     p.mean = Eigen::Map<const Eigen::VectorXf>(m.mean.data(), m.dims);
@@ -145,7 +145,7 @@ void SnapshotAssembler::Restart() {
   received_bodies_ = 0;
 }
 
-SnapshotAssembler::Result SnapshotAssembler::Accept(const memory_portion_t& p) {
+SnapshotAssembler::Result SnapshotAssembler::Accept(const memory_portion_v2_t& p) {
   auto reject = [](std::string why) { return Result{Verdict::kRejected, std::move(why)}; };
   if (p.robot != robot_) return reject("portion of robot " + std::to_string(p.robot));
   if (p.count < 1 || p.count > kMaxPortions) return reject("impossible portion count");
@@ -212,19 +212,19 @@ SnapshotAssembler::Result SnapshotAssembler::Accept(const memory_portion_t& p) {
   return Keep(p);
 }
 
-SnapshotAssembler::Result SnapshotAssembler::Keep(const memory_portion_t& p) {
+SnapshotAssembler::Result SnapshotAssembler::Keep(const memory_portion_v2_t& p) {
   if (p.index >= structure_portions_) {
     const auto i = static_cast<size_t>(p.first_place);
     if (received_[i]) return {Verdict::kDuplicate, ""};
     // A body that came anyway replaces a known one: its digest is checked against the entry.
     if (!bodies_[i]) ++bodies_present_;
-    bodies_[i] = std::make_shared<const learned_place_t>(p.places.front());
+    bodies_[i] = std::make_shared<const learned_place_v2_t>(p.places.front());
     received_[i] = true;
     ++received_bodies_;
     return {Verdict::kAccepted, ""};
   }
   if (structure_.count(p.index)) return {Verdict::kDuplicate, ""};
-  memory_portion_t kept = p;
+  memory_portion_v2_t kept = p;
   kept.hmac_size = 0;  // the tag was checked by the caller; the digest covers unsigned portions
   kept.hmac.clear();
   structure_.emplace(p.index, std::move(kept));
@@ -238,7 +238,7 @@ bool SnapshotAssembler::knows_bodies() const {
 
 void SnapshotAssembler::FillKnownBodies() {
   if (!knows_bodies()) return;
-  auto find = [&](int64_t digest) -> std::shared_ptr<const learned_place_t> {
+  auto find = [&](int64_t digest) -> std::shared_ptr<const learned_place_v2_t> {
     if (known_) {
       if (const auto it = known_->find(digest); it != known_->end()) return it->second;
     }
@@ -288,7 +288,7 @@ std::optional<PeerSnapshot> SnapshotAssembler::Take(std::string* reason) {
     return std::nullopt;
   };
   if (!complete()) return fail("incomplete");
-  std::vector<memory_portion_t> ordered;
+  std::vector<memory_portion_v2_t> ordered;
   ordered.reserve(structure_.size());
   for (const auto& [index, portion] : structure_) ordered.push_back(portion);
   if (SnapshotDigest(ordered) != digest_) return fail("digest mismatch");
@@ -317,7 +317,7 @@ std::optional<PeerSnapshot> SnapshotAssembler::Take(std::string* reason) {
   const int32_t n = static_cast<int32_t>(snap.entries.size());
   for (int32_t i = 0; i < n; ++i) {
     const place_entry_t& e = snap.entries[static_cast<size_t>(i)];
-    const learned_place_t& body = *bodies_[static_cast<size_t>(i)];
+    const learned_place_v2_t& body = *bodies_[static_cast<size_t>(i)];
     // Known bodies were checked when they came; a received one is checked here.
     if (received_[static_cast<size_t>(i)] && BodyDigest(body) != e.body_digest) {
       return fail("a place body does not match its digest");

@@ -22,7 +22,7 @@
 namespace tsc {
 
 /// Place bodies by their digest (BodyDigest), shared between the snapshots that hold them.
-using PlaceBodies = std::unordered_map<int64_t, std::shared_ptr<const learned_place_t>>;
+using PlaceBodies = std::unordered_map<int64_t, std::shared_ptr<const learned_place_v2_t>>;
 
 /// A peer's memory as it was published, checked for consistency.
 struct PeerSnapshot {
@@ -30,11 +30,11 @@ struct PeerSnapshot {
   int64_t boot_id = 0;
   int64_t version = 0;
   int64_t digest = 0;
-  int64_t view_basis = 0;  ///< memory_portion_t.view_basis
+  int64_t view_basis = 0;  ///< memory_portion_v2_t.view_basis
   int32_t next_local = 0;
-  std::vector<place_entry_t> entries;                          ///< in snapshot order
-  std::vector<std::shared_ptr<const learned_place_t>> places;  ///< the body of each entry
-  std::vector<memory_node_t> nodes;                            ///< in index order
+  std::vector<place_entry_t> entries;                             ///< in snapshot order
+  std::vector<std::shared_ptr<const learned_place_v2_t>> places;  ///< the body of each entry
+  std::vector<memory_node_t> nodes;                               ///< in index order
   std::vector<map_edge_t> edges;
 };
 
@@ -59,7 +59,7 @@ class SnapshotAssembler {
 
   /// Checks and keeps one portion. A portion of a newer version starts the assembly afresh;
   /// one of an older version is stale.
-  Result Accept(const memory_portion_t& portion);
+  Result Accept(const memory_portion_v2_t& portion);
 
   bool started() const { return count_ > 0; }
   int32_t robot() const { return robot_; }
@@ -97,7 +97,7 @@ class SnapshotAssembler {
  private:
   void Reset();    // everything, for a snapshot taken or refused
   void Restart();  // for a newer version: what Carry kept stays
-  Result Keep(const memory_portion_t& p);
+  Result Keep(const memory_portion_v2_t& p);
   bool knows_bodies() const;
   /// f(place index, its entry) for every entry of the structure portions kept.
   template <typename F>
@@ -116,8 +116,8 @@ class SnapshotAssembler {
   int32_t total_places_ = 0;
   int32_t total_nodes_ = 0;
   int32_t total_edges_ = 0;
-  std::map<int32_t, memory_portion_t> structure_;
-  std::vector<std::shared_ptr<const learned_place_t>> bodies_;  ///< by place index
+  std::map<int32_t, memory_portion_v2_t> structure_;
+  std::vector<std::shared_ptr<const learned_place_v2_t>> bodies_;  ///< by place index
   std::vector<bool> received_;    ///< body i came in a portion (its digest is still to check)
   std::vector<int64_t> digests_;  ///< of body i when it was filled in (known or carried)
   PlaceBodies carried_;           ///< bodies of the version this assembly replaced

@@ -6,7 +6,7 @@
 
 #include "daemon/log_throttle.h"
 #include "tsc/announce_t.hpp"
-#include "tsc/memory_portion_t.hpp"
+#include "tsc/memory_portion_v2_t.hpp"
 #include "tsc/memory_request_t.hpp"
 #include "tsc/place_event_t.hpp"
 #include "tsc/stats_t.hpp"
@@ -70,12 +70,12 @@ bool TeamBus::PublishCounted(ChannelFamily family, const std::string& channel, c
 // The messages tscd exchanges with its team.
 template std::optional<announce_t> TeamBus::Authentic(const std::string&, const uint8_t*, size_t,
                                                       const char*);
-template std::optional<memory_portion_t> TeamBus::Authentic(const std::string&, const uint8_t*,
-                                                            size_t, const char*);
+template std::optional<memory_portion_v2_t> TeamBus::Authentic(const std::string&, const uint8_t*,
+                                                               size_t, const char*);
 template std::optional<memory_request_t> TeamBus::Authentic(const std::string&, const uint8_t*,
                                                             size_t, const char*);
 template bool TeamBus::PublishSigned(ChannelFamily, const std::string&, announce_t);
-template bool TeamBus::PublishSigned(ChannelFamily, const std::string&, memory_portion_t);
+template bool TeamBus::PublishSigned(ChannelFamily, const std::string&, memory_portion_v2_t);
 template bool TeamBus::PublishSigned(ChannelFamily, const std::string&, memory_request_t);
 template bool TeamBus::PublishCounted(ChannelFamily, const std::string&, const place_event_t&);
 

@@ -41,7 +41,7 @@ class TeamBus {
   bool signs() const { return team_key_.has_value(); }
   LcmBus& lcm() { return bus_; }
 
-  /// Decodes an exchange message (announce_t, memory_portion_t, memory_request_t) and checks
+  /// Decodes an exchange message (announce_t, memory_portion_v2_t, memory_request_t) and checks
   /// its signature; counts and logs what it drops (`what` names the message in the log).
   template <typename T>
   std::optional<T> Authentic(const std::string& channel, const uint8_t* data, size_t size,

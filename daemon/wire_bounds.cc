@@ -5,7 +5,7 @@
 #include "jaguar/motor_command_t.hpp"
 #include "jaguar/motor_state_t.hpp"
 #include "tsc/announce_t.hpp"
-#include "tsc/memory_portion_t.hpp"
+#include "tsc/memory_portion_v2_t.hpp"
 #include "tsc/memory_request_t.hpp"
 #include "tsc/place_event_t.hpp"
 #include "tsc/stats_t.hpp"
@@ -116,7 +116,7 @@ bool ArrayLengthsFit<memory_request_t>(const uint8_t* data, size_t size) {
 }
 
 template <>
-bool ArrayLengthsFit<memory_portion_t>(const uint8_t* data, size_t size) {
+bool ArrayLengthsFit<memory_portion_v2_t>(const uint8_t* data, size_t size) {
   WireWalker w(data, size);
   // utime … count, structure_portions, digest … next_local, view_basis
   w.Skip(kHash + 8 + 4 + 8 + 8 + 4 + 4 + 4 + 8 + 4 + 4 + 4 + 4 + 4 + 8);

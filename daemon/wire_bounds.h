@@ -16,7 +16,7 @@ class motor_state_t;
 namespace tsc {
 
 class announce_t;
-class memory_portion_t;
+class memory_portion_v2_t;
 class memory_request_t;
 class place_event_t;
 class stats_t;
@@ -32,7 +32,7 @@ bool ArrayLengthsFit(const uint8_t* data, size_t size);
 template <>
 bool ArrayLengthsFit<announce_t>(const uint8_t* data, size_t size);
 template <>
-bool ArrayLengthsFit<memory_portion_t>(const uint8_t* data, size_t size);
+bool ArrayLengthsFit<memory_portion_v2_t>(const uint8_t* data, size_t size);
 template <>
 bool ArrayLengthsFit<memory_request_t>(const uint8_t* data, size_t size);
 template <>

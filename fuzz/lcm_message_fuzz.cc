@@ -9,7 +9,7 @@
 #include "fuzz/fuzz_target.h"
 #include "jaguar/motor_command_t.hpp"
 #include "tsc/announce_t.hpp"
-#include "tsc/memory_portion_t.hpp"
+#include "tsc/memory_portion_v2_t.hpp"
 #include "tsc/memory_request_t.hpp"
 #include "tsc/place_event_t.hpp"
 

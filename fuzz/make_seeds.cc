@@ -116,11 +116,11 @@ size_t WriteSnapshotSeeds(const fs::path& out) {
   const auto memory = tsc::testing_support::MakeRandomMemory(2, 12, 32, 1, 4);
   const tsc::MemorySnapshot snapshot =
       tsc::BuildSnapshot(memory.memory, memory.map, tsc::SnapshotHeader{2, 77, 3, 0}, 4096);
-  const std::vector<tsc::memory_portion_t> portions = tsc::AllPortions(snapshot);
+  const std::vector<tsc::memory_portion_v2_t> portions = tsc::AllPortions(snapshot);
   std::vector<uint8_t> in_order, shuffled;
   for (size_t i = 0; i < portions.size(); ++i) {
     const std::vector<uint8_t> bytes = LcmBus::Encode(portions[i]);
-    Write(out / "fuzz_lcm_memory_portion_t" / ("portion-" + std::to_string(i)), bytes);
+    Write(out / "fuzz_lcm_memory_portion_v2_t" / ("portion-" + std::to_string(i)), bytes);
     AppendFramed(in_order, bytes);
   }
   for (size_t i = portions.size(); i-- > 0;) {

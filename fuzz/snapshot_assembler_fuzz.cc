@@ -1,5 +1,5 @@
 // Fuzz target: a peer's memory as the daemon receives it. The input is a stream of portions,
-// each a 4-byte big-endian length and a memory_portion_t encoding; they are decoded, given
+// each a 4-byte big-endian length and a memory_portion_v2_t encoding; they are decoded, given
 // the digest of what arrived of their version (so the fuzzer gets past the digest check, as a
 // peer that computes digests honestly over a malicious memory would), fed to a
 // SnapshotAssembler, and a snapshot it accepts is turned into a place memory and a map as the
@@ -19,27 +19,27 @@
 #include "fuzz/fuzz_target.h"
 
 extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
-  std::vector<tsc::memory_portion_t> portions;
+  std::vector<tsc::memory_portion_v2_t> portions;
   size_t at = 0;
   while (at + 4 <= size && portions.size() < 64) {
     const size_t n = (size_t{data[at]} << 24) | (size_t{data[at + 1]} << 16) |
                      (size_t{data[at + 2]} << 8) | size_t{data[at + 3]};
     at += 4;
     if (n > size - at) break;
-    if (auto p = tsc::LcmBus::Decode<tsc::memory_portion_t>(data + at, n)) {
+    if (auto p = tsc::LcmBus::Decode<tsc::memory_portion_v2_t>(data + at, n)) {
       portions.push_back(std::move(*p));
     }
     at += n;
   }
   if (portions.empty()) return 0;
-  std::map<int64_t, std::vector<tsc::memory_portion_t>> by_version;
-  for (const tsc::memory_portion_t& p : portions) by_version[p.version].push_back(p);
+  std::map<int64_t, std::vector<tsc::memory_portion_v2_t>> by_version;
+  for (const tsc::memory_portion_v2_t& p : portions) by_version[p.version].push_back(p);
   std::map<int64_t, int64_t> digests;
   for (const auto& [version, of_version] : by_version) {
     digests[version] = tsc::SnapshotDigest(of_version);
   }
   std::optional<tsc::SnapshotAssembler> dut(std::in_place, portions.front().robot);
-  for (tsc::memory_portion_t& p : portions) {
+  for (tsc::memory_portion_v2_t& p : portions) {
     p.digest = digests[p.version];
     dut->Accept(p);
     (void)dut->Missing();

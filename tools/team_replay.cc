@@ -69,7 +69,7 @@ std::pair<PlaceMemory, TopologicalMap> AsReceived(const PlaceMemory& memory,
   header.version = version;
   const MemorySnapshot snapshot = BuildSnapshot(memory, map, header, portion_bytes);
   SnapshotAssembler assembler(static_cast<int32_t>(robot));
-  for (const memory_portion_t& p : AllPortions(snapshot)) {
+  for (const memory_portion_v2_t& p : AllPortions(snapshot)) {
     const SnapshotAssembler::Result r = assembler.Accept(p);
     if (r.verdict != SnapshotAssembler::Verdict::kAccepted) {
       throw std::logic_error("team replay: portion of robot " + std::to_string(robot) +

@@ -17,7 +17,7 @@
 #include "jaguar/motor_command_t.hpp"
 #include "jaguar/motor_state_t.hpp"
 #include "tsc/announce_t.hpp"
-#include "tsc/memory_portion_t.hpp"
+#include "tsc/memory_portion_v2_t.hpp"
 #include "tsc/memory_request_t.hpp"
 #include "tsc/place_event_t.hpp"
 #include "tsc/stats_t.hpp"
@@ -69,7 +69,7 @@ class BusListener {
   // Decoded messages by channel. Under the lock (WaitFor / Inspect).
   std::map<std::string, std::vector<announce_t>> announces;
   std::map<std::string, std::vector<place_event_t>> events;
-  std::map<std::string, std::vector<memory_portion_t>> portions;
+  std::map<std::string, std::vector<memory_portion_v2_t>> portions;
   std::map<std::string, std::vector<memory_request_t>> requests;
   std::map<std::string, std::vector<stats_t>> stats;
   std::map<std::string, int> undecodable;  ///< messages on a tsc channel that did not decode

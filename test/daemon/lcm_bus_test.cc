@@ -9,7 +9,7 @@
 
 #include "jaguar/motor_state_t.hpp"
 #include "tsc/announce_t.hpp"
-#include "tsc/memory_portion_t.hpp"
+#include "tsc/memory_portion_v2_t.hpp"
 #include "tsc/memory_request_t.hpp"
 
 // The largest single allocation this test binary made since the last reset: how the tests
@@ -46,13 +46,13 @@ void PutInt32(std::vector<uint8_t>& bytes, size_t at, int32_t value) {
 
 // A portion holding one place entry, one place of `dims` dimensions and one sample, one node
 // with one child.
-memory_portion_t SamplePortion(int32_t dims) {
-  memory_portion_t p{};
+memory_portion_v2_t SamplePortion(int32_t dims) {
+  memory_portion_v2_t p{};
   p.robot = 2;
   p.count = 1;
   p.entries = {place_entry_t{}};
   p.num_entries = 1;
-  learned_place_t place{};
+  learned_place_v2_t place{};
   place.id.robot = 2;
   place.dims = dims;
   place.mean.assign(static_cast<size_t>(dims), 0.5f);
@@ -143,11 +143,11 @@ TEST(LcmBus, DecodeRejectsTruncatedForeignAndPaddedBytes) {
 
 TEST(LcmBus, DecodeRoundTripsEveryArrayShape) {
   for (int32_t dims : {0, 1, 7}) {
-    memory_portion_t p = SamplePortion(dims);
+    memory_portion_v2_t p = SamplePortion(dims);
     p.places[0].num_sources = 2;
     p.places[0].sources.resize(2);
     const std::vector<uint8_t> bytes = LcmBus::Encode(p);
-    const auto back = LcmBus::Decode<memory_portion_t>(bytes.data(), bytes.size());
+    const auto back = LcmBus::Decode<memory_portion_v2_t>(bytes.data(), bytes.size());
     ASSERT_TRUE(back.has_value()) << dims;
     EXPECT_EQ(back->places.at(0).samples.at(0).size(), static_cast<size_t>(dims));
     EXPECT_EQ(back->nodes.at(0).children, std::vector<int32_t>{0});
@@ -167,7 +167,7 @@ TEST(LcmBus, DecodeRoundTripsEveryArrayShape) {
 // gigabytes (ASan: allocation-size-too-big).
 TEST(LcmBus, ForgedHugeArrayLengthIsRefusedBeforeAllocating) {
   const std::vector<uint8_t> good = LcmBus::Encode(SamplePortion(3));
-  ASSERT_TRUE(LcmBus::Decode<memory_portion_t>(good.data(), good.size()).has_value());
+  ASSERT_TRUE(LcmBus::Decode<memory_portion_v2_t>(good.data(), good.size()).has_value());
   // Field offsets in `good`: mean holds 3 floats, then view_shift (int16) and samples one
   // row of 3 int16.
   const size_t num_samples = kDims + 4 + 12;
@@ -193,13 +193,13 @@ TEST(LcmBus, ForgedHugeArrayLengthIsRefusedBeforeAllocating) {
     ASSERT_EQ(GetInt32(good, at), value) << "offset of " << what;
     std::vector<uint8_t> forged = good;
     PutInt32(forged, at, INT32_MAX);
-    ExpectRefusedCheaply<memory_portion_t>(forged, what);
+    ExpectRefusedCheaply<memory_portion_v2_t>(forged, what);
   }
   // Rows of zero values take no bytes: 2^31 empty sample rows would still be 48 GB of vectors.
   std::vector<uint8_t> empty_rows = LcmBus::Encode(SamplePortion(0));
   ASSERT_EQ(GetInt32(empty_rows, kDims + 4), 1) << "offset of num_samples";
   PutInt32(empty_rows, kDims + 4, INT32_MAX);
-  ExpectRefusedCheaply<memory_portion_t>(empty_rows, "num_samples of empty rows");
+  ExpectRefusedCheaply<memory_portion_v2_t>(empty_rows, "num_samples of empty rows");
 
   memory_request_t r{};
   r.num_missing = 1;

@@ -33,7 +33,7 @@ TEST(MemorySnapshot, StructureStaysWithinTheBudgetBodiesComeOneEachEverythingOnc
   std::set<int32_t> entries, places, nodes;
   size_t edges = 0;
   for (int32_t i = 0; i < dut.count(); ++i) {
-    const memory_portion_t p = dut.Portion(i);
+    const memory_portion_v2_t p = dut.Portion(i);
     const bool structure = p.index < dut.structure_portions;
     if (structure) {
       EXPECT_LE(LcmBus::Encode(p).size(), static_cast<size_t>(budget)) << i;
@@ -55,7 +55,7 @@ TEST(MemorySnapshot, StructureStaysWithinTheBudgetBodiesComeOneEachEverythingOnc
     for (int32_t k = 0; k < p.num_places; ++k) {
       EXPECT_EQ(p.first_place, p.index - dut.structure_portions);
       EXPECT_TRUE(places.insert(p.first_place + k).second);
-      const learned_place_t& lp = p.places[static_cast<size_t>(k)];
+      const learned_place_v2_t& lp = p.places[static_cast<size_t>(k)];
       const LearnedPlace& want = f.memory.places()[static_cast<size_t>(p.first_place + k)];
       EXPECT_EQ(lp.id.local, static_cast<int32_t>(want.id.local));
       EXPECT_EQ(lp.dims, kDim);
@@ -135,10 +135,10 @@ TEST(MemorySnapshot, BuiltOnThePreviousItSharesUnchangedBodiesAndEqualsOneFromSc
   // A previous body of the same id whose content differs (one view value, or one source) is
   // not taken.
   MemorySnapshot altered = before;
-  auto view = std::make_shared<learned_place_t>(*before.bodies[3]);
+  auto view = std::make_shared<learned_place_v2_t>(*before.bodies[3]);
   view->samples[1][2] ^= 1;
   altered.bodies[3] = view;
-  auto source = std::make_shared<learned_place_t>(*before.bodies[4]);
+  auto source = std::make_shared<learned_place_v2_t>(*before.bodies[4]);
   source->sources.push_back(source->id);
   source->num_sources = static_cast<int32_t>(source->sources.size());
   altered.bodies[4] = source;
@@ -160,17 +160,17 @@ DetectedPlace Revisit() {
 // The portions of `dut` (built without bodies) with its bodies from `body`, byte for byte
 // those of `scratch` (built with them).
 void ExpectSamePortions(const MemorySnapshot& dut, const MemorySnapshot& scratch,
-                        const std::function<std::shared_ptr<const learned_place_t>(int)>& body) {
+                        const std::function<std::shared_ptr<const learned_place_v2_t>(int)>& body) {
   ASSERT_EQ(dut.count(), scratch.count());
   EXPECT_EQ(dut.digest, scratch.digest);
   EXPECT_EQ(dut.body_digests, scratch.body_digests);
-  memory_portion_t unused;
+  memory_portion_v2_t unused;
   for (int32_t i = 0; i < dut.structure_portions; ++i) {
     EXPECT_EQ(LcmBus::Encode(dut.Portion(i, unused)), LcmBus::Encode(scratch.Portion(i))) << i;
   }
   for (int32_t place = 0; place < dut.places; ++place) {
     const int32_t i = dut.structure_portions + place;
-    const std::shared_ptr<const learned_place_t> b = body(place);
+    const std::shared_ptr<const learned_place_v2_t> b = body(place);
     ASSERT_TRUE(b) << place;
     EXPECT_EQ(LcmBus::Encode(dut.Portion(i, unused, b.get())), LcmBus::Encode(scratch.Portion(i)))
         << i;
@@ -186,10 +186,10 @@ TEST(MemorySnapshot, BuiltWithoutBodiesItEqualsOneWithThemBodiesReadFromTheMemor
   const MemorySnapshot dut =
       BuildSnapshotWithoutBodies(f.memory, f.map, {5, 1, 1, 0}, 8192, nullptr, {});
   for (const auto& b : dut.bodies) EXPECT_EQ(b, nullptr);
-  memory_portion_t unused;
+  memory_portion_v2_t unused;
   EXPECT_THROW(dut.Portion(dut.structure_portions, unused), std::logic_error);
   const auto from_memory = [&](int place) {
-    return std::make_shared<const learned_place_t>(
+    return std::make_shared<const learned_place_v2_t>(
         BodyOf(f.memory.places()[static_cast<size_t>(place)]));
   };
   ExpectSamePortions(dut, BuildSnapshot(f.memory, f.map, {5, 1, 1, 0}, 8192), from_memory);
@@ -272,7 +272,7 @@ TEST(MemorySnapshot, OnePlaceChangedSendsUnderOnePercentOfTheSnapshot) {
   f.memory.Update(250, revisit);
   const MemorySnapshot after = BuildSnapshot(f.memory, f.map, h, 60000);
   int64_t full = 0, delta = 0;
-  for (const memory_portion_t& p : AllPortions(after)) full += p.getEncodedSize();
+  for (const memory_portion_v2_t& p : AllPortions(after)) full += p.getEncodedSize();
   for (int32_t i :
        PortionsBeyond(after, {before.body_digests.begin(), before.body_digests.end()})) {
     delta += after.Portion(i).getEncodedSize();

@@ -50,7 +50,7 @@ TEST(PeerExchange, FetchesOnePeerAtATimeAndAsksAgainForLostPortions) {
   EXPECT_EQ(dut.fetching(), 2);
 
   // Everything arrives but portion 1 (lost on the way), and a portion of robot 3 (ignored).
-  for (const memory_portion_t& p : AllPortions(two)) {
+  for (const memory_portion_v2_t& p : AllPortions(two)) {
     if (p.index != 1) {
       EXPECT_FALSE(dut.OnPortion(p, t).has_value());
     }
@@ -126,7 +126,7 @@ TEST(PeerExchange, SecondFetchAsksForTheStructureThenOnlyTheChangedBody) {
   dut.OnAnnounce(Announce(2, 1, v1), t);
   ASSERT_TRUE(dut.Tick(t).at(0).missing.empty());  // nothing of robot 2 yet: everything
   std::optional<SnapshotAssembler> complete;
-  for (const memory_portion_t& p : AllPortions(v1)) complete = dut.OnPortion(p, t);
+  for (const memory_portion_v2_t& p : AllPortions(v1)) complete = dut.OnPortion(p, t);
   ASSERT_TRUE(complete.has_value());
   dut.MarkMerged(2, {v1.version, v1.digest});
   EXPECT_EQ(dut.known_bodies(), 60u);
@@ -208,7 +208,7 @@ TEST(PeerExchange, ForgedPortionIsCountedNotKept) {
   Clock::time_point t{};
   dut.OnAnnounce(Announce(2, 1, two), t);
   dut.Tick(t);
-  memory_portion_t forged = two.Portion(two.structure_portions);
+  memory_portion_v2_t forged = two.Portion(two.structure_portions);
   forged.places[0].mean[0] = std::numeric_limits<float>::quiet_NaN();
   EXPECT_FALSE(dut.OnPortion(forged, t).has_value());
   EXPECT_EQ(dut.rejected_portions(), 1);

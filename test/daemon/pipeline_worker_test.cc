@@ -52,12 +52,12 @@ class Signal {
 SnapshotAssembler PeerMemory(int places, bool corrupt = false, int32_t robot = 2) {
   const auto memory = testing_support::MakeRandomMemory(static_cast<uint32_t>(robot), places, 32,
                                                         static_cast<unsigned>(5 + robot));
-  std::vector<memory_portion_t> published = AllPortions(
+  std::vector<memory_portion_v2_t> published = AllPortions(
       BuildSnapshot(memory.memory, memory.map, SnapshotHeader{robot, 4242, 3, 1}, 60000));
   // A body other than the structure names (its digest fails on the worker).
   if (corrupt) published.back().places.front().mean.front() += 1.0f;
   SnapshotAssembler assembler(robot);
-  for (const memory_portion_t& p : published) assembler.Accept(p);
+  for (const memory_portion_v2_t& p : published) assembler.Accept(p);
   if (!assembler.complete()) throw std::runtime_error("peer snapshot incomplete");
   return assembler;
 }

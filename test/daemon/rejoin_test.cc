@@ -65,13 +65,13 @@ std::set<PlaceId> OwnIds(const fs::path& db, uint32_t owner, uint32_t robot) {
 }
 
 // Adds robot `robot`'s ids in portion `m` (its places and their sources) to `ids`.
-void AddIds(const memory_portion_t& m, int robot, std::set<PlaceId>& ids) {
+void AddIds(const memory_portion_v2_t& m, int robot, std::set<PlaceId>& ids) {
   auto add = [&](const place_ref_t& r) {
     if (r.robot == robot) {
       ids.insert(PlaceId{static_cast<uint32_t>(r.robot), static_cast<uint32_t>(r.local)});
     }
   };
-  for (const learned_place_t& p : m.places) {
+  for (const learned_place_v2_t& p : m.places) {
     add(p.id);
     for (const place_ref_t& s : p.sources) add(s);
   }
@@ -82,7 +82,7 @@ void AddIds(const memory_portion_t& m, int robot, std::set<PlaceId>& ids) {
 std::set<PlaceId> IdsOf(const BusListener& b, const std::string& channel, int robot) {
   std::set<PlaceId> ids;
   if (!b.portions.count(channel)) return ids;
-  for (const memory_portion_t& m : b.portions.at(channel)) AddIds(m, robot, ids);
+  for (const memory_portion_v2_t& m : b.portions.at(channel)) AddIds(m, robot, ids);
   return ids;
 }
 
@@ -117,7 +117,7 @@ std::vector<int32_t> MissingOf(const BusListener& b, const std::string& channel,
   std::set<int32_t> have;
   int32_t count = 0;
   if (b.portions.count(channel)) {
-    for (const memory_portion_t& m : b.portions.at(channel)) {
+    for (const memory_portion_v2_t& m : b.portions.at(channel)) {
       if (m.version == version) have.insert(m.index), count = m.count;
     }
   }
@@ -136,7 +136,7 @@ std::optional<std::set<PlaceId>> IdsOfVersion(const BusListener& b, const std::s
   std::set<int32_t> have;
   int32_t count = -1;
   std::set<PlaceId> ids;
-  for (const memory_portion_t& m : b.portions.at(channel)) {
+  for (const memory_portion_v2_t& m : b.portions.at(channel)) {
     if (m.version != version) continue;
     have.insert(m.index);
     count = m.count;
@@ -150,7 +150,7 @@ std::optional<std::set<PlaceId>> IdsOfVersion(const BusListener& b, const std::s
 std::string PortionsSeen(const BusListener& b, const std::string& channel) {
   if (!b.portions.count(channel)) return channel + ": no portions\n";
   std::map<int64_t, std::pair<std::set<int32_t>, int32_t>> by_version;
-  for (const memory_portion_t& m : b.portions.at(channel)) {
+  for (const memory_portion_v2_t& m : b.portions.at(channel)) {
     by_version[m.version].first.insert(m.index);
     by_version[m.version].second = m.count;
   }

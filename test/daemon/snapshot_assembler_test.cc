@@ -22,15 +22,15 @@ MemorySnapshot MakeSnapshot(int places, int64_t version, int portion_bytes = 600
 TEST(SnapshotAssembler, CompletesFromShuffledDuplicatedPortionsAfterAskingForTheLostOne) {
   const MemorySnapshot snap = MakeSnapshot(30, 4);
   ASSERT_GE(static_cast<size_t>(snap.count()), 3u);
-  std::vector<memory_portion_t> order = AllPortions(snap);
+  std::vector<memory_portion_v2_t> order = AllPortions(snap);
   std::mt19937 rng(1);
   std::shuffle(order.begin(), order.end(), rng);
-  const memory_portion_t lost = order.back();
+  const memory_portion_v2_t lost = order.back();
   order.pop_back();
   order.push_back(order.front());  // a duplicate
 
   SnapshotAssembler dut(2);
-  for (const memory_portion_t& p : order) {
+  for (const memory_portion_v2_t& p : order) {
     const auto r = dut.Accept(p);
     EXPECT_NE(r.verdict, SnapshotAssembler::Verdict::kRejected) << r.reason;
   }
@@ -44,8 +44,8 @@ TEST(SnapshotAssembler, CompletesFromShuffledDuplicatedPortionsAfterAskingForThe
   EXPECT_EQ(got->places.size(), 30u);
   EXPECT_EQ(got->version, 4);
   EXPECT_EQ(got->edges.size(), 29u);
-  std::vector<learned_place_t> sent;
-  for (const memory_portion_t& p : AllPortions(snap))
+  std::vector<learned_place_v2_t> sent;
+  for (const memory_portion_v2_t& p : AllPortions(snap))
     sent.insert(sent.end(), p.places.begin(), p.places.end());
   ASSERT_EQ(sent.size(), 30u);
   for (size_t i = 0; i < sent.size(); ++i) EXPECT_EQ(got->places[i]->mean, sent[i].mean) << i;
@@ -56,49 +56,49 @@ TEST(SnapshotAssembler, CompletesFromShuffledDuplicatedPortionsAfterAskingForThe
 TEST(SnapshotAssembler, RejectsForeignNonFiniteAndInconsistentPortions) {
   const MemorySnapshot snap = MakeSnapshot(12, 1);
   SnapshotAssembler dut(2);
-  memory_portion_t other = snap.Portion(0);
+  memory_portion_v2_t other = snap.Portion(0);
   other.robot = 3;
   EXPECT_EQ(dut.Accept(other).verdict, SnapshotAssembler::Verdict::kRejected);
 
-  const memory_portion_t& body = snap.Portion(snap.structure_portions);
-  memory_portion_t nan = body;
+  const memory_portion_v2_t& body = snap.Portion(snap.structure_portions);
+  memory_portion_v2_t nan = body;
   ASSERT_EQ(nan.places.size(), 1u);
   nan.places[0].mean[3] = std::nanf("");
   EXPECT_EQ(dut.Accept(nan).verdict, SnapshotAssembler::Verdict::kRejected);
 
-  memory_portion_t small = body;  // integers no encoding gives: the largest below 2^14
+  memory_portion_v2_t small = body;  // integers no encoding gives: the largest below 2^14
   for (auto& col : small.places[0].samples) std::fill(col.begin(), col.end(), int16_t{1});
   EXPECT_EQ(dut.Accept(small).reason, "member views that are no 16-bit encoding");
 
-  memory_portion_t huge = body;  // a valid encoding whose squared distances overflow (fuzzing)
+  memory_portion_v2_t huge = body;  // a valid encoding whose squared distances overflow (fuzzing)
   huge.places[0].view_shift = -15;
   EXPECT_EQ(dut.Accept(huge).reason, "out-of-range member views");
 
-  memory_portion_t view_dims = body;  // rows of another length than the body claims
+  memory_portion_v2_t view_dims = body;  // rows of another length than the body claims
   view_dims.places[0].view_dims += 1;
   EXPECT_EQ(dut.Accept(view_dims).reason, "bad sample");
   view_dims.places[0].view_dims = 0;
   EXPECT_EQ(dut.Accept(view_dims).reason, "bad view dimension");
 
-  memory_portion_t lengths = body;
+  memory_portion_v2_t lengths = body;
   lengths.num_places += 1;
   EXPECT_EQ(dut.Accept(lengths).verdict, SnapshotAssembler::Verdict::kRejected);
 
-  memory_portion_t two = body;  // a body portion holds one place
+  memory_portion_v2_t two = body;  // a body portion holds one place
   two.places.push_back(two.places[0]);
   two.num_places = 2;
   EXPECT_EQ(dut.Accept(two).verdict, SnapshotAssembler::Verdict::kRejected);
 
-  memory_portion_t lambda = snap.Portion(0);
+  memory_portion_v2_t lambda = snap.Portion(0);
   ASSERT_FALSE(lambda.entries.empty());
   lambda.entries[0].slink_lambda = std::nan("");
   EXPECT_EQ(dut.Accept(lambda).verdict, SnapshotAssembler::Verdict::kRejected);
 
-  memory_portion_t bodies = snap.Portion(0);  // more places than bodies
+  memory_portion_v2_t bodies = snap.Portion(0);  // more places than bodies
   bodies.total_places += 1;
   EXPECT_EQ(dut.Accept(bodies).verdict, SnapshotAssembler::Verdict::kRejected);
 
-  memory_portion_t index = snap.Portion(0);
+  memory_portion_v2_t index = snap.Portion(0);
   index.index = index.count;
   EXPECT_EQ(dut.Accept(index).verdict, SnapshotAssembler::Verdict::kRejected);
   EXPECT_FALSE(dut.started());  // nothing kept
@@ -110,7 +110,7 @@ TEST(SnapshotAssembler, PortionsOfOneVersionAgreeOnTheViewBasis) {
   const MemorySnapshot snap = MakeSnapshot(12, 1);
   SnapshotAssembler dut(2);
   ASSERT_EQ(dut.Accept(snap.Portion(0)).verdict, SnapshotAssembler::Verdict::kAccepted);
-  memory_portion_t other = snap.Portion(1);
+  memory_portion_v2_t other = snap.Portion(1);
   other.view_basis = 99;
   const SnapshotAssembler::Result r = dut.Accept(other);
   EXPECT_EQ(r.verdict, SnapshotAssembler::Verdict::kRejected);
@@ -121,7 +121,7 @@ TEST(SnapshotAssembler, TamperedContentFailsTheDigests) {
   const MemorySnapshot snap = MakeSnapshot(8, 1);
   {
     SnapshotAssembler dut(2);
-    for (memory_portion_t p : AllPortions(snap)) {
+    for (memory_portion_v2_t p : AllPortions(snap)) {
       if (!p.places.empty()) p.places[0].mean[0] += 0.25f;  // finite, plausible, wrong
       ASSERT_EQ(dut.Accept(p).verdict, SnapshotAssembler::Verdict::kAccepted);
     }
@@ -132,7 +132,7 @@ TEST(SnapshotAssembler, TamperedContentFailsTheDigests) {
   }
   {
     SnapshotAssembler dut(2);
-    for (memory_portion_t p : AllPortions(snap)) {
+    for (memory_portion_v2_t p : AllPortions(snap)) {
       for (place_entry_t& e : p.entries) e.slink_lambda += 0.25;  // the structure changed
       ASSERT_EQ(dut.Accept(p).verdict, SnapshotAssembler::Verdict::kAccepted);
     }
@@ -148,7 +148,7 @@ TEST(SnapshotAssembler, KnownBodiesLeaveOnlyTheChangedPlaceToAskFor) {
   auto m = testing_support::MakeRandomMemory(2, 80, kDim, 80);
   const MemorySnapshot v1 = BuildSnapshot(m.memory, m.map, {2, 77, 1, 1}, 4096);
   SnapshotAssembler first(2);
-  for (const memory_portion_t& p : AllPortions(v1)) first.Accept(p);
+  for (const memory_portion_v2_t& p : AllPortions(v1)) first.Accept(p);
   ASSERT_TRUE(first.complete());
   const auto known = std::make_shared<const PlaceBodies>(first.Bodies());
   EXPECT_EQ(known->size(), 80u);
@@ -181,7 +181,7 @@ TEST(SnapshotAssembler, KnownBodiesLeaveOnlyTheChangedPlaceToAskFor) {
   ASSERT_TRUE(got.has_value()) << reason;
   ASSERT_EQ(got->places.size(), 80u);
   for (size_t i = 0; i < 80; ++i) {
-    const learned_place_t& want = *v2.bodies[i];
+    const learned_place_v2_t& want = *v2.bodies[i];
     EXPECT_EQ(got->places[i]->mean, want.mean) << i;
     EXPECT_EQ(got->places[i]->samples, want.samples) << i;
   }
@@ -224,10 +224,10 @@ TEST(SnapshotAssembler, BodiesOfAReplacedVersionCarryOverToTheNext) {
 TEST(SnapshotAssembler, AReceivedBodyMustMatchItsEntry) {
   const MemorySnapshot snap = MakeSnapshot(5, 1);
   SnapshotAssembler first(2);
-  for (const memory_portion_t& p : AllPortions(snap)) first.Accept(p);
+  for (const memory_portion_v2_t& p : AllPortions(snap)) first.Accept(p);
   ASSERT_TRUE(first.complete());
   SnapshotAssembler dut(2, std::make_shared<const PlaceBodies>(first.Bodies()));
-  memory_portion_t swapped = snap.Portion(snap.structure_portions + 1);
+  memory_portion_v2_t swapped = snap.Portion(snap.structure_portions + 1);
   swapped.places[0] = snap.Portion(snap.structure_portions).places[0];
   swapped.first_place = 1;
   for (int32_t i = 0; i < snap.structure_portions; ++i) dut.Accept(snap.Portion(i));
@@ -246,7 +246,7 @@ TEST(SnapshotAssembler, NewerVersionRestartsOlderIsStale) {
   ASSERT_EQ(dut.Accept(v2.Portion(0)).verdict, SnapshotAssembler::Verdict::kAccepted);
   EXPECT_EQ(dut.version(), 2);
   EXPECT_EQ(dut.Accept(v1.Portion(0)).verdict, SnapshotAssembler::Verdict::kStale);
-  for (const memory_portion_t& p : AllPortions(v2)) dut.Accept(p);
+  for (const memory_portion_v2_t& p : AllPortions(v2)) dut.Accept(p);
   std::string reason;
   const auto got = dut.Take(&reason);
   ASSERT_TRUE(got.has_value()) << reason;
@@ -256,14 +256,14 @@ TEST(SnapshotAssembler, NewerVersionRestartsOlderIsStale) {
 TEST(SnapshotAssembler, BrokenTreeIsRefusedAsAWhole) {
   MemorySnapshot snap = MakeSnapshot(6, 1, 60000);
   ASSERT_EQ(snap.structure_portions, 1);
-  std::vector<memory_portion_t> portions = AllPortions(snap);
-  memory_portion_t& p = portions[0];
+  std::vector<memory_portion_v2_t> portions = AllPortions(snap);
+  memory_portion_v2_t& p = portions[0];
   ASSERT_GE(p.nodes.size(), 2u);
   p.nodes.back().children.push_back(p.nodes.back().index);  // a node its own child
   p.nodes.back().num_children += 1;
   p.digest = snap.digest = SnapshotDigest(portions);  // an honest digest of a bad tree
   SnapshotAssembler dut(2);
-  for (memory_portion_t& q : portions) {
+  for (memory_portion_v2_t& q : portions) {
     q.digest = snap.digest;
     ASSERT_EQ(dut.Accept(q).verdict, SnapshotAssembler::Verdict::kAccepted);
   }

@@ -104,7 +104,7 @@ TEST_F(TeamTest, ThreeRobotsLearnAndEveryMessageDecodes) {
       EXPECT_GE(places[r], 1) << "robot " << r << " learned nothing";
       EXPECT_TRUE(b.events.count("TSC_EVENT_" + id)) << id;
       ASSERT_TRUE(b.portions.count("TSC_MEMORY_" + id)) << id;
-      const memory_portion_t& last = b.portions.at("TSC_MEMORY_" + id).back();
+      const memory_portion_v2_t& last = b.portions.at("TSC_MEMORY_" + id).back();
       EXPECT_EQ(last.robot, r);
       EXPECT_GE(last.total_places, 1);
       EXPECT_GT(last.count, 0);
@@ -250,7 +250,7 @@ TEST_F(TeamTest, SignedExchangeDeliversMemoriesAndDropsForgeries) {
   fake.status = "forged";
   fake.hmac_size = 0;
   bus.lcm().publish("TSC_ANNOUNCE", &fake);
-  memory_portion_t forged{};
+  memory_portion_v2_t forged{};
   bus.Inspect([&](const BusListener& b) {
     if (b.portions.count("TSC_MEMORY_2")) forged = b.portions.at("TSC_MEMORY_2").back();
   });

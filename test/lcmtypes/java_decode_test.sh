@@ -111,7 +111,7 @@ status=0
 [[ ${status} -eq 1 ]] || fail "TscLogDump exited ${status} on undecodable messages, expected 1"
 grep -q 'TSC_EVENT_7 is not a valid tsc.place_event_t' "${work}/garbage.err" ||
   fail "junk on TSC_EVENT_7 not reported: $(cat "${work}/garbage.err")"
-grep -q 'TSC_MEMORY_7 is not a valid tsc.memory_portion_t' "${work}/garbage.err" ||
+grep -q 'TSC_MEMORY_7 is not a valid tsc.memory_portion_v2_t' "${work}/garbage.err" ||
   fail "announce_t on TSC_MEMORY_7 not reported: $(cat "${work}/garbage.err")"
 echo "undecodable messages rejected (exit 1)"
 echo "PASS"

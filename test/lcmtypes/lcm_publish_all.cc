@@ -28,9 +28,11 @@
 #include "jaguar/motor_state_t.hpp"
 #include "tsc/announce_t.hpp"
 #include "tsc/learned_place_t.hpp"
+#include "tsc/learned_place_v2_t.hpp"
 #include "tsc/map_edge_t.hpp"
 #include "tsc/memory_node_t.hpp"
 #include "tsc/memory_portion_t.hpp"
+#include "tsc/memory_portion_v2_t.hpp"
 #include "tsc/memory_request_t.hpp"
 #include "tsc/place_event_t.hpp"
 #include "tsc/place_ref_t.hpp"
@@ -102,8 +104,8 @@ tsc::place_event_t Event(int32_t robot) {
   return m;
 }
 
-tsc::learned_place_t Place(int32_t robot, int32_t local, float base) {
-  tsc::learned_place_t p{};
+tsc::learned_place_v2_t Place(int32_t robot, int32_t local, float base) {
+  tsc::learned_place_v2_t p{};
   p.id = Ref(robot, local);
   p.member_count = 10 + local;
   p.dims = 3;
@@ -144,8 +146,8 @@ tsc::memory_node_t Node(int32_t index, int32_t parent, int32_t place, double hei
   return n;
 }
 
-tsc::memory_portion_t Portion(int32_t robot) {
-  tsc::memory_portion_t m{};
+tsc::memory_portion_v2_t Portion(int32_t robot) {
+  tsc::memory_portion_v2_t m{};
   m.utime = kUtime + 3;
   m.robot = robot;
   m.boot_id = 123456789012345;
@@ -173,6 +175,29 @@ tsc::memory_portion_t Portion(int32_t robot) {
   m.num_edges = static_cast<int32_t>(m.edges.size());
   m.hmac = Hmac();
   m.hmac_size = static_cast<int16_t>(m.hmac.size());
+  return m;
+}
+
+// A body portion of protocols 2-3 (float32 views), as logs of those tscd versions hold it: the
+// log dumper still decodes it, by its fingerprint.
+tsc::memory_portion_t PortionOfProtocol3(int32_t robot) {
+  tsc::memory_portion_t m{};
+  m.utime = kUtime + 8;
+  m.robot = robot;
+  m.count = 2;
+  m.structure_portions = 1;
+  m.index = 1;
+  m.total_places = 1;
+  tsc::learned_place_t p{};
+  p.id = Ref(robot, 1);
+  p.member_count = 3;
+  p.dims = 2;
+  p.mean = {0.25F, 0.5F};
+  p.view_dims = 2;
+  p.samples = {{0.25F, 0.75F}};
+  p.num_samples = static_cast<int32_t>(p.samples.size());
+  m.places = {p};
+  m.num_places = 1;
   return m;
 }
 
@@ -262,6 +287,7 @@ bool PublishAll(lcm::LCM& bus, int32_t robot) {
   return Publish(bus, "TSC_ANNOUNCE", Announce(robot)) &&
          Publish(bus, "TSC_EVENT_" + id, Event(robot)) &&
          Publish(bus, "TSC_MEMORY_" + id, Portion(robot)) &&
+         Publish(bus, "TSC_MEMORY_" + std::to_string(robot + 1), PortionOfProtocol3(robot + 1)) &&
          Publish(bus, "TSC_REQUEST_" + id, Request(robot)) &&
          Publish(bus, "TSC_STATS_" + id, Stats(robot)) &&
          Publish(bus, "JAGUAR_CMD_" + id, Command()) && Publish(bus, "JAGUAR_STATE_" + id, State());

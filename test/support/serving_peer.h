@@ -91,7 +91,7 @@ class ServingPeer {
       // asked for meanwhile go out in the next batch.
       const std::set<int32_t> batch = std::exchange(wanted_, {});
       for (int32_t i : batch) {
-        const memory_portion_t portion = snapshot_.Portion(i);
+        const memory_portion_v2_t portion = snapshot_.Portion(i);
         lcm_.publish("TSC_MEMORY_" + std::to_string(robot_), &portion);
         std::this_thread::sleep_for(std::chrono::microseconds(300));
         lcm_.handleTimeout(0);

@@ -8,7 +8,8 @@
 //
 //   TSC_ANNOUNCE      tsc.announce_t         TSC_REQUEST_<robot>  tsc.memory_request_t
 //   TSC_EVENT_<robot> tsc.place_event_t      JAGUAR_CMD_<robot>   jaguar.motor_command_t
-//   TSC_MEMORY_<robot> tsc.memory_portion_t  JAGUAR_STATE_<robot> jaguar.motor_state_t
+//   TSC_MEMORY_<robot> tsc.memory_portion_v2_t (protocol 4; tsc.memory_portion_t of protocols
+//                      2-3 where the fingerprint says so)  JAGUAR_STATE_<robot> jaguar.motor_state_t
 //   TSC_STATS_<robot> tsc.stats_t
 //
 // Other channels print as "<log utime> <channel> - <n> bytes" and are not an error. An event
@@ -38,12 +39,14 @@ public final class TscLogDump {
   private static final class Route {
     final String name;
     final boolean prefix;
-    final Class<? extends LCMEncodable> type;
+    /** The channel's type, then older versions of it that old logs hold (tried in order). */
+    final List<Class<? extends LCMEncodable>> types;
 
-    Route(String name, boolean prefix, Class<? extends LCMEncodable> type) {
+    @SafeVarargs
+    Route(String name, boolean prefix, Class<? extends LCMEncodable>... types) {
       this.name = name;
       this.prefix = prefix;
-      this.type = type;
+      this.types = java.util.Arrays.asList(types);
     }
 
     boolean matches(String channel) {
@@ -55,7 +58,7 @@ public final class TscLogDump {
   private static final Route[] ROUTES = {
     new Route("TSC_ANNOUNCE", false, tsc.announce_t.class),
     new Route("TSC_EVENT_", true, tsc.place_event_t.class),
-    new Route("TSC_MEMORY_", true, tsc.memory_portion_t.class),
+    new Route("TSC_MEMORY_", true, tsc.memory_portion_v2_t.class, tsc.memory_portion_t.class),
     new Route("TSC_REQUEST_", true, tsc.memory_request_t.class),
     new Route("TSC_STATS_", true, tsc.stats_t.class),
     new Route("JAGUAR_CMD_", true, jaguar.motor_command_t.class),
@@ -67,13 +70,28 @@ public final class TscLogDump {
     return channel.startsWith("TSC_") || channel.startsWith("JAGUAR_");
   }
 
-  static Class<? extends LCMEncodable> typeFor(String channel) {
+  static Route routeFor(String channel) {
     for (Route route : ROUTES) {
       if (route.matches(channel)) {
-        return route.type;
+        return route;
       }
     }
     return null;
+  }
+
+  /** The first of the route's types that decodes `data`; else the newest type's failure. */
+  static LCMEncodable decodeAny(Route route, byte[] data) throws Exception {
+    Exception first = null;
+    for (Class<? extends LCMEncodable> type : route.types) {
+      try {
+        return decode(type, data);
+      } catch (Exception e) {
+        if (first == null) {
+          first = e;
+        }
+      }
+    }
+    throw first;
   }
 
   /**
@@ -241,8 +259,8 @@ public final class TscLogDump {
       ++events;
       line.setLength(0);
       line.append(event.utime).append(' ').append(event.channel).append(' ');
-      Class<? extends LCMEncodable> type = typeFor(event.channel);
-      if (type == null) {
+      Route route = routeFor(event.channel);
+      if (route == null) {
         if (isTscChannel(event.channel)) {
           ++failed;
           System.err.println("TscLogDump: " + path + ": event " + event.eventNumber
@@ -253,16 +271,18 @@ public final class TscLogDump {
         continue;
       }
       try {
-        line.append(format(decode(type, event.data)));
+        line.append(format(decodeAny(route, event.data)));
         ++decoded;
       } catch (Exception e) {
         ++failed;
         System.err.println("TscLogDump: " + path + ": event " + event.eventNumber + " on "
-                           + event.channel + " is not a valid " + type.getName() + ": "
+                           + event.channel + " is not a valid "
+                           + route.types.get(0).getName() + ": "
                            + e.getMessage());
         line.setLength(0);
         line.append(event.utime).append(' ').append(event.channel).append(" ! ")
-            .append(event.data.length).append(" bytes, not a ").append(type.getName());
+            .append(event.data.length).append(" bytes, not a ")
+            .append(route.types.get(0).getName());
       }
       System.out.println(line);
     }
