@@ -225,15 +225,17 @@ class Prefetch {
   std::ptrdiff_t lines_, per_block_, line_ = 0;
 };
 
+// Columns of a taken at a time by ColumnDots (a multiple of the blocks' 4): as many as stay in
+// L2 (~128 KB) while every column of b passes. Long columns (a basis' 128 axes of 1200 floats,
+// 600 KB) were read whole for each few columns of b, from L3. Each product is still one
+// DotBlock over all of dim, so the band changes no result.
+int BandOf(int dim) { return std::max(4, 32768 / std::max(1, dim) / 4 * 4); }
+
 TSC_AVX2 void ColumnDots8(const float* a, int na, const float* b, int nb, int dim, float* out,
                           float* b_norms, const float* next, std::ptrdiff_t next_floats) {
   const std::ptrdiff_t stride = dim;
   Prefetch prefetch(next, next_floats, static_cast<std::ptrdiff_t>((nb + 2) / 3) * ((na + 3) / 4));
-  // Long columns (a basis' 128 axes of 1200 floats, 600 KB) are taken a band of a at a time
-  // that stays in L2 (~128 KB) while every column of b passes: read whole for each three
-  // columns of b, a came from L3. Each product is still one DotBlock over all of dim, so the
-  // band changes no result.
-  const int band = std::max(4, static_cast<int>(32768 / std::max(1, dim)) / 4 * 4);
+  const int band = BandOf(dim);
   for (int i0 = 0; i0 < na; i0 += band) {
     const int i_end = std::min(na, i0 + band);
     // Three columns of b at a time, each against every four of the band: the three stay in L1.
@@ -360,29 +362,33 @@ TSC_AVX512 void ColumnDots16(const float* a, int na, const float* b, int nb, int
                              float* b_norms, const float* next, std::ptrdiff_t next_floats) {
   const std::ptrdiff_t stride = dim;
   Prefetch prefetch(next, next_floats, static_cast<std::ptrdiff_t>((nb + 5) / 6) * ((na + 3) / 4));
-  for (int j = 0; j < nb; j += 6) {
-    const int kb = std::min(6, nb - j);
-    if (b_norms != nullptr) {  // 8-lane norms: the same sums, and cheap
-      for (int n = 0; n < kb; n += 3)
-        SquaredNormsOf(b + (j + n) * stride, std::min(3, kb - n), dim, b_norms + j + n);
-    }
-    const bool odd = kb % 2 != 0;
-    for (int i = 0; i < na; i += 4) {
-      const float* ai = a + i * stride;
-      const float* bj = b + j * stride;
-      float* o = out + i + static_cast<std::ptrdiff_t>(j) * na;
-      const int ka = std::min(4, na - i);
-      switch ((kb + 1) / 2) {
-        case 1:
-          DotRow16<1>(ka, ai, bj, odd, dim, o, na);
-          break;
-        case 2:
-          DotRow16<2>(ka, ai, bj, odd, dim, o, na);
-          break;
-        default:
-          DotRow16<3>(ka, ai, bj, odd, dim, o, na);
+  const int band = BandOf(dim);  // as ColumnDots8
+  for (int i0 = 0; i0 < na; i0 += band) {
+    const int i_end = std::min(na, i0 + band);
+    for (int j = 0; j < nb; j += 6) {
+      const int kb = std::min(6, nb - j);
+      if (b_norms != nullptr && i0 == 0) {  // 8-lane norms: the same sums, and cheap
+        for (int n = 0; n < kb; n += 3)
+          SquaredNormsOf(b + (j + n) * stride, std::min(3, kb - n), dim, b_norms + j + n);
       }
-      prefetch.Step();
+      const bool odd = kb % 2 != 0;
+      for (int i = i0; i < i_end; i += 4) {
+        const float* ai = a + i * stride;
+        const float* bj = b + j * stride;
+        float* o = out + i + static_cast<std::ptrdiff_t>(j) * na;
+        const int ka = std::min(4, i_end - i);
+        switch ((kb + 1) / 2) {
+          case 1:
+            DotRow16<1>(ka, ai, bj, odd, dim, o, na);
+            break;
+          case 2:
+            DotRow16<2>(ka, ai, bj, odd, dim, o, na);
+            break;
+          default:
+            DotRow16<3>(ka, ai, bj, odd, dim, o, na);
+        }
+        prefetch.Step();
+      }
     }
   }
 }
