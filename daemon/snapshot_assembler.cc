@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cstdlib>
 #include <set>
 #include <stdexcept>
 
@@ -17,8 +18,8 @@ bool AllBounded(const std::vector<float>& v) {
   return true;
 }
 
-// A body's member views as the memory keeps them. Throws std::invalid_argument unless the
-// integers are what encoding some views gives (core/memory/compact_views.h).
+// A body's member views as the memory keeps them. Precondition: CheckPlace(m) passed (else
+// std::invalid_argument).
 CompactViews ViewsOf(const learned_place_v2_t& m) {
   std::vector<int16_t> values;
   values.reserve(static_cast<size_t>(m.num_samples) * static_cast<size_t>(m.view_dims));
@@ -42,13 +43,13 @@ std::string CheckPlace(const learned_place_v2_t& p) {
     return "bad sample count";
   }
   if (p.view_dims <= 0 || p.view_dims > SnapshotAssembler::kMaxDims) return "bad view dimension";
+  int largest = 0;
   for (const auto& s : p.samples) {
     if (s.size() != static_cast<size_t>(p.view_dims)) return "bad sample";
+    for (int16_t v : s) largest = std::max(largest, std::abs(static_cast<int>(v)));
   }
   if (!ShiftBounded(p.view_shift)) return "out-of-range member views";
-  try {
-    ViewsOf(p);
-  } catch (const std::invalid_argument&) {
+  if (!CompactViews::IsEncoding(p.view_shift, largest)) {
     return "member views that are no 16-bit encoding";
   }
   if (p.member_count < 1) return "place without members";

@@ -67,6 +67,12 @@ CompactViews::CompactViews(const Eigen::MatrixXf& views)
   }
 }
 
+bool CompactViews::IsEncoding(int shift, int largest) {
+  if (largest == 0) return shift == 0 || shift == kMostShift;
+  if (shift == kMostShift) return largest < 32768;
+  return shift >= kLeastShift && shift < kMostShift && largest >= 16384 && largest < 32768;
+}
+
 CompactViews::CompactViews(Eigen::Index rows, Eigen::Index cols, int shift,
                            std::vector<int16_t> values)
     : rows_(rows), cols_(cols), shift_(shift), values_(std::move(values)) {
@@ -77,11 +83,7 @@ CompactViews::CompactViews(Eigen::Index rows, Eigen::Index cols, int shift,
   }
   int most = 0;
   for (int16_t v : values_) most = std::max(most, std::abs(static_cast<int>(v)));
-  const bool canonical = most == 0              ? shift_ == 0 || shift_ == kMostShift
-                         : shift_ == kMostShift ? most < 32768
-                                                : shift_ >= kLeastShift && shift_ < kMostShift &&
-                                                      most >= 16384 && most < 32768;
-  if (!canonical) {
+  if (!IsEncoding(shift_, most)) {
     throw std::invalid_argument("compact views: largest value " + std::to_string(most) +
                                 " at shift " + std::to_string(shift_) +
                                 " is not what encoding views gives");

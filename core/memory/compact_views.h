@@ -26,6 +26,10 @@ class CompactViews {
   /// agree, and the largest |value| lies in [2¹⁴, 2¹⁵) (or every value is 0 with shift 0), with
   /// shift in [−15, 140] (at 140, of views below 2⁻¹²⁵, any largest value below 2¹⁵).
   CompactViews(Eigen::Index rows, Eigen::Index cols, int shift, std::vector<int16_t> values);
+  /// Whether integers whose largest |value| is `largest` (≥ 0) at `shift` are what encoding some
+  /// views gives: the rule the constructor from parts checks, for callers that hold the
+  /// integers elsewhere (a message's rows) and need not copy them to ask.
+  static bool IsEncoding(int shift, int largest);
 
   Eigen::Index rows() const { return rows_; }
   Eigen::Index cols() const { return cols_; }
