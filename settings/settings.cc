@@ -332,6 +332,19 @@ std::vector<ConfigKey> BuildTable() {
       "times g_N's distance term; 0 = the vote radius alone",
       "", RecognitionCostOptions::kCoincideFactorRange,
       [](auto& o) -> auto& { return o.pipeline.memory.cost.coincide_factor; }));
+  t.push_back(Number(
+      "memory.min_agreement",
+      "a place is recognised (or absorbs one in a merge) only when at least this share of D's "
+      "points agree with it: their nearest place is it or a copy of it, or it lies within "
+      "memory.agreement_slack of that place; 0 = the cost alone decides",
+      "", RecognitionCostOptions::kMinAgreementRange,
+      [](auto& o) -> auto& { return o.pipeline.memory.cost.min_agreement; }));
+  t.push_back(Number(
+      "memory.agreement_slack",
+      "a point of D also agrees with N1 when N1's nearest view lies within this factor of the "
+      "nearest place's squared distance",
+      "", RecognitionCostOptions::kAgreementSlackRange,
+      [](auto& o) -> auto& { return o.pipeline.memory.cost.agreement_slack; }));
   t.push_back(Bool(
       "memory.svm_vote",
       "vote V_N of (3.8) from the thesis' one-class SVM d_N (trained per node) instead of the "

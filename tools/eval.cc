@@ -308,7 +308,7 @@ void WriteDecisions(JsonWriter& w, const EvalResult& r) {
     w.Key("cost").Number(d.cost);
     w.Key("terms").Begin('{');
     w.Key("distance").Number(d.terms.distance).Key("ratio").Number(d.terms.ratio);
-    w.Key("vote").Number(d.terms.vote);
+    w.Key("vote").Number(d.terms.vote).Key("agreement").Number(d.terms.agreement);
     w.End('}');
     if (d.partial_place) {
       w.Key("partial").Begin('{');

@@ -45,11 +45,13 @@ std::string JsonNumber(double v) {
   return std::string(buf, r.ptr);
 }
 
-// The three terms of g_N (3.8), when one was evaluated (a first place is learned without).
+// The three terms of g_N (3.8) and D's agreement with N¹, when one was evaluated (a first
+// place is learned without).
 std::string TermsJson(const CostTerms& t) {
   if (t.best < 0) return "";
   return ",\"terms\":{\"distance\":" + JsonNumber(t.distance) +
-         ",\"ratio\":" + JsonNumber(t.ratio) + ",\"vote\":" + JsonNumber(t.vote) + "}";
+         ",\"ratio\":" + JsonNumber(t.ratio) + ",\"vote\":" + JsonNumber(t.vote) +
+         ",\"agreement\":" + JsonNumber(t.agreement) + "}";
 }
 
 std::string EventToJson(const PlaceEvent& e) {

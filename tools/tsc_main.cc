@@ -83,7 +83,8 @@ Events are written as JSON lines, one per event:
   {"frame":k,"event":"detected|recognized|learned|mapped|pruned","detected_place":m,
    "place":"<robot>:<id>", ...}
 where k is the base point index (0-based). Recognized and learned events carry the cost g_N
-and its terms ("terms":{"distance","ratio","vote"}): why a place was recognised or learned.
+and its terms ("terms":{"distance","ratio","vote","agreement"}): why a place was recognised
+or learned (a cost within tau_r with an agreement below memory.min_agreement is learned).
 
 Options)";
 

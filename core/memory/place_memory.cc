@@ -173,7 +173,9 @@ Recognition PlaceMemory::Descend(const ViewDistances& vd, const Votes& votes, in
     r.cost = r.terms.cost;
     if (r.cost > options_.tau_r) return r;  // (3.11) fails: not recognised
     if (nodes_[r.terms.best].terminal()) {
-      r.place = nodes_[r.terms.best].place;
+      // A place most of D's points name elsewhere is not recognised, however cheap in the
+      // median (core/memory/point_agreement.h).
+      if (r.terms.agreement >= options_.cost.min_agreement) r.place = nodes_[r.terms.best].place;
       return r;
     }
     outer_ratio = r.terms.ratio;

@@ -41,7 +41,7 @@ struct MemoryNode {
 struct PlaceMemoryOptions {
   /// τ_r recognition cost threshold (3.11). Calibrated with the terms of
   /// core/memory/recognition_cost.h (docs/calibration.md).
-  double tau_r = 2.7;
+  double tau_r = 2.9;
   int tau_l = 1;        ///< τ_l levels climbed by the hybrid traversal
   double tau_h = 0.25;  ///< τ_h relative merge-height gap folded by simplification, [0, 1)
   /// Member views kept per place (core/memory/member_views.h).

@@ -9,6 +9,7 @@
 #include <vector>
 
 #include "core/memory/member_views.h"
+#include "core/memory/point_agreement.h"
 #include "core/memory/simd.h"
 
 namespace tsc {
@@ -169,6 +170,7 @@ ViewDistances::ViewDistances(const Eigen::MatrixXf& votes, std::vector<const Lea
     column_[p] = static_cast<int>(measured.size());
     measured.push_back(static_cast<int>(p));
   }
+  measured_ = measured;
   distance_.resize(votes.cols(), static_cast<Eigen::Index>(measured.size()));
   view_.resize(votes.cols(), static_cast<Eigen::Index>(measured.size()));
   const Eigen::Index n = votes.cols();
@@ -231,10 +233,19 @@ ViewDistances::ViewDistances(const Eigen::MatrixXf& votes, std::vector<const Lea
   }
 }
 
+int ViewDistances::NearestPlace(int vote) const {
+  if (measured_.empty()) return -1;
+  Eigen::Index column = 0;
+  distance_.row(vote).minCoeff(&column);  // the first minimum: the lower place index
+  return measured_[static_cast<size_t>(column)];
+}
+
 void RecognitionCostOptions::Validate() const {
   kVoteRadiusRange.Check("memory.vote_radius", vote_radius);
   kMeanUnitRange.Check("memory.mean_distance_unit", mean_unit);
   kCoincideFactorRange.Check("memory.coincide_factor", coincide_factor);
+  kMinAgreementRange.Check("memory.min_agreement", min_agreement);
+  kAgreementSlackRange.Check("memory.agreement_slack", agreement_slack);
 }
 
 CostTerms RecognitionCost(const ViewDistances& vd, const Eigen::VectorXf& mean,
@@ -313,11 +324,14 @@ CostTerms RecognitionCost(const ViewDistances& vd, const Eigen::VectorXf& mean,
   const double radius = std::max(options.vote_radius, options.coincide_factor * t.distance);
   double second = std::numeric_limits<double>::infinity();
   Eigen::VectorXf view_a, view_b;  // Coincides' decoded views
+  std::vector<int> copies;         // the places of the children that coincide with N¹
   for (const size_t next :
        OrderOfSecond(candidates.size(), gamma, measured, unmeasured, static_cast<size_t>(t.best))) {
     if (nearest_of[next] >= 0 && Coincides(vd, best, nearest[static_cast<size_t>(nearest_of[next])],
                                            radius, view_a, view_b)) {
       t.only_copies = true;
+      const std::span<const int> held = candidates[next].places;
+      copies.insert(copies.end(), held.begin(), held.end());
       continue;
     }
     t.only_copies = false;
@@ -328,6 +342,10 @@ CostTerms RecognitionCost(const ViewDistances& vd, const Eigen::VectorXf& mean,
   // An inner child nearer than every eligible one (merging) makes the ratio exceed 1.
   t.ratio = std::isinf(second) || second <= 0.0 ? 1.0 : t.gamma / second;
   t.cost = t.distance + t.ratio + (1.0 - t.vote);
+  const std::span<const int> best_places = candidates[static_cast<size_t>(t.best)].places;
+  if (best_places.size() == 1) {
+    t.agreement = PointAgreement(vd, best_places.front(), copies, options.agreement_slack);
+  }
   return t;
 }
 

@@ -60,6 +60,9 @@ class ViewDistances {
   double unit(int place) const { return units_[static_cast<size_t>(place)]; }
   const LearnedPlace& place(int i) const { return *places_[static_cast<size_t>(i)]; }
   bool measured(int place) const { return column_[static_cast<size_t>(place)] >= 0; }
+  /// The measured place whose nearest view is nearest vote point `vote` (the lower index on
+  /// ties); −1 when no place is measured.
+  int NearestPlace(int vote) const;
   /// A rough squared distance to a place that is not measured (infinite without estimates).
   float estimate(int place) const {
     return estimates_.empty() ? std::numeric_limits<float>::infinity()
@@ -71,7 +74,8 @@ class ViewDistances {
   Eigen::MatrixXf distance_;  // votes x measured places
   Eigen::MatrixXi view_;      // column of the nearest view in the place's samples
   std::vector<const LearnedPlace*> places_;
-  std::vector<int> column_;  // per place: its column in distance_, −1 when not measured
+  std::vector<int> column_;    // per place: its column in distance_, −1 when not measured
+  std::vector<int> measured_;  // per column: its place, in increasing order
   std::vector<double> units_;
   std::vector<float> estimates_;
 };
@@ -101,6 +105,9 @@ struct CostTerms {
   /// Every other child holds N¹'s place again (coincides with it): the ratio term is then 1,
   /// as with one child; a descent may take the ratio N¹'s node had one level up instead.
   bool only_copies = false;
+  /// Where N¹ is one place: the share of D's points that agree with it
+  /// (core/memory/point_agreement.h); 1 where N¹ holds several places.
+  double agreement = 1.0;
 };
 
 struct RecognitionCostOptions {
@@ -113,11 +120,19 @@ struct RecognitionCostOptions {
   /// on different laps hold other views of it, often further apart than 2 u, and a revisit
   /// lies at about the distance term from either (docs/decisions.md "Recognition cost").
   double coincide_factor = 2.0;
-  // Valid ranges (also the configuration's, memory.vote_radius, memory.mean_distance_unit and
-  // memory.coincide_factor).
+  /// A place is recognised (or absorbs a place in a merge) only when at least this share of
+  /// D's points agree with it (core/memory/point_agreement.h); 0: the cost alone decides.
+  double min_agreement = 0.5;
+  /// A point also agrees when the place's nearest view lies within this factor of the
+  /// nearest place's distance (≥ 1).
+  double agreement_slack = 1.5;
+  // Valid ranges (also the configuration's, memory.vote_radius, memory.mean_distance_unit,
+  // memory.coincide_factor, memory.min_agreement and memory.agreement_slack).
   static constexpr Range kVoteRadiusRange{0, 1000, /*min_open=*/true};
   static constexpr Range kMeanUnitRange{0, 1e6};
   static constexpr Range kCoincideFactorRange{0, 100};
+  static constexpr Range kMinAgreementRange{0, 1};
+  static constexpr Range kAgreementSlackRange{1, 1000};
   void Validate() const;
 };
 

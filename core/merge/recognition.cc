@@ -103,6 +103,10 @@ double RecognitionCost(const PlaceMemory& base, const StarCandidates& star, cons
   *best =
       star.index[static_cast<size_t>(star.candidates[static_cast<size_t>(t.best)].places.front())];
   *best_gamma = (p.mean - base.places()[static_cast<size_t>(*best)].mean).squaredNorm();
+  // As in recognition: no absorption where most of p's views name another place
+  // (core/memory/point_agreement.h); P¹ still places p in the merged tree.
+  if (t.agreement < base.options().cost.min_agreement)
+    return std::numeric_limits<double>::infinity();
   return t.cost;
 }
 

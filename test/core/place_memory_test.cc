@@ -437,6 +437,49 @@ TEST(PlaceMemoryViews, AOnePlaceMemoryRecognisesItsPlace) {
   EXPECT_FALSE(dut.Recognize(views::Visit(views::MakeRoom(rng), 3, rng)).place.has_value());
 }
 
+// A corridor pass between two known rooms, each half of it at one room, with a place learned
+// halfway between them: that place is nearest D in the median (each room is far from half of
+// D's points), yet none of D's points lies nearest it. The cost alone recognises it; with
+// memory.min_agreement nothing is recognised (issue 19, session 39: office-31's corridor).
+TEST(PlaceMemoryViews, APlaceNoneOfDsPointsNamesIsNotRecognised) {
+  std::mt19937 rng(16);
+  const views::Room b = views::MakeRoom(rng), c = views::MakeRoom(rng);
+  views::Room between;
+  for (size_t t = 0; t < b.path.size(); ++t) between.path.push_back((b.path[t] + c.path[t]) / 2);
+  DetectedPlace pass = views::Visit(b, 10, rng, 0, 60);
+  const DetectedPlace second = views::Visit(c, 11, rng, 60, 120);
+  pass.descriptors.conservativeResize(Eigen::NoChange, 120);
+  pass.descriptors.rightCols(60) = second.descriptors;
+  pass.members.insert(pass.members.end(), second.members.begin(), second.members.end());
+  PlaceMemoryOptions options = views::ViewOptions();
+  options.tau_r = 1000;  // the cost decides nothing here: only the agreement
+  // The place between the rooms lies ~45 units from D (the memory's view spacing is the
+  // unit here), and twice that would make both rooms copies of it: copies within the vote
+  // radius only, as for a revisit at a distance term of ~1.
+  options.cost.coincide_factor = 0;
+  options.cost.min_agreement = 0;
+  PlaceMemory cost_alone(1, options);
+  options.cost.min_agreement = 0.5;
+  PlaceMemory dut(1, options);
+  for (PlaceMemory* m : {&cost_alone, &dut}) {
+    m->Learn(views::Visit(between, 1, rng));
+    m->Learn(views::Visit(b, 2, rng));
+    m->Learn(views::Visit(c, 3, rng));
+  }
+  const Recognition by_cost = cost_alone.Recognize(pass);
+  ASSERT_TRUE(by_cost.place.has_value());
+  EXPECT_EQ(*by_cost.place, 0);
+  EXPECT_EQ(by_cost.terms.agreement, 0.0);
+  const Recognition got = dut.Recognize(pass);
+  EXPECT_FALSE(got.place.has_value()) << *got.place;
+  EXPECT_EQ(got.terms.agreement, 0.0);
+  // Each room's own visit still agrees with it and is recognised.
+  const Recognition room = dut.Recognize(views::Visit(b, 12, rng));
+  ASSERT_TRUE(room.place.has_value());
+  EXPECT_EQ(*room.place, 1);
+  EXPECT_GE(room.terms.agreement, 0.9);
+}
+
 // Keyframes far apart (the real loop's, a metre) come no nearer the member views than their own
 // step: with the unit fixed for a dense camera such a revisit is not recognised; with u at
 // least half D's own step it is, and a room never seen still is not.

@@ -150,7 +150,7 @@ TEST_F(EvalTest, RtabmapLoopRecognisesWithFullPrecisionAndWritesPlots) {
        {"\"frames\":84", "\"detected_places\":", "\"learned_places\":", "\"recognition\":{",
         "\"precision\":1,", "\"recall\":", "\"recall_at_full_precision\":", "\"pr_curve\":[[1.5,",
         "\"map\":{", "\"edges\":", "\"timing\":{",
-        "\"descriptor_ms_median\":", "\"frame_ms_median\":", "\"memory.tau_r\":2.7"}) {
+        "\"descriptor_ms_median\":", "\"frame_ms_median\":", "\"memory.tau_r\":2.9"}) {
     EXPECT_NE(text.find(key), std::string::npos) << key << " in " << text;
   }
   const JsonValue root = ParseJson(text);
@@ -226,6 +226,7 @@ TEST_F(EvalTest, LabelledDatasetScoresBoundariesEdgesAndDrawsFloorPlan) {
     EXPECT_FALSE(!is_recognised && field("correct").boolean);
     EXPECT_LE(field("first_frame").number, field("last_frame").number);
     EXPECT_NE(field("terms").Find("vote"), nullptr);
+    EXPECT_NE(field("terms").Find("agreement"), nullptr);
     EXPECT_FALSE(field("label").text.empty());
   }
   EXPECT_EQ(recognised, r.main.recognition.recognitions);
@@ -331,7 +332,7 @@ TEST(EvalOptions, SweepValuesAreInclusiveAndValidated) {
   EvalOptions e;
   const std::vector<double> v = e.SweepValues();
   ASSERT_EQ(v.size(), 21u);
-  EXPECT_DOUBLE_EQ(v[12], 2.7);  // the default τ_r is on the sweep
+  EXPECT_DOUBLE_EQ(v[14], 2.9);  // the default τ_r is on the sweep
   e.sweep_step = 0;
   EXPECT_TRUE(e.SweepValues().empty());
   e.sweep_from = 2.0, e.sweep_to = 1.0;

@@ -19,15 +19,17 @@ TEST(EventsJson, LearnedAndRecognisedCarryTheCostAndItsTerms) {
   e.terms.distance = 1.5;
   e.terms.ratio = 0.75;
   e.terms.vote = 0.5;
+  e.terms.agreement = 0.25;
   EXPECT_EQ(EventToJson(e),
             "{\"frame\":41,\"event\":\"learned\",\"detected_place\":3,\"place\":\"1:4\","
-            "\"cost\":2.75,\"terms\":{\"distance\":1.5,\"ratio\":0.75,\"vote\":0.5}}");
+            "\"cost\":2.75,\"terms\":{\"distance\":1.5,\"ratio\":0.75,\"vote\":0.5,"
+            "\"agreement\":0.25}}");
   e.kind = EventKind::kRecognized;
   e.hybrid = true;
   EXPECT_EQ(EventToJson(e),
             "{\"frame\":41,\"event\":\"recognized\",\"detected_place\":3,\"place\":\"1:4\","
-            "\"cost\":2.75,\"terms\":{\"distance\":1.5,\"ratio\":0.75,\"vote\":0.5},"
-            "\"partial\":false,\"hybrid\":true}");
+            "\"cost\":2.75,\"terms\":{\"distance\":1.5,\"ratio\":0.75,\"vote\":0.5,"
+            "\"agreement\":0.25},\"partial\":false,\"hybrid\":true}");
 }
 
 // The first place is learned with no g_N evaluated: no terms, and an infinite cost is null.
