@@ -66,7 +66,8 @@ class SimBarsTest : public ::testing::Test {
     std::cout << out.filename().string() << ": frames " << r.frames << ", boundary F1 "
               << (r.boundaries ? r.boundaries->f1 : -1) << ", precision "
               << r.main.recognition.precision << ", recall " << r.main.recognition.recall
-              << ", recall at full precision " << r.recall_at_full_precision << ", edge precision "
+              << ", view recall " << r.main.recognition.view_recall << ", recall at full precision "
+              << r.recall_at_full_precision << ", edge precision "
               << (r.edges ? r.edges->precision : -1) << "\n";
     return r;
   }
@@ -109,10 +110,10 @@ TEST_F(SimBarsTest, RecognitionPrecisionAndMapBarsOnThreeWorlds) {
   }
 }
 
-// NOT met yet. Last measured (160x120, defaults): boundary F1 0.86 / 0.86 / 0.75, recall 0.29 /
-// 0.25 / 0.75 at the default τ_r (0.50 / 0.42 / 0.75 at full precision over the sweep; with
-// the L2+I features and τ_r 1.6 before session 21: F1 0.91 / 0.94 / 0.75, recall 0.13 / 0.23 /
-// 0.75). Most recall
+// NOT met yet. Last measured (160x120, defaults of session 39): boundary F1 0.86 / 0.86 / 0.75,
+// recall 0.50 / 0.25 / 0.75 at the default τ_r (view recall 0.58 / 0.33 / 0.75; session 38:
+// recall 0.36 / 0.25 / 0.75; with the L2+I features and τ_r 1.6 before session 21: F1 0.91 /
+// 0.94 / 0.75, recall 0.13 / 0.23 / 0.75). Most recall
 // misses are corridor stretches revisited in the opposite direction (a 60° camera sees other walls)
 // and room walk-outs; see docs/results.md. Outdoor F1 misses the four street <-> square crossings,
 // which the descriptor does not see (docs/calibration.md, fifth pass).
