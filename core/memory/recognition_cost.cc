@@ -6,6 +6,7 @@
 #include <span>
 #include <stdexcept>
 #include <string>
+#include <utility>
 #include <vector>
 
 #include "core/memory/member_views.h"
@@ -170,7 +171,6 @@ ViewDistances::ViewDistances(const Eigen::MatrixXf& votes, std::vector<const Lea
     column_[p] = static_cast<int>(measured.size());
     measured.push_back(static_cast<int>(p));
   }
-  measured_ = measured;
   distance_.resize(votes.cols(), static_cast<Eigen::Index>(measured.size()));
   view_.resize(votes.cols(), static_cast<Eigen::Index>(measured.size()));
   const Eigen::Index n = votes.cols();
@@ -220,6 +220,7 @@ ViewDistances::ViewDistances(const Eigen::MatrixXf& votes, std::vector<const Lea
       view_(j, static_cast<Eigen::Index>(c)) = at;
     }
   }
+  measured_ = std::move(measured);  // NearestPlace's columns
   // Units for places of one view (docs/decisions.md "Recognition cost").
   if (std::all_of(units_.begin(), units_.end(), [](double u) { return u > 0.0; })) return;
   std::vector<double> positive;
