@@ -77,7 +77,7 @@ std::string Describe(const PlaceEvent& e) {
   if (e.from) s += ", from " + e.from->ToString();
   if (e.kind == EventKind::kRecognized) {
     s += ", cost " + std::to_string(e.cost) + (e.partial ? " (partial)" : "") +
-         (e.hybrid ? " (hybrid)" : "");
+         (e.hybrid ? " (hybrid)" : "") + (e.neighbour ? " (map neighbour)" : "");
   }
   if (e.members > 0) s += ", " + std::to_string(e.members) + " base points";
   return s;

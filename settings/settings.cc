@@ -302,6 +302,12 @@ std::vector<ConfigKey> BuildTable() {
       "memory.tau_r", "tau_r, recognition threshold on the cost g_N of (3.8)", "",
       PlaceMemoryOptions::kTauRRange, [](auto& o) -> auto& { return o.pipeline.memory.tau_r; }));
   t.push_back(Number(
+      "memory.neighbour_margin",
+      "g_N may exceed tau_r by this much on the way to a place the topological map joins to the "
+      "previous place; 0 = tau_r alone",
+      "", PlaceMemoryOptions::kNeighbourMarginRange,
+      [](auto& o) -> auto& { return o.pipeline.memory.neighbour_margin; }));
+  t.push_back(Number(
       "memory.vote_radius",
       "a base point of D votes for N1 when its squared distance to N1's nearest member view is "
       "at most this many distance units u",

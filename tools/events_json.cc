@@ -68,6 +68,7 @@ std::string EventToJson(const PlaceEvent& e) {
       s += ",\"cost\":" + JsonNumber(e.cost) + TermsJson(e.terms);
       s += std::string(",\"partial\":") + (e.partial ? "true" : "false");
       s += std::string(",\"hybrid\":") + (e.hybrid ? "true" : "false");
+      s += std::string(",\"neighbour\":") + (e.neighbour ? "true" : "false");
       break;
     case EventKind::kLearned:
       s += ",\"cost\":" + JsonNumber(e.cost) + TermsJson(e.terms);

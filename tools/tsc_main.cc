@@ -84,7 +84,9 @@ Events are written as JSON lines, one per event:
    "place":"<robot>:<id>", ...}
 where k is the base point index (0-based). Recognized and learned events carry the cost g_N
 and its terms ("terms":{"distance","ratio","vote","agreement"}): why a place was recognised
-or learned (a cost within tau_r with an agreement below memory.min_agreement is learned).
+or learned (a cost within tau_r with an agreement below memory.min_agreement is learned;
+towards a place the map joins to the previous one the cost may exceed tau_r by
+memory.neighbour_margin).
 
 Options)";
 

@@ -1,5 +1,6 @@
 #include "core/map/topological_map.h"
 
+#include <algorithm>
 #include <stdexcept>
 
 namespace tsc {
@@ -37,6 +38,18 @@ void TopologicalMap::RestoreEdge(MapEdge edge) {
 const MapEdge* TopologicalMap::Find(PlaceId x, PlaceId y) const {
   auto it = edges_.find(Key(x, y));
   return it == edges_.end() ? nullptr : &it->second;
+}
+
+std::vector<PlaceId> TopologicalMap::Neighbours(PlaceId p) const {
+  std::vector<PlaceId> out;
+  // Edges are keyed (a, b) with a < b: those with a == p are one range, those with b == p
+  // are spread over the keys below it. A scan: it runs once per closed place, not per frame.
+  for (const auto& [key, edge] : edges_) {
+    if (key.first == p) out.push_back(key.second);
+    if (key.second == p) out.push_back(key.first);
+  }
+  std::sort(out.begin(), out.end());
+  return out;
 }
 
 }  // namespace tsc

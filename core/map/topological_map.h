@@ -32,6 +32,8 @@ class TopologicalMap {
   const std::set<PlaceId>& places() const { return places_; }
   const std::map<std::pair<PlaceId, PlaceId>, MapEdge>& edges() const { return edges_; }
   const MapEdge* Find(PlaceId x, PlaceId y) const;
+  /// The places an edge joins to `p`, in increasing order (none for an unknown place).
+  std::vector<PlaceId> Neighbours(PlaceId p) const;
 
  private:
   std::set<PlaceId> places_;

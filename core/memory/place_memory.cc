@@ -27,6 +27,7 @@ Eigen::VectorXf DetectedPlace::Mean() const {
 void PlaceMemoryOptions::Validate() const {
   kTauRRange.Check("memory.tau_r", tau_r);
   kTauLRange.Check("memory.tau_l", tau_l);
+  kNeighbourMarginRange.Check("memory.neighbour_margin", neighbour_margin);
   kTauHRange.Check("memory.tau_h", tau_h);
   kMaxSamplesRange.Check("memory.max_samples_per_place", max_samples_per_place);
   kMaxVotePointsRange.Check("memory.max_vote_points", max_vote_points);
@@ -155,11 +156,13 @@ Recognition PlaceMemory::Descend(const DetectedPlace& d, int start) const {
   return Descend(DistancesOf(votes.views, UnitFor(d)), votes, start);
 }
 
-Recognition PlaceMemory::Descend(const ViewDistances& vd, const Votes& votes, int start) const {
+Recognition PlaceMemory::Descend(const ViewDistances& vd, const Votes& votes, int start,
+                                 const std::vector<char>* towards_neighbour) const {
   Recognition r;
   r.start_nodes.push_back(start);
   // The ratio N¹ had one level up, against its nearest competitor there (1 at the start).
   double outer_ratio = 1.0;
+  bool above_tau_r = false;  // some level passed by the neighbour margin alone
   for (int node = start;;) {
     r.visited.push_back(node);
     r.terms = Cost(vd, votes, node);
@@ -171,11 +174,18 @@ Recognition PlaceMemory::Descend(const ViewDistances& vd, const Votes& votes, in
       r.terms.ratio = outer_ratio;
     }
     r.cost = r.terms.cost;
-    if (r.cost > options_.tau_r) return r;  // (3.11) fails: not recognised
+    const bool neighbour = towards_neighbour != nullptr && r.terms.best >= 0 &&
+                           (*towards_neighbour)[static_cast<size_t>(r.terms.best)] != 0;
+    const double tau = options_.tau_r + (neighbour ? options_.neighbour_margin : 0.0);
+    if (r.cost > tau) return r;  // (3.11) fails: not recognised
+    above_tau_r = above_tau_r || r.cost > options_.tau_r;
     if (nodes_[r.terms.best].terminal()) {
       // A place most of D's points name elsewhere is not recognised, however cheap in the
       // median (core/memory/point_agreement.h).
-      if (r.terms.agreement >= options_.cost.min_agreement) r.place = nodes_[r.terms.best].place;
+      if (r.terms.agreement >= options_.cost.min_agreement) {
+        r.place = nodes_[r.terms.best].place;
+        r.neighbour = above_tau_r;
+      }
       return r;
     }
     outer_ratio = r.terms.ratio;
@@ -183,9 +193,23 @@ Recognition PlaceMemory::Descend(const ViewDistances& vd, const Votes& votes, in
   }
 }
 
-Recognition PlaceMemory::Recognize(const DetectedPlace& d, std::optional<int> previous) const {
+Recognition PlaceMemory::Recognize(const DetectedPlace& d, std::optional<int> previous,
+                                   const std::vector<int>& neighbours) const {
   Recognition total;
   if (empty()) return total;
+  // The neighbours' terminals and their ancestors: N¹ on the way to one may cost up to
+  // τ_r + neighbour_margin (a terminal's node index is its place index).
+  std::vector<char> towards;
+  if (options_.neighbour_margin > 0.0 && !neighbours.empty()) {
+    towards.assign(nodes_.size(), 0);
+    for (int p : neighbours) {
+      if (p < 0 || p >= static_cast<int>(places_.size())) continue;
+      for (int n = p; n >= 0 && towards[static_cast<size_t>(n)] == 0; n = nodes_[n].parent) {
+        towards[static_cast<size_t>(n)] = 1;
+      }
+    }
+  }
+  const std::vector<char>* towards_neighbour = towards.empty() ? nullptr : &towards;
   // Every descent measures against the same views: the distances are computed once.
   const Votes votes = VotePoints(d);
   const ViewDistances vd = DistancesOf(votes.views, UnitFor(d));
@@ -195,13 +219,14 @@ Recognition PlaceMemory::Recognize(const DetectedPlace& d, std::optional<int> pr
     total.cost = r.cost;
     total.terms = r.terms;
     total.place = r.place;
+    total.neighbour = r.neighbour;
   };
   bool root_tried = false;
   if (previous && *previous >= 0 && *previous < static_cast<int>(places_.size())) {
     // Hybrid: start at the parent of β(D_{m−1}) and climb up to τ_l levels.
     int start = nodes_[*previous].parent;
     for (int level = 0; level <= options_.tau_l && start >= 0; ++level) {
-      absorb(Descend(vd, votes, start));
+      absorb(Descend(vd, votes, start, towards_neighbour));
       root_tried = root_tried || start == root_;
       if (total.place) {
         total.hybrid = true;
@@ -210,7 +235,7 @@ Recognition PlaceMemory::Recognize(const DetectedPlace& d, std::optional<int> pr
       start = nodes_[start].parent;
     }
   }
-  if (!root_tried) absorb(Descend(vd, votes, root_));
+  if (!root_tried) absorb(Descend(vd, votes, root_, towards_neighbour));
   return total;
 }
 

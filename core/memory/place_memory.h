@@ -44,6 +44,10 @@ struct PlaceMemoryOptions {
   double tau_r = 2.9;
   int tau_l = 1;        ///< τ_l levels climbed by the hybrid traversal
   double tau_h = 0.25;  ///< τ_h relative merge-height gap folded by simplification, [0, 1)
+  /// On the way to a place the topological map joins to the previous place, g_N may exceed
+  /// τ_r by this much: the robot more likely enters a neighbour of where it was than any
+  /// other place (docs/decisions.md "Recognition cost": map neighbours). 0: τ_r alone.
+  double neighbour_margin = 0.3;
   /// Member views kept per place (core/memory/member_views.h).
   int max_samples_per_place = 32;
   int max_vote_points = 32;  ///< base points of D used for the cost (evenly spaced)
@@ -82,6 +86,7 @@ struct PlaceMemoryOptions {
   // Valid ranges (also the configuration's, memory.*).
   static constexpr Range kTauRRange{0, 1000, /*min_open=*/true};
   static constexpr Range kTauLRange{0, 1000};
+  static constexpr Range kNeighbourMarginRange{0, 1000};
   static constexpr Range kTauHRange{0, 1, false, /*max_open=*/true};
   static constexpr Range kMaxSamplesRange{1, 100000};
   static constexpr Range kMaxVotePointsRange{1, 100000};
@@ -101,10 +106,12 @@ struct Votes {
 
 /// Outcome of one recognition attempt.
 struct Recognition {
-  std::optional<int> place;      ///< recognised place index β(D), if any
-  double cost = 0.0;             ///< g_N at the last node evaluated
-  CostTerms terms;               ///< its terms (terms.best: N¹ as a node index)
-  bool hybrid = false;           ///< the hybrid traversal recognised it
+  std::optional<int> place;  ///< recognised place index β(D), if any
+  double cost = 0.0;         ///< g_N at the last node evaluated
+  CostTerms terms;           ///< its terms (terms.best: N¹ as a node index)
+  bool hybrid = false;       ///< the hybrid traversal recognised it
+  /// Recognised with some g_N above τ_r, towards a map neighbour (neighbour_margin).
+  bool neighbour = false;
   std::vector<int> start_nodes;  ///< nodes a descent started from, in order
   std::vector<int> visited;      ///< every inner node whose g_N was evaluated, in order
 };
@@ -114,11 +121,15 @@ class PlaceMemory {
   PlaceMemory(uint32_t robot, PlaceMemoryOptions options);
 
   /// Hybrid when `previous` names a learned place (start at its terminal's parent, climb up
-  /// to τ_l levels, descending from each), then top-down from the root.
-  Recognition Recognize(const DetectedPlace& d, std::optional<int> previous = std::nullopt) const;
+  /// to τ_l levels, descending from each), then top-down from the root. `neighbours`: places
+  /// the map joins to the previous one, towards which g_N may reach τ_r + neighbour_margin.
+  Recognition Recognize(const DetectedPlace& d, std::optional<int> previous = std::nullopt,
+                        const std::vector<int>& neighbours = {}) const;
   /// Top-down descent from `start`: while g_N ≤ τ_r go to N¹; a terminal N¹ recognises.
+  /// `towards_neighbour`, when given, marks the nodes on the way to a neighbour (per node).
   Recognition Descend(const DetectedPlace& d, int start) const;
-  Recognition Descend(const ViewDistances& vd, const Votes& votes, int start) const;
+  Recognition Descend(const ViewDistances& vd, const Votes& votes, int start,
+                      const std::vector<char>* towards_neighbour = nullptr) const;
   /// g_N(D) of (3.8) at inner node `node` from D's vote points' distances to every place's
   /// member views; `terms.best` is N¹ as a node index.
   CostTerms Cost(const ViewDistances& vd, const Votes& votes, int node) const;

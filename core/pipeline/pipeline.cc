@@ -204,6 +204,14 @@ void Pipeline::HandleDetection(const std::vector<DetectionEvent>& events, BaseIn
   const auto previous_index = [&]() -> std::optional<int> {
     return previous_place_ ? memory_.Find(*previous_place_) : std::nullopt;
   };
+  const auto neighbour_indices = [&]() {
+    std::vector<int> indices;
+    if (!previous_place_) return indices;
+    for (const PlaceId& p : map_.Neighbours(*previous_place_)) {
+      if (const auto i = memory_.Find(p)) indices.push_back(*i);
+    }
+    return indices;
+  };
   for (const DetectionEvent& event : events) {
     if (!std::holds_alternative<WindowClosed>(event)) known_tail_.reset();
     if (const auto* opened = std::get_if<PlaceOpened>(&event)) {
@@ -226,8 +234,9 @@ void Pipeline::HandleDetection(const std::vector<DetectionEvent>& events, BaseIn
       detected.members = static_cast<int64_t>(closed->members.size());
       out.events.push_back(detected);
       if (!closed->transition_before.empty()) out.transitions.push_back(closed->transition_before);
-      // Recognise or learn (sections 3.5, 3.6).
-      const Recognition r = memory_.Recognize(d, previous_index());
+      // Recognise or learn (sections 3.5, 3.6); the map says which places lie next to the
+      // previous one.
+      const Recognition r = memory_.Recognize(d, previous_index(), neighbour_indices());
       int place;
       PlaceEvent e = MakeEvent(EventKind::kLearned, k, closed->place);
       if (r.place) {
@@ -236,6 +245,7 @@ void Pipeline::HandleDetection(const std::vector<DetectionEvent>& events, BaseIn
         memory_.Update(place, d);
         e.kind = EventKind::kRecognized;
         e.hybrid = r.hybrid;
+        e.neighbour = r.neighbour;
       } else {
         place = memory_.Learn(d);
         e.kind = EventKind::kLearned;

@@ -34,6 +34,8 @@ struct PlaceEvent {
   CostTerms terms;       ///< recognised, learned: the terms of `cost` (why it was or was not)
   bool partial = false;  ///< recognised on an opened, not yet closed place
   bool hybrid = false;   ///< recognised by the hybrid traversal
+  /// Recognised with some g_N above τ_r, towards a map neighbour of the previous place.
+  bool neighbour = false;
   TransitionRegion transition;  ///< mapped: the region crossed
   int64_t members = 0;          ///< detected / pruned: number of base points
 };

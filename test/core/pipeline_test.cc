@@ -189,6 +189,52 @@ TEST_F(PipelineTest, LearnsNewPlacesRecognisesRevisitsAndMapsTransitions) {
   EXPECT_EQ(Count(EventKind::kMapped), 3);
 }
 
+// The pipeline hands the memory the map's neighbours of the previous place: a revisit whose
+// cost lies just above τ_r is recognised when the robot comes from a place the map joins to it
+// (route 0 1 2 1) and not when it comes from one it does not (route 0 1 2 3 1).
+TEST_F(PipelineTest, ARevisitFromAMapNeighbourMayCostUpToTheNeighbourMargin) {
+  std::uniform_real_distribution<float> u(0.0f, 1.0f);
+  Eigen::VectorXf fourth(kDim);
+  for (int i = 0; i < kDim; ++i) fourth[i] = u(rng_);
+  centres_.push_back(Normalised(fourth));
+  // The decision on the route's last place, at τ_r with the given margin.
+  const auto last_decision = [&](const std::vector<int>& route, double tau_r, double margin) {
+    PipelineOptions options = Options();
+    options.memory.tau_r = tau_r;
+    options.memory.neighbour_margin = margin;
+    Pipeline pipeline(CameraIntrinsics::FromHorizontalFov(64, 48, 60), options,
+                      PlaceMemory(1, options.memory), TopologicalMap());
+    events_.clear();
+    rng_.seed(5);
+    for (int c : route) Visit(pipeline, c, 15);
+    Collect(pipeline.Finish());
+    for (auto e = events_.rbegin(); e != events_.rend(); ++e) {
+      if ((e->kind == EventKind::kRecognized && !e->partial) || e->kind == EventKind::kLearned) {
+        return *e;
+      }
+    }
+    return PlaceEvent{};
+  };
+  for (const bool from_neighbour : {true, false}) {
+    SCOPED_TRACE(from_neighbour);
+    const std::vector<int> route =
+        from_neighbour ? std::vector<int>{0, 1, 2, 1} : std::vector<int>{0, 1, 2, 3, 1};
+    // The smallest τ_r (to 0.002) that recognises the revisit without the margin.
+    double lo = 0.001, hi = 100.0;
+    ASSERT_EQ(last_decision(route, hi, 0.0).kind, EventKind::kRecognized);
+    while (hi - lo > 0.002) {
+      const double mid = 0.5 * (lo + hi);
+      (last_decision(route, mid, 0.0).kind == EventKind::kRecognized ? hi : lo) = mid;
+    }
+    const PlaceEvent got = last_decision(route, lo, 0.05);
+    EXPECT_EQ(got.kind, from_neighbour ? EventKind::kRecognized : EventKind::kLearned);
+    EXPECT_EQ(got.neighbour, from_neighbour);
+    if (from_neighbour) {
+      EXPECT_EQ(got.place, (PlaceId{1, 2}));
+    }
+  }
+}
+
 // A short passage through a known place P between A and B is pruned (extent ≤ τ_p). Without
 // whereabouts recognition the map joins A and B across it; with it, the robot recognises P
 // on the passage and the map records A → P → B, leaving the memory as it was.

@@ -423,6 +423,47 @@ TEST(PlaceMemoryViews, BetweenCopiesOfARoomTheRatioIsTheOneLevelUp) {
   EXPECT_LT(got.cost, old_rule.cost);
 }
 
+// Towards a place the topological map joins to the previous one, g_N may exceed τ_r by
+// memory.neighbour_margin (session 40): a revisit whose cost is just above τ_r is recognised
+// when its room is such a neighbour, and not when another room is, or without the margin.
+TEST(PlaceMemoryViews, ARevisitJustAboveTauRIsRecognisedOnlyTowardsAMapNeighbour) {
+  std::mt19937 rng(17);
+  std::vector<views::Room> rooms;
+  std::vector<DetectedPlace> visits;
+  for (int r = 0; r < 4; ++r) {
+    rooms.push_back(views::MakeRoom(rng));
+    visits.push_back(views::Visit(rooms.back(), r + 1, rng));
+  }
+  const DetectedPlace revisit = views::Visit(rooms[1], 10, rng);
+  const auto memory = [&](double tau_r, double margin) {
+    PlaceMemoryOptions options = views::ViewOptions();
+    options.tau_r = tau_r;
+    options.neighbour_margin = margin;
+    PlaceMemory m(1, options);
+    for (const DetectedPlace& v : visits) m.Learn(v);
+    return m;
+  };
+  // The smallest τ_r that recognises the revisit (to 0.001), without the map.
+  double lo = 0.001, hi = 50.0;
+  ASSERT_TRUE(memory(hi, 0.0).Recognize(revisit).place.has_value());
+  while (hi - lo > 0.001) {
+    const double mid = 0.5 * (lo + hi);
+    (memory(mid, 0.0).Recognize(revisit).place ? hi : lo) = mid;
+  }
+  const double tau_r = lo;  // just below: not recognised without the map
+  const PlaceMemory dut = memory(tau_r, 0.05);
+  EXPECT_FALSE(dut.Recognize(revisit).place.has_value());
+  const Recognition towards_room = dut.Recognize(revisit, std::nullopt, {1});
+  ASSERT_TRUE(towards_room.place.has_value()) << "cost " << towards_room.cost;
+  EXPECT_EQ(*towards_room.place, 1);
+  EXPECT_TRUE(towards_room.neighbour);
+  const Recognition within = memory(tau_r + 0.01, 0.05).Recognize(revisit, std::nullopt, {1});
+  ASSERT_TRUE(within.place.has_value());
+  EXPECT_FALSE(within.neighbour) << "every level within τ_r: the margin was not needed";
+  EXPECT_FALSE(dut.Recognize(revisit, std::nullopt, {2, 3}).place.has_value());
+  EXPECT_FALSE(memory(tau_r, 0.0).Recognize(revisit, std::nullopt, {1}).place.has_value());
+}
+
 // A memory of one place recognises a revisit of it (the ratio term is 1 by the rule for a
 // node of one child, so the other two terms must leave room under τ_r), and not another room.
 TEST(PlaceMemoryViews, AOnePlaceMemoryRecognisesItsPlace) {

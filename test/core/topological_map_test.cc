@@ -27,5 +27,19 @@ TEST(TopologicalMap, SelfTransitionAddsNoEdge) {
   EXPECT_THROW(dut.RestoreEdge(MapEdge{{1, 1}, {1, 1}, 1, {}}), std::invalid_argument);
 }
 
+// Both ends of an edge name each other, whichever id is smaller and whoever learned them.
+TEST(TopologicalMap, NeighboursAreThePlacesAnEdgeJoinsToAPlace) {
+  TopologicalMap dut;
+  const PlaceId a{1, 1}, b{1, 2}, c{2, 1}, d{1, 3};
+  dut.RecordTransition(b, a, {});
+  dut.RecordTransition(b, c, {});
+  dut.RecordTransition(d, b, {});
+  dut.RecordTransition(a, d, {});
+  EXPECT_EQ(dut.Neighbours(b), (std::vector<PlaceId>{a, d, c}));
+  EXPECT_EQ(dut.Neighbours(a), (std::vector<PlaceId>{b, d}));
+  EXPECT_EQ(dut.Neighbours(c), (std::vector<PlaceId>{b}));
+  EXPECT_TRUE(dut.Neighbours(PlaceId{3, 1}).empty());
+}
+
 }  // namespace
 }  // namespace tsc

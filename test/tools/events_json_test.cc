@@ -29,7 +29,9 @@ TEST(EventsJson, LearnedAndRecognisedCarryTheCostAndItsTerms) {
   EXPECT_EQ(EventToJson(e),
             "{\"frame\":41,\"event\":\"recognized\",\"detected_place\":3,\"place\":\"1:4\","
             "\"cost\":2.75,\"terms\":{\"distance\":1.5,\"ratio\":0.75,\"vote\":0.5,"
-            "\"agreement\":0.25},\"partial\":false,\"hybrid\":true}");
+            "\"agreement\":0.25},\"partial\":false,\"hybrid\":true,\"neighbour\":false}");
+  e.neighbour = true;
+  EXPECT_NE(EventToJson(e).find("\"hybrid\":true,\"neighbour\":true}"), std::string::npos);
 }
 
 // The first place is learned with no g_N evaluated: no terms, and an infinite cost is null.
