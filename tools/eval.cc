@@ -52,6 +52,7 @@ class RunRecorder {
     assignments.push_back({frames, *e.place, recognized});
     run_.detected.push_back(
         {e.detected_place, frames, *e.place, recognized, e.cost, e.terms, std::nullopt, 0.0});
+    run_.detected.back().neighbour = e.neighbour;
     if (const auto partial = partial_.find(e.detected_place); partial != partial_.end()) {
       run_.detected.back().partial_place = partial->second.place;
       run_.detected.back().partial_cost = partial->second.cost;
@@ -304,6 +305,7 @@ void WriteDecisions(JsonWriter& w, const EvalResult& r) {
     w.Key("base_points").Int(static_cast<long long>(d.frames.size()));
     if (r.truth.has_labels()) w.Key("label").String(MajorityLabel(r.truth, d.frames));
     w.Key("decision").String(d.recognized ? "recognized" : "learned");
+    if (d.recognized) w.Key("neighbour").Bool(d.neighbour);
     w.Key("place").String(d.place.ToString());
     w.Key("cost").Number(d.cost);
     w.Key("terms").Begin('{');

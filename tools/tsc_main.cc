@@ -110,9 +110,10 @@ names its nearest member frame of that place; correct within 2 frames of a revis
 revisits.csv, or with labels only within 2 frames of a frame of its label before its own
 visit; unlabelled frames are not judged, loop_closure.not_judged), map.{edges,
 edge_precision (with labels)}, timing.{descriptor_ms_median,frame_ms_median}, config, sweep,
-and decisions: per detected place of the main run, its frames, label, decision, place, cost
-g_N with its terms (and the recognition tried when it opened, "partial"), and whether it
-should have been recognised and was correct: why a place was missed or taken for another.
+and decisions: per detected place of the main run, its frames, label, decision (recognised
+ones say whether they needed memory.neighbour_margin, "neighbour"), place, cost g_N with its
+terms (and the recognition tried when it opened, "partial"), and whether it should have been
+recognised and was correct: why a place was missed or taken for another.
 --plots DIR writes timeline.png (detection timeline), pr_curve.png (place, view-overlap and
 frame-level curves), memory_map.png (place memory tree and topological map, needs
 Graphviz's `dot`) and, when the ground truth has poses, floor_plan.png.

@@ -162,6 +162,9 @@ TEST_F(EvalTest, RtabmapLoopRecognisesWithFullPrecisionAndWritesPlots) {
   EXPECT_EQ(r.main.loop_closure.frames_with_revisit, 44);  // revisits.csv: frames 41-84
   EXPECT_EQ(text.find("view_recall"), std::string::npos);  // no poses
   EXPECT_EQ(text.find("nan"), std::string::npos);
+  // Its two recognitions are within τ_r: neither needed the map's neighbour margin.
+  EXPECT_NE(text.find("\"decision\":\"recognized\",\"neighbour\":false"), std::string::npos);
+  EXPECT_EQ(text.find("\"neighbour\":true"), std::string::npos);
   EXPECT_EQ(text.find("\"detection\""), std::string::npos);  // no labels, no boundary F1
 
   const auto written = WritePlots(r, dataset, dir_ / "plots");
