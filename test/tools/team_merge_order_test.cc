@@ -30,6 +30,7 @@
 #include <vector>
 
 #include "settings/settings.h"
+#include "test/support/known_failure.h"
 #include "tools/team_replay.h"
 
 namespace tsc {
@@ -117,10 +118,6 @@ std::string DescribeGroups(const std::set<std::set<PlaceId>>& groups) {
 // the two tests that compare groups across orders fail on core/merge, so they are skipped unless
 // TSCD_RUN_KNOWN_FAILURES=1 is set; set it to see the figures, and remove the skip once
 // core/merge makes them pass.
-bool SkipKnownFailure() {
-  const char* run = std::getenv("TSCD_RUN_KNOWN_FAILURES");
-  return run == nullptr || std::string(run) != "1";
-}
 constexpr const char* kKnownFailure =
     "KNOWN FAILURE (issue 21, item 2), set TSCD_RUN_KNOWN_FAILURES=1 to run: which ids are "
     "one place depends on the merge order. MergeMemories is commutative for two memories but "
@@ -134,7 +131,7 @@ constexpr const char* kKnownFailure =
 // merged into one robot's memory in each order of the two peers. One merge order must not
 // decide which ids are one place.
 TEST(TeamMergeOrderRegression, ThreeMemoriesMergedInAnyOrderGroupTheSameIds) {
-  if (SkipKnownFailure()) GTEST_SKIP() << kKnownFailure;
+  if (!testing_support::KnownFailuresRequested()) GTEST_SKIP() << kKnownFailure;
   const TeamWorld w = {"corridors", 6};
   int portion_bytes = 0;
   const std::vector<ReplayedRobot> routes = ReplayTeam(w, &portion_bytes);
@@ -284,7 +281,7 @@ TEST_P(TeamMergeOrderTest, TheSameGroupsEndWithTheSameIdsAndMap) {
 }
 
 TEST_P(TeamMergeOrderTest, EveryOrderAndScheduleEndsWithTheSamePlacesAndMap) {
-  if (SkipKnownFailure()) GTEST_SKIP() << kKnownFailure;
+  if (!testing_support::KnownFailuresRequested()) GTEST_SKIP() << kKnownFailure;
   const TeamWorld w = GetParam();
   // Each distinct final memory, with the schedules and robots that ended with it.
   std::vector<std::pair<Outcome, std::vector<std::string>>> outcomes;
