@@ -28,12 +28,13 @@ constexpr int kMembers = 12;
 constexpr int kRelearnSample = 64;
 constexpr int kLarge = testing_support::kLargeMemory;
 
-// Places of a world of 64 sites (test/support/synthetic_places.h): place p of world w is its
-// site's centre perturbed by 20 %, members by another 2 %. A robot sees place (w, p) with its
-// own member noise (its id is the visit).
+// Places of a world of `sites` sites (test/support/synthetic_places.h; 64 unless given):
+// place p of world w is its site's centre perturbed by 20 %, members by another 2 %. A robot
+// sees place (w, p) with its own member noise (its id is the visit).
+constexpr int kSites = 64;
 class World {
  public:
-  explicit World(uint32_t world) : places_(world, kDim, 64, 0.02f, world) {}
+  World(uint32_t world, int sites) : places_(world, kDim, sites, 0.02f, world) {}
   const testing_support::SyntheticPlaces& places() const { return places_; }
 
  private:
@@ -58,12 +59,13 @@ PlaceMemory BuildMemory(uint32_t robot, const World& world, int first, int n, bo
 // Pairs built once per (n, shared %, basis): robot 1 sees places [0, n) of world 1; robot 2
 // sees `shared` % of the same places (its own member noise) and the rest from places [n, ...)
 // — or, with shared = 0, places of another world.
-const std::pair<PlaceMemory, PlaceMemory>& Pair(int n, int shared, bool basis) {
-  static std::map<std::tuple<int, int, bool>, std::unique_ptr<std::pair<PlaceMemory, PlaceMemory>>>
+const std::pair<PlaceMemory, PlaceMemory>& Pair(int n, int shared, bool basis, int sites = kSites) {
+  static std::map<std::tuple<int, int, bool, int>,
+                  std::unique_ptr<std::pair<PlaceMemory, PlaceMemory>>>
       cache;
-  auto& slot = cache[{n, shared, basis}];
+  auto& slot = cache[{n, shared, basis, sites}];
   if (!slot) {
-    const World one(1), two(2);
+    const World one(1, sites), two(2, sites);
     const int overlap = n * shared / 100;
     PlaceMemory a = BuildMemory(1, one, 0, n, basis);
     PlaceMemory b = shared == 0
@@ -78,7 +80,9 @@ void BM_MergeMemories(benchmark::State& state) {
   const int n = static_cast<int>(state.range(0)), shared = static_cast<int>(state.range(1));
   const bool copying = state.range(2) != 0;
   const bool basis = state.range(3) != 0;
-  const auto& [ours, peer] = Pair(n, shared, basis);
+  const int places_per_site = state.range(4) > 0 ? static_cast<int>(state.range(4)) : 0;
+  const int sites = places_per_site > 0 ? n / places_per_site : kSites;
+  const auto& [ours, peer] = Pair(n, shared, basis, sites);
   double merge_s = 0.0;
   MergeCase merge_case = MergeCase::kNothingNew;
   size_t absorbed = 0, added = 0;
@@ -113,6 +117,7 @@ void BM_MergeMemories(benchmark::State& state) {
   state.counters["absorbed"] = static_cast<double>(absorbed);
   state.counters["added"] = static_cast<double>(added);
   state.counters["retrained"] = retrained;
+  state.counters["sites"] = sites;
   state.SetLabel(std::string(ToString(merge_case)) + (copying ? " copying" : " moving") +
                  (basis ? ", views in the builtin basis" : ", views as descriptors"));
   // Reference: recognise-then-update-or-learn the peer's places one by one into a copy of
@@ -143,18 +148,23 @@ void BM_MergeMemories(benchmark::State& state) {
   state.counters["merge_over_relearn"] = merge_s / relearn_s;
 }
 // Args: places per memory, % of the peer's places shared with ours, 1 = the copying form,
-// 1 = member views in the builtin basis (what tscd runs with; session 27).
+// 1 = member views in the builtin basis (what tscd runs with; session 27), places per site
+// (0: 64 sites whatever the size, so at 10⁵ a site holds ~1560 places, one room learned 1560
+// times; 2: the ≤ 2 places per room issue 23 asks of a long-lived memory, a flat tree whose
+// root has thousands of hyper-terminals below it).
 BENCHMARK(BM_MergeMemories)
-    ->Args({1000, 0, 0, 0})
-    ->Args({1000, 50, 0, 0})
-    ->Args({10000, 0, 0, 0})
-    ->Args({10000, 50, 0, 0})
-    ->Args({10000, 50, 1, 0})
-    ->Args({1000, 50, 0, 1})
-    ->Args({10000, 0, 0, 1})
-    ->Args({10000, 50, 0, 1})
-    ->Args({kLarge, 0, 0, 1})
-    ->Args({kLarge, 50, 0, 1})
+    ->Args({1000, 0, 0, 0, 0})
+    ->Args({1000, 50, 0, 0, 0})
+    ->Args({10000, 0, 0, 0, 0})
+    ->Args({10000, 50, 0, 0, 0})
+    ->Args({10000, 50, 1, 0, 0})
+    ->Args({1000, 50, 0, 1, 0})
+    ->Args({10000, 0, 0, 1, 0})
+    ->Args({10000, 50, 0, 1, 0})
+    ->Args({10000, 0, 0, 1, 2})
+    ->Args({10000, 50, 0, 1, 2})
+    ->Args({kLarge, 0, 0, 1, 0})
+    ->Args({kLarge, 50, 0, 1, 0})
     ->Unit(benchmark::kMillisecond)
     ->Iterations(1);  // the giving-up form consumes its inputs
 

@@ -11,6 +11,8 @@
 #include <utility>
 #include <vector>
 
+#include "core/memory/builtin_view_basis.h"
+#include "core/merge/children_distance_bounds.h"
 #include "core/merge/merge_maps.h"
 #include "test/support/synthetic_places.h"
 
@@ -125,8 +127,29 @@ TEST(Overlap, IsLensWidthAlongCentreLine) {
   EXPECT_NEAR(Overlap(a, far), -3.0, 1e-6);  // a gap of 3
 }
 
-// The branch and bound picks what comparing every pair picks: the largest overlap, then the
-// nearer centre, then the lower index.
+// What comparing every pair picks: for each incoming hyper-terminal, the base one with the
+// largest overlap, then the nearer centre, then the lower index.
+std::vector<size_t> ExhaustiveBestOverlap(const std::vector<HyperTerminal>& base,
+                                          const std::vector<HyperTerminal>& incoming) {
+  std::vector<size_t> out;
+  for (const HyperTerminal& h : incoming) {
+    size_t star = 0;
+    double best = -1e300, best_d = 1e300;
+    for (size_t k = 0; k < base.size(); ++k) {
+      const double overlap = Overlap(h.sphere, base[k].sphere);
+      const double d = (h.sphere.centroid - base[k].sphere.centroid).norm();
+      if (overlap > best || (overlap == best && d < best_d)) {
+        best = overlap;
+        best_d = d;
+        star = k;
+      }
+    }
+    out.push_back(star);
+  }
+  return out;
+}
+
+// The branch and bound picks what comparing every pair picks.
 TEST(MatchHyperTerminals, EqualsExhaustiveBestOverlap) {
   std::mt19937 rng(11);
   std::normal_distribution<float> noise(0.0f, 0.4f);
@@ -144,21 +167,68 @@ TEST(MatchHyperTerminals, EqualsExhaustiveBestOverlap) {
   const PlaceMemory b = MakeMemory(2, centres(50), 300);
   const std::vector<HyperTerminal> ha = HyperTerminals(a), hb = HyperTerminals(b);
   ASSERT_GT(ha.size(), 5u);
-  const std::vector<size_t> dut = MatchHyperTerminals(a, ha, hb);
-  ASSERT_EQ(dut.size(), hb.size());
-  for (size_t i = 0; i < hb.size(); ++i) {
-    size_t star = 0;
-    double best = -1e300, best_d = 1e300;
-    for (size_t k = 0; k < ha.size(); ++k) {
-      const double overlap = Overlap(hb[i].sphere, ha[k].sphere);
-      const double d = (hb[i].sphere.centroid - ha[k].sphere.centroid).norm();
-      if (overlap > best || (overlap == best && d < best_d)) {
-        best = overlap;
-        best_d = d;
-        star = k;
+  EXPECT_EQ(MatchHyperTerminals(a, ha, hb), ExhaustiveBestOverlap(ha, hb));
+}
+
+// With member views in a basis the search first measures a node's children there (shorter
+// distances, so larger bounds) and in full only those still in the running. A flat tree — a
+// memory of many rooms held once or twice, its root over hundreds of hyper-terminals — is
+// where that matters; the match must stay exactly the exhaustive one. Synthetic places of the
+// descriptor's scale (1200 dimensions, 90 % of their distances outside the builtin basis).
+TEST(MatchHyperTerminals, WithAViewBasisEqualsExhaustiveBestOverlapOnAFlatTree) {
+  PlaceMemoryOptions options;
+  options.view_basis = BuiltinViewBasis();
+  const testing_support::SyntheticPlaces world(7, 1200, 150, 0.02f, 1);
+  const PlaceMemory a = testing_support::SyntheticMemory(1, world, 0, 300, 12, options);
+  const PlaceMemory b = testing_support::SyntheticMemory(2, world, 150, 300, 12, options);
+  const std::vector<HyperTerminal> ha = HyperTerminals(a), hb = HyperTerminals(b);
+  ASSERT_GT(a.nodes()[static_cast<size_t>(a.root())].children.size(), 100u) << "not flat";
+  ASSERT_GT(hb.size(), 100u);
+  EXPECT_EQ(MatchHyperTerminals(a, ha, hb), ExhaustiveBestOverlap(ha, hb));
+  EXPECT_EQ(MatchHyperTerminals(b, hb, ha), ExhaustiveBestOverlap(hb, ha));
+}
+
+// The bounds MatchHyperTerminals prunes by: never above the true distance from an incoming
+// centre to an inner child's centre, and close to it where the places lie in the basis, as
+// real descriptors do (residual 0.033 of their distance from it; without that, 90 % outside).
+TEST(ChildrenDistanceBounds, AreBelowTheTrueDistancesAndTightInsideTheBasis) {
+  for (const float residual : {0.033f, 1.0f}) {
+    PlaceMemoryOptions options;
+    options.view_basis = BuiltinViewBasis();
+    testing_support::SyntheticPlaces world(7, 1200, 60, 0.02f, 1);
+    world.LieIn(options.view_basis, residual);
+    const PlaceMemory base = testing_support::SyntheticMemory(1, world, 0, 120, 12, options);
+    const PlaceMemory peer = testing_support::SyntheticMemory(2, world, 60, 120, 12, options);
+    std::vector<Eigen::VectorXf> centre(base.nodes().size());
+    for (size_t n = 0; n < centre.size(); ++n) {
+      if (!base.nodes()[n].terminal()) centre[n] = base.Centroid(static_cast<int>(n));
+    }
+    const std::vector<HyperTerminal> incoming = HyperTerminals(peer);
+    const ChildrenDistanceBounds dut(base, centre, incoming);
+    ASSERT_TRUE(dut.available());
+    std::vector<double> below;
+    double tightest = 1.0;  // the smallest bound / distance seen
+    int measured = 0;
+    for (size_t a = 0; a < incoming.size(); ++a) {
+      for (size_t n = 0; n < centre.size(); ++n) {
+        if (base.nodes()[n].terminal()) continue;
+        dut.BelowChildren(a, n, below);
+        const std::vector<int>& children = base.nodes()[n].children;
+        ASSERT_EQ(below.size(), children.size());
+        for (size_t j = 0; j < children.size(); ++j) {
+          const auto c = static_cast<size_t>(children[j]);
+          if (base.nodes()[c].terminal()) continue;
+          const double d = (incoming[a].sphere.centroid - centre[c]).norm();
+          ASSERT_LE(below[j], d) << "incoming " << a << ", node " << c << ", residual " << residual;
+          tightest = std::min(tightest, below[j] / d);
+          ++measured;
+        }
       }
     }
-    EXPECT_EQ(dut[i], star) << "incoming hyper-terminal " << i;
+    ASSERT_GT(measured, 1000) << "residual " << residual;
+    if (residual < 0.1f) {
+      EXPECT_GT(tightest, 0.99) << "inside the basis";
+    }
   }
 }
 
