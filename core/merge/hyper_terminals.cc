@@ -6,8 +6,6 @@
 #include <stdexcept>
 #include <utility>
 
-#include "core/merge/children_distance_bounds.h"
-
 namespace tsc {
 namespace {
 
@@ -102,101 +100,50 @@ std::vector<size_t> MatchHyperTerminals(const PlaceMemory& base,
   const Balls balls = BallsOf(base, hb, ht_of);
   const std::vector<Eigen::VectorXf>& centre = balls.centre;
   const std::vector<double>& reach = balls.reach;
-  const ChildrenDistanceBounds basis_bounds(base, centre, hi);
-  const bool bounded = basis_bounds.available();
-  std::vector<double> below;  // BelowChildren's distances
   std::vector<size_t> out(hi.size(), 0);
-  // (bound, node, exact): largest bound first. A node is queued with the bound its distance in
-  // the view basis gives (no smaller than the exact one) and measured in full only when it
-  // reaches the front: a flat tree (a memory of many rooms held once or twice) gives the root
-  // thousands of children, and measuring each of them in 1200 dimensions for every incoming
-  // hyper-terminal made the match quadratic in full-dimension distances (5 of the 6 s of a
-  // 10⁴ + 10⁴ merge of such memories).
-  struct Entry {
-    double bound;
-    int node;
-    bool exact;
-    bool operator<(const Entry& o) const {
-      return bound != o.bound ? bound < o.bound : node != o.node ? node < o.node : exact < o.exact;
-    }
-  };
-  std::vector<Entry> heap;
+  std::vector<std::pair<double, int>> heap;  // (bound, node), largest bound first
   for (size_t a = 0; a < hi.size(); ++a) {
     const NodeStatistics& sa = hi[a].sphere;
     const double ra = sa.radius;
     double best = -std::numeric_limits<double>::infinity(),
            best_d = std::numeric_limits<double>::infinity();
     size_t star = hb.size();
-    // The bound on the overlap of `a` with any hyper-terminal under `node`, from a distance
-    // to its centre no larger than the true one; `gap`: no such hyper-terminal's centre is
-    // nearer than it.
-    auto bound = [&](size_t node, double d, double* gap) {
-      *gap = d - reach[node];
+    auto bound = [&](size_t node, double* gap) {
+      const double d = (sa.centroid - centre[node]).norm();
+      *gap = d - reach[node];  // no hyper-terminal under the node is nearer than this
       return std::min(2.0 * ra, ra + reach[node] - d);
     };
-    auto exact_distance = [&](size_t node) { return (sa.centroid - centre[node]).norm(); };
     // Worth a visit: a bound above the best, or equal to it with a centre possibly nearer.
     auto promising = [&](double b, double gap) { return b > best || (b == best && gap <= best_d); };
-    // Queues `node` with the bound a distance `d` gives (`exact`: its true distance).
-    auto queue = [&](size_t node, double d, bool exact) {
-      double gap = 0.0;
-      const double b = bound(node, d, &gap);
-      if (promising(b, gap)) heap.push_back({b, static_cast<int>(node), exact});
-    };
     heap.clear();
     const auto root = static_cast<size_t>(base.root());
-    if (reach[root] >= 0) queue(root, exact_distance(root), true);
+    double gap = 0.0;
+    if (reach[root] >= 0) heap.push_back({bound(root, &gap), base.root()});
     while (!heap.empty()) {
       std::pop_heap(heap.begin(), heap.end());
-      const Entry e = heap.back();
+      const auto node = static_cast<size_t>(heap.back().second);
       heap.pop_back();
-      const auto node = static_cast<size_t>(e.node);
-      if (!e.exact) {  // measure it in full, and queue it again with its exact bound
-        double gap = 0.0;
-        const double b = bound(node, exact_distance(node), &gap);
-        if (promising(b, gap)) {
-          heap.push_back({b, e.node, true});
-          std::push_heap(heap.begin(), heap.end());
-        }
-      } else {
-        if (const int k = ht_of[node]; k >= 0) {
-          const NodeStatistics& sb = hb[static_cast<size_t>(k)].sphere;
-          const double d = (sa.centroid - sb.centroid).norm();
-          const double overlap = std::min({ra + sb.radius - d, 2.0 * ra, 2.0 * sb.radius});
-          if (overlap > best ||
-              (overlap == best && (d < best_d || (d == best_d && static_cast<size_t>(k) < star)))) {
-            best = overlap;
-            best_d = d;
-            star = static_cast<size_t>(k);
-          }
-        }
-        // Many children (a flat node's thousands): append them and make the heap again, O(size);
-        // a few: push each, O(log size) apiece.
-        const size_t before = heap.size();
-        const std::vector<int>& children = base.nodes()[node].children;
-        // Terminal children are no balls (a crowded hyper-terminal has 1500 of them).
-        const bool any = std::any_of(children.begin(), children.end(),
-                                     [&](int c) { return reach[static_cast<size_t>(c)] >= 0; });
-        if (any && bounded) basis_bounds.BelowChildren(a, node, below);
-        for (size_t j = 0; any && j < children.size(); ++j) {
-          const auto c = static_cast<size_t>(children[j]);
-          if (reach[c] < 0) continue;
-          if (bounded) {
-            queue(c, below[j], false);
-          } else {
-            queue(c, exact_distance(c), true);
-          }
-        }
-        if ((heap.size() - before) * 16 > heap.size()) {
-          std::make_heap(heap.begin(), heap.end());
-        } else {
-          for (size_t i = before + 1; i <= heap.size(); ++i) {
-            std::push_heap(heap.begin(), heap.begin() + static_cast<std::ptrdiff_t>(i));
-          }
+      if (const int k = ht_of[node]; k >= 0) {
+        const NodeStatistics& sb = hb[static_cast<size_t>(k)].sphere;
+        const double d = (sa.centroid - sb.centroid).norm();
+        const double overlap = std::min({ra + sb.radius - d, 2.0 * ra, 2.0 * sb.radius});
+        if (overlap > best ||
+            (overlap == best && (d < best_d || (d == best_d && static_cast<size_t>(k) < star)))) {
+          best = overlap;
+          best_d = d;
+          star = static_cast<size_t>(k);
         }
       }
+      for (int c : base.nodes()[node].children) {
+        const auto ci = static_cast<size_t>(c);
+        if (reach[ci] < 0) continue;
+        const double b = bound(ci, &gap);
+        if (!promising(b, gap)) continue;
+        heap.push_back({b, c});
+        std::push_heap(heap.begin(), heap.end());
+      }
       // The largest bound queued fell below the best: nothing left can win.
-      if (!heap.empty() && heap.front().bound < best) heap.clear();
+      if (!heap.empty() && heap.front().first < best) heap.clear();
     }
     out[a] = star;
   }
