@@ -6,6 +6,8 @@
 #include <stdexcept>
 #include <utility>
 
+#include "core/merge/children_distance_bounds.h"
+
 namespace tsc {
 namespace {
 
@@ -100,6 +102,9 @@ std::vector<size_t> MatchHyperTerminals(const PlaceMemory& base,
   const Balls balls = BallsOf(base, hb, ht_of);
   const std::vector<Eigen::VectorXf>& centre = balls.centre;
   const std::vector<double>& reach = balls.reach;
+  const ChildrenDistanceBounds basis_bounds(base, centre, hi);
+  const bool bounded = basis_bounds.available();
+  std::vector<double> below;  // BelowChildren's distances
   std::vector<size_t> out(hi.size(), 0);
   std::vector<std::pair<double, int>> heap;  // (bound, node), largest bound first
   for (size_t a = 0; a < hi.size(); ++a) {
@@ -108,39 +113,76 @@ std::vector<size_t> MatchHyperTerminals(const PlaceMemory& base,
     double best = -std::numeric_limits<double>::infinity(),
            best_d = std::numeric_limits<double>::infinity();
     size_t star = hb.size();
-    auto bound = [&](size_t node, double* gap) {
-      const double d = (sa.centroid - centre[node]).norm();
-      *gap = d - reach[node];  // no hyper-terminal under the node is nearer than this
+    // The bound on the overlap of `a` with any hyper-terminal under `node`, from a distance
+    // to its centre no larger than the true one; `gap`: no such hyper-terminal's centre is
+    // nearer than it.
+    auto bound = [&](size_t node, double d, double* gap) {
+      *gap = d - reach[node];
       return std::min(2.0 * ra, ra + reach[node] - d);
     };
     // Worth a visit: a bound above the best, or equal to it with a centre possibly nearer.
     auto promising = [&](double b, double gap) { return b > best || (b == best && gap <= best_d); };
+    // Queues `node` when its exact bound is promising; `near`, a distance no larger than its
+    // true one (the basis' bound), spares measuring it in full when that already is not.
+    auto queue = [&](size_t node, double near) {
+      double gap = 0.0;
+      if (!promising(bound(node, near, &gap), gap)) return;
+      const double b = bound(node, (sa.centroid - centre[node]).norm(), &gap);
+      if (promising(b, gap)) heap.push_back({b, static_cast<int>(node)});
+    };
+    // Hyper-terminal k as N*: kept when it overlaps more, or as much with a nearer centre (then
+    // the lower index).
+    auto consider = [&](size_t k) {
+      const NodeStatistics& sb = hb[k].sphere;
+      const double d = (sa.centroid - sb.centroid).norm();
+      const double overlap = std::min({ra + sb.radius - d, 2.0 * ra, 2.0 * sb.radius});
+      if (overlap > best || (overlap == best && (d < best_d || (d == best_d && k < star)))) {
+        best = overlap;
+        best_d = d;
+        star = k;
+      }
+    };
     heap.clear();
     const auto root = static_cast<size_t>(base.root());
-    double gap = 0.0;
-    if (reach[root] >= 0) heap.push_back({bound(root, &gap), base.root()});
+    if (reach[root] >= 0) queue(root, 0.0);
     while (!heap.empty()) {
       std::pop_heap(heap.begin(), heap.end());
       const auto node = static_cast<size_t>(heap.back().second);
       heap.pop_back();
-      if (const int k = ht_of[node]; k >= 0) {
-        const NodeStatistics& sb = hb[static_cast<size_t>(k)].sphere;
-        const double d = (sa.centroid - sb.centroid).norm();
-        const double overlap = std::min({ra + sb.radius - d, 2.0 * ra, 2.0 * sb.radius});
-        if (overlap > best ||
-            (overlap == best && (d < best_d || (d == best_d && static_cast<size_t>(k) < star)))) {
-          best = overlap;
-          best_d = d;
-          star = static_cast<size_t>(k);
+      if (const int k = ht_of[node]; k >= 0) consider(static_cast<size_t>(k));
+      const std::vector<int>& children = base.nodes()[node].children;
+      // Terminal children are no balls (a crowded hyper-terminal has 1500 of them).
+      const bool any = std::any_of(children.begin(), children.end(),
+                                   [&](int c) { return reach[static_cast<size_t>(c)] >= 0; });
+      below.assign(children.size(), 0.0);
+      if (any && bounded) {
+        basis_bounds.BelowChildren(a, node, below);
+        // The hyper-terminal child nearest in the basis measured first: a real candidate, so
+        // its overlap lets the basis' bounds rule out its siblings before any is measured in
+        // full (a flat node's thousands, best being still unknown).
+        size_t probe = children.size();
+        for (size_t j = 0; j < children.size(); ++j) {
+          const auto c = static_cast<size_t>(children[j]);
+          if (reach[c] < 0 || ht_of[c] < 0) continue;
+          if (probe == children.size() || below[j] < below[probe]) probe = j;
+        }
+        if (probe < children.size()) {
+          consider(static_cast<size_t>(ht_of[static_cast<size_t>(children[probe])]));
         }
       }
-      for (int c : base.nodes()[node].children) {
-        const auto ci = static_cast<size_t>(c);
-        if (reach[ci] < 0) continue;
-        const double b = bound(ci, &gap);
-        if (!promising(b, gap)) continue;
-        heap.push_back({b, c});
-        std::push_heap(heap.begin(), heap.end());
+      // Many children queued (a flat node's): append them and make the heap again, O(size);
+      // a few: push each, O(log size) apiece.
+      const size_t before = heap.size();
+      for (size_t j = 0; any && j < children.size(); ++j) {
+        const auto c = static_cast<size_t>(children[j]);
+        if (reach[c] >= 0) queue(c, below[j]);
+      }
+      if ((heap.size() - before) * 16 > heap.size()) {
+        std::make_heap(heap.begin(), heap.end());
+      } else {
+        for (size_t i = before + 1; i <= heap.size(); ++i) {
+          std::push_heap(heap.begin(), heap.begin() + static_cast<std::ptrdiff_t>(i));
+        }
       }
       // The largest bound queued fell below the best: nothing left can win.
       if (!heap.empty() && heap.front().first < best) heap.clear();

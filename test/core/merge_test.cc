@@ -12,6 +12,7 @@
 #include <vector>
 
 #include "core/memory/builtin_view_basis.h"
+#include "core/merge/children_distance_bounds.h"
 #include "core/merge/merge_maps.h"
 #include "test/support/synthetic_places.h"
 
@@ -183,6 +184,50 @@ TEST(MatchHyperTerminals, WithAViewBasisEqualsExhaustiveBestOverlapOnAFlatTree) 
   ASSERT_GT(hb.size(), 100u);
   EXPECT_EQ(MatchHyperTerminals(a, ha, hb), ExhaustiveBestOverlap(ha, hb));
   EXPECT_EQ(MatchHyperTerminals(b, hb, ha), ExhaustiveBestOverlap(hb, ha));
+}
+
+// The bounds MatchHyperTerminals prunes by: never above the true distance from an incoming
+// centre to an inner child's centre, and close to it where the places lie in the basis, as
+// real descriptors do (residual 0.033 of their distance from it; without that, 90 % outside).
+TEST(ChildrenDistanceBounds, AreBelowTheTrueDistancesAndTightInsideTheBasis) {
+  for (const float residual : {0.033f, 1.0f}) {
+    PlaceMemoryOptions options;
+    options.view_basis = BuiltinViewBasis();
+    testing_support::SyntheticPlaces world(7, 1200, 60, 0.02f, 1);
+    world.LieIn(options.view_basis, residual);
+    const PlaceMemory base = testing_support::SyntheticMemory(1, world, 0, 120, 12, options);
+    const PlaceMemory peer = testing_support::SyntheticMemory(2, world, 60, 120, 12, options);
+    std::vector<Eigen::VectorXf> centre(base.nodes().size());
+    for (size_t n = 0; n < centre.size(); ++n) {
+      if (!base.nodes()[n].terminal()) centre[n] = base.Centroid(static_cast<int>(n));
+    }
+    const std::vector<HyperTerminal> incoming = HyperTerminals(peer);
+    const ChildrenDistanceBounds dut(base, centre, incoming);
+    ASSERT_TRUE(dut.available());
+    std::vector<double> below;
+    double tightest = 1.0;  // the smallest bound / distance seen
+    int measured = 0;
+    for (size_t a = 0; a < incoming.size(); ++a) {
+      for (size_t n = 0; n < centre.size(); ++n) {
+        if (base.nodes()[n].terminal()) continue;
+        dut.BelowChildren(a, n, below);
+        const std::vector<int>& children = base.nodes()[n].children;
+        ASSERT_EQ(below.size(), children.size());
+        for (size_t j = 0; j < children.size(); ++j) {
+          const auto c = static_cast<size_t>(children[j]);
+          if (base.nodes()[c].terminal()) continue;
+          const double d = (incoming[a].sphere.centroid - centre[c]).norm();
+          ASSERT_LE(below[j], d) << "incoming " << a << ", node " << c << ", residual " << residual;
+          tightest = std::min(tightest, below[j] / d);
+          ++measured;
+        }
+      }
+    }
+    ASSERT_GT(measured, 1000) << "residual " << residual;
+    if (residual < 0.1f) {
+      EXPECT_GT(tightest, 0.99) << "inside the basis";
+    }
+  }
 }
 
 // Figure 4.4a.
