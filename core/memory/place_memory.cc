@@ -339,19 +339,14 @@ Eigen::MatrixXf PlaceMemory::TrainingSet(int node) const {
 void PlaceMemory::GammaLowerBounds(const Eigen::VectorXf& mean, std::vector<double>& out) const {
   const ViewBasis& basis = *view_basis();
   const Eigen::VectorXf c = basis.Coordinates(mean);
-  // Each coordinate is a sum of input_dimension() float products: off by at most
-  // input_dimension()·u·‖x‖ (u = 2⁻²⁴), so the vector of them by √dimension() times that.
-  const double error = std::sqrt(static_cast<double>(basis.dimension())) *
-                       static_cast<double>(basis.input_dimension()) * 0x1p-24;
-  const double gain2 = basis.max_gain() * basis.max_gain();
   const double norm = mean.norm();
   out.resize(places_.size());
   for (size_t i = 0; i < places_.size(); ++i) {
     const double apart = std::sqrt(static_cast<double>((view_centres_[i] - c).squaredNorm()));
-    const double root =
-        std::max(0.0, apart * (1.0 - 1e-4) - error * (static_cast<double>(mean_norms_[i]) + norm));
+    const double root = basis.DistanceBelow(
+        apart, basis.coordinate_error() * (static_cast<double>(mean_norms_[i]) + norm));
     // Less 0.1 %: γ itself is a float sum of 1200 squares, off by up to 1200·u of itself.
-    out[i] = (1.0 - 1e-3) * root * root / gain2;
+    out[i] = (1.0 - 1e-3) * root * root;
   }
 }
 

@@ -57,6 +57,12 @@ ViewBasis::ViewBasis(Eigen::MatrixXf axes, std::string name, Simd simd)
       std::max(0.0, Eigen::SelfAdjointEigenSolver<Eigen::MatrixXd>(gram, Eigen::EigenvaluesOnly)
                         .eigenvalues()
                         .maxCoeff()));
+  // Each coordinate's products go through at most `depth` float roundings: the AVX2 kernel
+  // sums 8 lanes of ⌈dim/8⌉ fused products, then the lanes; any other order, through dim.
+  const Eigen::Index depth = simd_ == Simd::kAvx2Fma ? (axes_.cols() + 7) / 8 + 7 : axes_.cols();
+  const double nu = static_cast<double>(depth) * 0x1p-24;
+  coordinate_error_ =
+      std::sqrt(static_cast<double>(axes_.rows()) * gram.diagonal().maxCoeff()) * nu / (1.0 - nu);
   if (simd_ == Simd::kAvx2Fma) axes_t_ = axes_.transpose();
 }
 

@@ -9,6 +9,7 @@
 // must measure in the same basis: its `id` travels with the memory (daemon/exchange).
 
 #include <Eigen/Core>
+#include <algorithm>
 #include <cstdint>
 #include <memory>
 #include <span>
@@ -40,6 +41,18 @@ class ViewBasis {
   /// accepted basis): a squared distance between coordinates divided by its square is at most
   /// the squared distance between the descriptors.
   double max_gain() const { return max_gain_; }
+  /// Coordinates(x) lies within coordinate_error()·‖x‖ of axes·x: each coordinate is a float
+  /// sum of input_dimension() products whose terms go through at most h roundings, so it is
+  /// off by at most γ_h·‖axis‖·‖x‖ (γ_h = h·u / (1 − h·u), u = 2⁻²⁴).
+  double coordinate_error() const { return coordinate_error_; }
+  /// A distance no larger than ‖x − y‖ (and than its float computation) from `apart`, the
+  /// distance between coordinates that stand for x and y up to `error` together (e.g.
+  /// coordinate_error()·(‖x‖ + ‖y‖)): an orthonormal projection only shortens, by at most
+  /// max_gain(). 1e-4 of `apart` is given up to the rounding of distances summed in float
+  /// (`apart` itself, or the full distance the bound is compared with).
+  double DistanceBelow(double apart, double error) const {
+    return std::max(0.0, apart * (1.0 - 1e-4) - error) / max_gain_;
+  }
 
   /// The coordinates of descriptors (input_dimension() x n) in the basis: dimension() x n.
   /// Linear, so the coordinates of a mean are the mean of the coordinates. Each column's
@@ -55,6 +68,7 @@ class ViewBasis {
   std::string name_;
   uint64_t id_;
   double max_gain_ = 1.0;
+  double coordinate_error_ = 0.0;
 };
 
 /// The principal axes of `descriptors` (dim x n, n ≥ 2): the `k` unit eigenvectors of their

@@ -11,7 +11,7 @@
 namespace tsc {
 namespace {
 
-// Each inner node's ball over the hyper-terminals under it: centre c(N), reach
+// Each inner node's ball over the hyper-terminals under it: centre c(N) (NodeCentres), reach
 // R(N) ≥ ‖c_b − c(N)‖ + ρ_b for every hyper-terminal b under N (−1: none), bottom-up (children
 // precede parents), widened by a relative 1e-5 against float rounding. Then for an incoming
 // sphere a at distance d from c(N), Overlap(a, b) ≤ min(2ρ_a, ρ_a + R(N) − d) for every b
@@ -24,13 +24,12 @@ struct Balls {
 Balls BallsOf(const PlaceMemory& base, const std::vector<HyperTerminal>& hb,
               const std::vector<int>& ht_of) {
   const size_t nodes = base.nodes().size();
-  Balls balls{std::vector<Eigen::VectorXf>(nodes), std::vector<double>(nodes, -1.0)};
+  Balls balls{NodeCentres(base), std::vector<double>(nodes, -1.0)};
   std::vector<Eigen::VectorXf>& centre = balls.centre;
   std::vector<double>& reach = balls.reach;
   for (size_t i = 0; i < nodes; ++i) {
     const MemoryNode& nd = base.nodes()[i];
     if (nd.terminal()) continue;
-    centre[i] = base.Centroid(static_cast<int>(i));
     double r = -1.0;
     if (ht_of[i] >= 0) {
       const NodeStatistics& s = hb[static_cast<size_t>(ht_of[i])].sphere;
@@ -105,6 +104,12 @@ std::vector<size_t> MatchHyperTerminals(const PlaceMemory& base,
   const ChildrenDistanceBounds basis_bounds(base, centre, hi);
   const bool bounded = basis_bounds.available();
   std::vector<double> below;  // BelowChildren's distances
+  // Whether a node has children with balls (terminals have none; a crowded hyper-terminal has
+  // 1500 of them), once: a flat tree's root is popped for every incoming hyper-terminal.
+  std::vector<char> any_ball(base.nodes().size(), 0);
+  for (size_t n = 0; n < any_ball.size(); ++n) {
+    for (int c : base.nodes()[n].children) any_ball[n] |= reach[static_cast<size_t>(c)] >= 0;
+  }
   std::vector<size_t> out(hi.size(), 0);
   std::vector<std::pair<double, int>> heap;  // (bound, node), largest bound first
   for (size_t a = 0; a < hi.size(); ++a) {
@@ -151,10 +156,8 @@ std::vector<size_t> MatchHyperTerminals(const PlaceMemory& base,
       heap.pop_back();
       if (const int k = ht_of[node]; k >= 0) consider(static_cast<size_t>(k));
       const std::vector<int>& children = base.nodes()[node].children;
-      // Terminal children are no balls (a crowded hyper-terminal has 1500 of them).
-      const bool any = std::any_of(children.begin(), children.end(),
-                                   [&](int c) { return reach[static_cast<size_t>(c)] >= 0; });
-      below.assign(children.size(), 0.0);
+      const bool any = any_ball[node] != 0;
+      if (any) below.assign(children.size(), 0.0);
       if (any && bounded) {
         basis_bounds.BelowChildren(a, node, below);
         // The hyper-terminal child nearest in the basis measured first: a real candidate, so

@@ -197,35 +197,37 @@ TEST(ChildrenDistanceBounds, AreBelowTheTrueDistancesAndTightInsideTheBasis) {
     world.LieIn(options.view_basis, residual);
     const PlaceMemory base = testing_support::SyntheticMemory(1, world, 0, 120, 12, options);
     const PlaceMemory peer = testing_support::SyntheticMemory(2, world, 60, 120, 12, options);
-    std::vector<Eigen::VectorXf> centre(base.nodes().size());
-    for (size_t n = 0; n < centre.size(); ++n) {
-      if (!base.nodes()[n].terminal()) centre[n] = base.Centroid(static_cast<int>(n));
-    }
+    const std::vector<Eigen::VectorXf> centre = NodeCentres(base);
     const std::vector<HyperTerminal> incoming = HyperTerminals(peer);
-    const ChildrenDistanceBounds dut(base, centre, incoming);
-    ASSERT_TRUE(dut.available());
-    std::vector<double> below;
-    double tightest = 1.0;  // the smallest bound / distance seen
-    int measured = 0;
-    for (size_t a = 0; a < incoming.size(); ++a) {
-      for (size_t n = 0; n < centre.size(); ++n) {
-        if (base.nodes()[n].terminal()) continue;
-        dut.BelowChildren(a, n, below);
-        const std::vector<int>& children = base.nodes()[n].children;
-        ASSERT_EQ(below.size(), children.size());
-        for (size_t j = 0; j < children.size(); ++j) {
-          const auto c = static_cast<size_t>(children[j]);
-          if (base.nodes()[c].terminal()) continue;
-          const double d = (incoming[a].sphere.centroid - centre[c]).norm();
-          ASSERT_LE(below[j], d) << "incoming " << a << ", node " << c << ", residual " << residual;
-          tightest = std::min(tightest, below[j] / d);
-          ++measured;
+    for (const Simd simd : {FastestSimd(), Simd::kPortable}) {
+      const ChildrenDistanceBounds dut(base, centre, incoming, simd);
+      ASSERT_TRUE(dut.available());
+      std::vector<double> below;
+      double tightest = 1.0;  // the smallest bound / distance seen
+      int measured = 0;
+      for (size_t a = 0; a < incoming.size(); ++a) {
+        for (size_t n = 0; n < centre.size(); ++n) {
+          if (base.nodes()[n].terminal()) continue;
+          dut.BelowChildren(a, n, below);
+          const std::vector<int>& children = base.nodes()[n].children;
+          ASSERT_EQ(below.size(), children.size());
+          for (size_t j = 0; j < children.size(); ++j) {
+            const auto c = static_cast<size_t>(children[j]);
+            const MemoryNode& child = base.nodes()[c];
+            const Eigen::VectorXf& to =
+                child.terminal() ? base.places()[static_cast<size_t>(child.place)].mean : centre[c];
+            const double d = (incoming[a].sphere.centroid - to).norm();
+            ASSERT_LE(below[j], d)
+                << "incoming " << a << ", node " << c << ", residual " << residual;
+            tightest = std::min(tightest, below[j] / d);
+            ++measured;
+          }
         }
       }
-    }
-    ASSERT_GT(measured, 1000) << "residual " << residual;
-    if (residual < 0.1f) {
-      EXPECT_GT(tightest, 0.99) << "inside the basis";
+      ASSERT_GT(measured, 1000) << "residual " << residual;
+      if (residual < 0.1f) {
+        EXPECT_GT(tightest, 0.99) << "inside the basis";
+      }
     }
   }
 }

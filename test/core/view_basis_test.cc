@@ -7,6 +7,7 @@
 #include <random>
 #include <stdexcept>
 #include <string>
+#include <utility>
 #include <vector>
 
 #include "core/memory/builtin_view_basis.h"
@@ -106,6 +107,52 @@ TEST(ViewBasis, AColumnGetsTheSameCoordinatesAloneOrWithOthers) {
       for (Eigen::Index i = 0; i < together.rows(); ++i) EXPECT_EQ(together(i, j), alone(i, 0));
     }
     EXPECT_TRUE(together.isApprox(axes * x, 1e-5f));
+  }
+}
+
+// coordinate_error() bounds what Coordinates is off by (against the product in double), and
+// DistanceBelow turns coordinate distances into distances no larger than the descriptors',
+// on either kernel; inside the basis it gives up little.
+TEST(ViewBasis, DistanceBelowIsBelowTheDescriptorDistance) {
+  std::mt19937 rng(12);
+  std::normal_distribution<float> n(0.0f, 1.0f);
+  const Eigen::MatrixXf axes = RandomAxes(16, 300, 5);
+  const ViewBasis fastest(axes, "fastest"), portable(axes, "portable", Simd::kPortable);
+  for (const ViewBasis* basis : {&fastest, &portable}) {
+    SCOPED_TRACE(basis->name());
+    EXPECT_GT(basis->coordinate_error(), 0.0);
+    EXPECT_LT(basis->coordinate_error(), 1e-3);
+    for (int trial = 0; trial < 200; ++trial) {
+      // Half the pairs inside the basis (then the bound is nearly the distance), half not;
+      // an offset common to both makes the norms large against the distance.
+      Eigen::VectorXf x(300), y(300), offset(300);
+      for (Eigen::Index i = 0; i < 300; ++i) {
+        x(i) = n(rng);
+        y(i) = n(rng);
+        offset(i) = 30.0f * n(rng);
+      }
+      if (trial % 2 == 0) {
+        x = axes.transpose() * (axes * x);
+        y = axes.transpose() * (axes * y);
+        offset = axes.transpose() * (axes * offset);
+      }
+      x += offset;
+      y += offset;
+      const Eigen::VectorXf cx = basis->Coordinates(x), cy = basis->Coordinates(y);
+      for (const auto& [v, c] : {std::pair{&x, &cx}, std::pair{&y, &cy}}) {
+        const Eigen::VectorXd exact = axes.cast<double>() * v->cast<double>();
+        ASSERT_LE((c->cast<double>() - exact).norm(),
+                  basis->coordinate_error() * v->cast<double>().norm());
+      }
+      const double apart = (cx - cy).cast<double>().norm(), d = (x - y).cast<double>().norm();
+      const double below = basis->DistanceBelow(
+          apart, basis->coordinate_error() * (x.cast<double>().norm() + y.cast<double>().norm()));
+      ASSERT_LE(below, d) << "trial " << trial;
+      ASSERT_LE(below, static_cast<double>((x - y).norm())) << "trial " << trial;
+      if (trial % 2 == 0) {
+        EXPECT_GT(below, 0.99 * d) << "trial " << trial;
+      }
+    }
   }
 }
 
