@@ -350,23 +350,41 @@ void PlaceMemory::GammaLowerBounds(const Eigen::VectorXf& mean, std::vector<doub
   }
 }
 
-void PlaceMemory::StoreDerived(int first, int end) {
+void PlaceMemory::StoreDerived(int first, int end,
+                               const std::vector<std::optional<Derived>>* derived) {
   if (first >= end) return;
   const Eigen::Index dim = places_[first].mean.size();
+  auto given = [&](int p) -> const Derived* {
+    if (derived == nullptr || (*derived)[static_cast<size_t>(p)] == std::nullopt) return nullptr;
+    return &*(*derived)[static_cast<size_t>(p)];
+  };
   if (const ViewBasis* basis = view_basis()) {
     if (static_cast<size_t>(end) > view_centres_.size()) view_centres_.resize(end);
     if (static_cast<size_t>(end) > mean_norms_.size()) mean_norms_.resize(end);
+    std::vector<int> todo;
+    for (int p = first; p < end; ++p) {
+      if (const Derived* d = given(p)) {
+        view_centres_[static_cast<size_t>(p)] = d->view_centre;
+        mean_norms_[static_cast<size_t>(p)] = d->mean_norm;
+      } else {
+        todo.push_back(p);
+      }
+    }
     // In blocks of a few MB; ViewBasis::Coordinates gives a mean the same coordinates
     // whatever block it is in.
-    constexpr int kBlock = 512;
-    Eigen::MatrixXf block(dim, std::min(kBlock, end - first));
-    for (int b = first; b < end; b += kBlock) {
-      const int len = std::min(kBlock, end - b);
-      for (int i = 0; i < len; ++i) block.col(i) = places_[b + i].mean;
-      const Eigen::MatrixXf centres = basis->Coordinates(block.leftCols(len));
-      for (int i = 0; i < len; ++i) {
-        view_centres_[static_cast<size_t>(b + i)] = centres.col(i);
-        mean_norms_[static_cast<size_t>(b + i)] = places_[b + i].mean.norm();
+    constexpr size_t kBlock = 512;
+    Eigen::MatrixXf block(dim, static_cast<Eigen::Index>(std::min(kBlock, todo.size())));
+    for (size_t b = 0; b < todo.size(); b += kBlock) {
+      const size_t len = std::min(kBlock, todo.size() - b);
+      for (size_t i = 0; i < len; ++i) {
+        block.col(static_cast<Eigen::Index>(i)) = places_[todo[b + i]].mean;
+      }
+      const Eigen::MatrixXf centres =
+          basis->Coordinates(block.leftCols(static_cast<Eigen::Index>(len)));
+      for (size_t i = 0; i < len; ++i) {
+        const auto p = static_cast<size_t>(todo[b + i]);
+        view_centres_[p] = centres.col(static_cast<Eigen::Index>(i));
+        mean_norms_[p] = places_[p].mean.norm();
       }
     }
   } else {
@@ -388,6 +406,11 @@ void PlaceMemory::StoreDerived(int first, int end) {
   // New places are filed in the index's cells once, at the end (a restore appends them all).
   if (static_cast<size_t>(end) > spacings_.size()) spacings_.resize(static_cast<size_t>(end));
   for (int p = first; p < end; ++p) {
+    if (const Derived* d = given(p); d != nullptr && p == view_index_.size()) {
+      spacings_[static_cast<size_t>(p)] = d->spacing;
+      view_index_.AppendKeys(d->keys);
+      continue;
+    }
     ViewSummary views = SummariseViews(places_[p].samples.Decoded(), ViewIndex::kKeysPerPlace - 1);
     spacings_[static_cast<size_t>(p)] = views.spacing;
     if (p == view_index_.size()) {
@@ -593,13 +616,31 @@ std::vector<LearnedPlace> PlaceMemory::TakePlaces() && {
   return out;
 }
 
+PlaceMemory::Derived PlaceMemory::DerivedOf(int place) const {
+  const auto p = static_cast<size_t>(place);
+  Derived out;
+  if (view_basis() != nullptr) {
+    out.view_centre = view_centres_.at(p);
+    out.mean_norm = mean_norms_.at(p);
+  }
+  out.spacing = spacings_.at(p);
+  out.keys = view_index_.KeysOf(place);
+  return out;
+}
+
 PlaceMemory PlaceMemory::Restore(uint32_t robot, PlaceMemoryOptions options,
                                  std::vector<LearnedPlace> places, Slink slink, uint32_t next_local,
-                                 std::unordered_map<uint64_t, OneClassDiscriminant> saved) {
+                                 std::unordered_map<uint64_t, OneClassDiscriminant> saved,
+                                 std::vector<std::optional<Derived>> derived) {
   PlaceMemory memory(robot, std::move(options));
   if (static_cast<int>(places.size()) != slink.size()) {
     throw std::invalid_argument("place memory: " + std::to_string(places.size()) +
                                 " places but SLINK state of " + std::to_string(slink.size()));
+  }
+  if (!derived.empty() && derived.size() != places.size()) {
+    throw std::invalid_argument("place memory: derived values of " +
+                                std::to_string(derived.size()) + " places for " +
+                                std::to_string(places.size()));
   }
   if (const ViewBasis* basis = memory.view_basis()) {
     // A memory saved, or sent by a peer, before views were kept in the basis holds them in
@@ -630,11 +671,23 @@ PlaceMemory PlaceMemory::Restore(uint32_t robot, PlaceMemoryOptions options,
                                   " not below next local id " + std::to_string(next_local));
     }
   }
+  // Derived values of another shape (another basis, another dimension) are not the
+  // places' own: they are computed instead.
+  if (!places.empty()) {
+    const ViewBasis* basis = memory.view_basis();
+    const int view_dim = ViewDimension(basis, static_cast<int>(places.front().mean.size()));
+    for (std::optional<Derived>& d : derived) {
+      if (d && (d->view_centre.size() != (basis ? view_dim : 0) || d->keys.dimension != view_dim)) {
+        d.reset();
+      }
+    }
+  }
   memory.places_ = std::move(places);
   memory.slink_ = std::move(slink);
   memory.next_local_ = next_local;
   // All at once: the cache is sized once and the means taken into the basis in blocks.
-  memory.StoreDerived(0, static_cast<int>(memory.places_.size()));
+  memory.StoreDerived(0, static_cast<int>(memory.places_.size()),
+                      derived.empty() ? nullptr : &derived);
   if (!memory.places_.empty()) memory.RebuildTree(&saved);
   return memory;
 }

@@ -106,15 +106,7 @@ void ViewIndex::Key(int place, const Eigen::VectorXf& centre, const Eigen::Matri
   if (centre.size() == 0 || views.cols() == 0 || views.rows() != centre.size()) {
     throw std::invalid_argument("view index: place " + std::to_string(place) + " has no views");
   }
-  if (projection_.cols() != centre.size()) {
-    if (size() > 0) {
-      throw std::invalid_argument("view index: dimension " + std::to_string(centre.size()) +
-                                  " differs from the index's " +
-                                  std::to_string(projection_.cols()));
-    }
-    projection_ = RademacherProjection(centre.size());
-    projection_t_ = projection_.transpose();
-  }
+  UseDimension(centre.size());
   Eigen::MatrixXf keys(centre.size(), kKeysPerPlace);
   keys.col(0) = centre;
   const Eigen::MatrixXf spread = ThinViews(views, kKeysPerPlace - 1);
@@ -124,18 +116,59 @@ void ViewIndex::Key(int place, const Eigen::VectorXf& centre, const Eigen::Matri
   }
   const Eigen::MatrixXf projected = Project(keys);
   const Eigen::Index first = static_cast<Eigen::Index>(place) * kKeysPerPlace;
-  if (place == size()) {
-    // Grows by half, as the means cache does: appending one place is amortised O(1) copies.
-    if (first + kKeysPerPlace > keys_.rows()) {
-      keys_.conservativeResize(
-          std::max<Eigen::Index>(64 * kKeysPerPlace, keys_.rows() + keys_.rows() / 2), kDimensions);
-    }
-    key_norms_.resize(static_cast<size_t>(first + kKeysPerPlace));
-  }
+  MakeRoom(place);
   keys_.middleRows(first, kKeysPerPlace) = projected.transpose();
   for (int k = 0; k < kKeysPerPlace; ++k) {
     key_norms_[static_cast<size_t>(first + k)] = projected.col(k).squaredNorm();
   }
+}
+
+void ViewIndex::UseDimension(Eigen::Index dim) {
+  if (projection_.cols() == dim) return;
+  if (size() > 0) {
+    throw std::invalid_argument("view index: dimension " + std::to_string(dim) +
+                                " differs from the index's " + std::to_string(projection_.cols()));
+  }
+  projection_ = RademacherProjection(dim);
+  projection_t_ = projection_.transpose();
+}
+
+void ViewIndex::MakeRoom(int place) {
+  if (place != size()) return;
+  const Eigen::Index first = static_cast<Eigen::Index>(place) * kKeysPerPlace;
+  // Grows by half, as the means cache does: appending one place is amortised O(1) copies.
+  if (first + kKeysPerPlace > keys_.rows()) {
+    keys_.conservativeResize(
+        std::max<Eigen::Index>(64 * kKeysPerPlace, keys_.rows() + keys_.rows() / 2), kDimensions);
+  }
+  key_norms_.resize(static_cast<size_t>(first + kKeysPerPlace));
+}
+
+ViewIndex::PlaceKeys ViewIndex::KeysOf(int place) const {
+  if (place < 0 || place >= size()) {
+    throw std::out_of_range("view index: keys of place " + std::to_string(place) + " of " +
+                            std::to_string(size()));
+  }
+  const Eigen::Index first = static_cast<Eigen::Index>(place) * kKeysPerPlace;
+  PlaceKeys out{keys_.middleRows(first, kKeysPerPlace), {}, projection_.cols()};
+  for (int k = 0; k < kKeysPerPlace; ++k) out.norms[k] = key_norms_[static_cast<size_t>(first + k)];
+  return out;
+}
+
+void ViewIndex::AppendKeys(const PlaceKeys& keys) {
+  if (keys.keys.rows() != kKeysPerPlace || keys.keys.cols() != kDimensions) {
+    throw std::invalid_argument("view index: keys of " + std::to_string(keys.keys.rows()) + " x " +
+                                std::to_string(keys.keys.cols()) + ", not " +
+                                std::to_string(kKeysPerPlace) + " x " +
+                                std::to_string(kDimensions));
+  }
+  UseDimension(keys.dimension);
+  const int place = size();
+  const Eigen::Index first = static_cast<Eigen::Index>(place) * kKeysPerPlace;
+  MakeRoom(place);
+  keys_.middleRows(first, kKeysPerPlace) = keys.keys;
+  for (int k = 0; k < kKeysPerPlace; ++k)
+    key_norms_[static_cast<size_t>(first + k)] = keys.norms[k];
 }
 
 std::vector<float> ViewIndex::Estimate(const Eigen::MatrixXf& queries) const {

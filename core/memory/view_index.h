@@ -8,6 +8,7 @@
 // before, with the places left out of the shortlist infinitely far.
 
 #include <Eigen/Core>
+#include <array>
 #include <span>
 #include <vector>
 
@@ -48,6 +49,18 @@ class ViewIndex {
   /// merged 2·10⁵ places trained them four times and filed 4·10⁵ keys one by one: a tenth of
   /// a 10⁵ + 10⁵ merge). Estimate requires every appended place filed.
   void Append(const Eigen::VectorXf& centre, const Eigen::MatrixXf& views);
+  /// A place's keys as Set wrote them (kKeysPerPlace x kDimensions) and their squared norms:
+  /// what AppendKeys takes to key the same place in another index without projecting again.
+  struct PlaceKeys {
+    Eigen::MatrixXf keys;
+    std::array<float, kKeysPerPlace> norms{};
+    Eigen::Index dimension = 0;  // of the views the keys were projected from
+  };
+  PlaceKeys KeysOf(int place) const;
+  /// Appends a place keyed by `keys` (KeysOf of an index of the same dimension), as Append
+  /// would key the views they came from. Throws std::invalid_argument on keys of another shape
+  /// or dimension.
+  void AppendKeys(const PlaceKeys& keys);
   void FileAppended();
   int size() const { return static_cast<int>(key_norms_.size() / kKeysPerPlace); }
 
@@ -70,6 +83,11 @@ class ViewIndex {
  private:
   // Writes place `place`'s keys (place ≤ size()), leaving the cells as they are.
   void Key(int place, const Eigen::VectorXf& centre, const Eigen::MatrixXf& views);
+  // Room for the keys of place `place` (≤ size()): the rows grow by half when it is new.
+  void MakeRoom(int place);
+  // Fixes the projection for views of dimension `dim` (the first place's); throws when the
+  // index already keys places of another.
+  void UseDimension(Eigen::Index dim);
   Eigen::MatrixXf Project(const Eigen::MatrixXf& x) const;
   // Project(queries) after checking them (dim x m, m ≥ 1, the index's dimension).
   Eigen::MatrixXf ProjectQueries(const Eigen::MatrixXf& queries) const;

@@ -93,6 +93,8 @@ MemoryMerge Merge(const PlaceMemory& ours, const PlaceMemory& peer, PlaceMemory*
   ReusableDiscriminants reusable =
       ReusableDiscriminantsOf(base, incoming, placement, known.is_new, found.target);
   const Slink base_tree = base.slink(), incoming_tree = incoming.slink();
+  std::vector<std::optional<PlaceMemory::Derived>> derived =
+      UnchangedDerived(base, incoming, placement, holder, !peer_into_ours);
 
   // From here on `base` and `incoming` may be empty (given up): their places are in `places`
   // and `in`.
@@ -108,7 +110,7 @@ MemoryMerge Merge(const PlaceMemory& ours, const PlaceMemory& peer, PlaceMemory*
   TakeSmallestIds(places, result.absorbed);
   const uint32_t next = NextLocalId(places, robot, next_local);
   result.memory = PlaceMemory::Restore(robot, options, std::move(places), std::move(tree), next,
-                                       std::move(reusable.by_key));
+                                       std::move(reusable.by_key), std::move(derived));
   result.retrained = Retrained(result.memory, reusable.keys);
   return result;
 }

@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <unordered_map>
+#include <unordered_set>
 
 namespace tsc {
 
@@ -26,6 +27,35 @@ Placement PlaceIncoming(const PlaceMemory& base, const PlaceMemory& incoming, co
     out.updated[b] = 1;
     out.updated[static_cast<size_t>(holder[b])] = 1;
   }
+  return out;
+}
+
+std::vector<std::optional<PlaceMemory::Derived>> UnchangedDerived(const PlaceMemory& base,
+                                                                  const PlaceMemory& incoming,
+                                                                  const Placement& placement,
+                                                                  const std::vector<int>& holder,
+                                                                  bool fresher_copies) {
+  const size_t base_count = placement.updated.size();
+  std::vector<std::optional<PlaceMemory::Derived>> out(base_count + placement.added.size());
+  std::unordered_set<PlaceId, PlaceIdHash> theirs;
+  if (fresher_copies) {
+    for (const LearnedPlace& p : incoming.places()) theirs.insert(p.id);
+  }
+  for (size_t b = 0; b < base_count; ++b) {
+    if (placement.updated[b] || theirs.contains(base.places()[b].id)) continue;
+    out[b] = base.DerivedOf(static_cast<int>(b));
+  }
+  for (size_t i = 0; i < placement.merged_index.size(); ++i) {
+    const auto m = static_cast<size_t>(placement.merged_index[i]);
+    if (m >= base_count) out[m] = incoming.DerivedOf(static_cast<int>(i));
+  }
+  // Folded places leave the list as MergedTree drops them (they carry nothing: updated).
+  size_t kept = 0;
+  for (size_t i = 0; i < out.size(); ++i) {
+    if (i < holder.size() && holder[i] != static_cast<int>(i)) continue;
+    out[kept++] = std::move(out[i]);
+  }
+  out.resize(kept);
   return out;
 }
 

@@ -3,6 +3,7 @@
 // absorb and fold, then the incoming places added as new places in their order.
 
 #include <cstddef>
+#include <optional>
 #include <utility>
 #include <vector>
 
@@ -25,6 +26,17 @@ struct Placement {
 /// `targets` and `holder` as ResolveHolders left them.
 Placement PlaceIncoming(const PlaceMemory& base, const PlaceMemory& incoming, const KnownIds& known,
                         const std::vector<int>& targets, const std::vector<int>& holder);
+
+/// Per place of the merged memory (base places but those folded into another, then the added
+/// ones), what its memory derived from it (PlaceMemory::DerivedOf) where the merge takes it
+/// over unchanged: a base place that absorbs and folds nothing, and an incoming place added as
+/// it is. None for the rest, and with `fresher_copies` (PreferOurFresherCopies will run) none
+/// for a base place the incoming memory also holds. Read before either memory is given up.
+std::vector<std::optional<PlaceMemory::Derived>> UnchangedDerived(const PlaceMemory& base,
+                                                                  const PlaceMemory& incoming,
+                                                                  const Placement& placement,
+                                                                  const std::vector<int>& holder,
+                                                                  bool fresher_copies);
 
 /// The places of `memory`: moved out of `owned` (the same memory, given up by the caller) when
 /// there is one, copied otherwise.

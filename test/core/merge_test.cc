@@ -607,6 +607,58 @@ TEST(MergeMemories, GivingUpTheInputsGivesTheSameMerge) {
   }
 }
 
+// What a merged memory takes over from its inputs for unchanged places (PlaceMemory::Derived)
+// is what restoring its places from scratch computes, bit for bit.
+void ExpectDerivedAsComputed(const PlaceMemory& m) {
+  const PlaceMemory fresh =
+      PlaceMemory::Restore(m.robot(), m.options(), m.places(), m.slink(), m.next_local_id(), {});
+  for (int p = 0; p < static_cast<int>(m.places().size()); ++p) {
+    const PlaceMemory::Derived a = m.DerivedOf(p), b = fresh.DerivedOf(p);
+    SCOPED_TRACE("place " + m.places()[static_cast<size_t>(p)].id.ToString());
+    ASSERT_EQ(a.view_centre.size(), b.view_centre.size());
+    EXPECT_TRUE(a.view_centre == b.view_centre);
+    EXPECT_EQ(a.mean_norm, b.mean_norm);
+    EXPECT_EQ(a.spacing, b.spacing);
+    EXPECT_TRUE(a.keys.keys == b.keys.keys);
+    EXPECT_EQ(a.keys.norms, b.keys.norms);
+  }
+}
+
+TEST(MergeMemories, PlacesTakenOverUnchangedKeepWhatTheirMemoryDerived) {
+  // Every case of GivingUpTheInputsGivesTheSameMerge, in both forms.
+  const PlaceMemory a = MakeMemory(1, {At(0), At(1.5f), At(3), At(4.5f), At(3, 1.5f)}, 10);
+  PlaceMemory b(2, UnitScale());
+  b.Learn(MakePlace(At(4.5f), 13));
+  b.Learn(MakePlace(At(3.75f, 1.5f), 40));
+  b.Learn(MakePlace(At(1, 1.5f), 41));
+  const PlaceMemory far = MakeMemory(3, {At(0, 20), At(0, 20.5f)}, 20);
+  const PlaceMemory ab = MergeMemories(a, b).memory;
+  PlaceMemory late = a;
+  late.Update(0, MakePlace(At(0), 99, 10));
+  // Places of 1200 dimensions kept in the builtin basis, half of them shared.
+  PlaceMemoryOptions options;
+  options.view_basis = BuiltinViewBasis();
+  testing_support::SyntheticPlaces world(7, 1200, 60, 0.02f, 1);
+  world.LieIn(options.view_basis, 0.033f);
+  const PlaceMemory c = testing_support::SyntheticMemory(1, world, 0, 80, 12, options);
+  const PlaceMemory d = testing_support::SyntheticMemory(2, world, 40, 80, 12, options);
+  const PlaceMemory cd = MergeMemories(c, d).memory;
+  int absorbed = 0;
+  const std::vector<std::pair<const PlaceMemory*, const PlaceMemory*>> pairs = {
+      {&a, &b},     {&b, &a}, {&a, &far}, {&far, &a}, {&ab, &b}, {&b, &ab},
+      {&late, &ab}, {&c, &d}, {&d, &c},   {&cd, &c},  {&c, &cd}};
+  for (const auto& [ours, peer] : pairs) {
+    SCOPED_TRACE("robot " + std::to_string(ours->robot()) + " + robot " +
+                 std::to_string(peer->robot()));
+    const MemoryMerge copied = MergeMemories(*ours, *peer);
+    absorbed += static_cast<int>(copied.absorbed.size());
+    ExpectDerivedAsComputed(copied.memory);
+    PlaceMemory ours_copy = *ours, peer_copy = *peer;
+    ExpectDerivedAsComputed(MergeMemories(std::move(ours_copy), std::move(peer_copy)).memory);
+  }
+  EXPECT_GT(absorbed, 10);  // places did change: what they carried would be stale
+}
+
 // Single linkage from links over every pair is SLINK's own state, pointer for pointer.
 TEST(SingleLinkage, OverAllPairsEqualsIncrementalSlink) {
   std::mt19937 rng(7);

@@ -64,6 +64,29 @@ TEST(ViewIndex, RekeysAPlaceItAlreadyHolds) {
   EXPECT_THROW(Key(index, 52, places.Visit(1, 0)), std::out_of_range);
 }
 
+// Keys copied from another index (a merge takes over its unchanged places' keys) estimate as
+// the keys they copy; keys of another shape or dimension are refused.
+TEST(ViewIndex, KeysAppendedFromAnotherIndexEstimateAsItsOwn) {
+  Places places(13);
+  ViewIndex source;
+  for (int p = 0; p < 60; ++p) Key(source, p, places.Visit(p, 0));
+  ViewIndex copy;
+  for (int p = 59; p >= 0; --p) copy.AppendKeys(source.KeysOf(p));  // reversed
+  copy.FileAppended();
+  ASSERT_EQ(copy.size(), 60);
+  const Eigen::MatrixXf query = ViewIndex::Queries(places.Visit(17, 1).descriptors);
+  const std::vector<float> a = source.Estimate(query), b = copy.Estimate(query);
+  for (int p = 0; p < 60; ++p) EXPECT_EQ(a[static_cast<size_t>(p)], b[static_cast<size_t>(59 - p)]);
+  EXPECT_THROW(source.KeysOf(60), std::out_of_range);
+  ViewIndex::PlaceKeys wrong = source.KeysOf(0);
+  wrong.dimension = kDim + 1;
+  EXPECT_THROW(copy.AppendKeys(wrong), std::invalid_argument);
+  wrong = source.KeysOf(0);
+  wrong.keys.conservativeResize(2, Eigen::NoChange);
+  EXPECT_THROW(copy.AppendKeys(wrong), std::invalid_argument);
+  EXPECT_EQ(copy.size(), 60);
+}
+
 // The definition by brute force: the `count` smallest (estimate, index) pairs, by index.
 TEST(Shortlist, TakesTheSmallestEstimatesAndTheLowerIndexOnTies) {
   std::mt19937 rng(15);
