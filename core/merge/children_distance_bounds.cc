@@ -69,11 +69,10 @@ ChildrenDistanceBounds::ChildrenDistanceBounds(const PlaceMemory& base,
   for (size_t n = 0; n < nodes.size(); ++n) {  // children precede their parents
     const Eigen::Index col = column[n];
     if (col < 0) continue;  // the root: measured in full
-    const Eigen::Index at = col;
     if (nodes[n].terminal()) {
       kids_.col(col) = base.ViewCentre(nodes[n].place);
       centre_norm[n] = Norm(base.places()[static_cast<size_t>(nodes[n].place)].mean);
-      kid_error_[at] = basis->coordinate_error() * centre_norm[n];
+      kid_error_[col] = basis->coordinate_error() * centre_norm[n];
     } else {
       sum.setZero();
       double error = 0.0, mass = 0.0;
@@ -90,11 +89,11 @@ ChildrenDistanceBounds::ChildrenDistanceBounds(const PlaceMemory& base,
       centre_norm[n] = Norm(centre[n]);
       // The double sums (here and in NodeCentres) are off by less than 1e-9 of their terms'
       // mean norm for any memory below 10⁷ places.
-      kid_error_[at] = error / places + rounding * (gain * centre_norm[n] + Norm(kids_.col(col))) +
-                       1e-9 * mass / places;
+      kid_error_[col] = error / places + rounding * (gain * centre_norm[n] + Norm(kids_.col(col))) +
+                        1e-9 * mass / places;
     }
-    kid_sq_[at] = kids_.col(col).cast<double>().squaredNorm();
-    kid_norm_[at] = std::sqrt(kid_sq_[at]);
+    kid_sq_[col] = kids_.col(col).cast<double>().squaredNorm();
+    kid_norm_[col] = std::sqrt(kid_sq_[col]);
   }
   // The incoming centres projected in blocks: one column at a time would read the basis' 600 KB
   // once per centre.

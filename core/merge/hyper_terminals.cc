@@ -157,7 +157,8 @@ std::vector<size_t> MatchHyperTerminals(const PlaceMemory& base,
       if (const int k = ht_of[node]; k >= 0) consider(static_cast<size_t>(k));
       const std::vector<int>& children = base.nodes()[node].children;
       const bool any = any_ball[node] != 0;
-      if (any) below.assign(children.size(), 0.0);
+      // Without the basis' bounds every child is queued at 0; BelowChildren sizes `below`.
+      if (any && !bounded) below.assign(children.size(), 0.0);
       if (any && bounded) {
         basis_bounds.BelowChildren(a, node, below);
         // The hyper-terminal child nearest in the basis measured first: a real candidate, so
