@@ -15,6 +15,7 @@
 #include "core/merge/merge.h"
 #include "core/merge/merge_maps.h"
 #include "daemon/log_throttle.h"
+#include "drivers/dataset/base_point_spacing.h"
 
 namespace tsc {
 namespace fs = std::filesystem;
@@ -157,6 +158,9 @@ PipelineWorker::PipelineWorker(const Settings& settings, const CameraSource& cam
   pipeline.detector.spacing_m = spacing.metres;
   spdlog::info("base points {:.3g} m apart ({}): places of {} base points or fewer are pruned",
                spacing.metres, spacing.basis, pipeline.detector.EffectiveTauP());
+  if (const std::optional<std::string> caution = SpacingCaution(spacing)) {
+    spdlog::warn("{}", *caution);
+  }
   started_empty_ = memory.places().empty();
   pipeline_ = std::make_unique<Pipeline>(camera.intrinsics(), pipeline, std::move(memory),
                                          std::move(map), state);

@@ -6,6 +6,7 @@
 #include <cstdlib>
 #include <stdexcept>
 
+#include "drivers/dataset/base_point_spacing.h"
 #include "settings/settings.h"
 #include "tools/events_json.h"
 #include "tools/frame_view.h"
@@ -386,6 +387,9 @@ PipelineOptions OptionsForDataset(const Settings& settings, const Dataset& datas
   if (say != nullptr) {
     *say << "  base points     " << spacing.metres << " m apart (" << spacing.basis
          << "): places of " << out.detector.EffectiveTauP() << " base points or fewer are pruned\n";
+    if (const std::optional<std::string> caution = SpacingCaution(spacing)) {
+      *say << "  caution         " << *caution << "\n";
+    }
   }
   return out;
 }

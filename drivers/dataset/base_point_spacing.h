@@ -4,6 +4,7 @@
 // configuration serves a 10 fps camera and a keyframe sequence (DESIGN §3.2 amended;
 // docs/decisions.md, "Frame rate").
 
+#include <optional>
 #include <string>
 
 namespace tsc {
@@ -14,6 +15,9 @@ inline constexpr double kAssumedSpeedMps = 1.5;
 /// Spacing of a keyframe sequence that does not state it (the real loop of ../shared/data:
 /// keyframes about a metre apart, as RTAB-Map and FAB-MAP datasets take them).
 inline constexpr double kKeyframeSpacingM = 1.0;
+/// The spacing the defaults were calibrated at: the simulated robot's route step
+/// (docs/calibration.md).
+inline constexpr double kCalibratedSpacingM = 0.15;
 
 /// How far apart a dataset's frames were taken, and on what evidence.
 struct BasePointSpacing {
@@ -21,11 +25,20 @@ struct BasePointSpacing {
   /// "camera.json spacing_m", "camera.json fps", "camera.json keyframes", "poses (median
   /// step)" or "undeclared: keyframes assumed".
   std::string basis;
+  /// A keyframe sequence (declared or assumed): frames kept for what they show, as the real
+  /// loop's are, not at a camera's rate.
+  bool keyframes = false;
 };
 
 /// The spacing place detection uses: `configured` (camera.spacing_m) when positive, else what
 /// the source declares, else that of a camera of `fps` frames per second moving at
 /// kAssumedSpeedMps (0.15 m at 10 fps; fps 0, as fast as frames come, counts as 10).
 BasePointSpacing ResolveSpacing(double configured, const BasePointSpacing* declared, double fps);
+
+/// What a user should know about `spacing` before trusting the recognitions: a camera (not a
+/// keyframe sequence) whose base points lie further apart than the defaults were calibrated
+/// for makes wrong recognitions on simulated routes (0.3 and 0.6 m; docs/calibration.md,
+/// twentieth pass). Nothing when the spacing is within what was measured to hold.
+std::optional<std::string> SpacingCaution(const BasePointSpacing& spacing);
 
 }  // namespace tsc

@@ -200,7 +200,7 @@ std::optional<BasePointSpacing> DeclaredSpacing(const fs::path& file, const Json
       if (v.kind != JsonValue::Kind::kBool || !v.boolean) {
         Fail(file, "\"keyframes\" must be true when given");
       }
-      out = BasePointSpacing{kKeyframeSpacingM, "camera.json keyframes"};
+      out = BasePointSpacing{kKeyframeSpacingM, "camera.json keyframes", /*keyframes=*/true};
       continue;
     }
     const double most = key == "fps" ? 1000.0 : 100.0;
@@ -415,7 +415,8 @@ Dataset Dataset::Open(const fs::path& folder, const DatasetOptions& options) {
   } else if (const std::optional<double> step = MedianPoseStep(ds.poses_)) {
     ds.spacing_ = BasePointSpacing{*step, "poses (median step)"};
   } else {
-    ds.spacing_ = BasePointSpacing{kKeyframeSpacingM, "undeclared: keyframes assumed"};
+    ds.spacing_ =
+        BasePointSpacing{kKeyframeSpacingM, "undeclared: keyframes assumed", /*keyframes=*/true};
   }
 
   const fs::path revisits_file = folder / "revisits.csv";

@@ -8,9 +8,11 @@
 #include <iterator>
 #include <numbers>
 #include <opencv2/imgcodecs.hpp>
+#include <optional>
 #include <random>
 #include <string>
 
+#include "drivers/dataset/base_point_spacing.h"
 #include "test/support/image_bombs.h"
 #include "test/support/temp_dir.h"
 
@@ -141,6 +143,30 @@ TEST_F(DatasetTest, SpacingIsDeclaredOrTakenFromThePosesOrKeyframesAreAssumed) {
     WriteText(dir_ / "camera.json", bad);
     ExpectErrorNaming([&] { Dataset::Open(dir_); }, "camera.json");
   }
+}
+
+// A camera whose base points lie further apart than the defaults were calibrated for is told
+// so (docs/calibration.md, twentieth pass); a keyframe sequence, declared or assumed, is not.
+TEST_F(DatasetTest, ACameraSparserThanCalibratedIsCautioned) {
+  EXPECT_FALSE(SpacingCaution(ResolveSpacing(0.0, nullptr, 10.0)));  // 0.15 m, as calibrated
+  EXPECT_FALSE(SpacingCaution(ResolveSpacing(0.0, nullptr, 30.0)));
+  EXPECT_FALSE(SpacingCaution(ResolveSpacing(0.2, nullptr, 10.0)));
+  const std::optional<std::string> slow = SpacingCaution(ResolveSpacing(0.0, nullptr, 5.0));
+  ASSERT_TRUE(slow);
+  EXPECT_NE(slow->find("0.3 m apart"), std::string::npos) << *slow;
+  EXPECT_NE(slow->find("twentieth pass"), std::string::npos) << *slow;
+  EXPECT_TRUE(SpacingCaution(ResolveSpacing(0.6, nullptr, 10.0)));  // camera.spacing_m
+
+  for (int i = 1; i <= 2; ++i) WriteImage(dir_ / (std::to_string(i) + ".png"), Image(i, 40, 30));
+  EXPECT_TRUE(Dataset::Open(dir_).spacing().keyframes);  // undeclared: keyframes assumed
+  EXPECT_FALSE(SpacingCaution(Dataset::Open(dir_).spacing()));
+  WriteText(dir_ / "camera.json", R"({"hfov_deg": 60, "keyframes": true})");
+  EXPECT_FALSE(SpacingCaution(Dataset::Open(dir_).spacing()));
+  WriteText(dir_ / "camera.json", R"({"hfov_deg": 60, "spacing_m": 0.6})");
+  EXPECT_FALSE(Dataset::Open(dir_).spacing().keyframes);
+  EXPECT_TRUE(SpacingCaution(Dataset::Open(dir_).spacing()));
+  WriteText(dir_ / "camera.json", R"({"hfov_deg": 60, "fps": 2})");  // 0.75 m, not keyframes
+  EXPECT_TRUE(SpacingCaution(Dataset::Open(dir_).spacing()));
 }
 
 TEST_F(DatasetTest, BadCameraJsonNamesTheFile) {
