@@ -19,7 +19,7 @@ constexpr const char* kSimHelp =
                [--robots K] [--revisit-fraction F] [--lighting day|dim|flicker|mixed] [--depth]
                [--size WxH] [--frames-per-room N] [--turn-step-deg D]
                [--scan-step-deg D] [--sweep-views K] [--sweep-deg D]
-               [--sweep-world-aligned] [--png] [--max-frames N]
+               [--sweep-world-aligned] [--png] [--max-frames N] [--every N]
 
 Writes a simulated dataset (DESIGN §7.1): frames rendered from a generated floor plan along a
 scripted route that tours every room and revisits some of them, camera.json, groundtruth.csv
@@ -77,6 +77,9 @@ int Sim(const std::vector<std::string>& args) {
       "of travel, ~3 per second)")(
       "scan-step-deg", po::value<double>()->default_value(5.0, "5")->value_name("D"),
       "turning between frames while looking around at a room's centre, degrees")(
+      "every", po::value<int>()->default_value(1)->value_name("N"),
+      "a camera with N times fewer frames on the same route (a slower frame rate): every N-th "
+      "route frame; camera.json's spacing_m is N route steps")(
       "sweep-views", po::value<int>()->default_value(1)->value_name("K"),
       "views of a pan sweep per frame, written side by side (1 = forward camera only)")(
       "sweep-deg", po::value<double>()->default_value(360.0, "360")->value_name("D"),
@@ -118,6 +121,7 @@ int Sim(const std::vector<std::string>& args) {
   options.route.dwell_frames = vm["frames-per-room"].as<int>();
   options.route.turn_step_deg = vm["turn-step-deg"].as<double>();
   options.route.scan_step_deg = vm["scan-step-deg"].as<double>();
+  options.frame_every = vm["every"].as<int>();
   options.depth = vm.count("depth") > 0;
   options.png = vm.count("png") > 0;
   options.sweep_world_aligned = vm.count("sweep-world-aligned") > 0;

@@ -46,13 +46,14 @@ int WriteRobotDataset(const fs::path& folder, const World& world,
                 ",\"hfov_deg\":" + std::to_string(ro.hfov_deg) + sweep +
                 // The route's walking step: the base-point spacing place detection counts its
                 // shortest place with (Dataset::spacing).
-                ",\"spacing_m\":" + std::to_string(options.route.step_m) + "}\n");
+                ",\"spacing_m\":" + std::to_string(options.route.step_m * options.frame_every) +
+                "}\n");
   WriteText(folder / "world.json", world.ToJson());
 
   const Renderer renderer(world, ro, static_cast<std::uint32_t>(rng()));
-  const int n = options.max_frames > 0
-                    ? std::min(options.max_frames, static_cast<int>(route.size()))
-                    : static_cast<int>(route.size());
+  const int every = options.frame_every;
+  const int taken = (static_cast<int>(route.size()) + every - 1) / every;
+  const int n = options.max_frames > 0 ? std::min(options.max_frames, taken) : taken;
   std::ofstream gt(folder / "groundtruth.csv");
   gt << "frame,place,x,y,heading\n";
   gt.precision(6);
@@ -60,8 +61,9 @@ int WriteRobotDataset(const fs::path& folder, const World& world,
   cv::Mat bgr, depth, depth_mm;
   FrameDistributions draws;
   for (int i = 0; i < n; ++i) {
-    const Pose2 pose = RenderRouteFrame(world, renderer, route[static_cast<size_t>(i)], options,
-                                        rng, draws, &bgr, options.depth ? &depth : nullptr);
+    const Pose2 pose =
+        RenderRouteFrame(world, renderer, route[static_cast<size_t>(i) * every], options, rng,
+                         draws, &bgr, options.depth ? &depth : nullptr);
 
     const std::string stem = Stem(i + 1);
     const fs::path image = folder / (stem + (options.png ? ".png" : ".jpg"));

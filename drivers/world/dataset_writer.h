@@ -34,7 +34,8 @@ struct SimSummary {
   std::vector<std::filesystem::path> datasets;  ///< the dataset folder of each robot
 };
 
-/// Renders `route` (truncated to options.max_frames) into `folder` (created if missing).
+/// Renders `route` (every options.frame_every-th frame, truncated to options.max_frames) into
+/// `folder` (created if missing).
 /// Throws std::runtime_error naming the file that cannot be written.
 int WriteRobotDataset(const std::filesystem::path& folder, const World& world,
                       const std::vector<RouteFrame>& route, const SimOptions& options,

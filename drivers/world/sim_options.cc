@@ -33,6 +33,9 @@ void SimOptions::Validate() const {
   if (max_frames < 0) {
     throw std::invalid_argument("max frames " + std::to_string(max_frames) + " must be ≥ 0");
   }
+  if (frame_every < 1) {
+    throw std::invalid_argument("frame_every " + std::to_string(frame_every) + " must be ≥ 1");
+  }
 }
 
 }  // namespace tsc::sim

@@ -53,6 +53,10 @@ struct SimOptions {
   /// kernel). 0.1 at ~3 frames per second is a 30 ms exposure; 0 for no motion blur.
   double shutter_fraction = 0.1;
   int max_frames = 0;  ///< per robot; 0 = the whole route (tests use short routes)
+  /// A camera with this many times fewer frames on the same route (a slower frame rate): the
+  /// route's first frame, then every frame_every-th; camera.json's spacing_m is as many route
+  /// steps. 1: every route frame.
+  int frame_every = 1;
   /// Throws std::invalid_argument naming the bad value.
   void Validate() const;
 };

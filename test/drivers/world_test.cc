@@ -265,6 +265,40 @@ TEST_F(WorldTest, SweepDescriptorChangesLessWithTheHeadingThanAForwardViewOrAnot
   EXPECT_LT(sweep_turn, 0.5 * other_room);
 }
 
+// A slower camera on the same route (SimOptions::frame_every): every N-th route frame, at
+// the same poses, and camera.json declares base points N route steps apart.
+TEST_F(WorldTest, SlowerCameraTakesEveryNthFrameOfTheSameRoute) {
+  SimOptions options;
+  options.seed = 12;
+  options.render.width = 64;
+  options.render.height = 48;
+  options.max_frames = 30;
+  WriteSimulatedDataset(dir_, options);
+  const fs::path slow = dir_.string() + "_every3";
+  fs::remove_all(slow);
+  options.frame_every = 3;
+  options.max_frames = 10;
+  const SimSummary summary = WriteSimulatedDataset(slow, options);
+  ASSERT_EQ(summary.frames, std::vector<int>{10});
+  const Dataset all = Dataset::Open(dir_), every3 = Dataset::Open(slow);
+  EXPECT_NEAR(all.spacing().metres, 0.15, 1e-9);
+  EXPECT_NEAR(every3.spacing().metres, 0.45, 1e-9);
+  EXPECT_FALSE(every3.spacing().keyframes);
+  ASSERT_EQ(every3.size(), 10);
+  for (int i = 0; i < every3.size(); ++i) {
+    const auto& p = every3.poses()[static_cast<size_t>(i)];
+    const auto& q = all.poses()[static_cast<size_t>(3 * i)];
+    ASSERT_TRUE(p && q);
+    // The route's pose; the camera's noise is drawn per frame taken.
+    EXPECT_NEAR(p->x, q->x, 0.2) << i;
+    EXPECT_NEAR(p->y, q->y, 0.2) << i;
+    EXPECT_EQ(every3.labels()[static_cast<size_t>(i)], all.labels()[static_cast<size_t>(3 * i)]);
+  }
+  fs::remove_all(slow);
+  options.frame_every = 0;
+  EXPECT_THROW(WriteSimulatedDataset(slow, options), std::invalid_argument);
+}
+
 TEST_F(WorldTest, MixedLightingDimsRevisits) {
   SimOptions options;
   options.seed = 8;
