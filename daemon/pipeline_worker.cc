@@ -155,9 +155,12 @@ PipelineWorker::PipelineWorker(const Settings& settings, const CameraSource& cam
   const BasePointSpacing spacing =
       ResolveSpacing(settings_.daemon.camera.spacing_m, declared ? &*declared : nullptr,
                      settings_.daemon.camera.fps);
-  pipeline.detector.spacing_m = spacing.metres;
+  AdaptToSpacing(pipeline, spacing);
   spdlog::info("base points {:.3g} m apart ({}): places of {} base points or fewer are pruned",
                spacing.metres, spacing.basis, pipeline.detector.EffectiveTauP());
+  if (const std::optional<std::string> note = SparseCameraNote(pipeline, spacing)) {
+    spdlog::info("{}", *note);
+  }
   if (const std::optional<std::string> caution = SpacingCaution(spacing)) {
     spdlog::warn("{}", *caution);
   }

@@ -383,10 +383,13 @@ PipelineOptions OptionsForDataset(const Settings& settings, const Dataset& datas
   PipelineOptions out = settings.pipeline;
   const BasePointSpacing spacing =
       ResolveSpacing(settings.daemon.camera.spacing_m, &dataset.spacing(), 0.0);
-  out.detector.spacing_m = spacing.metres;
+  AdaptToSpacing(out, spacing);
   if (say != nullptr) {
     *say << "  base points     " << spacing.metres << " m apart (" << spacing.basis
          << "): places of " << out.detector.EffectiveTauP() << " base points or fewer are pruned\n";
+    if (const std::optional<std::string> note = SparseCameraNote(out, spacing)) {
+      *say << "  sparse camera   " << *note << "\n";
+    }
     if (const std::optional<std::string> caution = SpacingCaution(spacing)) {
       *say << "  caution         " << *caution << "\n";
     }

@@ -116,10 +116,9 @@ ReplayedRobot ReplayRoute(const Settings& settings, uint32_t robot) {
   PipelineOptions options = settings.pipeline;
   options.robot = robot;
   const std::optional<BasePointSpacing> declared = camera.spacing();
-  options.detector.spacing_m =
-      ResolveSpacing(settings.daemon.camera.spacing_m, declared ? &*declared : nullptr,
-                     settings.daemon.camera.fps)
-          .metres;
+  AdaptToSpacing(options,
+                 ResolveSpacing(settings.daemon.camera.spacing_m, declared ? &*declared : nullptr,
+                                settings.daemon.camera.fps));
   Pipeline pipeline(camera.intrinsics(), options, PlaceMemory(robot, options.memory),
                     TopologicalMap{});
   RouteRecorder recorder(out);

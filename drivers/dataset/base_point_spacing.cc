@@ -1,5 +1,6 @@
 #include "drivers/dataset/base_point_spacing.h"
 
+#include <algorithm>
 #include <cstdio>
 
 namespace tsc {
@@ -13,14 +14,36 @@ BasePointSpacing ResolveSpacing(double configured, const BasePointSpacing* decla
   return {kAssumedSpeedMps / rate, basis};
 }
 
+bool IsSparse(const BasePointSpacing& spacing) {
+  // Half again the calibrated step is still near it; 0.3 m (twice it) is not.
+  return !spacing.keyframes && spacing.metres > kCalibratedSpacingM * 1.5;
+}
+
+void AdaptToSpacing(PipelineOptions& options, const BasePointSpacing& spacing) {
+  options.detector.spacing_m = spacing.metres;
+  if (!IsSparse(spacing)) return;
+  options.detector.tau_w = std::max(1, options.detector.tau_w / 2);
+  options.memory.step_unit /= 2.0;
+}
+
+std::optional<std::string> SparseCameraNote(const PipelineOptions& adapted,
+                                            const BasePointSpacing& spacing) {
+  if (!IsSparse(spacing)) return std::nullopt;
+  char text[200];
+  std::snprintf(text, sizeof text,
+                "a sparse camera: detection.tau_w %d and memory.step_unit %g, half the "
+                "configured values",
+                adapted.detector.tau_w, adapted.memory.step_unit);
+  return std::string(text);
+}
+
 std::optional<std::string> SpacingCaution(const BasePointSpacing& spacing) {
-  // Half again the calibrated step is still near it; 0.3 m (twice it) already loses precision.
-  if (spacing.keyframes || spacing.metres <= kCalibratedSpacingM * 1.5) return std::nullopt;
+  if (!IsSparse(spacing)) return std::nullopt;
   char text[320];
   std::snprintf(text, sizeof text,
-                "base points %.3g m apart: the defaults were calibrated at %.3g m, and cameras "
-                "whose base points lie 0.3 m apart or more make wrong recognitions on simulated "
-                "routes (docs/calibration.md, twentieth pass); a faster frame rate is safer",
+                "base points %.3g m apart: the defaults were calibrated at %.3g m, and with "
+                "base points 0.3-0.6 m apart a few recognitions on simulated routes are wrong "
+                "(docs/calibration.md, twenty-first pass); a faster frame rate is safer",
                 spacing.metres, kCalibratedSpacingM);
   return std::string(text);
 }

@@ -7,6 +7,8 @@
 #include <optional>
 #include <string>
 
+#include "core/pipeline/pipeline.h"
+
 namespace tsc {
 
 /// Speed assumed for a camera that declares only its frame rate: the simulated robot's
@@ -35,10 +37,29 @@ struct BasePointSpacing {
 /// kAssumedSpeedMps (0.15 m at 10 fps; fps 0, as fast as frames come, counts as 10).
 BasePointSpacing ResolveSpacing(double configured, const BasePointSpacing* declared, double fps);
 
-/// What a user should know about `spacing` before trusting the recognitions: a camera (not a
-/// keyframe sequence) whose base points lie further apart than the defaults were calibrated
-/// for makes wrong recognitions on simulated routes (0.3 and 0.6 m; docs/calibration.md,
-/// twentieth pass). Nothing when the spacing is within what was measured to hold.
+/// A camera (not a keyframe sequence) whose base points lie more than 1.5x the calibrated
+/// spacing apart: 0.3 m (5 fps at walking speed) and beyond.
+bool IsSparse(const BasePointSpacing& spacing);
+
+/// `options`, configured for a camera at the calibrated spacing, for base points `spacing`
+/// apart: detection counts τ_p at that spacing (DetectorOptions::spacing_m), and a sparse
+/// camera halves τ_w (at least 1) and memory.step_unit. There a door is crossed in one or two
+/// base points, so one incoherent base point must make a transition, and a revisit passes
+/// within half a step of the stored base points, not a whole one. Chosen on the calibration
+/// worlds thinned to 0.3 and 0.6 m and checked on held-out and fresh ones (docs/calibration.md,
+/// twenty-first pass). A keyframe sequence keeps the counts: its frames are kept where the view
+/// changed, not every so many metres, and the real loop holds with them.
+void AdaptToSpacing(PipelineOptions& options, const BasePointSpacing& spacing);
+
+/// What the adaptation made of a sparse camera's τ_w and step_unit, for a log line; nothing
+/// when `spacing` is not sparse.
+std::optional<std::string> SparseCameraNote(const PipelineOptions& adapted,
+                                            const BasePointSpacing& spacing);
+
+/// What a user should know about `spacing` before trusting the recognitions: even adapted, a
+/// sparse camera makes a few wrong recognitions on simulated routes where the calibrated
+/// spacing makes none (docs/calibration.md, twenty-first pass). Nothing when the spacing is
+/// within what was measured to hold.
 std::optional<std::string> SpacingCaution(const BasePointSpacing& spacing);
 
 }  // namespace tsc

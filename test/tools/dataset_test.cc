@@ -146,15 +146,15 @@ TEST_F(DatasetTest, SpacingIsDeclaredOrTakenFromThePosesOrKeyframesAreAssumed) {
 }
 
 // A camera whose base points lie further apart than the defaults were calibrated for is told
-// so (docs/calibration.md, twentieth pass); a keyframe sequence, declared or assumed, is not.
+// so (docs/calibration.md, twenty-first pass); a keyframe sequence, declared or assumed, is not.
 TEST_F(DatasetTest, ACameraSparserThanCalibratedIsCautioned) {
   EXPECT_FALSE(SpacingCaution(ResolveSpacing(0.0, nullptr, 10.0)));  // 0.15 m, as calibrated
   EXPECT_FALSE(SpacingCaution(ResolveSpacing(0.0, nullptr, 30.0)));
   EXPECT_FALSE(SpacingCaution(ResolveSpacing(0.2, nullptr, 10.0)));
   const std::optional<std::string> slow = SpacingCaution(ResolveSpacing(0.0, nullptr, 5.0));
   ASSERT_TRUE(slow);
-  EXPECT_NE(slow->find("0.3 m apart"), std::string::npos) << *slow;
-  EXPECT_NE(slow->find("twentieth pass"), std::string::npos) << *slow;
+  EXPECT_NE(slow->find("0.3-0.6 m apart"), std::string::npos) << *slow;
+  EXPECT_NE(slow->find("twenty-first pass"), std::string::npos) << *slow;
   EXPECT_TRUE(SpacingCaution(ResolveSpacing(0.6, nullptr, 10.0)));  // camera.spacing_m
 
   for (int i = 1; i <= 2; ++i) WriteImage(dir_ / (std::to_string(i) + ".png"), Image(i, 40, 30));
@@ -167,6 +167,44 @@ TEST_F(DatasetTest, ACameraSparserThanCalibratedIsCautioned) {
   EXPECT_TRUE(SpacingCaution(Dataset::Open(dir_).spacing()));
   WriteText(dir_ / "camera.json", R"({"hfov_deg": 60, "fps": 2})");  // 0.75 m, not keyframes
   EXPECT_TRUE(SpacingCaution(Dataset::Open(dir_).spacing()));
+}
+
+// The defaults adapted to a camera's spacing: τ_p counted at it always; τ_w (at least 1) and
+// memory.step_unit halved for a sparse camera only, never for a keyframe sequence
+// (docs/decisions.md, "Frame rate").
+TEST(AdaptToSpacingTest, HalvesTauWAndStepUnitOfASparseCameraOnly) {
+  const PipelineOptions configured;
+  ASSERT_EQ(configured.detector.tau_w, 2);
+  ASSERT_EQ(configured.memory.step_unit, 0.5);
+  const auto adapted = [](const BasePointSpacing& spacing, int tau_w = 2) {
+    PipelineOptions o;
+    o.detector.tau_w = tau_w;
+    AdaptToSpacing(o, spacing);
+    return o;
+  };
+  for (const BasePointSpacing& near :
+       {ResolveSpacing(0.0, nullptr, 10.0),  // 0.15 m
+        ResolveSpacing(0.2, nullptr, 10.0), BasePointSpacing{1.0, "keyframes", true}}) {
+    const PipelineOptions o = adapted(near);
+    EXPECT_EQ(o.detector.spacing_m, near.metres);
+    EXPECT_EQ(o.detector.tau_w, 2) << near.basis;
+    EXPECT_EQ(o.memory.step_unit, 0.5) << near.basis;
+    EXPECT_FALSE(SparseCameraNote(o, near));
+  }
+  const BasePointSpacing slow = ResolveSpacing(0.0, nullptr, 5.0);  // 0.3 m
+  ASSERT_TRUE(IsSparse(slow));
+  const PipelineOptions o = adapted(slow);
+  EXPECT_EQ(o.detector.spacing_m, 0.3);
+  EXPECT_EQ(o.detector.EffectiveTauP(), 12);  // 3.75 m
+  EXPECT_EQ(o.detector.tau_w, 1);
+  EXPECT_EQ(o.memory.step_unit, 0.25);
+  const std::optional<std::string> note = SparseCameraNote(o, slow);
+  ASSERT_TRUE(note);
+  EXPECT_NE(note->find("detection.tau_w 1"), std::string::npos) << *note;
+  EXPECT_NE(note->find("memory.step_unit 0.25"), std::string::npos) << *note;
+  EXPECT_EQ(adapted(slow, 1).detector.tau_w, 1);  // at least one base point
+  EXPECT_EQ(adapted(slow, 3).detector.tau_w, 1);
+  EXPECT_EQ(adapted(slow, 4).detector.tau_w, 2);
 }
 
 TEST_F(DatasetTest, BadCameraJsonNamesTheFile) {
