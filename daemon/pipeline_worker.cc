@@ -159,7 +159,7 @@ PipelineWorker::PipelineWorker(const Settings& settings, const CameraSource& cam
   spdlog::info("base points {:.3g} m apart ({}): places of {} base points or fewer are pruned",
                spacing.metres, spacing.basis, pipeline.detector.EffectiveTauP());
   if (const std::optional<std::string> note = SparseCameraNote(pipeline, spacing)) {
-    spdlog::info("{}", *note);
+    spdlog::info("sparse camera: {}", *note);
   }
   if (const std::optional<std::string> caution = SpacingCaution(spacing)) {
     spdlog::warn("{}", *caution);

@@ -31,7 +31,7 @@ std::optional<std::string> SparseCameraNote(const PipelineOptions& adapted,
   if (!IsSparse(spacing)) return std::nullopt;
   char text[200];
   std::snprintf(text, sizeof text,
-                "a sparse camera: detection.tau_w %d and memory.step_unit %g, the configured "
+                "detection.tau_w %d and memory.step_unit %g, the configured "
                 "values halved (they hold for base points %.3g m apart; tau_w at least 1)",
                 adapted.detector.tau_w, adapted.memory.step_unit, kCalibratedSpacingM);
   return std::string(text);
