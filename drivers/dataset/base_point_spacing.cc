@@ -3,6 +3,8 @@
 #include <algorithm>
 #include <cstdio>
 
+#include "core/pipeline/pipeline.h"
+
 namespace tsc {
 
 BasePointSpacing ResolveSpacing(double configured, const BasePointSpacing* declared, double fps) {

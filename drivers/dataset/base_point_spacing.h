@@ -7,9 +7,11 @@
 #include <optional>
 #include <string>
 
-#include "core/pipeline/pipeline.h"
-
 namespace tsc {
+
+// Only AdaptToSpacing and SparseCameraNote take one: dataset.h and camera_source.h, which
+// include this header, need not pull in the pipeline.
+struct PipelineOptions;
 
 /// Speed assumed for a camera that declares only its frame rate: the simulated robot's
 /// (0.15 m per frame at 10 fps); a walking person is about as fast.

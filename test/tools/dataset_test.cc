@@ -12,6 +12,7 @@
 #include <random>
 #include <string>
 
+#include "core/pipeline/pipeline.h"
 #include "drivers/dataset/base_point_spacing.h"
 #include "test/support/image_bombs.h"
 #include "test/support/temp_dir.h"
