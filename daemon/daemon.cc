@@ -75,9 +75,18 @@ std::string Describe(const PlaceEvent& e) {
                   ": detected place " + std::to_string(e.detected_place);
   if (e.place) s += ", place " + e.place->ToString();
   if (e.from) s += ", from " + e.from->ToString();
+  // Why: g_N and its terms (3.8), and D's agreement with N¹; a learned place names the last
+  // cost tried (none when the memory was empty).
+  const auto terms = [&] {
+    return fmt::format(" (distance {:.3g}, ratio {:.3g}, vote {:.3g}, agreement {:.3g})",
+                       e.terms.distance, e.terms.ratio, e.terms.vote, e.terms.agreement);
+  };
   if (e.kind == EventKind::kRecognized) {
-    s += ", cost " + std::to_string(e.cost) + (e.partial ? " (partial)" : "") +
+    s += ", cost " + std::to_string(e.cost) + terms() + (e.partial ? " (partial)" : "") +
          (e.hybrid ? " (hybrid)" : "") + (e.neighbour ? " (map neighbour)" : "");
+  }
+  if (e.kind == EventKind::kLearned && e.terms.best >= 0) {
+    s += ", last cost tried " + std::to_string(e.cost) + terms();
   }
   if (e.members > 0) s += ", " + std::to_string(e.members) + " base points";
   return s;

@@ -21,8 +21,8 @@ constexpr const char* kFixedColumns =
     "places,edges,memory_version,snapshots_received,merges_completed,merges_changed,"
     "merges_failed,exchanges_given_up,messages_rejected,publish_failures,queue_frames,"
     "merge_inbox,"
-    "pending_commits,peers,merged_peers,buffered_portions,db_mb";
-constexpr size_t kFixedCount = 28;
+    "pending_commits,peers,merged_peers,buffered_portions,db_mb,rooms";
+constexpr size_t kFixedCount = 29;
 constexpr size_t kTrafficColumns = 4;  // sent, received, sent_bytes, received_bytes
 
 std::string Num(double v, int decimals) {
@@ -115,7 +115,7 @@ std::string SoakCsvRow(const SoakSample& s) {
     << s.merges_completed << ',' << s.merges_changed << ',' << s.merges_failed << ','
     << s.exchanges_given_up << ',' << s.messages_rejected << ',' << s.publish_failures << ','
     << s.queue_frames << ',' << s.merge_inbox << ',' << s.pending_commits << ',' << s.peers << ','
-    << s.merged_peers << ',' << s.buffered_portions << ',' << Num(s.db_mb, 3);
+    << s.merged_peers << ',' << s.buffered_portions << ',' << Num(s.db_mb, 3) << ',' << s.rooms;
   for (const SoakTraffic& t : s.traffic) {
     o << ',' << t.sent << ',' << t.received << ',' << t.sent_bytes << ',' << t.received_bytes;
   }
@@ -172,7 +172,8 @@ std::vector<SoakSample> ReadSoakCsv(const fs::path& file) {
                          &s.merged_peers,
                          &s.buffered_portions};
     for (size_t k = 0; k < std::size(counts); ++k) *counts[k] = i64(9 + k);
-    s.db_mb = v[kFixedCount - 1];
+    s.db_mb = v[kFixedCount - 2];
+    s.rooms = static_cast<int>(i64(kFixedCount - 1));
     for (size_t f = 0; f < kSoakFamilies.size(); ++f) {
       const size_t at = kFixedCount + kTrafficColumns * f;
       s.traffic[f] = {i64(at), i64(at + 2), i64(at + 1), i64(at + 3)};
@@ -229,6 +230,7 @@ void SoakCheckOptions::Validate() const {
     fail("sampled fraction must be in [0, 1]");
   }
   if (max_pending_commits < 0) fail("pending commits bound must not be negative");
+  if (!(max_places_per_room >= 0)) fail("places per room bound must not be negative");
 }
 
 namespace {
@@ -314,6 +316,8 @@ RobotSeries Collect(const std::vector<const SoakSample*>& rows, double d,
     }
     f.rss_last_mb = s->rss_mb;
     f.places_last = s->places;
+    f.places_per_room_last =
+        s->rooms > 0 ? static_cast<double>(s->places) / static_cast<double>(s->rooms) : 0.0;
     f.rss_max_mb = std::max(f.rss_max_mb, s->rss_mb);
     f.places_max = std::max(f.places_max, s->places);
     series.rss_by_life[s->life].emplace_back(s->t_s, s->rss_mb);
@@ -400,6 +404,11 @@ void JudgeBounds(const SoakRobotFigures& f, const RobotSeries& series,
                       " MB is more than " + Num(100 * options.max_late_growth, 0) +
                       " % above the middle third's " + Num(f.rss_middle_median_mb, 1) + " MB");
   }
+  if (options.max_places_per_room > 0 && f.places_per_room_last > options.max_places_per_room) {
+    AddProblem(v, name + ": " + Num(f.places_per_room_last, 2) +
+                      " places per room at its last sample (bound " +
+                      Num(options.max_places_per_room, 2) + ")");
+  }
   if (f.max_pending_commits > options.max_pending_commits) {
     AddProblem(
         v, name + ": " + std::to_string(f.max_pending_commits) + " results waiting for the store");
@@ -468,6 +477,7 @@ std::string SoakVerdictJson(const SoakVerdict& v) {
       << ",\"places_first\":" << f.places_first << ",\"places_last\":" << f.places_last
       << ",\"places_max\":" << f.places_max
       << ",\"places_slope_per_min\":" << JsonNumber(f.places_slope_per_min)
+      << ",\"places_per_room_last\":" << JsonNumber(f.places_per_room_last)
       << ",\"rss_mb_per_place\":" << JsonNumber(f.rss_mb_per_place)
       << ",\"db_first_mb\":" << JsonNumber(f.db_first_mb)
       << ",\"db_last_mb\":" << JsonNumber(f.db_last_mb)
@@ -501,7 +511,7 @@ std::string SoakVerdictText(const SoakVerdict& v) {
     << " restarted lives completed a merge (" << v.lives_after_restart_idle
     << " more had no new peer memory to merge)\n";
   o << "robot lives samples  rss first  last   max  slope MB/min  cpu%  places first last  "
-       "merges  msg/s sent recv  KB/s sent recv  db MB last slope/min\n";
+       "per room  merges  msg/s sent recv  KB/s sent recv  db MB last slope/min\n";
   for (const SoakRobotFigures& f : v.robots) {
     double sent = 0, received = 0;
     for (size_t k = 0; k < kSoakFamilies.size(); ++k) {
@@ -512,7 +522,8 @@ std::string SoakVerdictText(const SoakVerdict& v) {
       << std::setw(3) << f.expected << std::setw(11) << Num(f.rss_first_mb, 1) << std::setw(6)
       << Num(f.rss_last_mb, 1) << std::setw(6) << Num(f.rss_max_mb, 1) << std::setw(14)
       << Num(f.rss_slope_mb_per_min, 3) << std::setw(6) << Num(f.cpu_percent_mean, 1)
-      << std::setw(13) << f.places_first << std::setw(5) << f.places_last << std::setw(8)
+      << std::setw(13) << f.places_first << std::setw(5) << f.places_last << std::setw(10)
+      << (f.places_per_room_last > 0 ? Num(f.places_per_room_last, 2) : "-") << std::setw(8)
       << f.merges << std::setw(15) << Num(sent, 1) << std::setw(5) << Num(received, 1)
       << std::setw(11) << Num(f.sent_kb_per_s, 1) << std::setw(5) << Num(f.received_kb_per_s, 1)
       << std::setw(13) << Num(f.db_last_mb, 1) << std::setw(10) << Num(f.db_slope_mb_per_min, 3)

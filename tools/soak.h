@@ -58,6 +58,9 @@ struct SoakSample {
   /// The robot's state database on disk (memory.db with its WAL), MB; sampled also while the
   /// process is down (the file stays).
   double db_mb = 0.0;
+  /// Rooms the team's routes visit (the simulated world's ground truth; 0 when unknown): the
+  /// places per room are places / rooms.
+  int rooms = 0;
   std::array<SoakTraffic, kSoakFamilies.size()> traffic{};
 };
 
@@ -90,6 +93,9 @@ struct SoakCheckOptions {
   int expected_restarts = 0;          ///< at least this many restarts must have happened
   double min_sampled_fraction = 0.9;  ///< of the robot's expected samples, while up
   int64_t max_pending_commits = 16;
+  /// Bound on a robot's places per room at the end of the run (issue 23: ≤ 2 after a day of
+  /// laps); 0: reported, not judged.
+  double max_places_per_room = 0.0;
   /// Throws std::invalid_argument naming the option out of range.
   void Validate() const;
 };
@@ -111,6 +117,9 @@ struct SoakRobotFigures {
   double cpu_percent_mean = 0.0;  ///< over the rows with the process alive
   int64_t places_first = 0, places_last = 0, places_max = 0;
   double places_slope_per_min = 0.0;  ///< as the RSS slope
+  /// Places in the robot's memory per room the team visits, at its last sample (0 when the
+  /// rooms are unknown).
+  double places_per_room_last = 0.0;
   /// Slope of RSS over the place count within each life after the warm-ups, MB per place:
   /// what a learned place costs when the place count grows.
   double rss_mb_per_place = 0.0;

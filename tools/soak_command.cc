@@ -18,6 +18,8 @@
 #include <stdexcept>
 
 #include "daemon/lcm_bus.h"
+#include "drivers/camera/make_camera.h"
+#include "drivers/camera/sim_camera.h"
 #include "settings/settings.h"
 #include "tools/command_line.h"
 #include "tools/inspect.h"
@@ -38,12 +40,17 @@ constexpr const char* kLcmUrl = "udpm://239.255.76.67:7667?ttl=0";
 constexpr const char* kLossTable = "tscd_soak";
 constexpr double kStopGraceS = 30.0;  // SIGTERM → SIGKILL, as tsc team and systemd
 constexpr double kDownS = 1.0;        // a stopped robot starts again this much later
+// The accelerated day (issue 23): the frames a 10 fps camera takes in 24 hours, and the places
+// per room a long-lived memory may end with.
+constexpr double kDayFrames = 86400.0 * 10.0;
+constexpr double kDayMaxPlacesPerRoom = 2.0;
 
 constexpr const char* kSoakHelp =
     R"(usage: tsc soak [--robots N] [--world SEED] [--kind office|corridors|outdoor]
                 [--minutes M | --seconds S] [--loss PERCENT] [--restart-every R]
-                [--kill-fraction F] [--seed N] [--fps F] [--loop] [--out DIR] [--set KEY=VALUE]...
-                [--netns new|current] [--max-rss-slope MB_PER_MIN] [--max-late-growth F]
+                [--kill-fraction F] [--seed N] [--fps F] [--loop | --day] [--out DIR]
+                [--set KEY=VALUE]... [--netns new|current] [--max-rss-slope MB_PER_MIN]
+                [--max-late-growth F] [--max-places-per-room P]
        tsc soak --replot DIR [--robots N] [...check options]
 
 A soak and load run: N tscd robots (ids 1..N) on the simulated world, each driving its route
@@ -56,6 +63,12 @@ DIR/restarts.csv, and at the end judges growth (RSS slope within each process li
 warm-up, late versus middle RSS, queue bounds, merges after restarts, unexpected exits) into
 DIR/soak.json and draws DIR/soak.png. Exit 0 when bounded, 1 when a check failed.
 --replot judges and draws an existing DIR again without running anything.
+--day is the accelerated day of issue 23: the routes driven again and again (closed, so a lap
+ends where the next begins) for as many frames as a 10 fps camera takes in 24 hours, at --fps
+(e.g. --fps 200: 72 minutes); places per room (the rooms from the world's ground truth) must
+end at or below --max-places-per-room (2 with --day). At the end every robot's store must
+still hold every place it learned (its own ids, as places or as sources of the places that
+absorbed them).
 
 Options)";
 
@@ -94,10 +107,11 @@ double DatabaseMb(const fs::path& state_dir) {
   return bytes / (1 << 20);
 }
 
-SoakSample Sample(Robot& r, double t, Clock::time_point now) {
+SoakSample Sample(Robot& r, int rooms, double t, Clock::time_point now) {
   SoakSample s;
   s.t_s = t;
   s.robot = r.id;
+  s.rooms = rooms;
   s.life = r.life;
   s.pid = r.pid;
   s.db_mb = DatabaseMb(r.dir);
@@ -147,6 +161,11 @@ SoakCheckOptions CheckOptions(const po::variables_map& vm) {
   SoakCheckOptions o;
   o.max_rss_slope_mb_per_min = vm["max-rss-slope"].as<double>();
   o.max_late_growth = vm["max-late-growth"].as<double>();
+  if (vm.count("max-places-per-room")) {
+    o.max_places_per_room = vm["max-places-per-room"].as<double>();
+  } else if (vm.count("day")) {
+    o.max_places_per_room = kDayMaxPlacesPerRoom;
+  }
   try {
     o.Validate();
   } catch (const std::invalid_argument& e) {
@@ -225,6 +244,11 @@ po::options_description SoakOptions() {
       "seed of the restart schedule and of the packet loss")(
       "fps", po::value<double>()->default_value(10.0, "10"), "camera frames per second per robot")(
       "loop", "drive the routes again and again (load) instead of once per process life")(
+      "day",
+      "an accelerated day: --loop for 86400 * 10 frames per robot at --fps (sets the length), "
+      "places per room judged")(
+      "max-places-per-room", po::value<double>()->value_name("P"),
+      "bound on a robot's places per room at the end (0: not judged; 2 with --day)")(
       "out", po::value<std::string>()->default_value("soak-out")->value_name("DIR"),
       "output folder (soak.csv, restarts.csv, soak.json, soak.png, robot-<id>/)")(
       "set", po::value<std::vector<std::string>>()->composing()->value_name("KEY=VALUE"),
@@ -253,6 +277,7 @@ struct SoakRequest {
   unsigned seed = 0;  ///< of the restart schedule and the loss
   std::string netns;  ///< new|current
   fs::path out;
+  bool day = false;                    ///< the accelerated day (--day)
   std::vector<std::string> overrides;  ///< every robot's tscd keys (its route comes on top)
   SoakCheckOptions check;
 };
@@ -261,8 +286,20 @@ SoakRequest ToSoakRequest(const po::variables_map& vm) {
   SoakRequest req;
   req.robots = vm["robots"].as<int>();
   if (req.robots < 2 || req.robots > 16) throw UsageError("--robots must be in 2..16");
-  req.duration_s =
-      vm.count("seconds") ? vm["seconds"].as<double>() : 60.0 * vm["minutes"].as<double>();
+  req.day = vm.count("day") > 0;
+  const double fps_asked = vm["fps"].as<double>();
+  if (req.day) {
+    if (vm.count("loop")) throw UsageError("--day drives the routes again and again: no --loop");
+    if (vm.count("seconds") || !vm["minutes"].defaulted()) {
+      throw UsageError(
+          "--day sets the length (a day's frames at --fps): no --minutes or --seconds");
+    }
+    if (!(fps_asked > 0)) throw UsageError("--day needs --fps above 0");
+    req.duration_s = kDayFrames / fps_asked;
+  } else {
+    req.duration_s =
+        vm.count("seconds") ? vm["seconds"].as<double>() : 60.0 * vm["minutes"].as<double>();
+  }
   if (!(req.duration_s >= 10)) throw UsageError("the soak must last at least 10 seconds");
   req.loss = vm["loss"].as<int>();
   if (req.loss < 0 || req.loss > 90) throw UsageError("--loss must be in 0..90");
@@ -283,7 +320,7 @@ SoakRequest ToSoakRequest(const po::variables_map& vm) {
   std::ostringstream fps;
   fps << vm["fps"].as<double>();
   req.overrides = {"camera.source=sim",
-                   std::string("camera.loop=") + (vm.count("loop") ? "true" : "false"),
+                   std::string("camera.loop=") + (vm.count("loop") || req.day ? "true" : "false"),
                    "lcm.url=" + std::string(kLcmUrl),
                    "sim.world_seed=" + std::to_string(vm["world"].as<long long>()),
                    "sim.world=" + vm["kind"].as<std::string>(),
@@ -428,14 +465,14 @@ class SoakTeam {
 // soak.csv, written as the run goes (a killed soak keeps what it sampled), and the samples.
 class SoakSamples {
  public:
-  explicit SoakSamples(const fs::path& path) : csv_(path) {
+  SoakSamples(const fs::path& path, int rooms) : csv_(path), rooms_(rooms) {
     if (!csv_) throw std::runtime_error(path.string() + ": cannot write");
     csv_ << SoakCsvHeader() << "\n";
   }
   /// One sample of every robot at `t` s; every 30 s a line of figures.
   void Take(std::vector<Robot>& robots, double t, Clock::time_point now) {
     for (Robot& r : robots) {
-      samples_.push_back(Sample(r, t, now));
+      samples_.push_back(Sample(r, rooms_, t, now));
       csv_ << SoakCsvRow(samples_.back()) << "\n";
     }
     csv_.flush();
@@ -454,8 +491,82 @@ class SoakSamples {
 
  private:
   std::ofstream csv_;
+  int rooms_;
   std::vector<SoakSample> samples_;
 };
+
+// Settings of robot `route`'s tscd, as the soak starts it.
+Settings RobotSettings(const SoakRequest& req, int route) {
+  std::vector<std::string> o = req.overrides;
+  o.push_back("sim.route=" + std::to_string(route));
+  return LoadSettings(std::nullopt, o);
+}
+
+// Rooms the team's routes pass through, from the simulated world's ground truth: the places
+// per room are counted against them. Every robot's settings name the same world and team.
+int TeamRooms(const SoakRequest& req) {
+  const Settings settings = RobotSettings(req, 0);
+  const SimCameraOptions camera =
+      ToSimCameraOptions(settings.daemon.camera, settings.daemon.sim, false);
+  std::set<std::string> labels;
+  for (const auto& route : sim::MakeScenario(SceneOf(camera)).routes) {
+    for (const sim::RouteFrame& f : route) {
+      if (!f.label.empty()) labels.insert(f.label);
+    }
+  }
+  return static_cast<int>(labels.size());
+}
+
+// Every place a robot learned is still in its store at the end: a robot numbers its places
+// 1, 2, ... (DESIGN §3.6), so each of its ids below its next local id must be a place of its
+// memory or a source of the place that absorbed it; and every map edge joins two places of
+// the memory. The problems found, one per robot.
+std::vector<std::string> LostPlaces(const SoakRequest& req, const std::vector<Robot>& robots) {
+  std::vector<std::string> problems;
+  for (const Robot& r : robots) {
+    const std::string name = "robot " + std::to_string(r.id);
+    try {
+      const Settings settings = RobotSettings(req, r.id - 1);
+      const InspectedStore stored =
+          InspectStore(r.dir / "memory.db", settings.pipeline.memory, static_cast<uint32_t>(r.id));
+      std::set<PlaceId> held;
+      for (const LearnedPlace& p : stored.memory.places()) {
+        held.insert(p.id);
+        held.insert(p.sources.begin(), p.sources.end());
+      }
+      std::vector<uint32_t> lost;
+      for (uint32_t local = 1; local < stored.memory.next_local_id(); ++local) {
+        if (!held.count(PlaceId{static_cast<uint32_t>(r.id), local})) lost.push_back(local);
+      }
+      if (!lost.empty()) {
+        std::string ids;
+        for (size_t i = 0; i < lost.size() && i < 10; ++i) {
+          ids += (i ? ", " : "") + std::to_string(r.id) + ":" + std::to_string(lost[i]);
+        }
+        problems.push_back(name + ": " + std::to_string(lost.size()) + " of its " +
+                           std::to_string(stored.memory.next_local_id() - 1) +
+                           " learned places are in no place of its store (" + ids +
+                           (lost.size() > 10 ? ", ..." : "") + ")");
+      }
+      std::set<PlaceId> places;
+      for (const LearnedPlace& p : stored.memory.places()) places.insert(p.id);
+      int64_t dangling = 0;
+      for (const auto& [ends, e] : stored.map.edges()) {
+        if (!places.count(e.a) || !places.count(e.b)) ++dangling;
+      }
+      if (dangling > 0) {
+        problems.push_back(name + ": " + std::to_string(dangling) +
+                           " map edges end in no place of its memory");
+      }
+      std::cout << "  " << name << ": " << stored.memory.places().size() << " places hold its "
+                << stored.memory.next_local_id() - 1 << " learned ids, "
+                << stored.map.edges().size() << " map edges" << std::endl;
+    } catch (const std::exception& e) {
+      problems.push_back(name + ": its store cannot be read at the end: " + e.what());
+    }
+  }
+  return problems;
+}
 
 void WriteRestartsCsv(const std::vector<SoakRestart>& restarts, const fs::path& path) {
   std::ofstream csv(path);
@@ -485,10 +596,14 @@ int RunSoak(const SoakRequest& req, const std::vector<std::string>& args) {
   SoakTeam team(req, tscd);
   LcmBus bus(kLcmUrl);
   team.Listen(bus);
-  SoakSamples samples(req.out / "soak.csv");
+  SoakSamples samples(req.out / "soak.csv", TeamRooms(req));
   std::mt19937 rng(req.seed);
 
   for (Robot& r : team.robots()) team.Spawn(r);
+  if (req.day) {
+    std::cout << "tsc soak --day: " << kDayFrames << " frames per robot (a day at 10 fps) in "
+              << req.duration_s << " s" << std::endl;
+  }
   std::cout << "tsc soak: " << req.robots << " robots, " << req.duration_s << " s, " << req.loss
             << " % UDP loss, a restart every " << req.every_s << " s (seed " << req.seed
             << ": loss and restarts); output in " << req.out.string() << std::endl;
@@ -510,7 +625,8 @@ int RunSoak(const SoakRequest& req, const std::vector<std::string>& args) {
     }
     if (t >= req.duration_s) break;
   }
-  const std::vector<std::string> final_problems = team.StopAll();
+  std::vector<std::string> final_problems = team.StopAll();
+  for (std::string& p : LostPlaces(req, team.robots())) final_problems.push_back(std::move(p));
   samples.Close();
   WriteRestartsCsv(team.restarts(), req.out / "restarts.csv");
 

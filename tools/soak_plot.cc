@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <functional>
 #include <iomanip>
 #include <limits>
 #include <map>
@@ -128,7 +129,8 @@ void DrawPanel(cv::Mat& img, const cv::Rect& area, const std::string& title,
 // Per robot: the value of `get` at each alive sample (with the robot's counters when
 // `needs_stats`), a gap while down.
 std::vector<Series> PerRobot(const std::vector<SoakSample>& samples, int team_size,
-                             double (*get)(const SoakSample&), bool needs_stats) {
+                             const std::function<double(const SoakSample&)>& get,
+                             bool needs_stats) {
   std::vector<Series> out;
   for (int r = 1; r <= team_size; ++r) {
     Series s{"robot " + std::to_string(r), RobotColour(r), {}};
@@ -167,8 +169,14 @@ cv::Mat DrawSoak(const std::vector<SoakSample>& samples, const std::vector<SoakR
   // RSS is measured by the soak itself (/proc), so it is known before the first stats.
   const std::vector<Series> rss = PerRobot(
       samples, team_size, [](const SoakSample& s) { return s.rss_mb; }, false);
+  // Places per room when the world's rooms are known (a simulated world's ground truth).
+  const int rooms = samples.empty() ? 0 : samples.front().rooms;
   const std::vector<Series> places = PerRobot(
-      samples, team_size, [](const SoakSample& s) { return static_cast<double>(s.places); }, true);
+      samples, team_size,
+      [rooms](const SoakSample& s) {
+        return rooms > 0 ? static_cast<double>(s.places) / rooms : static_cast<double>(s.places);
+      },
+      true);
   const std::vector<Series> database = PerRobot(
       samples, team_size, [](const SoakSample& s) { return s.db_mb; }, false);
 
@@ -249,7 +257,11 @@ cv::Mat DrawSoak(const std::vector<SoakSample>& samples, const std::vector<SoakR
   };
   DrawPanel(img, area(), "resident set (VmRSS), MB", rss, t_max, restarts, false);
   DrawPanel(img, area(), "CPU, % of one core (10 s means)", cpu, t_max, restarts, false);
-  DrawPanel(img, area(), "learned places", places, t_max, restarts, false);
+  DrawPanel(img, area(),
+            rooms > 0 ? "places per room (learned places / the " + std::to_string(rooms) +
+                            " rooms of the routes)"
+                      : std::string("learned places"),
+            places, t_max, restarts, false);
   DrawPanel(img, area(), "state database (memory.db and its WAL), MB", database, t_max, restarts,
             false);
   DrawPanel(img, area(), "merges completed (all lives)", merges, t_max, restarts, false);

@@ -19,6 +19,14 @@ void SimCameraOptions::Validate() const {
   }
 }
 
+sim::SimOptions SceneOf(const SimCameraOptions& options) {
+  sim::SimOptions scene = options.scene;
+  // A looping route's laps join where a robot driving them would, not with a jump across
+  // the world.
+  if (options.loop) scene.route.closed = true;
+  return scene;
+}
+
 SimCamera::SimCamera(const SimCameraOptions& options, Clock& clock)
     : SimCamera(options, nullptr, clock) {}
 
@@ -29,7 +37,7 @@ SimCamera::SimCamera(const SimCameraOptions& options, const MotorBase* base, Clo
     : options_((options.Validate(), options)),
       clock_(clock),
       base_(base),
-      scenario_(sim::MakeScenario(options.scene)),
+      scenario_(sim::MakeScenario(SceneOf(options))),
       route_(&scenario_.routes.at(static_cast<size_t>(options.robot))),
       // Robot k's stream; robot 0's is the dataset writer's, so a one-robot camera renders the
       // frames `tsc sim` writes.

@@ -29,10 +29,15 @@ struct SimCameraOptions {
   sim::SimOptions scene;
   int robot = 0;      ///< this robot's route, in [0, scene.robots)
   double fps = 10.0;  ///< frames per second delivered; 0 = as fast as they render
-  bool loop = false;  ///< scripted route: start again at its first pose after the last
+  /// Scripted route: start again at its first pose after the last, the route closed
+  /// (RouteOptions::closed) so that a lap ends where the next begins.
+  bool loop = false;
   /// Throws std::invalid_argument naming the bad field.
   void Validate() const;
 };
+
+/// The scene a camera of `options` renders: options.scene, its route closed when looping.
+sim::SimOptions SceneOf(const SimCameraOptions& options);
 
 class SimCamera : public CameraSource {
  public:

@@ -58,6 +58,16 @@ class Walker {
     }
   }
 
+  /// Drops the last frame when it is at `pose` (and it is not the only frame).
+  void DropLastIfAt(const Pose2& pose) {
+    if (frames_.size() < 2) return;
+    const Pose2& last = frames_.back().pose;
+    if (std::hypot(last.x - pose.x, last.y - pose.y) < 1e-9 &&
+        std::abs(WrapAngle(last.heading - pose.heading)) < 1e-9) {
+      frames_.pop_back();
+    }
+  }
+
   std::vector<RouteFrame> Take() { return std::move(frames_); }
 
  private:
@@ -204,9 +214,8 @@ std::vector<RouteFrame> FollowRooms(const World& world, const std::vector<int>& 
   Walker walker(world, options, Pose2{first.cx(), first.cy(), 0.0});
   walker.Dwell();
   int at = targets[0];
-  for (size_t i = 1; i < targets.size(); ++i) {
-    const int target = targets[i];
-    if (target == at) continue;
+  // Through the fewest doors to the centre of `target`.
+  const auto walk_to = [&](int target) {
     for (int d : DoorPath(world, at, target)) {
       const Door& door = world.doors()[static_cast<size_t>(d)];
       const int next = door.room_a == at ? door.room_b : door.room_a;
@@ -219,7 +228,19 @@ std::vector<RouteFrame> FollowRooms(const World& world, const std::vector<int>& 
     }
     const Room& room = rooms[static_cast<size_t>(target)];
     walker.MoveTo(room.cx(), room.cy());
-    if (!room.transit) walker.Dwell();
+  };
+  for (size_t i = 1; i < targets.size(); ++i) {
+    const int target = targets[i];
+    if (target == at) continue;
+    walk_to(target);
+    if (!rooms[static_cast<size_t>(target)].transit) walker.Dwell();
+  }
+  if (options.closed) {
+    // Back to the first pose, which a looping camera takes next; no look-around there, the
+    // route's first frames are one.
+    walk_to(targets[0]);
+    walker.TurnTo(0.0);
+    walker.DropLastIfAt(Pose2{first.cx(), first.cy(), 0.0});
   }
   std::vector<RouteFrame> frames = walker.Take();
   // Revisit flags: a label is revisited once it appears again after another label.
@@ -245,7 +266,9 @@ std::vector<int> SingleRobotTargets(const World& world, const RouteOptions& opti
   std::vector<int> targets = TourWithRevisits(world, rooms, start, options.revisit_fraction, rng);
   // Rooms the route never passes through (e.g. a dead-end corridor) become targets.
   std::set<std::string> seen;
-  for (const RouteFrame& f : FollowRooms(world, targets, options)) seen.insert(f.label);
+  RouteOptions tour = options;  // the way back of a closed route is no visit
+  tour.closed = false;
+  for (const RouteFrame& f : FollowRooms(world, targets, tour)) seen.insert(f.label);
   for (int i = 0; i < static_cast<int>(world.rooms().size()); ++i) {
     if (seen.count(world.rooms()[static_cast<size_t>(i)].label) == 0) targets.push_back(i);
   }

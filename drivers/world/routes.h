@@ -26,6 +26,11 @@ struct RouteOptions {
   int dwell_frames = 72;
   /// Fraction of the rooms revisited (in reverse order) after the first tour, in [0, 1].
   double revisit_fraction = 0.5;
+  /// The route ends where it began: back to the first room's centre, facing as at the first
+  /// frame, so a camera that drives it again and again never jumps across the world (a jump
+  /// would join the end of one lap and the start of the next into one place no lap sees
+  /// again). Appended after the tour; the tour itself is unchanged.
+  bool closed = false;
   /// Throws std::invalid_argument naming the bad value.
   void Validate() const;
 };

@@ -2,6 +2,7 @@
 
 #include <gtest/gtest.h>
 
+#include <cmath>
 #include <filesystem>
 #include <numbers>
 #include <opencv2/imgcodecs.hpp>
@@ -110,6 +111,21 @@ TEST_F(SimCameraTest, EndsAtRouteEndUnlessLooping) {
   ASSERT_TRUE(fifth.has_value());
   EXPECT_EQ(fifth->sequence, 4);
   EXPECT_NEAR(looping.last().pose.x, looping.route().front().pose.x, 0.2);  // back at the start
+}
+
+TEST_F(SimCameraTest, LoopingRouteIsClosedSoThatALapEndsWhereTheNextBegins) {
+  SimCameraOptions options = Small();
+  options.scene.render.width = 16;
+  options.scene.render.height = 12;
+  const SimCamera once(options, clock_);
+  options.loop = true;
+  const SimCamera looping(options, clock_);
+  ASSERT_GT(looping.route().size(), once.route().size());
+  const sim::Pose2& end = looping.route().back().pose;
+  const sim::Pose2& start = looping.route().front().pose;
+  EXPECT_LE(std::hypot(end.x - start.x, end.y - start.y), options.scene.route.step_m + 1e-9);
+  const sim::Pose2& open_end = once.route().back().pose;
+  EXPECT_GT(std::hypot(open_end.x - start.x, open_end.y - start.y), 1.0);
 }
 
 TEST_F(SimCameraTest, WholeRouteEndsAfterItsLastFrame) {

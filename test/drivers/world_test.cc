@@ -94,6 +94,34 @@ TEST_F(WorldTest, SingleRobotRouteVisitsEveryRoomAndRevisitsHalf) {
   }
 }
 
+// A looping camera drives its route again and again (tscd with camera.loop, tsc soak --loop):
+// a closed route walks back to its first pose, so no step between frames, the one from the
+// last frame to the first included, is longer than a walking step, and the tour before the
+// way back is the open route's frame for frame.
+TEST_F(WorldTest, ClosedRouteWalksBackToItsFirstPoseAfterTheSameTour) {
+  for (WorldKind kind : {WorldKind::kOffice, WorldKind::kCorridors, WorldKind::kOutdoor}) {
+    std::mt19937 rng(5);
+    const World world = World::Generate(kind, rng);
+    RouteOptions options;
+    std::mt19937 tour_rng(6);
+    const std::vector<int> targets = SingleRobotTargets(world, options, tour_rng);
+    const auto open = FollowRooms(world, targets, options);
+    options.closed = true;
+    const auto closed = FollowRooms(world, targets, options);
+    ASSERT_GT(closed.size(), open.size()) << WorldKindName(kind);
+    for (size_t i = 0; i < open.size(); ++i) {
+      ASSERT_EQ(closed[i].pose.x, open[i].pose.x) << WorldKindName(kind) << " frame " << i;
+      ASSERT_EQ(closed[i].pose.y, open[i].pose.y) << WorldKindName(kind) << " frame " << i;
+    }
+    const double step = options.step_m + 1e-9;
+    for (size_t i = 0; i < closed.size(); ++i) {
+      const Pose2& a = closed[i].pose;
+      const Pose2& b = closed[(i + 1) % closed.size()].pose;  // the lap's end joins its start
+      EXPECT_LE(std::hypot(b.x - a.x, b.y - a.y), step) << WorldKindName(kind) << " frame " << i;
+    }
+  }
+}
+
 TEST_F(WorldTest, LabelIsEmptyExactlyInsideDoorways) {
   std::mt19937 rng(9);
   const World dut = World::Generate(WorldKind::kCorridors, rng);

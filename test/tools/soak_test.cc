@@ -51,6 +51,7 @@ std::vector<SoakSample> MadeUp(double seconds, double leak_mb_per_min,
       s.peers = 4;
       s.merged_peers = 4;
       s.db_mb = 2.0 + r + 0.01 * t;  // the file grows 0.6 MB a minute, down or up
+      s.rooms = 8;
       s.traffic[0] = {static_cast<int64_t>(s.life_s), 100 * static_cast<int64_t>(s.life_s),
                       4 * static_cast<int64_t>(s.life_s), 400 * static_cast<int64_t>(s.life_s)};
       out.push_back(s);
@@ -137,6 +138,32 @@ TEST(SoakAnalysis, TheDatabaseSlopeSpansEveryLife) {
   EXPECT_NE(SoakVerdictText(v).find("db MB last"), std::string::npos);
 }
 
+// The accelerated day's bar (issue 23): a robot's places per room at its last sample, judged
+// only when asked (--day asks for 2).
+TEST(SoakAnalysis, PlacesPerRoomAreJudgedWhenABoundIsSet) {
+  std::vector<SoakRestart> restarts;
+  auto samples = MadeUp(300, 0.0, &restarts);
+  for (SoakSample& s : samples) {
+    if (s.robot == 4) s.places = 12 + static_cast<int64_t>(s.t_s / 60);  // 17 at the end
+  }
+  const SoakVerdict reported = AnalyseSoak(samples, restarts, 5, SoakCheckOptions{});
+  EXPECT_TRUE(reported.ok) << SoakVerdictText(reported);
+  EXPECT_DOUBLE_EQ(reported.robots[0].places_per_room_last, 12.0 / 8);
+  EXPECT_DOUBLE_EQ(reported.robots[3].places_per_room_last, 17.0 / 8);
+  SoakCheckOptions day;
+  day.max_places_per_room = 2.0;
+  const SoakVerdict judged = AnalyseSoak(samples, restarts, 5, day);
+  EXPECT_FALSE(judged.ok);
+  ASSERT_EQ(judged.problems.size(), 1u) << SoakVerdictText(judged);
+  EXPECT_NE(judged.problems[0].find("robot 4: 2.12 places per room"), std::string::npos)
+      << judged.problems[0];
+  EXPECT_NE(SoakVerdictJson(judged).find("\"places_per_room_last\":2.125"), std::string::npos)
+      << SoakVerdictJson(judged);
+  // Unknown rooms (a world without labels): nothing to judge.
+  for (SoakSample& s : samples) s.rooms = 0;
+  EXPECT_TRUE(AnalyseSoak(samples, restarts, 5, day).ok);
+}
+
 TEST(SoakCsv, RoundTripsAndNamesTheBadLine) {
   testing_support::TempDir dir("soak_test");
   std::vector<SoakRestart> restarts;
@@ -153,6 +180,7 @@ TEST(SoakCsv, RoundTripsAndNamesTheBadLine) {
   EXPECT_EQ(SoakCsvRow(back[37]), SoakCsvRow(samples[37]));
   EXPECT_EQ(back[37].traffic[0].received_bytes, samples[37].traffic[0].received_bytes);
   EXPECT_DOUBLE_EQ(back[37].db_mb, samples[37].db_mb);
+  EXPECT_EQ(back[37].rooms, 8);
   const auto r = ReadRestartsCsv(dir.path() / "restarts.csv");
   ASSERT_EQ(r.size(), 1u);
   EXPECT_EQ(r[0].signal, "TERM");
