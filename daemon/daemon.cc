@@ -88,6 +88,10 @@ std::string Describe(const PlaceEvent& e) {
   if (e.kind == EventKind::kLearned && e.terms.best >= 0) {
     s += ", last cost tried " + std::to_string(e.cost) + terms();
   }
+  if (e.kind == EventKind::kAmbiguous) {
+    s += ", cost " + std::to_string(e.cost) + terms() +
+         ": its points name other places; neither recognised nor learned";
+  }
   if (e.members > 0) s += ", " + std::to_string(e.members) + " base points";
   return s;
 }

@@ -357,6 +357,12 @@ std::vector<ConfigKey> BuildTable() {
       "member views",
       [](auto& o) -> auto& { return o.pipeline.memory.svm_vote; }));
   t.push_back(Bool(
+      "memory.learn_disagreed",
+      "a detected place within tau_r whose points do not agree with the place "
+      "(memory.min_agreement) is learned as a new place; false leaves it without a place "
+      "(an 'ambiguous' event)",
+      [](auto& o) -> auto& { return o.pipeline.memory.learn_disagreed; }));
+  t.push_back(Bool(
       "memory.copies_keep_outer_ratio",
       "where every other child of N holds N1's place again, the ratio term is the one N1's node "
       "had one level up instead of 1",
@@ -584,6 +590,11 @@ std::vector<ConfigKey> BuildTable() {
   t.push_back(Number(
       "sim.revisit_fraction", "fraction of its rooms a robot revisits after its first tour", "", 0,
       1, [](auto& o) -> auto& { return o.daemon.sim.revisit_fraction; }));
+  t.push_back(Number(
+      "sim.start_frame",
+      "route: the frame of the route to start at (modulo its length), where a robot started "
+      "again stands",
+      "frames", 0, 1e15, [](auto& o) -> auto& { return o.daemon.sim.start_frame; }));
   t.push_back(Text(
       "sim.lighting", "lighting of the simulated world", "day|dim|mixed",
       [](auto& o) -> auto& { return o.daemon.sim.lighting; }, OneOf({"day", "dim", "mixed"})));

@@ -31,7 +31,9 @@ class RunRecorder {
     for (const PlaceEvent& e : r.events) {
       // A partial recognition is superseded by the decision taken when the place closes.
       const bool recognized = e.kind == EventKind::kRecognized && !e.partial;
-      if (recognized || e.kind == EventKind::kLearned) Decided(e, recognized);
+      if (recognized || e.kind == EventKind::kLearned || e.kind == EventKind::kAmbiguous) {
+        Decided(e, recognized);
+      }
       if (e.kind == EventKind::kRecognized && e.partial) partial_[e.detected_place] = e;
     }
   }
@@ -50,14 +52,18 @@ class RunRecorder {
     const DetectedPlace& d = it->second;
     std::vector<int> frames;
     for (BaseIndex k : d.members) frames.push_back(static_cast<int>(k));  // base k = frame k
-    assignments.push_back({frames, *e.place, recognized});
+    assignments.push_back({frames, e.place, recognized});
     run_.detected.push_back(
-        {e.detected_place, frames, *e.place, recognized, e.cost, e.terms, std::nullopt, 0.0});
+        {e.detected_place, frames, e.place, recognized, e.cost, e.terms, std::nullopt, 0.0});
     run_.detected.back().neighbour = e.neighbour;
     if (const auto partial = partial_.find(e.detected_place); partial != partial_.end()) {
       run_.detected.back().partial_place = partial->second.place;
       run_.detected.back().partial_cost = partial->second.cost;
       partial_.erase(partial);
+    }
+    if (!e.place) {  // ambiguous: no place, no loop closure
+      closed_.erase(it);
+      return;
     }
     auto& of = run_.frames_of[*e.place];
     of.insert(of.end(), frames.begin(), frames.end());
@@ -305,9 +311,9 @@ void WriteDecisions(JsonWriter& w, const EvalResult& r) {
     w.Key("last_frame").Int(d.frames.empty() ? -1 : d.frames.back());
     w.Key("base_points").Int(static_cast<long long>(d.frames.size()));
     if (r.truth.has_labels()) w.Key("label").String(MajorityLabel(r.truth, d.frames));
-    w.Key("decision").String(d.recognized ? "recognized" : "learned");
+    w.Key("decision").String(d.recognized ? "recognized" : d.place ? "learned" : "ambiguous");
     if (d.recognized) w.Key("neighbour").Bool(d.neighbour);
-    w.Key("place").String(d.place.ToString());
+    if (d.place) w.Key("place").String(d.place->ToString());
     w.Key("cost").Number(d.cost);
     w.Key("terms").Begin('{');
     w.Key("distance").Number(d.terms.distance).Key("ratio").Number(d.terms.ratio);

@@ -42,7 +42,8 @@ struct EvalOptions {
 struct EvalDetectedPlace {
   DetectedPlaceIndex index = 0;
   std::vector<int> frames;  ///< 0-based member frames, increasing
-  PlaceId place;            ///< learned place it was assigned to
+  /// Learned place it was assigned to; none when ambiguous (EventKind::kAmbiguous).
+  std::optional<PlaceId> place;
   bool recognized = false;  ///< recognised (true) or learned (false)
   double cost = 0.0;        ///< g_N of the decision (recognised), or the last one tried
   CostTerms terms;          ///< its terms

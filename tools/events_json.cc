@@ -71,6 +71,7 @@ std::string EventToJson(const PlaceEvent& e) {
       s += std::string(",\"neighbour\":") + (e.neighbour ? "true" : "false");
       break;
     case EventKind::kLearned:
+    case EventKind::kAmbiguous:
       s += ",\"cost\":" + JsonNumber(e.cost) + TermsJson(e.terms);
       break;
     case EventKind::kMapped:

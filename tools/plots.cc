@@ -346,11 +346,11 @@ struct Timeline {
 void DrawPlaceRow(cv::Mat& img, const Timeline& tl, const EvalResult& r, int y) {
   const std::map<PlaceId, size_t> colour_of = PlaceColours(r.main);
   for (const EvalDetectedPlace& d : r.main.detected) {
-    if (d.frames.empty()) continue;
-    const cv::Scalar c = Palette(colour_of.at(d.place));
+    if (d.frames.empty() || !d.place) continue;  // an ambiguous place has no place to show
+    const cv::Scalar c = Palette(colour_of.at(*d.place));
     const cv::Rect box = tl.col(d.frames.front(), d.frames.back(), y);
     cv::rectangle(img, box, c, cv::FILLED);
-    CentredText(img, std::string(d.recognized ? "R " : "L ") + d.place.ToString(), box, c);
+    CentredText(img, std::string(d.recognized ? "R " : "L ") + d.place->ToString(), box, c);
   }
 }
 

@@ -96,15 +96,16 @@ RecognitionScore ScoreRecognition(const GroundTruth& truth, const std::vector<As
     s.should_be_recognized += should;
     s.view_should_be_recognized += view_should;
     bool correct = false;
-    if (a.recognized) {
+    if (a.recognized && a.place) {
       ++s.recognitions;
-      auto it = learned.find(a.place);
+      auto it = learned.find(*a.place);
       correct = it != learned.end() && FramesMatch(truth, a.frames, it->second);
       s.correct += correct;
       s.view_correct += correct && view_should;
     }
     s.verdicts.push_back({should, view_should, correct});
-    auto& frames = learned[a.place];
+    if (!a.place) continue;
+    auto& frames = learned[*a.place];
     frames.insert(frames.end(), a.frames.begin(), a.frames.end());
   }
   if (s.recognitions > 0) s.precision = static_cast<double>(s.correct) / s.recognitions;

@@ -29,7 +29,10 @@ struct GroundTruth {
 /// A detected place and the learned place it was assigned to, in detection order.
 struct Assignment {
   std::vector<int> frames;  ///< 0-based frames of its member base points
-  PlaceId place;
+  /// The place it joined or founded; none for an ambiguous detected place (neither
+  /// recognised nor learned: a miss where it should be recognised, and no place later
+  /// revisits can match).
+  std::optional<PlaceId> place;
   bool recognized = false;  ///< recognised (true) or learned (false)
 };
 

@@ -40,21 +40,22 @@ constexpr const char* kLcmUrl = "udpm://239.255.76.67:7667?ttl=0";
 constexpr const char* kLossTable = "tscd_soak";
 constexpr double kStopGraceS = 30.0;  // SIGTERM → SIGKILL, as tsc team and systemd
 constexpr double kDownS = 1.0;        // a stopped robot starts again this much later
-// The accelerated day (issue 23): the frames a 10 fps camera takes in 24 hours, and the places
+// The accelerated day (issue 23): the frames a 10 fps camera takes in an hour, and the places
 // per room a long-lived memory may end with.
-constexpr double kDayFrames = 86400.0 * 10.0;
+constexpr double kFramesPerHour = 3600.0 * 10.0;
 constexpr double kDayMaxPlacesPerRoom = 2.0;
 
 constexpr const char* kSoakHelp =
     R"(usage: tsc soak [--robots N] [--world SEED] [--kind office|corridors|outdoor]
                 [--minutes M | --seconds S] [--loss PERCENT] [--restart-every R]
-                [--kill-fraction F] [--seed N] [--fps F] [--loop | --day] [--out DIR]
+                [--kill-fraction F] [--seed N] [--fps F] [--loop | --day [HOURS]] [--out DIR]
                 [--set KEY=VALUE]... [--netns new|current] [--max-rss-slope MB_PER_MIN]
                 [--max-late-growth F] [--max-places-per-room P]
        tsc soak --replot DIR [--robots N] [...check options]
 
 A soak and load run: N tscd robots (ids 1..N) on the simulated world, each driving its route
-once per process life (--loop: again and again), in a private network namespace (only lo, multicast on lo: no packet leaves it) where nftables
+once per process life (--loop: again and again, a restarted robot going on from where it
+stood), in a private network namespace (only lo, multicast on lo: no packet leaves it) where nftables
 drops PERCENT % of all UDP datagrams. Every R seconds a random robot is stopped (SIGTERM, or
 SIGKILL with probability F) and started again from its state database. Every second it
 records per robot the resident set and CPU (/proc) and the daemon's counters (TSC_STATS_<id>:
@@ -64,9 +65,9 @@ warm-up, late versus middle RSS, queue bounds, merges after restarts, unexpected
 DIR/soak.json and draws DIR/soak.png. Exit 0 when bounded, 1 when a check failed.
 --replot judges and draws an existing DIR again without running anything.
 --day is the accelerated day of issue 23: the routes driven again and again (closed, so a lap
-ends where the next begins) for as many frames as a 10 fps camera takes in 24 hours, at --fps
-(e.g. --fps 200: 72 minutes); places per room (the rooms from the world's ground truth) must
-end at or below --max-places-per-room (2 with --day). At the end every robot's store must
+ends where the next begins) for as many frames as a 10 fps camera takes in HOURS (24), at
+--fps (e.g. --fps 200: 72 minutes for 24 hours); places per room (the rooms from the world's
+ground truth) must end at or below --max-places-per-room (2 with --day). At the end every robot's store must
 still hold every place it learned (its own ids, as places or as sources of the places that
 absorbed them).
 
@@ -90,6 +91,9 @@ struct Robot {
   std::optional<stats_t> stats;
   Clock::time_point stats_at{};
   std::set<int64_t> dead_boots;  // boot ids of earlier processes: late stats are ignored
+  // Route frames the robot's earlier lives drove (from their last stats): a looping robot
+  // started again goes on from there, as a robot that stood still while its tscd was down.
+  int64_t frames_driven = 0;
   int final_status = 0;
 };
 
@@ -244,9 +248,9 @@ po::options_description SoakOptions() {
       "seed of the restart schedule and of the packet loss")(
       "fps", po::value<double>()->default_value(10.0, "10"), "camera frames per second per robot")(
       "loop", "drive the routes again and again (load) instead of once per process life")(
-      "day",
-      "an accelerated day: --loop for 86400 * 10 frames per robot at --fps (sets the length), "
-      "places per room judged")(
+      "day", po::value<double>()->implicit_value(24.0, "24")->value_name("HOURS"),
+      "an accelerated day: --loop for the frames a 10 fps camera takes in HOURS, at --fps (sets "
+      "the length); places per room judged")(
       "max-places-per-room", po::value<double>()->value_name("P"),
       "bound on a robot's places per room at the end (0: not judged; 2 with --day)")(
       "out", po::value<std::string>()->default_value("soak-out")->value_name("DIR"),
@@ -277,7 +281,9 @@ struct SoakRequest {
   unsigned seed = 0;  ///< of the restart schedule and the loss
   std::string netns;  ///< new|current
   fs::path out;
+  bool loop = false;                   ///< routes driven again and again (--loop, --day)
   bool day = false;                    ///< the accelerated day (--day)
+  double day_hours = 0.0;              ///< of a 10 fps camera's frames, with --day
   std::vector<std::string> overrides;  ///< every robot's tscd keys (its route comes on top)
   SoakCheckOptions check;
 };
@@ -287,6 +293,7 @@ SoakRequest ToSoakRequest(const po::variables_map& vm) {
   req.robots = vm["robots"].as<int>();
   if (req.robots < 2 || req.robots > 16) throw UsageError("--robots must be in 2..16");
   req.day = vm.count("day") > 0;
+  req.loop = req.day || vm.count("loop") > 0;
   const double fps_asked = vm["fps"].as<double>();
   if (req.day) {
     if (vm.count("loop")) throw UsageError("--day drives the routes again and again: no --loop");
@@ -295,7 +302,11 @@ SoakRequest ToSoakRequest(const po::variables_map& vm) {
           "--day sets the length (a day's frames at --fps): no --minutes or --seconds");
     }
     if (!(fps_asked > 0)) throw UsageError("--day needs --fps above 0");
-    req.duration_s = kDayFrames / fps_asked;
+    req.day_hours = vm["day"].as<double>();
+    if (!(req.day_hours > 0 && req.day_hours <= 24 * 365)) {
+      throw UsageError("--day HOURS must be above 0 (and at most a year)");
+    }
+    req.duration_s = req.day_hours * kFramesPerHour / fps_asked;
   } else {
     req.duration_s =
         vm.count("seconds") ? vm["seconds"].as<double>() : 60.0 * vm["minutes"].as<double>();
@@ -320,7 +331,7 @@ SoakRequest ToSoakRequest(const po::variables_map& vm) {
   std::ostringstream fps;
   fps << vm["fps"].as<double>();
   req.overrides = {"camera.source=sim",
-                   std::string("camera.loop=") + (vm.count("loop") || req.day ? "true" : "false"),
+                   std::string("camera.loop=") + (req.loop ? "true" : "false"),
                    "lcm.url=" + std::string(kLcmUrl),
                    "sim.world_seed=" + std::to_string(vm["world"].as<long long>()),
                    "sim.world=" + vm["kind"].as<std::string>(),
@@ -376,6 +387,10 @@ class SoakTeam {
     }
     argv.push_back("--set");
     argv.push_back("sim.route=" + std::to_string(r.id - 1));
+    if (req_.loop && r.frames_driven > 0) {
+      argv.push_back("--set");
+      argv.push_back("sim.start_frame=" + std::to_string(r.frames_driven));
+    }
     r.pid = SpawnProcess(tscd_, argv, r.dir / "tscd.log");
     r.state = RobotState::kRunning;
     r.started = r.state_since = Clock::now();
@@ -410,6 +425,7 @@ class SoakTeam {
         }
         r.state = RobotState::kDown;
         r.state_since = now;
+        if (r.stats) r.frames_driven += r.stats->frames;
         continue;
       }
       if (r.state == RobotState::kStopping && Seconds(now - r.state_since) > kStopGraceS) {
@@ -601,8 +617,9 @@ int RunSoak(const SoakRequest& req, const std::vector<std::string>& args) {
 
   for (Robot& r : team.robots()) team.Spawn(r);
   if (req.day) {
-    std::cout << "tsc soak --day: " << kDayFrames << " frames per robot (a day at 10 fps) in "
-              << req.duration_s << " s" << std::endl;
+    std::cout << "tsc soak --day: " << req.day_hours * kFramesPerHour << " frames per robot ("
+              << req.day_hours << " h of a 10 fps camera) in " << req.duration_s << " s"
+              << std::endl;
   }
   std::cout << "tsc soak: " << req.robots << " robots, " << req.duration_s << " s, " << req.loss
             << " % UDP loss, a restart every " << req.every_s << " s (seed " << req.seed

@@ -39,6 +39,7 @@ class RouteRecorder {
     for (const DetectedPlace& d : r.closed_places) closed_.emplace(d.index, d.members);
     for (const PlaceEvent& e : r.events) {
       if (e.kind == EventKind::kDetected) ++robot_.detected_places;
+      if (e.kind == EventKind::kAmbiguous) closed_.erase(e.detected_place);  // no place
       const bool recognized = e.kind == EventKind::kRecognized && !e.partial;
       if (!recognized && e.kind != EventKind::kLearned) continue;
       const auto it = closed_.find(e.detected_place);

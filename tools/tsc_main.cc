@@ -80,13 +80,13 @@ depth/ (16-bit PNG, mm), camera.json ({"width","height","hfov_deg"} or fx,fy,cx,
 60 degrees horizontal field of view), groundtruth.csv and revisits.csv (see README.md).
 
 Events are written as JSON lines, one per event:
-  {"frame":k,"event":"detected|recognized|learned|mapped|pruned","detected_place":m,
-   "place":"<robot>:<id>", ...}
-where k is the base point index (0-based). Recognized and learned events carry the cost g_N
-and its terms ("terms":{"distance","ratio","vote","agreement"}): why a place was recognised
-or learned (a cost within tau_r with an agreement below memory.min_agreement is learned;
-towards a place the map joins to the previous one the cost may exceed tau_r by
-memory.neighbour_margin).
+  {"frame":k,"event":"detected|recognized|learned|ambiguous|mapped|pruned",
+   "detected_place":m,"place":"<robot>:<id>", ...}
+where k is the base point index (0-based). Recognized, learned and ambiguous events carry the
+cost g_N and its terms ("terms":{"distance","ratio","vote","agreement"}): why a place was
+recognised or learned (towards a place the map joins to the previous one the cost may exceed
+tau_r by memory.neighbour_margin). A detected place within tau_r whose agreement is below
+memory.min_agreement is "ambiguous": it gets no place (memory.learn_disagreed = true learns it).
 
 Options)";
 
@@ -169,7 +169,8 @@ double Median(std::vector<double> v) {
 
 struct RunCounts {
   int64_t frames = 0, good = 0, uninformative = 0, incoherent = 0;
-  int64_t detected = 0, pruned = 0, learned = 0, recognized = 0, partial = 0, mapped = 0;
+  int64_t detected = 0, pruned = 0, learned = 0, recognized = 0, partial = 0, mapped = 0,
+          ambiguous = 0;
   ProgressCounts progress() const { return {detected, learned, recognized}; }
   void Add(const FrameResult& r) {
     if (r.has_base) {
@@ -202,6 +203,9 @@ struct RunCounts {
           break;
         case EventKind::kMapped:
           ++mapped;
+          break;
+        case EventKind::kAmbiguous:
+          ++ambiguous;
           break;
       }
     }
@@ -301,7 +305,7 @@ int Run(const std::vector<std::string>& args) {
       "  base points      %lld (good %lld, uninformative %lld, incoherent %lld)\n"
       "  detected places  %lld (and %lld pruned)\n"
       "  learned places   %lld new, %lld in memory (tree depth %d)\n"
-      "  recognitions     %lld (and %lld on partial places)\n"
+      "  recognitions     %lld (and %lld on partial places; %lld ambiguous places left)\n"
       "  map              %zu places, %zu edges (%lld transitions mapped)\n"
       "  median per frame %.2f ms pipeline, %.2f ms with decoding and commit\n",
       static_cast<long long>(counts.frames), dataset_dir.c_str(), db_path.c_str(),
@@ -311,8 +315,9 @@ int Run(const std::vector<std::string>& args) {
       static_cast<long long>(learned_now - learned_before), static_cast<long long>(learned_now),
       pipeline.memory().empty() ? 0 : pipeline.memory().Depth(),
       static_cast<long long>(counts.recognized), static_cast<long long>(counts.partial),
-      pipeline.map().places().size(), pipeline.map().edges().size(),
-      static_cast<long long>(counts.mapped), Median(pipeline_ms), Median(total_ms));
+      static_cast<long long>(counts.ambiguous), pipeline.map().places().size(),
+      pipeline.map().edges().size(), static_cast<long long>(counts.mapped), Median(pipeline_ms),
+      Median(total_ms));
   std::cout << spacing.str();
   return kExitOk;
 }
@@ -392,11 +397,13 @@ int Eval(const std::vector<std::string>& args) {
   std::printf(
       "tsc eval: %d frames of %s (ground truth: %s)\n"
       "  base points      good %d, uninformative %d, incoherent %d\n"
-      "  detected places  %zu, learned places %d\n",
+      "  detected places  %zu, learned places %d, ambiguous (no place) %lld\n",
       r.frames, dataset_dir.c_str(),
       r.truth.has_labels() ? (r.truth.has_revisits() ? "labels, revisits" : "labels")
                            : (r.truth.has_revisits() ? "revisits" : "none"),
-      r.good, r.uninformative, r.incoherent, r.main.detected.size(), r.main.learned_places);
+      r.good, r.uninformative, r.incoherent, r.main.detected.size(), r.main.learned_places,
+      static_cast<long long>(std::count_if(r.main.detected.begin(), r.main.detected.end(),
+                                           [](const EvalDetectedPlace& d) { return !d.place; })));
   std::cout << spacing.str();
   if (r.boundaries) {
     std::printf("  boundaries       F1 %.3f (precision %.3f, recall %.3f; %d true, %d detected)\n",

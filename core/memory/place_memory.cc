@@ -185,6 +185,8 @@ Recognition PlaceMemory::Descend(const ViewDistances& vd, const Votes& votes, in
       if (r.terms.agreement >= options_.cost.min_agreement) {
         r.place = nodes_[r.terms.best].place;
         r.neighbour = above_tau_r;
+      } else {
+        r.disagreed = true;
       }
       return r;
     }
@@ -220,6 +222,7 @@ Recognition PlaceMemory::Recognize(const DetectedPlace& d, std::optional<int> pr
     total.terms = r.terms;
     total.place = r.place;
     total.neighbour = r.neighbour;
+    total.disagreed = total.disagreed || r.disagreed;
   };
   bool root_tried = false;
   if (previous && *previous >= 0 && *previous < static_cast<int>(places_.size())) {

@@ -59,6 +59,12 @@ struct PlaceMemoryOptions {
   /// is the one N¹'s node had one level up instead of a lone child's 1 (docs/decisions.md
   /// "Recognition cost": repeat laps).
   bool copies_keep_outer_ratio = true;
+  /// A detected place whose g_N passes but whose points name other places (the agreement
+  /// fails) is learned as a new place (true, as any unrecognised one), or left without a
+  /// place (false; the pipeline's "ambiguous" event): its cost says it is known, only not
+  /// which place it is, and learning it adds a copy of a room held already
+  /// (docs/decisions.md, "Recognition cost": long runs).
+  bool learn_disagreed = false;
   /// The unit u of the distance term and the vote radius, a squared descriptor distance: 0
   /// takes the memory's median view spacing (adapts to any camera); > 0 fixes it for a
   /// camera kind (a preset, docs/decisions.md "Recognition cost").
@@ -112,6 +118,9 @@ struct Recognition {
   bool hybrid = false;       ///< the hybrid traversal recognised it
   /// Recognised with some g_N above τ_r, towards a map neighbour (neighbour_margin).
   bool neighbour = false;
+  /// Not recognised, though some descent reached a terminal within its τ: D's points did not
+  /// agree with it (memory.min_agreement).
+  bool disagreed = false;
   std::vector<int> start_nodes;  ///< nodes a descent started from, in order
   std::vector<int> visited;      ///< every inner node whose g_N was evaluated, in order
 };

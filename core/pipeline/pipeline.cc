@@ -30,6 +30,8 @@ const char* EventKindName(EventKind k) {
       return "mapped";
     case EventKind::kPruned:
       return "pruned";
+    case EventKind::kAmbiguous:
+      return "ambiguous";
   }
   return "?";
 }
@@ -237,6 +239,20 @@ void Pipeline::HandleDetection(const std::vector<DetectionEvent>& events, BaseIn
       // Recognise or learn (sections 3.5, 3.6); the map says which places lie next to the
       // previous one.
       const Recognition r = memory_.Recognize(d, previous_index(), neighbour_indices());
+      if (!r.place && r.disagreed && !memory_.options().learn_disagreed) {
+        // Known by its cost, but its points name other places (a room held several times
+        // splits them): learning it would add one more copy. It stays without a place, and
+        // the map joins nothing across it: where the robot was is not known.
+        PlaceEvent e = MakeEvent(EventKind::kAmbiguous, k, closed->place);
+        e.cost = r.cost;
+        e.terms = r.terms;
+        out.events.push_back(e);
+        previous_place_.reset();
+        whereabouts_.reset();
+        partial_recognition_.reset();
+        out.closed_places.push_back(std::move(d));
+        continue;
+      }
       int place;
       PlaceEvent e = MakeEvent(EventKind::kLearned, k, closed->place);
       if (r.place) {

@@ -20,7 +20,9 @@
 
 namespace tsc {
 
-enum class EventKind { kDetected, kRecognized, kLearned, kMapped, kPruned };
+/// kAmbiguous: a closed detected place that g_N would recognise but whose points name other
+/// places (memory.min_agreement), left without a place when memory.learn_disagreed is false.
+enum class EventKind { kDetected, kRecognized, kLearned, kMapped, kPruned, kAmbiguous };
 const char* EventKindName(EventKind k);
 
 /// One pipeline event; the fields that do not apply keep their defaults.
@@ -30,8 +32,9 @@ struct PlaceEvent {
   DetectedPlaceIndex detected_place = 0;
   std::optional<PlaceId> place;  ///< recognised / learned / mapped-to place
   std::optional<PlaceId> from;   ///< mapped: the previous place β(D_{m−1})
-  double cost = 0.0;     ///< recognised: g_N of the final decision; learned: the last g_N tried
-  CostTerms terms;       ///< recognised, learned: the terms of `cost` (why it was or was not)
+  /// recognised: g_N of the final decision; learned, ambiguous: the last g_N tried
+  double cost = 0.0;
+  CostTerms terms;       ///< recognised, learned, ambiguous: the terms of `cost` (why)
   bool partial = false;  ///< recognised on an opened, not yet closed place
   bool hybrid = false;   ///< recognised by the hybrid traversal
   /// Recognised with some g_N above τ_r, towards a map neighbour of the previous place.

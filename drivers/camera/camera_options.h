@@ -54,6 +54,9 @@ struct SimOptions {
   int team_size = 1;             ///< robots sharing the world (routes are dealt among them)
   int route = 0;                 ///< this robot's route, in [0, team_size)
   double revisit_fraction = 0.5;
+  /// Scripted route: the route frame to start at (modulo the route's length), where a robot
+  /// started again stands: a restarted robot has not moved (tsc soak sets it).
+  int64_t start_frame = 0;
   std::string lighting = "day";  ///< day | dim | mixed
   /// "route": the camera follows the robot's scripted route; "commands": a simulated base
   /// integrates JAGUAR_CMD_<robot> commands and the camera renders from its pose.

@@ -48,6 +48,7 @@ SimCameraOptions ToSimCameraOptions(const CameraOptions& camera, const SimOption
     throw std::invalid_argument(std::string("camera.sweep_steps / camera.sweep_deg: ") + e.what());
   }
   out.robot = sim.route;
+  out.start_frame = sim.start_frame;
   out.fps = camera.fps;
   out.loop = camera.loop;
   out.Validate();

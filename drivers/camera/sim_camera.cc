@@ -14,6 +14,10 @@ void SimCameraOptions::Validate() const {
                                 std::to_string(scene.robots) + ") (team size " +
                                 std::to_string(scene.robots) + ")");
   }
+  if (start_frame < 0) {
+    throw std::invalid_argument("sim camera: start frame " + std::to_string(start_frame) +
+                                " must not be negative");
+  }
   if (!(fps >= 0.0 && fps <= 1000.0)) {
     throw std::invalid_argument("sim camera: fps " + std::to_string(fps) + " must be in [0, 1000]");
   }
@@ -47,6 +51,13 @@ SimCamera::SimCamera(const SimCameraOptions& options, const MotorBase* base, Clo
           options.scene.render.width, options.scene.render.height, options.scene.render.hfov_deg)),
       pacer_(options.fps, clock) {
   if (route_->empty()) throw std::invalid_argument("sim camera: " + name() + " has no frames");
+  next_index_ = static_cast<size_t>(options.start_frame) % RouteEnd();
+}
+
+size_t SimCamera::RouteEnd() const {
+  return options_.scene.max_frames > 0
+             ? std::min(route_->size(), static_cast<size_t>(options_.scene.max_frames))
+             : route_->size();
 }
 
 std::string SimCamera::name() const {
@@ -75,11 +86,7 @@ std::optional<CameraFrame> SimCamera::Next() {
   if (pending_.empty()) {
     sim::RouteFrame frame;
     if (base_ == nullptr) {
-      const size_t end =
-          options_.scene.max_frames > 0
-              ? std::min(route_->size(), static_cast<size_t>(options_.scene.max_frames))
-              : route_->size();
-      if (next_index_ >= end) {
+      if (next_index_ >= RouteEnd()) {
         if (!options_.loop) return std::nullopt;
         next_index_ = 0;
       }

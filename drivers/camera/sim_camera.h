@@ -32,6 +32,9 @@ struct SimCameraOptions {
   /// Scripted route: start again at its first pose after the last, the route closed
   /// (RouteOptions::closed) so that a lap ends where the next begins.
   bool loop = false;
+  /// Scripted route: the first frame delivered, modulo the route's length (cut to
+  /// scene.max_frames): a robot started again where it stood.
+  int64_t start_frame = 0;
   /// Throws std::invalid_argument naming the bad field.
   void Validate() const;
 };
@@ -78,6 +81,8 @@ class SimCamera : public CameraSource {
   SimCamera(const SimCameraOptions& options, const MotorBase* base, Clock& clock);
   /// The route frame at the base's pose, with the revisit flag of routes.h.
   sim::RouteFrame FrameAtBase();
+  /// Frames of the scripted route delivered per lap (scene.max_frames cuts it).
+  size_t RouteEnd() const;
 
   SimCameraOptions options_;
   Clock& clock_;

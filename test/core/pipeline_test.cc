@@ -235,6 +235,80 @@ TEST_F(PipelineTest, ARevisitFromAMapNeighbourMayCostUpToTheNeighbourMargin) {
   }
 }
 
+// A pass from place B to place C so gradual that it is one detected place, with a place M
+// halfway between them known too: M is nearest the pass in the median, so g_N recognises it,
+// but only the pass's middle names M (its ends name B and C). By default it is left without a
+// place (an "ambiguous" event: nothing learned, no map edge across it, as the robot's
+// whereabouts are unknown); with memory.learn_disagreed it is learned as a new place.
+TEST_F(PipelineTest, APlaceItsPointsDoNotAgreeWithIsLeftWithoutAPlaceUnlessLearningIsAsked) {
+  const Eigen::VectorXf b = centres_[0], c = centres_[1];
+  const Eigen::VectorXf m = Normalised((b + c) / 2);
+  std::normal_distribution<float> noise(0.0f, 0.02f);
+  const auto noisy = [&](const Eigen::VectorXf& centre) {
+    Eigen::VectorXf v = centre;
+    for (int i = 0; i < kDim; ++i) v[i] = std::max(0.0f, v[i] * (1.0f + noise(rng_)));
+    return Normalised(v);
+  };
+  for (const bool learn : {false, true}) {
+    SCOPED_TRACE(learn);
+    PipelineOptions options = Options();
+    options.memory.tau_r = 1000;              // the cost passes: the agreement decides
+    options.memory.cost.coincide_factor = 0;  // B and C are no copies of M
+    options.memory.cost.agreement_slack = 1;  // a point agrees with its nearest place only
+    options.memory.cost.min_agreement = 0.6;  // the middle half of the pass names M
+    options.memory.learn_disagreed = learn;
+    PlaceMemory memory(1, options.memory);
+    BaseIndex next = 0;
+    for (const Eigen::VectorXf* centre : {&b, &c, &m}) {
+      DetectedPlace d;
+      d.index = static_cast<DetectedPlaceIndex>(memory.places().size() + 1);
+      d.descriptors.resize(kDim, 15);
+      for (int j = 0; j < 15; ++j) {
+        d.descriptors.col(j) = noisy(*centre);
+        d.members.push_back(next++);
+      }
+      memory.Learn(d);
+    }
+    Pipeline pipeline(CameraIntrinsics::FromHorizontalFov(64, 48, 60), options, std::move(memory),
+                      TopologicalMap());
+    events_.clear();
+    constexpr int kPass = 60;
+    for (int j = 0; j < kPass; ++j) {
+      const float t = static_cast<float>(j) / (kPass - 1);
+      Collect(pipeline.ProcessDescriptor(Descriptor(noisy((1 - t) * b + t * c)),
+                                         IntensityStats{0.5, 0.05}));
+    }
+    std::uniform_int_distribution<int> pick(0, kDim - 1);
+    for (int j = 0; j < 3; ++j) {  // a transition
+      Eigen::VectorXf v = Eigen::VectorXf::Zero(kDim);
+      for (int s = 0; s < 5; ++s) v[pick(rng_)] = 1.0f;
+      Collect(pipeline.ProcessDescriptor(Descriptor(Normalised(v)), IntensityStats{0.5, 0.05}));
+    }
+    Visit(pipeline, 0, 15);  // B again
+    Collect(pipeline.Finish());
+    ASSERT_EQ(Count(EventKind::kDetected), 2);
+    const auto pass = std::find_if(events_.begin(), events_.end(), [](const PlaceEvent& e) {
+      return (e.kind == EventKind::kRecognized && !e.partial) || e.kind == EventKind::kLearned ||
+             e.kind == EventKind::kAmbiguous;
+    });
+    ASSERT_NE(pass, events_.end());
+    EXPECT_EQ(pass->detected_place, 1);
+    EXPECT_LT(pass->terms.agreement, options.memory.cost.min_agreement);
+    EXPECT_LE(pass->cost, options.memory.tau_r);
+    if (learn) {
+      EXPECT_EQ(pass->kind, EventKind::kLearned);
+      EXPECT_EQ(pipeline.memory().places().size(), 4u);
+      continue;
+    }
+    EXPECT_EQ(pass->kind, EventKind::kAmbiguous);
+    EXPECT_FALSE(pass->place.has_value());
+    EXPECT_EQ(pipeline.memory().places().size(), 3u);  // nothing learned
+    EXPECT_EQ(Count(EventKind::kRecognized), 1);       // B, on its revisit
+    EXPECT_EQ(Count(EventKind::kMapped), 0) << "no edge across a place of unknown whereabouts";
+    EXPECT_TRUE(pipeline.map().edges().empty());
+  }
+}
+
 // A short passage through a known place P between A and B is pruned (extent ≤ τ_p). Without
 // whereabouts recognition the map joins A and B across it; with it, the robot recognises P
 // on the passage and the map records A → P → B, leaving the memory as it was.

@@ -511,14 +511,17 @@ TEST(PlaceMemoryViews, APlaceNoneOfDsPointsNamesIsNotRecognised) {
   ASSERT_TRUE(by_cost.place.has_value());
   EXPECT_EQ(*by_cost.place, 0);
   EXPECT_EQ(by_cost.terms.agreement, 0.0);
+  EXPECT_FALSE(by_cost.disagreed);
   const Recognition got = dut.Recognize(pass);
   EXPECT_FALSE(got.place.has_value()) << *got.place;
   EXPECT_EQ(got.terms.agreement, 0.0);
+  EXPECT_TRUE(got.disagreed) << "the cost passed, the agreement did not";
   // Each room's own visit still agrees with it and is recognised.
   const Recognition room = dut.Recognize(views::Visit(b, 12, rng));
   ASSERT_TRUE(room.place.has_value());
   EXPECT_EQ(*room.place, 1);
   EXPECT_GE(room.terms.agreement, 0.9);
+  EXPECT_FALSE(room.disagreed);
 }
 
 // Keyframes far apart (the real loop's, a metre) come no nearer the member views than their own

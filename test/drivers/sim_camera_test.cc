@@ -128,6 +128,30 @@ TEST_F(SimCameraTest, LoopingRouteIsClosedSoThatALapEndsWhereTheNextBegins) {
   EXPECT_GT(std::hypot(open_end.x - start.x, open_end.y - start.y), 1.0);
 }
 
+// A robot started again where it stood (tsc soak's restarts of a looping robot): the route
+// goes on from sim.start_frame, modulo its length.
+TEST_F(SimCameraTest, StartFrameStartsTheRouteThereModuloItsLength) {
+  SimCameraOptions options = Small();
+  options.scene.max_frames = 6;
+  options.scene.jitter_heading_deg = 0;  // the poses delivered are the route's
+  options.scene.jitter_position_m = 0;
+  options.loop = true;
+  options.start_frame = 6 + 4;  // a lap and four frames
+  SimCamera resumed(options, clock_);
+  const auto same = [](const sim::Pose2& a, const sim::Pose2& b) {
+    return a.x == b.x && a.y == b.y && a.heading == b.heading;
+  };
+  ASSERT_TRUE(resumed.Next().has_value());
+  EXPECT_TRUE(same(resumed.last().pose, resumed.route()[4].pose));
+  EXPECT_FALSE(same(resumed.last().pose, resumed.route()[0].pose));
+  ASSERT_TRUE(resumed.Next().has_value());
+  EXPECT_TRUE(same(resumed.last().pose, resumed.route()[5].pose));
+  ASSERT_TRUE(resumed.Next().has_value());  // past the cut: the next lap
+  EXPECT_TRUE(same(resumed.last().pose, resumed.route()[0].pose));
+  options.start_frame = -1;
+  EXPECT_THROW(SimCamera(options, clock_), std::invalid_argument);
+}
+
 TEST_F(SimCameraTest, WholeRouteEndsAfterItsLastFrame) {
   SimCameraOptions options = Small();
   options.scene.render.width = 16;

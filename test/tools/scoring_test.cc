@@ -57,6 +57,29 @@ TEST(Scoring, PrecisionAndRecallFollowDesignRules) {
   }
 }
 
+// An ambiguous detected place (no place: neither recognised nor learned) is a miss where it
+// should be recognised, and founds nothing a later revisit could be recognised as.
+TEST(Scoring, AnAmbiguousPlaceIsAMissAndFoundsNothing) {
+  GroundTruth truth;
+  truth.labels = {"a", "a", "a", "a", "b", "b", "b", "b"};
+  const PlaceId p1{1, 1}, p2{1, 2};
+  const std::vector<Assignment> seq = {
+      {{0, 1}, p1, false},            // learn a
+      {{2, 3}, std::nullopt, false},  // a again, ambiguous: missed
+      {{4, 5}, std::nullopt, false},  // b, ambiguous: nothing to recognise yet
+      {{6, 7}, p2, false},            // b again: learned, and nothing to recognise either
+  };
+  const RecognitionScore s = ScoreRecognition(truth, seq);
+  EXPECT_EQ(s.recognitions, 0);
+  EXPECT_EQ(s.should_be_recognized, 1);
+  EXPECT_EQ(s.recall, 0.0);
+  ASSERT_EQ(s.verdicts.size(), 4u);
+  EXPECT_TRUE(s.verdicts[1].should);
+  EXPECT_FALSE(s.verdicts[1].correct);
+  EXPECT_FALSE(s.verdicts[2].should);
+  EXPECT_FALSE(s.verdicts[3].should);
+}
+
 TEST(Scoring, RecognitionCorrectWrongAndMissed) {
   GroundTruth truth;
   truth.labels = {"a", "a", "b", "b", "a", "a", "b", "b"};
