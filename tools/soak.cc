@@ -97,6 +97,10 @@ bool PeersChanged(const std::vector<SoakSample>& samples, int robot, double t0, 
 
 }  // namespace
 
+double PlacesPerRoom(const SoakSample& s) {
+  return s.rooms > 0 ? static_cast<double>(s.places) / static_cast<double>(s.rooms) : 0.0;
+}
+
 std::string SoakCsvHeader() {
   std::string h = kFixedColumns;
   for (const char* f : kSoakFamilies) {
@@ -316,8 +320,7 @@ RobotSeries Collect(const std::vector<const SoakSample*>& rows, double d,
     }
     f.rss_last_mb = s->rss_mb;
     f.places_last = s->places;
-    f.places_per_room_last =
-        s->rooms > 0 ? static_cast<double>(s->places) / static_cast<double>(s->rooms) : 0.0;
+    f.places_per_room_last = PlacesPerRoom(*s);
     f.rss_max_mb = std::max(f.rss_max_mb, s->rss_mb);
     f.places_max = std::max(f.places_max, s->places);
     series.rss_by_life[s->life].emplace_back(s->t_s, s->rss_mb);

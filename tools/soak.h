@@ -73,6 +73,9 @@ struct SoakRestart {
   double down_s = 0.0;  ///< from the signal to the new process
 };
 
+/// Places in the robot's memory per room of the routes at `s`; 0 when the rooms are unknown.
+double PlacesPerRoom(const SoakSample& s);
+
 /// The header line of soak.csv.
 std::string SoakCsvHeader();
 std::string SoakCsvRow(const SoakSample& s);

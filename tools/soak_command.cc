@@ -282,8 +282,7 @@ struct SoakRequest {
   std::string netns;  ///< new|current
   fs::path out;
   bool loop = false;                   ///< routes driven again and again (--loop, --day)
-  bool day = false;                    ///< the accelerated day (--day)
-  double day_hours = 0.0;              ///< of a 10 fps camera's frames, with --day
+  double day_hours = 0.0;              ///< the accelerated day (--day): a 10 fps camera's hours
   std::vector<std::string> overrides;  ///< every robot's tscd keys (its route comes on top)
   SoakCheckOptions check;
 };
@@ -292,10 +291,10 @@ SoakRequest ToSoakRequest(const po::variables_map& vm) {
   SoakRequest req;
   req.robots = vm["robots"].as<int>();
   if (req.robots < 2 || req.robots > 16) throw UsageError("--robots must be in 2..16");
-  req.day = vm.count("day") > 0;
-  req.loop = req.day || vm.count("loop") > 0;
+  const bool day = vm.count("day") > 0;
+  req.loop = day || vm.count("loop") > 0;
   const double fps_asked = vm["fps"].as<double>();
-  if (req.day) {
+  if (day) {
     if (vm.count("loop")) throw UsageError("--day drives the routes again and again: no --loop");
     if (vm.count("seconds") || !vm["minutes"].defaulted()) {
       throw UsageError(
@@ -545,8 +544,9 @@ std::vector<std::string> LostPlaces(const SoakRequest& req, const std::vector<Ro
       const Settings settings = RobotSettings(req, r.id - 1);
       const InspectedStore stored =
           InspectStore(r.dir / "memory.db", settings.pipeline.memory, static_cast<uint32_t>(r.id));
-      std::set<PlaceId> held;
+      std::set<PlaceId> places, held;  // the places; they and their sources
       for (const LearnedPlace& p : stored.memory.places()) {
+        places.insert(p.id);
         held.insert(p.id);
         held.insert(p.sources.begin(), p.sources.end());
       }
@@ -564,8 +564,6 @@ std::vector<std::string> LostPlaces(const SoakRequest& req, const std::vector<Ro
                            " learned places are in no place of its store (" + ids +
                            (lost.size() > 10 ? ", ..." : "") + ")");
       }
-      std::set<PlaceId> places;
-      for (const LearnedPlace& p : stored.memory.places()) places.insert(p.id);
       int64_t dangling = 0;
       for (const auto& [ends, e] : stored.map.edges()) {
         if (!places.count(e.a) || !places.count(e.b)) ++dangling;
@@ -597,9 +595,7 @@ int RunSoak(const SoakRequest& req, const std::vector<std::string>& args) {
   fs::create_directories(req.out);
   const fs::path tscd = TscdBesideThisTsc();
   for (int i = 0; i < req.robots; ++i) {  // a bad key is one message here, not N robot logs
-    std::vector<std::string> o = req.overrides;
-    o.push_back("sim.route=" + std::to_string(i));
-    (void)LoadSettings(std::nullopt, o);
+    (void)RobotSettings(req, i);
   }
   if (req.loss > 0) AddLossRule(req.loss, req.seed);
   struct RemoveLoss {
@@ -616,7 +612,7 @@ int RunSoak(const SoakRequest& req, const std::vector<std::string>& args) {
   std::mt19937 rng(req.seed);
 
   for (Robot& r : team.robots()) team.Spawn(r);
-  if (req.day) {
+  if (req.day_hours > 0) {
     std::cout << "tsc soak --day: " << req.day_hours * kFramesPerHour << " frames per robot ("
               << req.day_hours << " h of a 10 fps camera) in " << req.duration_s << " s"
               << std::endl;

@@ -174,7 +174,7 @@ cv::Mat DrawSoak(const std::vector<SoakSample>& samples, const std::vector<SoakR
   const std::vector<Series> places = PerRobot(
       samples, team_size,
       [rooms](const SoakSample& s) {
-        return rooms > 0 ? static_cast<double>(s.places) / rooms : static_cast<double>(s.places);
+        return rooms > 0 ? PlacesPerRoom(s) : static_cast<double>(s.places);
       },
       true);
   const std::vector<Series> database = PerRobot(
