@@ -2,7 +2,7 @@
 // deliver 3; DESIGN §8: RSS ≤ 200 MB at 10⁴ places). A whole-program measurement, not a
 // Google Benchmark: a store holding N synthetic places (test/support/synthetic_places.h, the
 // descriptor dimension of the default features, as many member views as a place keeps at
-// most, 32, unless --members says otherwise) is written, the real
+// most, 32 for each of two visits, unless --members says otherwise) is written, the real
 // tscd binary is started on it (sim camera at 1 frame/s, LCM on memq://, so nothing leaves
 // the process), and once it has loaded the memory, announced and built its first snapshot
 // the report gives its resident set (VmRSS, and the peak VmHWM) and the database size, in
@@ -82,9 +82,14 @@ int Main(int argc, char** argv) {
   if (!args) return 2;
   const int places = static_cast<int>(NumberArg(*args, "places", 10000));
   const int dim = static_cast<int>(NumberArg(*args, "dim", 1200));
-  // A place of a long-lived memory holds the cap (memory.max_samples_per_place).
-  const int members =
-      static_cast<int>(NumberArg(*args, "members", PlaceMemoryOptions{}.max_samples_per_place));
+  // A place of a long-lived memory holds the cap: memory.max_samples_per_place views for each
+  // of memory.sample_visits visits.
+  const PlaceMemoryOptions defaults;
+  const int members = static_cast<int>(
+      NumberArg(*args, "members", defaults.max_samples_per_place * defaults.sample_visits));
+  // Seen as often as its views need: a place keeps max_samples_per_place views a visit.
+  const int visits =
+      std::max(1, (members + defaults.max_samples_per_place - 1) / defaults.max_samples_per_place);
   const double settle_s = NumberArg(*args, "settle-s", 15);
   const std::string out = args->count("out") ? args->at("out") : "";
   if (places < 1 || dim < 1 || members < 1) {
@@ -105,11 +110,12 @@ int Main(int argc, char** argv) {
     // From 10⁵ places the SLINK tree over the means' coordinates in the basis, as the
     // benchmarks' fixtures (every γ in 1200 dimensions would take the writer hours).
     const bool large = places >= testing_support::kLargeMemory && options.memory.view_basis;
-    const Pipeline pipeline(
-        CameraIntrinsics::FromHorizontalFov(160, 120, 60), options,
-        large ? testing_support::LargeSyntheticMemory(1, world, 0, places, members, options.memory)
-              : testing_support::SyntheticMemory(1, world, 0, places, members, options.memory),
-        TopologicalMap{}, PipelineState{});
+    const Pipeline pipeline(CameraIntrinsics::FromHorizontalFov(160, 120, 60), options,
+                            large ? testing_support::LargeSyntheticMemory(
+                                        1, world, 0, places, members, options.memory, visits)
+                                  : testing_support::SyntheticMemory(1, world, 0, places, members,
+                                                                     options.memory, visits),
+                            TopologicalMap{}, PipelineState{});
     store.CommitPending({}, pipeline, true, std::nullopt);
   }
   const uint64_t db_bytes = FileBytes(dir / "memory.db") + FileBytes(dir / "memory.db-wal");

@@ -144,6 +144,33 @@ BENCHMARK(BM_RecognizeAtDefaultCaps)
     ->Args({kLarge, 1})
     ->Unit(benchmark::kMicrosecond);
 
+// The same once every place was seen twice (memory.sample_visits 2): 64 views a place, what a
+// long-lived memory's places reach (2x the products of BM_RecognizeAtDefaultCaps).
+void BM_RecognizeAtSaturatedCaps(benchmark::State& state) {
+  const int n = static_cast<int>(state.range(0));
+  static std::map<int, std::unique_ptr<PlaceMemory>> cache;
+  auto& slot = cache[n];
+  if (!slot) {
+    const PlaceMemory& once = MemoryOf(n, kCappedMembers, true);
+    slot = std::make_unique<PlaceMemory>(PlaceMemory::Restore(
+        once.robot(), once.options(), once.places(), once.slink(), once.next_local_id(), {}));
+    for (int p = 0; p < n; ++p)
+      slot->Update(p, World().Visit(p, 3, kCappedMembers, kCappedMembers));
+  }
+  std::vector<DetectedPlace> queries;
+  for (int q = 0; q < 16; ++q) queries.push_back(Place((q * 37) % n, 1, kCappedMembers));
+  size_t i = 0, recognised = 0;
+  for (auto _ : state) {
+    const Recognition r = slot->Recognize(queries[i++ % queries.size()]);
+    recognised += r.place.has_value();
+    benchmark::DoNotOptimize(r);
+  }
+  state.counters["recognised_fraction"] =
+      static_cast<double>(recognised) / static_cast<double>(state.iterations());
+  state.counters["views_per_place"] = static_cast<double>(slot->places().front().samples.cols());
+}
+BENCHMARK(BM_RecognizeAtSaturatedCaps)->Arg(1000)->Arg(10000)->Unit(benchmark::kMicrosecond);
+
 // The index's share of a recognition: estimating every place's distance to D's queries.
 void BM_ViewIndexEstimate(benchmark::State& state) {
   const int n = static_cast<int>(state.range(0));

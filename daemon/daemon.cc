@@ -84,6 +84,11 @@ std::string Describe(const PlaceEvent& e) {
   if (e.kind == EventKind::kRecognized) {
     s += ", cost " + std::to_string(e.cost) + terms() + (e.partial ? " (partial)" : "") +
          (e.hybrid ? " (hybrid)" : "") + (e.neighbour ? " (map neighbour)" : "");
+    if (!e.folded.empty()) {
+      s += "; its copies";
+      for (const PlaceId& f : e.folded) s += " " + f.ToString();
+      s += " folded into it (consolidation)";
+    }
   }
   if (e.kind == EventKind::kLearned && e.terms.best >= 0) {
     s += ", last cost tried " + std::to_string(e.cost) + terms();

@@ -169,6 +169,7 @@ PipelineWorker::PipelineWorker(const Settings& settings, const CameraSource& cam
                                          std::move(map), state);
   pipeline_->set_before_update(
       [this](int place) { bodies_.BeforeUpdate(pipeline_->memory(), place); });
+  pipeline_->set_before_replace([this] { bodies_.BeforeReplace(pipeline_->memory()); });
   BuildSnapshot();  // version 1, what the first announce names
 }
 

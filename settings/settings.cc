@@ -377,9 +377,16 @@ std::vector<ConfigKey> BuildTable() {
       "", PlaceMemoryOptions::kTauHRange,
       [](auto& o) -> auto& { return o.pipeline.memory.tau_h; }));
   t.push_back(Number(
-      "memory.max_samples_per_place", "member views (descriptors) kept per learned place",
-      "descriptors", PlaceMemoryOptions::kMaxSamplesRange,
+      "memory.max_samples_per_place",
+      "member views (descriptors) kept per visit of a learned place", "descriptors",
+      PlaceMemoryOptions::kMaxSamplesRange,
       [](auto& o) -> auto& { return o.pipeline.memory.max_samples_per_place; }));
+  t.push_back(Number(
+      "memory.sample_visits",
+      "a place keeps max_samples_per_place member views for each of its visits (detected "
+      "places and places it absorbed), of at most this many visits",
+      "visits", PlaceMemoryOptions::kSampleVisitsRange,
+      [](auto& o) -> auto& { return o.pipeline.memory.sample_visits; }));
   t.push_back(Number(
       "memory.max_vote_points",
       "base points of a detected place the recognition cost is measured on (evenly spaced)",
@@ -439,6 +446,14 @@ std::vector<ConfigKey> BuildTable() {
       "while a place is open, recognise its last tau_p + 1 base points; when they show a "
       "learned place the rest does not, split the place where they begin",
       [](auto& o) -> auto& { return o.pipeline.split_known_tails; }));
+  t.push_back(Number(
+      "pipeline.consolidate_after",
+      "fold two learned places into one once this many revisits (not consecutive) showed them "
+      "holding one room: a sibling in the memory whose views lie within the vote radius of the "
+      "recognised place's, not joined to it by the map and sharing a map neighbour with it; "
+      "0 = never",
+      "revisits", PipelineOptions::kConsolidateAfterRange,
+      [](auto& o) -> auto& { return o.pipeline.consolidate_after; }));
   const size_t pipeline_keys = t.size();
   // [daemon] — tscd itself (DESIGN §6)
   t.push_back(Text(

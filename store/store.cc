@@ -1307,6 +1307,7 @@ void Store::CommitPending(std::span<const FrameResult> results, const Pipeline& 
       InsertTransitions(db, result);
       changed.insert(changed.end(), result.changed_places.begin(), result.changed_places.end());
       tree_changed |= result.memory_changed || !result.changed_places.empty();
+      replace_knowledge |= result.memory_replaced;
     }
     WritePipelineState(db, pipeline.state());
     if (replace_knowledge || peer) {

@@ -52,10 +52,19 @@ class RunRecorder {
     const DetectedPlace& d = it->second;
     std::vector<int> frames;
     for (BaseIndex k : d.members) frames.push_back(static_cast<int>(k));  // base k = frame k
-    assignments.push_back({frames, e.place, recognized});
-    run_.detected.push_back(
-        {e.detected_place, frames, e.place, recognized, e.cost, e.terms, std::nullopt, 0.0});
-    run_.detected.back().neighbour = e.neighbour;
+    // A consolidation folded places into the one recognised: their frames are its own now.
+    for (const PlaceId& f : e.folded) {
+      mirror_.Fold(*e.place, f);
+      const auto from = run_.frames_of.find(f);
+      if (from == run_.frames_of.end()) continue;
+      std::vector<int> moved = std::move(from->second);
+      run_.frames_of.erase(from);
+      auto& into = run_.frames_of[*e.place];
+      into.insert(into.end(), moved.begin(), moved.end());
+    }
+    assignments.push_back({frames, e.place, recognized, e.folded});
+    run_.detected.push_back({e.detected_place, frames, e.place, recognized, e.cost, e.terms,
+                             std::nullopt, 0.0, e.neighbour, e.folded});
     if (const auto partial = partial_.find(e.detected_place); partial != partial_.end()) {
       run_.detected.back().partial_place = partial->second.place;
       run_.detected.back().partial_cost = partial->second.cost;
@@ -313,6 +322,11 @@ void WriteDecisions(JsonWriter& w, const EvalResult& r) {
     if (r.truth.has_labels()) w.Key("label").String(MajorityLabel(r.truth, d.frames));
     w.Key("decision").String(d.recognized ? "recognized" : d.place ? "learned" : "ambiguous");
     if (d.recognized) w.Key("neighbour").Bool(d.neighbour);
+    if (!d.folded.empty()) {
+      w.Key("folded").Begin('[');
+      for (const PlaceId& f : d.folded) w.String(f.ToString());
+      w.End(']');
+    }
     if (d.place) w.Key("place").String(d.place->ToString());
     w.Key("cost").Number(d.cost);
     w.Key("terms").Begin('{');

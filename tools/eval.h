@@ -50,7 +50,8 @@ struct EvalDetectedPlace {
   /// The recognition tried when the place opened (pipeline.recognize_partial), if it named one.
   std::optional<PlaceId> partial_place;
   double partial_cost = 0.0;
-  bool neighbour = false;  ///< recognised only through memory.neighbour_margin
+  bool neighbour = false;       ///< recognised only through memory.neighbour_margin
+  std::vector<PlaceId> folded;  ///< places folded into `place` as it was recognised
 };
 
 /// One pass of the pipeline over the stored descriptors, at one τ_r.

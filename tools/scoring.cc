@@ -85,6 +85,14 @@ RecognitionScore ScoreRecognition(const GroundTruth& truth, const std::vector<As
   RecognitionScore s;
   std::map<PlaceId, std::vector<int>> learned;  // frames assigned to each place so far
   for (const Assignment& a : seq) {
+    for (const PlaceId& f : a.folded) {  // a consolidation: f's frames are a.place's now
+      const auto it = learned.find(f);
+      if (it == learned.end() || !a.place) continue;
+      std::vector<int> moved = std::move(it->second);
+      learned.erase(it);
+      auto& into = learned[*a.place];
+      into.insert(into.end(), moved.begin(), moved.end());
+    }
     bool should = false, view_should = false;
     for (const auto& [place, frames] : learned) {
       if (!FramesMatch(truth, a.frames, frames)) continue;
@@ -333,6 +341,25 @@ void PlaceMembersMirror::Append(Members& m, const std::vector<int>& frames,
   for (size_t j = 0; j < frames.size(); ++j) {
     m.frames.push_back(frames[j]);
     m.descriptors.emplace_back(descriptors.col(static_cast<Eigen::Index>(j)));
+  }
+}
+
+void PlaceMembersMirror::Fold(const PlaceId& into, const PlaceId& from) {
+  const auto it = places_.find(from);
+  if (it == places_.end() || from == into) return;
+  Members b = std::move(it->second);
+  places_.erase(it);
+  Members a = std::move(places_[into]);
+  Members& out = places_[into];
+  out = Members{};
+  size_t i = 0, j = 0;  // both in frame order: merge them
+  while (i < a.frames.size() || j < b.frames.size()) {
+    const bool take_a = j == b.frames.size() || (i < a.frames.size() && a.frames[i] <= b.frames[j]);
+    Members& src = take_a ? a : b;
+    size_t& k = take_a ? i : j;
+    out.frames.push_back(src.frames[k]);
+    out.descriptors.push_back(std::move(src.descriptors[k]));
+    ++k;
   }
 }
 

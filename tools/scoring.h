@@ -34,6 +34,9 @@ struct Assignment {
   /// revisits can match).
   std::optional<PlaceId> place;
   bool recognized = false;  ///< recognised (true) or learned (false)
+  /// Places that went into `place` as it was recognised (consolidation): their frames count
+  /// as `place`'s from this assignment on.
+  std::vector<PlaceId> folded{};
 };
 
 /// Majority label of `frames` (ignoring unlabelled frames), or "" when none is labelled.
@@ -199,6 +202,8 @@ class PlaceMembersMirror {
   /// place never learned names -1.
   std::vector<LoopClosure> Recognise(const PlaceId& place, const std::vector<int>& frames,
                                      const Eigen::MatrixXf& descriptors);
+  /// Place `from` went into `into` (consolidation): its members are `into`'s, in frame order.
+  void Fold(const PlaceId& into, const PlaceId& from);
 
  private:
   struct Members {

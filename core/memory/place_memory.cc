@@ -24,12 +24,23 @@ Eigen::VectorXf DetectedPlace::Mean() const {
   return descriptors.rowwise().mean();
 }
 
+int PlaceMemoryOptions::SampleCap(const LearnedPlace& p) const {
+  const size_t visits = std::max<size_t>(1, p.detected.size() + p.sources.size());
+  return max_samples_per_place * static_cast<int>(std::min<size_t>(visits, sample_visits));
+}
+
 void PlaceMemoryOptions::Validate() const {
   kTauRRange.Check("memory.tau_r", tau_r);
   kTauLRange.Check("memory.tau_l", tau_l);
   kNeighbourMarginRange.Check("memory.neighbour_margin", neighbour_margin);
   kTauHRange.Check("memory.tau_h", tau_h);
   kMaxSamplesRange.Check("memory.max_samples_per_place", max_samples_per_place);
+  kSampleVisitsRange.Check("memory.sample_visits", sample_visits);
+  if (static_cast<int64_t>(max_samples_per_place) * sample_visits > kMaxSamplesRange.max) {
+    throw std::invalid_argument("memory.max_samples_per_place x memory.sample_visits exceeds " +
+                                std::to_string(static_cast<int64_t>(kMaxSamplesRange.max)) +
+                                " member views a place");
+  }
   kMaxVotePointsRange.Check("memory.max_vote_points", max_vote_points);
   kShortlistRange.Check("memory.shortlist", shortlist);
   kStepUnitRange.Check("memory.step_unit", step_unit);
@@ -306,8 +317,8 @@ void PlaceMemory::Update(int place, const DetectedPlace& d) {
       ViewCoordinates(view_basis(), EvenlySpaced(d.descriptors, options_.max_samples_per_place));
   Eigen::MatrixXf pool(p.samples.rows(), p.samples.cols() + visit.cols());
   pool << p.samples.Decoded(), visit;
-  p.samples = CompactViews(ThinViews(pool, options_.max_samples_per_place));
   p.detected.push_back(d.index);
+  p.samples = CompactViews(ThinViews(pool, options_.SampleCap(p)));
   p.members.insert(p.members.end(), d.members.begin(), d.members.end());
   StoreDerived(place, place + 1);
   // The place's path to the root: centroids move, discriminants see new members.

@@ -48,8 +48,15 @@ struct PlaceMemoryOptions {
   /// τ_r by this much: the robot more likely enters a neighbour of where it was than any
   /// other place (docs/decisions.md "Recognition cost": map neighbours). 0: τ_r alone.
   double neighbour_margin = 0.3;
-  /// Member views kept per place (core/memory/member_views.h).
+  /// Member views kept per visit of a place (core/memory/member_views.h).
   int max_samples_per_place = 32;
+  /// A place keeps max_samples_per_place views for each visit (a detected place of its own or
+  /// a place it absorbed), of at most this many visits: a room revisited along other paths
+  /// keeps views of them, where one visit's cap made revisits lie further from the views the
+  /// longer the room and learned it again (docs/decisions.md "Member views"). 1: one visit's.
+  int sample_visits = 2;
+  /// The member views place `p` may keep (SampleCap ≥ max_samples_per_place).
+  int SampleCap(const LearnedPlace& p) const;
   int max_vote_points = 32;  ///< base points of D used for the cost (evenly spaced)
   /// The vote V of (3.8): false, D's points within the vote radius of N¹'s nearest member
   /// view; true, the thesis' one-class SVM d_{N¹}, trained per node (docs/decisions.md
@@ -95,6 +102,7 @@ struct PlaceMemoryOptions {
   static constexpr Range kNeighbourMarginRange{0, 1000};
   static constexpr Range kTauHRange{0, 1, false, /*max_open=*/true};
   static constexpr Range kMaxSamplesRange{1, 100000};
+  static constexpr Range kSampleVisitsRange{1, 1000};
   static constexpr Range kMaxVotePointsRange{1, 100000};
   static constexpr Range kDistanceUnitRange{0, 1e6};  ///< squared descriptor distance
   static constexpr Range kStepUnitRange{0, 1e6};

@@ -328,12 +328,19 @@ CostTerms RecognitionCost(const ViewDistances& vd, const Eigen::VectorXf& mean,
   std::vector<int> copies;         // the places of the children that coincide with N¹
   for (const size_t next :
        OrderOfSecond(candidates.size(), gamma, measured, unmeasured, static_cast<size_t>(t.best))) {
-    if (nearest_of[next] >= 0 && Coincides(vd, best, nearest[static_cast<size_t>(nearest_of[next])],
-                                           radius, view_a, view_b)) {
-      t.only_copies = true;
-      const std::span<const int> held = candidates[next].places;
-      copies.insert(copies.end(), held.begin(), held.end());
-      continue;
+    if (nearest_of[next] >= 0) {
+      const Nearest& other = nearest[static_cast<size_t>(nearest_of[next])];
+      if (Coincides(vd, best, other, radius, view_a, view_b)) {
+        t.only_copies = true;
+        const std::span<const int> held = candidates[next].places;
+        copies.insert(copies.end(), held.begin(), held.end());
+        // Within the vote radius itself: the evidence a fold asks for (CopyEvidence).
+        if (held.size() == 1 && (radius <= options.vote_radius ||
+                                 Coincides(vd, best, other, options.vote_radius, view_a, view_b))) {
+          t.held_again.push_back(held.front());
+        }
+        continue;
+      }
     }
     t.only_copies = false;
     second = gamma[next];

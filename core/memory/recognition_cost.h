@@ -108,6 +108,10 @@ struct CostTerms {
   /// Where N¹ is one place: the share of D's points that agree with it
   /// (core/memory/point_agreement.h); 1 where N¹ holds several places.
   double agreement = 1.0;
+  /// Children of one place whose views nearest D's points lie, in the median, within the
+  /// vote radius of N¹'s (whatever the coincide factor): the place of N¹ held again, the
+  /// evidence a robot's copies of a room are one (core/pipeline/copy_evidence.h).
+  std::vector<int> held_again;
 };
 
 struct RecognitionCostOptions {

@@ -126,10 +126,13 @@ bool CarriesSmallestId(const LearnedPlace& p) {
   return p.sources.empty() || p.id < p.sources.front();
 }
 
-void Absorb(LearnedPlace& target, const LearnedPlace& p, int max_samples) {
+void Absorb(LearnedPlace& target, const LearnedPlace& p, const PlaceMemoryOptions& options) {
   const auto n = static_cast<float>(target.member_count), m = static_cast<float>(p.member_count);
   target.mean = (target.mean * n + p.mean * m) / (n + m);
   target.member_count += p.member_count;
+  AddSource(target, p.id);
+  for (PlaceId s : p.sources) AddSource(target, s);
+  const int max_samples = options.SampleCap(target);
   const Eigen::Index kept = target.samples.cols(), pooled = kept + p.samples.cols();
   if (pooled <= max_samples) {
     // Nothing to thin (ThinViews would return the pool as it is): p's views are appended in
@@ -141,18 +144,16 @@ void Absorb(LearnedPlace& target, const LearnedPlace& p, int max_samples) {
     both << target.samples.Decoded(), p.samples.Decoded();
     target.samples = CompactViews(ThinViews(both, max_samples));
   }
-  AddSource(target, p.id);
-  for (PlaceId s : p.sources) AddSource(target, s);
 }
 
-void Fold(LearnedPlace& target, const LearnedPlace& b, int max_samples) {
+void Fold(LearnedPlace& target, const LearnedPlace& b, const PlaceMemoryOptions& options) {
   if (target.id.robot == b.id.robot) {
     target.members.insert(target.members.end(), b.members.begin(), b.members.end());
     std::sort(target.members.begin(), target.members.end());
     target.detected.insert(target.detected.end(), b.detected.begin(), b.detected.end());
     std::sort(target.detected.begin(), target.detected.end());
   }
-  Absorb(target, b, max_samples);
+  Absorb(target, b, options);
 }
 
 void TakeSmallestIds(std::vector<LearnedPlace>& places, std::vector<Absorption>& absorbed) {

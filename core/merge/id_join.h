@@ -77,13 +77,14 @@ void AddSource(LearnedPlace& target, PlaceId id);
 /// Whether `p` carries the smallest id of its group (its own and its sources).
 bool CarriesSmallestId(const LearnedPlace& p);
 /// Merges the incoming place `p` into `target`: weighted mean by member counts, counts added,
-/// samples pooled and thinned to `max_samples`, ids absorbed. Members and detected places
-/// index the other robot's stream and are not copied.
-void Absorb(LearnedPlace& target, const LearnedPlace& p, int max_samples);
+/// ids absorbed, samples pooled and thinned to options.SampleCap of the result (each place
+/// absorbed is a visit). Members and detected places index the other robot's stream and are
+/// not copied.
+void Absorb(LearnedPlace& target, const LearnedPlace& p, const PlaceMemoryOptions& options);
 /// Folds the base place `b` into `target` when the peer's records say they are one place: as
 /// Absorb, and members and detected places are kept too when both are one robot's places
 /// (they index the same stream).
-void Fold(LearnedPlace& target, const LearnedPlace& b, int max_samples);
+void Fold(LearnedPlace& target, const LearnedPlace& b, const PlaceMemoryOptions& options);
 
 /// Canonical ids: every place of `places` takes the smallest id of its group whichever memory
 /// was the base, and the records `absorbed` name the places as they are then (a renamed

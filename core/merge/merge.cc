@@ -101,9 +101,8 @@ MemoryMerge Merge(const PlaceMemory& ours, const PlaceMemory& peer, PlaceMemory*
   std::vector<LearnedPlace> places = PlacesOf(base, base_owned);
   IncomingPlaces in(incoming, incoming_owned);
   if (!peer_into_ours) PreferOurFresherCopies(places, in);
-  AbsorbRecognised(places, in, known.is_new, found, options.max_samples_per_place, result.absorbed);
-  FoldJoined(places, holder, found.fold_cost, join.learned, options.max_samples_per_place,
-             result.absorbed);
+  AbsorbRecognised(places, in, known.is_new, found, options, result.absorbed);
+  FoldJoined(places, holder, found.fold_cost, join.learned, options, result.absorbed);
   AddNewPlaces(places, in, placement);
   Slink tree =
       MergedTree(base_tree, incoming_tree, placement.merged_index, found, holder, spheres, places);

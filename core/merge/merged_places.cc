@@ -93,26 +93,26 @@ void PreferOurFresherCopies(std::vector<LearnedPlace>& places, IncomingPlaces& i
 }
 
 void AbsorbRecognised(std::vector<LearnedPlace>& places, const IncomingPlaces& in,
-                      const std::vector<char>& is_new, const Recognitions& found, int max_samples,
-                      std::vector<Absorption>& absorbed) {
+                      const std::vector<char>& is_new, const Recognitions& found,
+                      const PlaceMemoryOptions& options, std::vector<Absorption>& absorbed) {
   for (size_t i = 0; i < in.size(); ++i) {
     if (!is_new[i] || found.target[i] < 0) continue;
     const LearnedPlace& p = in[i];
     LearnedPlace& target = places[static_cast<size_t>(found.target[i])];
-    Absorb(target, p, max_samples);
+    Absorb(target, p, options);
     absorbed.push_back({p.id, target.id, found.cost[i]});
   }
 }
 
 void FoldJoined(std::vector<LearnedPlace>& places, const std::vector<int>& holder,
                 const std::vector<double>& fold_cost,
-                const std::vector<std::pair<int, PlaceId>>& learned, int max_samples,
-                std::vector<Absorption>& absorbed) {
+                const std::vector<std::pair<int, PlaceId>>& learned,
+                const PlaceMemoryOptions& options, std::vector<Absorption>& absorbed) {
   for (size_t b = 0; b < holder.size(); ++b) {
     const auto h = static_cast<size_t>(holder[b]);
     if (h == b) continue;
     absorbed.push_back({places[b].id, places[h].id, fold_cost[b]});
-    Fold(places[h], places[b], max_samples);
+    Fold(places[h], places[b], options);
   }
   for (const auto& [b, id] : learned) AddSource(places[static_cast<size_t>(b)], id);
 }

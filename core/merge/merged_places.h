@@ -74,16 +74,16 @@ void PreferOurFresherCopies(std::vector<LearnedPlace>& places, IncomingPlaces& i
 /// The recognised incoming places go into their base places, recorded in `absorbed` in
 /// incoming order.
 void AbsorbRecognised(std::vector<LearnedPlace>& places, const IncomingPlaces& in,
-                      const std::vector<char>& is_new, const Recognitions& found, int max_samples,
-                      std::vector<Absorption>& absorbed);
+                      const std::vector<char>& is_new, const Recognitions& found,
+                      const PlaceMemoryOptions& options, std::vector<Absorption>& absorbed);
 
 /// What the peer's records join (JoinByIds): base places fold into their holder (they leave
 /// the list with the merged tree), recorded in `absorbed`, and ids a known incoming place
 /// absorbed (`learned`) become sources.
 void FoldJoined(std::vector<LearnedPlace>& places, const std::vector<int>& holder,
                 const std::vector<double>& fold_cost,
-                const std::vector<std::pair<int, PlaceId>>& learned, int max_samples,
-                std::vector<Absorption>& absorbed);
+                const std::vector<std::pair<int, PlaceId>>& learned,
+                const PlaceMemoryOptions& options, std::vector<Absorption>& absorbed);
 
 /// Incoming places that are neither known nor absorbed are added after the base's places.
 /// (When ours is the smaller memory, our own places already known to the peer are not: the

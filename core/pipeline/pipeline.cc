@@ -6,6 +6,8 @@
 #include <utility>
 
 #include "core/memory/builtin_view_basis.h"
+#include "core/merge/consolidate.h"
+#include "core/merge/merge_maps.h"
 
 namespace tsc {
 namespace {
@@ -43,6 +45,7 @@ void PipelineOptions::Validate() const {
   detector.Validate();
   memory.Validate();
   kWhereaboutsPointsRange.Check("pipeline.whereabouts_points", whereabouts_points);
+  kConsolidateAfterRange.Check("pipeline.consolidate_after", consolidate_after);
   if (!features.Contains(Feature::kIntensity)) {
     throw std::invalid_argument("bubble.features must include intensity (place detection uses it)");
   }
@@ -60,6 +63,7 @@ Pipeline::Pipeline(CameraIntrinsics camera, PipelineOptions options, PlaceMemory
       computer_(surface_.grid(), options_.descriptor),
       detector_(options_.detector, state.next_detected, state.next_base),
       memory_(std::move(memory)),
+      copies_(options_.consolidate_after),
       map_(std::move(map)),
       next_base_(state.next_base),
       previous_place_(state.previous_place) {
@@ -175,6 +179,33 @@ void Pipeline::AdoptMerged(PlaceMemory memory, TopologicalMap map) {
   map_ = std::move(map);
 }
 
+int Pipeline::Consolidate(int place, const CostTerms& terms, DetectedPlaceIndex m, PlaceEvent& e,
+                          FrameResult& out) {
+  if (terms.held_again.empty() || options_.consolidate_after == 0) return place;
+  const PlaceId id = memory_.places()[static_cast<size_t>(place)].id;
+  const std::vector<PlaceId> neighbours = map_.Neighbours(id);
+  std::vector<int> group{place};
+  for (const int q : terms.held_again) {
+    const PlaceId copy = memory_.places()[static_cast<size_t>(q)].id;
+    // A place the map joins to this one is the room next door seen through a door, not a
+    // copy; a copy is entered from where the room is (docs/calibration.md, twenty-first pass).
+    const std::vector<PlaceId> around = map_.Neighbours(copy);
+    if (std::find(neighbours.begin(), neighbours.end(), copy) != neighbours.end()) continue;
+    const bool shared = std::any_of(around.begin(), around.end(), [&](const PlaceId& p) {
+      return std::find(neighbours.begin(), neighbours.end(), p) != neighbours.end();
+    });
+    if (shared && copies_.Witness(id, copy, m)) group.push_back(q);
+  }
+  if (group.size() == 1) return place;
+  if (before_replace_) before_replace_();
+  Consolidation c = tsc::Consolidate(std::move(memory_), std::move(group));
+  e.folded = std::move(c.folded);
+  TopologicalMap map = MergeMaps(map_, TopologicalMap{}, c.memory);
+  AdoptMerged(std::move(c.memory), std::move(map));
+  out.memory_replaced = true;
+  return *memory_.Find(c.holder);
+}
+
 FrameResult Pipeline::Finish() {
   FrameResult out;
   out.has_base = false;
@@ -262,6 +293,7 @@ void Pipeline::HandleDetection(const std::vector<DetectionEvent>& events, BaseIn
         e.kind = EventKind::kRecognized;
         e.hybrid = r.hybrid;
         e.neighbour = r.neighbour;
+        place = Consolidate(place, r.terms, closed->place, e, out);
       } else {
         place = memory_.Learn(d);
         e.kind = EventKind::kLearned;

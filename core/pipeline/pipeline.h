@@ -16,6 +16,7 @@
 #include "core/detect/reliability.h"
 #include "core/map/topological_map.h"
 #include "core/memory/place_memory.h"
+#include "core/pipeline/copy_evidence.h"
 #include "core/range.h"
 
 namespace tsc {
@@ -41,6 +42,9 @@ struct PlaceEvent {
   bool neighbour = false;
   TransitionRegion transition;  ///< mapped: the region crossed
   int64_t members = 0;          ///< detected / pruned: number of base points
+  /// Recognised: the ids of places folded into `place` as it was recognised (they left the
+  /// memory; `place` is the id holding them now). Empty without consolidation.
+  std::vector<PlaceId> folded;
 };
 
 struct BasePointRecord {
@@ -59,6 +63,9 @@ struct FrameResult {
   std::vector<TransitionRegion> transitions;  ///< transition regions closed now
   std::vector<int> changed_places;            ///< place indices learned or updated
   bool memory_changed = false;                ///< tree / discriminants changed
+  /// Places left the memory and indices moved (a consolidation): the whole memory and map
+  /// replace what was stored of them, as after a merge; changed_places no longer apply.
+  bool memory_replaced = false;
 };
 
 /// What the pipeline needs of one base point: its descriptor and its intensity statistics,
@@ -114,6 +121,11 @@ struct PipelineOptions {
   /// docs/decisions.md, "Known tails": off by default, it traded frame-level recall and
   /// corridor boundaries for place-level recall on the calibration worlds.
   bool split_known_tails = false;
+  /// Consolidation (docs/decisions.md): two places the robot learned are folded into one once
+  /// this many revisits, none the one before, showed them holding one room (CopyEvidence),
+  /// where the map does not join them and both are joined to one place. 0: never.
+  int consolidate_after = 3;
+  static constexpr Range kConsolidateAfterRange{0, 1000};
   void Validate() const;
 };
 
@@ -152,6 +164,9 @@ class Pipeline {
   /// recognised it: PlaceMemory::Update); places are otherwise only appended, or all replaced
   /// by AdoptMerged. tscd keeps there what its snapshots of the memory still serve.
   void set_before_update(std::function<void(int place)> hook) { before_update_ = std::move(hook); }
+  /// Called just before a consolidation replaces the places (FrameResult::memory_replaced),
+  /// with the memory still as it was.
+  void set_before_replace(std::function<void()> hook) { before_replace_ = std::move(hook); }
 
   const PlaceMemory& memory() const { return memory_; }
   const TopologicalMap& map() const { return map_; }
@@ -173,6 +188,10 @@ class Pipeline {
                           FrameResult& out);
   DetectedPlace Gather(DetectedPlaceIndex m, const std::vector<BaseIndex>& members) const;
   void TrimDescriptors();
+  // Recognised as `place` by detected place m: the copies the recognition showed and whose
+  // evidence now suffices are folded into it. Returns the place's index afterwards.
+  int Consolidate(int place, const CostTerms& terms, DetectedPlaceIndex m, PlaceEvent& e,
+                  FrameResult& out);
 
   PipelineOptions options_;
   BubbleSurface surface_;
@@ -180,6 +199,8 @@ class Pipeline {
   PlaceDetector detector_;
   PlaceMemory memory_;
   std::function<void(int place)> before_update_;
+  std::function<void()> before_replace_;
+  CopyEvidence copies_;
   TopologicalMap map_;
   BaseIndex next_base_;
   std::optional<PlaceId> previous_place_;

@@ -8,6 +8,7 @@
 #include <string>
 
 #include "core/memory/builtin_view_basis.h"
+#include "core/merge/consolidate.h"
 #include "test/support/synthetic_places.h"
 
 namespace tsc {
@@ -367,7 +368,7 @@ TEST(PlaceMemoryViews, UpdateKeepsViewsOfEveryVisit) {
   dut.Learn(first);
   dut.Update(0, second);
   const Eigen::MatrixXf kept = dut.places()[0].samples.Decoded();
-  ASSERT_EQ(kept.cols(), dut.options().max_samples_per_place);
+  ASSERT_EQ(kept.cols(), 2 * dut.options().max_samples_per_place) << "a visit's cap each";
   int from_first = 0;
   for (Eigen::Index j = 0; j < kept.cols(); ++j) {
     const float to_first =
@@ -378,6 +379,46 @@ TEST(PlaceMemoryViews, UpdateKeepsViewsOfEveryVisit) {
   }
   EXPECT_GE(from_first, kept.cols() / 4);
   EXPECT_LE(from_first, kept.cols() - kept.cols() / 4);
+}
+
+// A place keeps max_samples_per_place views per visit, of at most memory.sample_visits
+// visits, and a place that absorbs another counts it as a visit (merges and consolidation
+// thin by the same cap); with sample_visits 1 the cap is one visit's whatever the visits.
+TEST(PlaceMemoryViews, APlaceKeepsViewsPerVisitUpToTheVisitsAskedFor) {
+  std::mt19937 rng(12);
+  const views::Room room = views::MakeRoom(rng, 300);
+  PlaceMemoryOptions options = views::ViewOptions();
+  options.max_samples_per_place = 8;
+  options.sample_visits = 3;
+  PlaceMemoryOptions one = options;
+  one.sample_visits = 1;
+  PlaceMemory dut(1, options), single(1, one);
+  std::vector<Eigen::Index> kept, kept_single;
+  for (int v = 0; v < 5; ++v) {
+    const DetectedPlace visit = views::Visit(room, v + 1, rng, 60 * v, 60 * v + 60);
+    if (v == 0) {
+      dut.Learn(visit);
+      single.Learn(visit);
+    } else {
+      dut.Update(0, visit);
+      single.Update(0, visit);
+    }
+    kept.push_back(dut.places()[0].samples.cols());
+    kept_single.push_back(single.places()[0].samples.cols());
+  }
+  EXPECT_EQ(kept, (std::vector<Eigen::Index>{8, 16, 24, 24, 24}));
+  EXPECT_EQ(kept_single, (std::vector<Eigen::Index>{8, 8, 8, 8, 8}));
+  LearnedPlace p;
+  p.detected = {1};
+  EXPECT_EQ(options.SampleCap(p), 8);
+  p.sources = {PlaceId{2, 1}};
+  EXPECT_EQ(options.SampleCap(p), 16) << "an absorbed place is a visit";
+  p.sources.push_back(PlaceId{3, 1});
+  p.sources.push_back(PlaceId{3, 2});
+  EXPECT_EQ(options.SampleCap(p), 24);
+  EXPECT_EQ(one.SampleCap(p), 8);
+  options.sample_visits = 0;
+  EXPECT_THROW(options.Validate(), std::invalid_argument);
 }
 
 // A room learned twice (its second visit was not recognised) is one candidate, not two that
@@ -589,6 +630,56 @@ TEST(PlaceMemory, LearningWithAViewBasisBuildsTheSameTree) {
       EXPECT_LT(measured, asked / 10) << measured << " of " << asked;
     }
   }
+}
+
+// A recognition names the copies of its room that its siblings hold (CostTerms::held_again,
+// the consolidation's evidence), and folding them leaves one place holding the room: its
+// smallest id, the copy's id as a source, both visits' members, and the other rooms as they
+// were. The next revisit is recognised as that place.
+TEST(Consolidation, CopiesOfARoomFoldIntoOnePlaceThatIsRecognised) {
+  std::mt19937 rng(13);
+  PlaceMemory dut(1, views::ViewOptions());
+  const views::Room twice = views::MakeRoom(rng);
+  std::vector<views::Room> others;
+  dut.Learn(views::Visit(twice, 1, rng));
+  dut.Learn(views::Visit(twice, 2, rng));
+  for (int r = 0; r < 4; ++r) {
+    others.push_back(views::MakeRoom(rng));
+    dut.Learn(views::Visit(others.back(), 3 + r, rng));
+  }
+  const Recognition seen = dut.Recognize(views::Visit(twice, 10, rng));
+  ASSERT_TRUE(seen.place.has_value()) << "cost " << seen.cost;
+  const int copy = *seen.place == 0 ? 1 : 0;
+  EXPECT_EQ(seen.terms.held_again, std::vector<int>{copy});
+  // A room seen once has no copy to name.
+  const Recognition single = dut.Recognize(views::Visit(others[2], 11, rng));
+  ASSERT_TRUE(single.place.has_value());
+  EXPECT_TRUE(single.terms.held_again.empty());
+
+  const int64_t members = dut.places()[0].member_count + dut.places()[1].member_count;
+  Consolidation c = Consolidate(dut, {1, 0});
+  ASSERT_EQ(c.memory.places().size(), 5u);
+  EXPECT_EQ(c.holder, (PlaceId{1, 1}));
+  EXPECT_EQ(c.folded, std::vector<PlaceId>{(PlaceId{1, 2})});
+  const LearnedPlace& held = c.memory.places()[0];
+  EXPECT_EQ(held.id, (PlaceId{1, 1}));
+  EXPECT_EQ(held.sources, std::vector<PlaceId>{(PlaceId{1, 2})});
+  EXPECT_EQ(held.member_count, members);
+  EXPECT_EQ(held.detected, (std::vector<DetectedPlaceIndex>{1, 2}));
+  EXPECT_EQ(c.memory.next_local_id(), dut.next_local_id()) << "ids are never given twice";
+  for (size_t i = 1; i < 5; ++i) EXPECT_EQ(c.memory.places()[i].id, dut.places()[i + 1].id);
+
+  const Recognition after = c.memory.Recognize(views::Visit(twice, 12, rng));
+  ASSERT_TRUE(after.place.has_value()) << "cost " << after.cost;
+  EXPECT_EQ(*after.place, 0);
+  for (size_t r = 0; r < others.size(); ++r) {
+    const Recognition other = c.memory.Recognize(views::Visit(others[r], 20 + r, rng));
+    ASSERT_TRUE(other.place.has_value()) << "room " << r;
+    EXPECT_EQ(*other.place, static_cast<int>(r) + 1);
+  }
+  EXPECT_THROW(Consolidate(c.memory, {0}), std::invalid_argument);
+  EXPECT_THROW(Consolidate(c.memory, {0, 0}), std::invalid_argument);
+  EXPECT_THROW(Consolidate(c.memory, {0, 5}), std::invalid_argument);
 }
 
 }  // namespace

@@ -16,6 +16,8 @@
 #include <string>
 #include <vector>
 
+#include "core/merge/consolidate.h"
+#include "core/merge/merge_maps.h"
 #include "test/support/memory_compare.h"
 #include "test/support/temp_dir.h"
 
@@ -363,6 +365,32 @@ TEST_F(StoreTest, ReopenedDatabaseContinuesLearning) {
   EXPECT_GT(Sql(path_, "SELECT MAX(idx) FROM detected_places"), detected_before);
   EXPECT_EQ(Sql(path_, "SELECT COUNT(*) FROM detected_places"),
             committed.learned + committed.recognized);
+}
+
+// A consolidation folds places and renumbers the rest (FrameResult::memory_replaced): the
+// commit then writes the whole memory and map, as after a merge, and the folded place's row
+// is gone; a commit that wrote only the changed places would keep it.
+TEST_F(StoreTest, AReplacedMemoryIsWrittenWhole) {
+  Stream stream(5);
+  for (int c = 0; c < 3; ++c) stream.AddCluster();
+  Store dut = Store::Open(path_);
+  Pipeline pipeline = Continue(dut);
+  Committed committed;
+  for (int c : {0, 1, 2, 0}) Feed(pipeline, dut, stream.Visit(c, 12), committed);
+  Finish(pipeline, dut, committed);
+  const size_t before = pipeline.memory().places().size();
+  ASSERT_GE(before, 3u);
+  Consolidation c = Consolidate(pipeline.memory(), {0, 1});
+  TopologicalMap map = MergeMaps(pipeline.map(), TopologicalMap{}, c.memory);
+  pipeline.AdoptMerged(std::move(c.memory), std::move(map));
+  FrameResult replaced;
+  replaced.has_base = false;
+  replaced.memory_replaced = true;
+  dut.Commit(replaced, pipeline);
+  const StoredState loaded = dut.Load(kRobot, Options().memory);
+  ASSERT_EQ(loaded.memory.places().size(), before - 1);
+  ExpectSameMemory(pipeline.memory(), loaded.memory);
+  ExpectSameMap(pipeline.map(), loaded.map);
 }
 
 TEST_F(StoreTest, RecommittingAResultIsHarmless) {

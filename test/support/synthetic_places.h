@@ -78,17 +78,19 @@ class SyntheticPlaces {
 
 /// Place `first + p` of `world` as robot `robot` learned it (id robot:p+1): its first
 /// max_samples_per_place views kept, in `options.view_basis` when it is set.
+/// `visits`: the detected places it holds, which set how many views it keeps (SampleCap).
 inline LearnedPlace SyntheticLearnedPlace(uint32_t robot, const SyntheticPlaces& world, int first,
-                                          int p, int views, const PlaceMemoryOptions& options) {
+                                          int p, int views, const PlaceMemoryOptions& options,
+                                          int visits = 1) {
   const DetectedPlace d = world.Visit(first + p, robot, views, views);
   LearnedPlace lp;
   lp.id = PlaceId{robot, static_cast<uint32_t>(p + 1)};
   lp.mean = d.Mean();
   lp.member_count = d.descriptors.cols();
+  for (int v = 0; v < visits; ++v) lp.detected.push_back(d.index + v);
   lp.samples = CompactViews(ViewCoordinates(
-      options.view_basis.get(), d.descriptors.leftCols(std::min<Eigen::Index>(
-                                    options.max_samples_per_place, d.descriptors.cols()))));
-  lp.detected = {d.index};
+      options.view_basis.get(),
+      d.descriptors.leftCols(std::min<Eigen::Index>(options.SampleCap(lp), d.descriptors.cols()))));
   lp.members = d.members;
   return lp;
 }
@@ -97,12 +99,13 @@ inline LearnedPlace SyntheticLearnedPlace(uint32_t robot, const SyntheticPlaces&
 /// base points (the visit is the robot: its own member noise), ids 1..n. Built at once (SLINK
 /// over the means, then one Restore that trains every node) rather than by n Learn()s.
 inline PlaceMemory SyntheticMemory(uint32_t robot, const SyntheticPlaces& world, int first, int n,
-                                   int views, const PlaceMemoryOptions& options = {}) {
+                                   int views, const PlaceMemoryOptions& options = {},
+                                   int visits = 1) {
   std::vector<LearnedPlace> places;
   Slink slink;
   std::vector<double> distances;
   for (int p = 0; p < n; ++p) {
-    LearnedPlace lp = SyntheticLearnedPlace(robot, world, first, p, views, options);
+    LearnedPlace lp = SyntheticLearnedPlace(robot, world, first, p, views, options, visits);
     distances.resize(places.size());
     for (size_t i = 0; i < places.size(); ++i) {
       distances[i] = (places[i].mean - lp.mean).squaredNorm();
@@ -122,14 +125,15 @@ inline PlaceMemory SyntheticMemory(uint32_t robot, const SyntheticPlaces& world,
 /// The memory size from which the benchmarks build their fixtures with LargeSyntheticMemory.
 inline constexpr int kLargeMemory = 100000;
 inline PlaceMemory LargeSyntheticMemory(uint32_t robot, const SyntheticPlaces& world, int first,
-                                        int n, int views, const PlaceMemoryOptions& options) {
+                                        int n, int views, const PlaceMemoryOptions& options,
+                                        int visits = 1) {
   if (options.view_basis == nullptr) throw std::invalid_argument("a view basis is needed");
   const ViewBasis& basis = *options.view_basis;
   std::vector<LearnedPlace> places;
   places.reserve(static_cast<size_t>(n));
   Eigen::MatrixXf centres(basis.dimension(), n);
   for (int p = 0; p < n; ++p) {
-    LearnedPlace lp = SyntheticLearnedPlace(robot, world, first, p, views, options);
+    LearnedPlace lp = SyntheticLearnedPlace(robot, world, first, p, views, options, visits);
     centres.col(p) = basis.Coordinates(lp.mean);
     places.push_back(std::move(lp));
   }

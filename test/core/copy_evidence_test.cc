@@ -1,0 +1,42 @@
+#include "core/pipeline/copy_evidence.h"
+
+#include <gtest/gtest.h>
+
+namespace tsc {
+namespace {
+
+const PlaceId kA{1, 3}, kB{2, 7}, kC{1, 9};
+
+// A pair is one place once `revisits` detected places showed it; one pass through a room
+// (consecutive detected places) counts once, and either order of the pair is the same pair.
+TEST(CopyEvidence, APairIsOnePlaceAfterTheRevisitsAskedForNotConsecutive) {
+  CopyEvidence dut(2);
+  EXPECT_FALSE(dut.Witness(kA, kB, 10));
+  EXPECT_FALSE(dut.Witness(kB, kA, 11)) << "the same pass";
+  EXPECT_FALSE(dut.Witness(kA, kC, 12)) << "another pair";
+  EXPECT_TRUE(dut.Witness(kB, kA, 14));
+  EXPECT_EQ(dut.pairs(), 1u) << "spent evidence is forgotten";
+  EXPECT_FALSE(dut.Witness(kA, kB, 20)) << "and starts again";
+  EXPECT_TRUE(dut.Witness(kA, kC, 30));
+}
+
+TEST(CopyEvidence, OneRevisitSufficesWhenAskedAndNoneFoldsWhenOff) {
+  CopyEvidence one(1), off(0);
+  EXPECT_TRUE(one.Witness(kA, kB, 1));
+  EXPECT_FALSE(one.Witness(kA, kA, 5)) << "a place is no copy of itself";
+  for (DetectedPlaceIndex m = 1; m < 100; m += 2) EXPECT_FALSE(off.Witness(kA, kB, m));
+  EXPECT_EQ(off.pairs(), 0u);
+}
+
+// Memory stays bounded whatever the stream shows: beyond kMaxPairs pairs the evidence is
+// forgotten.
+TEST(CopyEvidence, RemembersBoundedPairs) {
+  CopyEvidence dut(3);
+  for (uint32_t i = 0; i < 3 * CopyEvidence::kMaxPairs; ++i) {
+    EXPECT_FALSE(dut.Witness(PlaceId{1, i}, PlaceId{2, i}, 2 * static_cast<DetectedPlaceIndex>(i)));
+    EXPECT_LE(dut.pairs(), CopyEvidence::kMaxPairs);
+  }
+}
+
+}  // namespace
+}  // namespace tsc
