@@ -53,15 +53,8 @@ class RunRecorder {
     std::vector<int> frames;
     for (BaseIndex k : d.members) frames.push_back(static_cast<int>(k));  // base k = frame k
     // A consolidation folded places into the one recognised: their frames are its own now.
-    for (const PlaceId& f : e.folded) {
-      mirror_.Fold(*e.place, f);
-      const auto from = run_.frames_of.find(f);
-      if (from == run_.frames_of.end()) continue;
-      std::vector<int> moved = std::move(from->second);
-      run_.frames_of.erase(from);
-      auto& into = run_.frames_of[*e.place];
-      into.insert(into.end(), moved.begin(), moved.end());
-    }
+    for (const PlaceId& f : e.folded) mirror_.Fold(*e.place, f);
+    if (e.place) FoldFrames(run_.frames_of, *e.place, e.folded);
     assignments.push_back({frames, e.place, recognized, e.folded});
     run_.detected.push_back({e.detected_place, frames, e.place, recognized, e.cost, e.terms,
                              std::nullopt, 0.0, e.neighbour, e.folded});

@@ -85,14 +85,7 @@ RecognitionScore ScoreRecognition(const GroundTruth& truth, const std::vector<As
   RecognitionScore s;
   std::map<PlaceId, std::vector<int>> learned;  // frames assigned to each place so far
   for (const Assignment& a : seq) {
-    for (const PlaceId& f : a.folded) {  // a consolidation: f's frames are a.place's now
-      const auto it = learned.find(f);
-      if (it == learned.end() || !a.place) continue;
-      std::vector<int> moved = std::move(it->second);
-      learned.erase(it);
-      auto& into = learned[*a.place];
-      into.insert(into.end(), moved.begin(), moved.end());
-    }
+    if (a.place) FoldFrames(learned, *a.place, a.folded);
     bool should = false, view_should = false;
     for (const auto& [place, frames] : learned) {
       if (!FramesMatch(truth, a.frames, frames)) continue;
@@ -341,6 +334,18 @@ void PlaceMembersMirror::Append(Members& m, const std::vector<int>& frames,
   for (size_t j = 0; j < frames.size(); ++j) {
     m.frames.push_back(frames[j]);
     m.descriptors.emplace_back(descriptors.col(static_cast<Eigen::Index>(j)));
+  }
+}
+
+void FoldFrames(std::map<PlaceId, std::vector<int>>& frames_of, const PlaceId& into,
+                const std::vector<PlaceId>& folded) {
+  for (const PlaceId& f : folded) {
+    const auto it = frames_of.find(f);
+    if (it == frames_of.end() || f == into) continue;
+    std::vector<int> moved = std::move(it->second);
+    frames_of.erase(it);
+    std::vector<int>& frames = frames_of[into];
+    frames.insert(frames.end(), moved.begin(), moved.end());
   }
 }
 

@@ -78,6 +78,10 @@ struct RecognitionScore {
 /// the view-overlap recall when some place it matches shares a view with it
 /// (FramesShareView over the frames assigned to that place before it).
 RecognitionScore ScoreRecognition(const GroundTruth& truth, const std::vector<Assignment>& seq);
+/// A consolidation folded places `folded` into `into`: their frames in `frames_of` are
+/// `into`'s from now on (appended; a folded place without frames is skipped).
+void FoldFrames(std::map<PlaceId, std::vector<int>>& frames_of, const PlaceId& into,
+                const std::vector<PlaceId>& folded);
 
 /// An inclusive range of 0-based frames.
 struct FrameSpan {
