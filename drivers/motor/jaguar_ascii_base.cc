@@ -42,7 +42,7 @@ JaguarAsciiBase::~JaguarAsciiBase() {
   (void)!::write(wake_[1], &c, 1);
   if (thread_.joinable()) thread_.join();
   if (fd_ >= 0) SendLine(jaguar_ascii::Stop());  // never leave the motors running
-  link::CloseFd(fd_);
+  link::CloseStream(fd_);
   link::CloseFd(wake_[0]);
   link::CloseFd(wake_[1]);
 }

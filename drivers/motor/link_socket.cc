@@ -52,4 +52,15 @@ void CloseFd(int& fd) {
   fd = -1;
 }
 
+void CloseStream(int& fd) {
+  if (fd < 0) return;
+  ::shutdown(fd, SHUT_WR);  // FIN after the queued lines
+  char sink[4096];
+  for (int i = 0; i < 64; ++i) {  // bounded: a board that streams forever cannot hold us
+    const ssize_t n = ::recv(fd, sink, sizeof sink, MSG_DONTWAIT);
+    if (n <= 0 && !(n < 0 && errno == EINTR)) break;
+  }
+  CloseFd(fd);
+}
+
 }  // namespace tsc::link

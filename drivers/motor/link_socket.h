@@ -19,5 +19,9 @@ int LocalPort(int fd);
 /// Writes all of `bytes` to a pipe/socket without blocking; false when it could not.
 bool SendAll(int fd, const void* bytes, size_t size);
 void CloseFd(int& fd);
+/// Closes a TCP connection so that what was sent still arrives: unread input is drained first,
+/// since closing over unread input resets the connection and the peer may then drop the last
+/// lines sent (the driver's final stop).
+void CloseStream(int& fd);
 
 }  // namespace tsc::link
