@@ -173,8 +173,14 @@ TEST_P(JaguarRobotTest, TeleopDrivesTheBoardThroughTscdAndOdometryFollows) {
   // The dead man: 0.4 s after the last key teleop sends stop, while the script still runs.
   ASSERT_TRUE(WaitStill(seconds(10))) << "the board kept moving after the keys stopped";
   EXPECT_TRUE(teleop->running()) << "teleop ended early: " << teleop->Log();
-  std::this_thread::sleep_for(milliseconds(400));  // the last encoder report reaches tscd
   const SimPose end = TruePose();
+  // The last encoder reports reach tscd (generous wait; the EXPECTs below give the verdict).
+  const auto odo_deadline = std::chrono::steady_clock::now() + seconds(5);
+  while (std::chrono::steady_clock::now() < odo_deadline) {
+    const auto o = state.last();
+    if (o && std::hypot(o->x - end.x, o->y - end.y) < 0.05) break;
+    std::this_thread::sleep_for(milliseconds(50));
+  }
   const jaguar::motor_state_t odo = *state.last();
   EXPECT_GT(Distance(start, end), 1.0) << "the board hardly moved";
   EXPECT_GT(std::abs(std::remainder(end.heading - start.heading, 2 * M_PI)), 0.8);
