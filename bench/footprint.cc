@@ -10,6 +10,7 @@
 // camera's frame a second: announces, snapshots for peers).
 //
 //   build/bin/tscd_footprint [--places N] [--dim D] [--members M] [--settle-s S] [--out FILE]
+//                            [--keep DIR]
 
 #include <unistd.h>
 
@@ -77,8 +78,8 @@ uint64_t FileBytes(const fs::path& p) {
 
 int Main(int argc, char** argv) {
   const auto args =
-      KeyValueArgs(argc, argv, {"places", "dim", "members", "settle-s", "out"},
-                   "[--places N] [--dim D] [--members M] [--settle-s S] [--out FILE]");
+      KeyValueArgs(argc, argv, {"places", "dim", "members", "settle-s", "out", "keep"},
+                   "[--places N] [--dim D] [--members M] [--settle-s S] [--out FILE] [--keep DIR]");
   if (!args) return 2;
   const int places = static_cast<int>(NumberArg(*args, "places", 10000));
   const int dim = static_cast<int>(NumberArg(*args, "dim", 1200));
@@ -96,7 +97,16 @@ int Main(int argc, char** argv) {
     std::fprintf(stderr, "%s: places, dim and members must be positive\n", argv[0]);
     return 2;
   }
-  const fs::path dir = fs::temp_directory_path() / ("tscd_footprint." + std::to_string(getpid()));
+  // --keep: the state directory is written there and left for inspection (tsc inspect, a heap
+  // profiler on tscd); else a temporary one is removed at the end.
+  const bool keep = args->count("keep") > 0;
+  const fs::path dir =
+      keep ? fs::path(args->at("keep"))
+           : fs::temp_directory_path() / ("tscd_footprint." + std::to_string(getpid()));
+  if (keep && fs::exists(dir / "memory.db")) {
+    std::fprintf(stderr, "%s: %s already holds a store\n", argv[0], dir.c_str());
+    return 2;
+  }
   fs::create_directories(dir);
 
   const auto t_build = Clock::now();
@@ -145,10 +155,10 @@ int Main(int argc, char** argv) {
   if (rss < 0 || !status || *status != 0) {
     std::fprintf(stderr, "tscd did not run through (exit %d); its log:\n%s\n",
                  status ? *status : -1, tscd.Log().c_str());
-    fs::remove_all(dir);
+    if (!keep) fs::remove_all(dir);
     return 1;
   }
-  fs::remove_all(dir);
+  if (!keep) fs::remove_all(dir);
 
   char report[768];
   std::snprintf(report, sizeof report,
