@@ -126,8 +126,11 @@ PipelineWorker::PipelineWorker(const Settings& settings, const CameraSource& cam
     }
     store_ = std::move(store);
     committed_next_base_ = state.next_base;
-    spdlog::info("memory loaded from {}: {} places, {} map edges, continuing at base point {}",
-                 db_path_.string(), memory.places().size(), map.edges().size(), state.next_base);
+    spdlog::info(
+        "memory loaded from {}: {} places, {} map edges, {} pairs of places with copy "
+        "evidence, continuing at base point {}",
+        db_path_.string(), memory.places().size(), map.edges().size(), state.copies.size(),
+        state.next_base);
   } catch (const std::exception& e) {
     // Keep running (recognition and learning go on in memory) and keep every result for the
     // day the store opens; never touch a database we could not read.

@@ -26,7 +26,7 @@ namespace {
 // Schema. kMigrations[v] takes a database from version v to v + 1; a step that has shipped is
 // never edited, a change is a new step appended here.
 
-constexpr std::array<const char*, 4> kMigrations = {
+constexpr std::array<const char*, 5> kMigrations = {
     // Version 1: the initial schema, after appendix D.2.
     R"sql(
 CREATE TABLE meta(key TEXT PRIMARY KEY, value) WITHOUT ROWID;
@@ -105,6 +105,16 @@ ALTER TABLE peers ADD COLUMN digest INTEGER NOT NULL DEFAULT 0;
     // reading views it cannot decode.
     R"sql(
 SELECT 1;
+)sql",
+    // Version 5: the revisits seen so far that showed two places holding one room
+    // (core/pipeline/copy_evidence.h), so that a restart between laps does not forget them.
+    R"sql(
+CREATE TABLE copy_evidence(
+  a_robot INTEGER NOT NULL, a_local INTEGER NOT NULL,
+  b_robot INTEGER NOT NULL, b_local INTEGER NOT NULL,
+  count INTEGER NOT NULL,           -- revisits that showed the pair
+  last INTEGER NOT NULL,            -- detected place index of the latest
+  PRIMARY KEY(a_robot, a_local, b_robot, b_local)) WITHOUT ROWID;
 )sql",
 };
 static_assert(static_cast<int>(kMigrations.size()) == Store::kSchemaVersion);
@@ -571,6 +581,18 @@ class Row {
   std::string row_;
 };
 
+/// A row keyed by two places (columns 0-3: a_robot, a_local, b_robot, b_local), named by them
+/// for the errors of its other columns.
+struct PairRow {
+  PlaceId a, b;
+  Row row;
+};
+PairRow ReadPairRow(const Db& db, const Statement& s, const char* table) {
+  const Row key(db, s, table, "?");
+  const PlaceId a = key.Place(0, "a_robot/a_local"), b = key.Place(2, "b_robot/b_local");
+  return PairRow{a, b, Row(db, s, table, a.ToString() + "-" + b.ToString())};
+}
+
 /// The integer a pragma (or any one-value query) returns.
 int64_t PragmaInt(const Db& db, const char* sql) {
   Statement s(db, sql);
@@ -849,7 +871,18 @@ void WriteMap(const Db& db, const FrameResult& result, const TopologicalMap& map
   }
 }
 
-void WritePipelineState(const Db& db, const PipelineState& state) {
+/// The pipeline position, and with `copies` its copy evidence (written only when it changed:
+/// it rarely does, and a commit is made for every base point).
+void WritePipelineState(const Db& db, const PipelineState& state, bool copies) {
+  if (copies) {
+    Exec(db, "DELETE FROM copy_evidence");
+    Statement insert(db,
+                     "INSERT INTO copy_evidence(a_robot, a_local, b_robot, b_local, count, last) "
+                     "VALUES (?1, ?2, ?3, ?4, ?5, ?6)");
+    for (const CopyWitness& w : state.copies) {
+      insert.Place(1, w.a).Place(3, w.b).Int(5, w.count).Int(6, w.last).Run();
+    }
+  }
   SetMeta(db, kMetaNextBase, state.next_base);
   SetMeta(db, kMetaNextDetected, state.next_detected);
   SetMeta(
@@ -1009,11 +1042,10 @@ TopologicalMap ReadMap(const Db& db) {
               "SELECT a_robot, a_local, b_robot, b_local, traversals, transitions FROM "
               "map_edges ORDER BY a_robot, a_local, b_robot, b_local");
   while (s.Step()) {
-    const Row key(db, s, "map_edges", "?");
+    const auto [a, b, row] = ReadPairRow(db, s, "map_edges");
     MapEdge edge;
-    edge.a = key.Place(0, "a_robot/a_local");
-    edge.b = key.Place(2, "b_robot/b_local");
-    const Row row(db, s, "map_edges", edge.a.ToString() + "-" + edge.b.ToString());
+    edge.a = a;
+    edge.b = b;
     edge.traversals = row.Int(4, "traversals", 0);
     const std::vector<int64_t> bounds = row.Array<int64_t>(5, "transitions");
     if (bounds.size() % 2 != 0) row.Fail("transitions", "odd number of region bounds");
@@ -1051,6 +1083,23 @@ PipelineState ReadPipelineState(const Db& db) {
   }
   if (robot) {
     state.previous_place = PlaceId{static_cast<uint32_t>(*robot), static_cast<uint32_t>(*local)};
+  }
+  {
+    // Bounded whatever the file holds: the pipeline keeps at most kMaxPairs pairs.
+    Statement c(db,
+                "SELECT a_robot, a_local, b_robot, b_local, count, last FROM copy_evidence "
+                "ORDER BY a_robot, a_local, b_robot, b_local LIMIT ?1");
+    c.Int(1, static_cast<int64_t>(CopyEvidence::kMaxPairs));
+    while (c.Step()) {
+      const auto [a, b, row] = ReadPairRow(db, c, "copy_evidence");
+      CopyWitness w;
+      w.a = a;
+      w.b = b;
+      if (!(w.a < w.b)) row.Fail("b_robot", "the pair is not in order");
+      w.count = static_cast<int>(row.Int(4, "count", 1, std::numeric_limits<int>::max()));
+      w.last = row.Int(5, "last", 0, kMax);
+      state.copies.push_back(w);
+    }
   }
   // Both tables are written in the same transaction as the position, so it must be past them.
   if (const auto k = MaxIndex(db, "base_points"); k && *k >= state.next_base) {
@@ -1309,7 +1358,9 @@ void Store::CommitPending(std::span<const FrameResult> results, const Pipeline& 
       tree_changed |= result.memory_changed || !result.changed_places.empty();
       replace_knowledge |= result.memory_replaced;
     }
-    WritePipelineState(db, pipeline.state());
+    const bool copies_changed = std::any_of(results.begin(), results.end(),
+                                            [](const FrameResult& r) { return r.copies_changed; });
+    WritePipelineState(db, pipeline.state(), copies_changed || replace_knowledge || peer);
     if (replace_knowledge || peer) {
       // Positions and map edges of older results may not exist any more (a merge renumbers
       // places and collapses edges): the whole current knowledge replaces the stored one.
@@ -1420,7 +1471,7 @@ SpillReplay Store::ReplaySpill(const std::filesystem::path& spill, uint32_t robo
       if (count.Step()) out.base_points = sqlite3_column_int64(count.get(), 0);
     }
     WriteKnowledge(db, saved.memory, saved.map, std::nullopt);
-    WritePipelineState(db, saved.pipeline);
+    WritePipelineState(db, saved.pipeline, true);
     tx.Commit();
   } catch (...) {
     sqlite3_exec(db_, "DETACH DATABASE spill", nullptr, nullptr, nullptr);

@@ -67,7 +67,7 @@ class Store {
  public:
   /// Schema version this code writes; Open() migrates older databases up to it and refuses
   /// newer ones.
-  static constexpr int kSchemaVersion = 4;
+  static constexpr int kSchemaVersion = 5;
 
   /// Opens or creates the database; creates or migrates the schema. Throws StoreError.
   static Store Open(const std::filesystem::path& path);

@@ -63,7 +63,7 @@ Pipeline::Pipeline(CameraIntrinsics camera, PipelineOptions options, PlaceMemory
       computer_(surface_.grid(), options_.descriptor),
       detector_(options_.detector, state.next_detected, state.next_base),
       memory_(std::move(memory)),
-      copies_(options_.consolidate_after),
+      copies_(options_.consolidate_after, state.copies),
       map_(std::move(map)),
       next_base_(state.next_base),
       previous_place_(state.previous_place) {
@@ -87,7 +87,7 @@ Pipeline::Pipeline(CameraIntrinsics camera, PipelineOptions options, PlaceMemory
 }
 
 PipelineState Pipeline::state() const {
-  return PipelineState{next_base_, detector_.next_place(), previous_place_};
+  return PipelineState{next_base_, detector_.next_place(), previous_place_, copies_.Witnesses()};
 }
 
 BasePointView FinishBasePoint(BubbleSurface& surface, const DescriptorComputer& computer) {
@@ -194,7 +194,9 @@ int Pipeline::Consolidate(int place, const CostTerms& terms, DetectedPlaceIndex 
     const bool shared = std::any_of(around.begin(), around.end(), [&](const PlaceId& p) {
       return std::find(neighbours.begin(), neighbours.end(), p) != neighbours.end();
     });
+    const uint64_t before = copies_.changes();
     if (shared && copies_.Witness(id, copy, m)) group.push_back(q);
+    out.copies_changed |= copies_.changes() != before;
   }
   if (group.size() == 1) return place;
   if (before_replace_) before_replace_();

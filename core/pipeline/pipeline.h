@@ -66,6 +66,8 @@ struct FrameResult {
   /// Places left the memory and indices moved (a consolidation): the whole memory and map
   /// replace what was stored of them, as after a merge; changed_places no longer apply.
   bool memory_replaced = false;
+  /// The evidence that two places are copies of one room changed (PipelineState::copies).
+  bool copies_changed = false;
 };
 
 /// What the pipeline needs of one base point: its descriptor and its intensity statistics,
@@ -136,6 +138,9 @@ struct PipelineState {
   /// β of the last detected place: a hint for hybrid search only. A pipeline continuing from a
   /// state maps no edge from it (the robot may have moved meanwhile; docs/decisions.md, "Map").
   std::optional<PlaceId> previous_place;
+  /// Revisits seen so far that showed two places holding one room (CopyEvidence): evidence
+  /// that takes several laps to gather, kept across restarts.
+  std::vector<CopyWitness> copies;
 };
 
 class Pipeline {

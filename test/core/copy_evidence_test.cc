@@ -2,6 +2,9 @@
 
 #include <gtest/gtest.h>
 
+#include <stdexcept>
+#include <vector>
+
 namespace tsc {
 namespace {
 
@@ -36,6 +39,31 @@ TEST(CopyEvidence, RemembersBoundedPairs) {
     EXPECT_FALSE(dut.Witness(PlaceId{1, i}, PlaceId{2, i}, 2 * static_cast<DetectedPlaceIndex>(i)));
     EXPECT_LE(dut.pairs(), CopyEvidence::kMaxPairs);
   }
+}
+
+// The evidence a run gathered continues in the next (a restart between laps): what Witnesses()
+// gives back, a new CopyEvidence takes up where it was, and it says when it changed.
+TEST(CopyEvidence, ContinuesFromTheEvidenceKept) {
+  CopyEvidence before(3);
+  EXPECT_FALSE(before.Witness(kA, kB, 10));
+  const uint64_t changes = before.changes();
+  EXPECT_FALSE(before.Witness(kB, kA, 11)) << "the same pass";
+  EXPECT_EQ(before.changes(), changes) << "the same pass changes nothing";
+  EXPECT_FALSE(before.Witness(kA, kB, 20));
+  EXPECT_GT(before.changes(), changes);
+  const std::vector<CopyWitness> kept = before.Witnesses();
+  ASSERT_EQ(kept.size(), 1u);
+  EXPECT_EQ(kept.front(), (CopyWitness{kA, kB, 2, 20}));
+  CopyEvidence after(3, kept);
+  EXPECT_EQ(after.Witnesses(), kept);
+  EXPECT_FALSE(after.Witness(kA, kB, 21)) << "still the pass of 20";
+  EXPECT_TRUE(after.Witness(kA, kB, 30)) << "the third revisit, across the restart";
+}
+
+TEST(CopyEvidence, RefusesEvidenceThatCannotBe) {
+  const std::vector<CopyWitness> reversed{{kB, kA, 1, 4}}, never{{kA, kB, 0, 4}};
+  EXPECT_THROW(CopyEvidence(3, reversed), std::invalid_argument);
+  EXPECT_THROW(CopyEvidence(3, never), std::invalid_argument);
 }
 
 }  // namespace

@@ -204,6 +204,7 @@ void ExpectSameState(const PipelineState& want, const PipelineState& got) {
   EXPECT_EQ(got.next_base, want.next_base);
   EXPECT_EQ(got.next_detected, want.next_detected);
   EXPECT_EQ(got.previous_place, want.previous_place);
+  EXPECT_EQ(got.copies, want.copies);
 }
 
 class StoreTest : public ::testing::Test {
@@ -393,6 +394,48 @@ TEST_F(StoreTest, AReplacedMemoryIsWrittenWhole) {
   ExpectSameMap(pipeline.map(), loaded.map);
 }
 
+// Copy evidence takes several laps to gather (core/pipeline/copy_evidence.h): a robot that
+// restarts between them continues counting. It is written when a result says it changed (a
+// commit is made for every base point; the evidence rarely changes).
+TEST_F(StoreTest, CopyEvidenceIsKeptAcrossARestartWhenItChanged) {
+  Store dut = Store::Open(path_);
+  StoredState s = dut.Load(kRobot, Options().memory);
+  PipelineState state = s.pipeline;
+  state.copies = {{PlaceId{2, 5}, PlaceId{kRobot, 2}, 1, 17},  // in pair order
+                  {PlaceId{kRobot, 1}, PlaceId{kRobot, 3}, 2, 40}};
+  Pipeline pipeline(Camera(), Options(), std::move(s.memory), std::move(s.map), state);
+  FrameResult unchanged;
+  unchanged.has_base = false;
+  dut.Commit(unchanged, pipeline);
+  EXPECT_TRUE(dut.Load(kRobot, Options().memory).pipeline.copies.empty());
+  FrameResult changed = unchanged;
+  changed.copies_changed = true;
+  dut.Commit(changed, pipeline);
+  ExpectSameState(state, dut.Load(kRobot, Options().memory).pipeline);
+  // A restarted pipeline holds it and writes it back as it was.
+  Pipeline again = Continue(dut);
+  EXPECT_EQ(again.state().copies, state.copies);
+}
+
+TEST_F(StoreTest, BrokenCopyEvidenceIsAClearError) {
+  { Store::Open(path_); }
+  Sql(path_, "INSERT INTO copy_evidence VALUES (1, 4, 1, 2, 1, 9)");  // pair out of order
+  try {
+    Store::Open(path_).Load(kRobot, Options().memory);
+    FAIL() << "loaded a pair out of order";
+  } catch (const StoreError& e) {
+    EXPECT_NE(std::string(e.what()).find("copy_evidence"), std::string::npos) << e.what();
+  }
+  Sql(path_, "DELETE FROM copy_evidence");
+  Sql(path_, "INSERT INTO copy_evidence VALUES (1, 2, 1, 4, 0, 9)");  // seen no time
+  try {
+    Store::Open(path_).Load(kRobot, Options().memory);
+    FAIL() << "loaded a pair seen no time";
+  } catch (const StoreError& e) {
+    EXPECT_NE(std::string(e.what()).find("count"), std::string::npos) << e.what();
+  }
+}
+
 TEST_F(StoreTest, RecommittingAResultIsHarmless) {
   Stream stream(5);
   stream.AddCluster();
@@ -413,8 +456,8 @@ TEST_F(StoreTest, RecommittingAResultIsHarmless) {
 
 TEST_F(StoreTest, NewDatabaseHasTheCurrentSchemaVersionAndAnEmptyMemory) {
   Store dut = Store::Open(path_);
-  EXPECT_EQ(dut.schema_version(), 4);
-  EXPECT_EQ(Store::kSchemaVersion, 4);
+  EXPECT_EQ(dut.schema_version(), 5);
+  EXPECT_EQ(Store::kSchemaVersion, 5);
   EXPECT_EQ(dut.path(), path_);
   const StoredState loaded = dut.Load(kRobot, Options().memory);
   EXPECT_TRUE(loaded.memory.empty());
@@ -423,7 +466,7 @@ TEST_F(StoreTest, NewDatabaseHasTheCurrentSchemaVersionAndAnEmptyMemory) {
   ExpectSameState(PipelineState{}, loaded.pipeline);
   // Reopening an up-to-date database changes nothing.
   Store again = Store::Open(path_);
-  EXPECT_EQ(again.schema_version(), 4);
+  EXPECT_EQ(again.schema_version(), 5);
   EXPECT_EQ(Sql(path_, "SELECT COUNT(*) FROM schema_version"), 1);
 }
 
@@ -445,15 +488,15 @@ TEST_F(StoreTest, OpenExistingRefusesAMissingDatabaseAndCreatesNothing) {
 
 TEST_F(StoreTest, OpenRefusesANewerSchemaVersion) {
   { Store::Open(path_); }
-  Sql(path_, "UPDATE schema_version SET version = 5");
+  Sql(path_, "UPDATE schema_version SET version = 6");
   try {
     Store::Open(path_);
-    FAIL() << "a database of schema version 5 was opened";
+    FAIL() << "a database of schema version 6 was opened";
   } catch (const StoreError& e) {
     const std::string what = e.what();
     EXPECT_NE(what.find(path_.string()), std::string::npos) << what;
+    EXPECT_NE(what.find("version 6"), std::string::npos) << what;
     EXPECT_NE(what.find("version 5"), std::string::npos) << what;
-    EXPECT_NE(what.find("version 4"), std::string::npos) << what;
   }
 }
 
@@ -484,9 +527,10 @@ TEST_F(StoreTest, MigratesAVersionOneDatabaseKeepingItsKnowledge) {
   // Turn it into what version 1 wrote: no sources column.
   Sql(path_, "ALTER TABLE learned_places DROP COLUMN sources");
   Sql(path_, "ALTER TABLE peers DROP COLUMN digest");
+  Sql(path_, "DROP TABLE copy_evidence");
   Sql(path_, "UPDATE schema_version SET version = 1");
   Store dut = Store::Open(path_);
-  EXPECT_EQ(dut.schema_version(), 4);
+  EXPECT_EQ(dut.schema_version(), 5);
   EXPECT_TRUE(dut.LoadPeers().empty());
   const StoredState loaded = dut.Load(kRobot, Options().memory);
   ExpectSameMemory(memory, loaded.memory);
@@ -524,13 +568,14 @@ TEST_F(StoreTest, ReadsMemberViewsOfTheFloat32Layout) {
                    Float32SamplesLiteral(memory.places()[i].samples.Decoded()) +
                    " WHERE position = " + std::to_string(i));
   }
+  Sql(path_, "DROP TABLE copy_evidence");
   Sql(path_, "UPDATE schema_version SET version = 3");
   EXPECT_EQ(Sql(path_,
                 "SELECT COUNT(*) FROM learned_places WHERE substr(samples, 1, 4) = "
                 "X'ffffffff'"),
             0);
   Store dut = Store::Open(path_);
-  EXPECT_EQ(dut.schema_version(), 4);
+  EXPECT_EQ(dut.schema_version(), 5);
   ExpectSameMemory(memory, dut.Load(kRobot, Options().memory).memory);
 }
 
