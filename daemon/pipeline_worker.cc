@@ -347,7 +347,7 @@ void PipelineWorker::Handle(BasePoint views) {
     result = pipeline_->Process(observations);
     ++counters_.frames;
   }
-  const PipelineState state = pipeline_->state();
+  const PipelineState state = pipeline_->position();
   counters_.places = static_cast<int32_t>(pipeline_->memory().places().size());
   counters_.edges = static_cast<int32_t>(pipeline_->map().edges().size());
   counters_.detected_places = static_cast<int32_t>(state.next_detected - 1);
@@ -498,7 +498,7 @@ void PipelineWorker::RetryStore(bool now) {
       spdlog::info("store {} writable again: {} kept results committed{}", db_path_.string(),
                    pending_.size(), unsaved_merge_ ? " with the merged memory" : "");
     }
-    committed_next_base_ = pipeline_->state().next_base;
+    committed_next_base_ = pipeline_->position().next_base;
     pending_.clear();
     pending_results_ = 0;
     counters_.pending_commits = 0;

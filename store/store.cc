@@ -1360,7 +1360,8 @@ void Store::CommitPending(std::span<const FrameResult> results, const Pipeline& 
     }
     const bool copies_changed = std::any_of(results.begin(), results.end(),
                                             [](const FrameResult& r) { return r.copies_changed; });
-    WritePipelineState(db, pipeline.state(), copies_changed || replace_knowledge || peer);
+    const bool copies = copies_changed || replace_knowledge || peer;
+    WritePipelineState(db, copies ? pipeline.state() : pipeline.position(), copies);
     if (replace_knowledge || peer) {
       // Positions and map edges of older results may not exist any more (a merge renumbers
       // places and collapses edges): the whole current knowledge replaces the stored one.

@@ -87,7 +87,13 @@ Pipeline::Pipeline(CameraIntrinsics camera, PipelineOptions options, PlaceMemory
 }
 
 PipelineState Pipeline::state() const {
-  return PipelineState{next_base_, detector_.next_place(), previous_place_, copies_.Witnesses()};
+  PipelineState s = position();
+  s.copies = copies_.Witnesses();
+  return s;
+}
+
+PipelineState Pipeline::position() const {
+  return PipelineState{next_base_, detector_.next_place(), previous_place_, {}};
 }
 
 BasePointView FinishBasePoint(BubbleSurface& surface, const DescriptorComputer& computer) {

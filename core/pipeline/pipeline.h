@@ -178,7 +178,12 @@ class Pipeline {
   const PipelineOptions& options() const { return options_; }
   const BubbleSurface& surface() const { return surface_; }
   const DescriptorComputer& descriptor_computer() const { return computer_; }
+  /// The whole state a pipeline continues from, copy evidence included.
   PipelineState state() const;
+  /// The state without its copy evidence (`copies` empty): what a writer needs on every base
+  /// point, without copying the evidence, which rarely changes (copy_evidence()).
+  PipelineState position() const;
+  const CopyEvidence& copy_evidence() const { return copies_; }
 
  private:
   void HandleDetection(const std::vector<DetectionEvent>& events, BaseIndex k, FrameResult& out);

@@ -413,6 +413,12 @@ TEST_F(PipelineTest, StateContinuesIndices) {
   EXPECT_EQ(s.next_detected, 2);
   ASSERT_TRUE(s.previous_place.has_value());
   EXPECT_EQ(*s.previous_place, (PlaceId{1, 1}));
+  // The position is the same state without the copy evidence a writer rarely needs.
+  const PipelineState p = dut_.position();
+  EXPECT_EQ(p.next_base, s.next_base);
+  EXPECT_EQ(p.next_detected, s.next_detected);
+  EXPECT_EQ(p.previous_place, s.previous_place);
+  EXPECT_TRUE(p.copies.empty());
 }
 
 // A restart (a new pipeline on the stored memory, map and state) does not know where the robot
