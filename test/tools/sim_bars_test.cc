@@ -111,8 +111,9 @@ TEST_F(SimBarsTest, RecognitionPrecisionAndMapBarsOnThreeWorlds) {
   }
 }
 
-// NOT met yet. Last measured (160x120, defaults of session 39): boundary F1 0.86 / 0.86 / 0.75,
-// recall 0.50 / 0.25 / 0.75 at the default τ_r (view recall 0.58 / 0.33 / 0.75; session 38:
+// NOT met yet. Last measured (160x120, defaults of session 47): boundary F1 0.86 / 0.86 / 0.75,
+// recall 0.57 / 0.25 / 0.75 at the default τ_r (view recall 0.67 / 0.33 / 0.75; session 39:
+// recall 0.50, view recall 0.58 on office 101; session 38:
 // recall 0.36 / 0.25 / 0.75; with the L2+I features and τ_r 1.6 before session 21: F1 0.91 /
 // 0.94 / 0.75, recall 0.13 / 0.23 / 0.75). Most recall
 // misses are corridor stretches revisited in the opposite direction (a 60° camera sees other walls)
