@@ -11,6 +11,8 @@
 #include <map>
 #include <memory>
 #include <optional>
+#include <stdexcept>
+#include <string>
 #include <tuple>
 #include <utility>
 
@@ -32,6 +34,23 @@ constexpr int kLarge = testing_support::kLargeMemory;
 // place p of world w is its site's centre perturbed by 20 %, members by another 2 %. A robot
 // sees place (w, p) with its own member noise (its id is the visit).
 constexpr int kSites = 64;
+
+// Base points of a place's visits and how many visits it holds, for `caps` 0: kMembers views
+// (the fixture of the first benchmarks); 1: the 32 views a place seen once keeps (the default
+// memory.max_samples_per_place; its visit has more base points than that); 2: the 64 of a place
+// seen twice (memory.sample_visits 2), what a long-lived memory's places reach.
+std::pair<int, int> PlaceCaps(int caps) {
+  switch (caps) {
+    case 0:
+      return {kMembers, 1};
+    case 1:
+      return {48, 1};
+    case 2:
+      return {96, 2};
+    default:
+      throw std::invalid_argument("caps " + std::to_string(caps));
+  }
+}
 class World {
  public:
   // `near`: the places made to lie as near the builtin view basis as real descriptors do
@@ -49,34 +68,37 @@ class World {
 // Robot `robot`'s memory of `n` places: places [first, first + n) of `world`; with `basis`,
 // its member views kept in tscd's builtin view basis (core/memory/builtin_view_basis.h), as
 // tscd keeps them, else as descriptors.
-PlaceMemory BuildMemory(uint32_t robot, const World& world, int first, int n, bool basis) {
+// `caps`: the views a place keeps (PlaceCaps).
+PlaceMemory BuildMemory(uint32_t robot, const World& world, int first, int n, bool basis,
+                        int caps) {
   PlaceMemoryOptions options;
   if (basis) options.view_basis = BuiltinViewBasis();
+  const auto [views, visits] = PlaceCaps(caps);
   // 10⁵ places (issue 23): built at once, the SLINK tree over the means in the basis
   // (test/support/synthetic_places.h); n² descriptor distances would take hours.
   if (n >= kLarge) {
-    return testing_support::LargeSyntheticMemory(robot, world.places(), first, n, kMembers,
-                                                 options);
+    return testing_support::LargeSyntheticMemory(robot, world.places(), first, n, views, options,
+                                                 visits);
   }
-  return testing_support::SyntheticMemory(robot, world.places(), first, n, kMembers, options);
+  return testing_support::SyntheticMemory(robot, world.places(), first, n, views, options, visits);
 }
 
 // Pairs built once per (n, shared %, basis): robot 1 sees places [0, n) of world 1; robot 2
 // sees `shared` % of the same places (its own member noise) and the rest from places [n, ...)
 // — or, with shared = 0, places of another world.
 const std::pair<PlaceMemory, PlaceMemory>& Pair(int n, int shared, bool basis, int sites = kSites,
-                                                bool near = false) {
-  static std::map<std::tuple<int, int, bool, int, bool>,
+                                                bool near = false, int caps = 0) {
+  static std::map<std::tuple<int, int, bool, int, bool, int>,
                   std::unique_ptr<std::pair<PlaceMemory, PlaceMemory>>>
       cache;
-  auto& slot = cache[{n, shared, basis, sites, near}];
+  auto& slot = cache[{n, shared, basis, sites, near, caps}];
   if (!slot) {
     const World one(1, sites, near), two(2, sites, near);
     const int overlap = n * shared / 100;
-    PlaceMemory a = BuildMemory(1, one, 0, n, basis);
-    PlaceMemory b = shared == 0
-                        ? BuildMemory(2, two, 0, n, basis)
-                        : BuildMemory(2, one, n - overlap, n, basis);  // last `overlap` of a's
+    PlaceMemory a = BuildMemory(1, one, 0, n, basis, caps);
+    PlaceMemory b =
+        shared == 0 ? BuildMemory(2, two, 0, n, basis, caps)
+                    : BuildMemory(2, one, n - overlap, n, basis, caps);  // last `overlap` of a's
     slot = std::make_unique<std::pair<PlaceMemory, PlaceMemory>>(std::move(a), std::move(b));
   }
   return *slot;
@@ -89,7 +111,8 @@ void BM_MergeMemories(benchmark::State& state) {
   const int places_per_site = state.range(4) > 0 ? static_cast<int>(state.range(4)) : 0;
   const int sites = places_per_site > 0 ? n / places_per_site : kSites;
   const bool near = state.range(5) != 0;
-  const auto& [ours, peer] = Pair(n, shared, basis, sites, near);
+  const int caps = state.range(6) > 0 ? static_cast<int>(state.range(6)) : 0;
+  const auto& [ours, peer] = Pair(n, shared, basis, sites, near, caps);
   double merge_s = 0.0;
   MergeCase merge_case = MergeCase::kNothingNew;
   size_t absorbed = 0, added = 0;
@@ -125,6 +148,7 @@ void BM_MergeMemories(benchmark::State& state) {
   state.counters["added"] = static_cast<double>(added);
   state.counters["retrained"] = retrained;
   state.counters["sites"] = sites;
+  state.counters["views_per_place"] = static_cast<double>(ours.places().front().samples.cols());
   state.SetLabel(std::string(ToString(merge_case)) + (copying ? " copying" : " moving") +
                  (basis ? ", views in the builtin basis" : ", views as descriptors"));
   // Reference: recognise-then-update-or-learn the peer's places one by one into a copy of
@@ -159,22 +183,27 @@ void BM_MergeMemories(benchmark::State& state) {
 // (0: 64 sites whatever the size, so at 10⁵ a site holds ~1560 places, one room learned 1560
 // times; 2: the ≤ 2 places per room issue 23 asks of a long-lived memory, a flat tree whose
 // root has thousands of hyper-terminals below it), 1 = places as near the basis as real
-// descriptors (see World).
+// descriptors (see World), the views a place keeps (PlaceCaps: 0 the first fixtures' 12, 1 the
+// 32 of a place seen once, 2 the 64 of a place seen twice).
 BENCHMARK(BM_MergeMemories)
-    ->Args({1000, 0, 0, 0, 0, 0})
-    ->Args({1000, 50, 0, 0, 0, 0})
-    ->Args({10000, 0, 0, 0, 0, 0})
-    ->Args({10000, 50, 0, 0, 0, 0})
-    ->Args({10000, 50, 1, 0, 0, 0})
-    ->Args({1000, 50, 0, 1, 0, 0})
-    ->Args({10000, 0, 0, 1, 0, 0})
-    ->Args({10000, 50, 0, 1, 0, 0})
-    ->Args({10000, 0, 0, 1, 2, 0})
-    ->Args({10000, 50, 0, 1, 2, 0})
-    ->Args({10000, 0, 0, 1, 2, 1})
-    ->Args({10000, 50, 0, 1, 2, 1})
-    ->Args({kLarge, 0, 0, 1, 0, 0})
-    ->Args({kLarge, 50, 0, 1, 0, 0})
+    ->Args({1000, 0, 0, 0, 0, 0, 0})
+    ->Args({1000, 50, 0, 0, 0, 0, 0})
+    ->Args({10000, 0, 0, 0, 0, 0, 0})
+    ->Args({10000, 50, 0, 0, 0, 0, 0})
+    ->Args({10000, 50, 1, 0, 0, 0, 0})
+    ->Args({1000, 50, 0, 1, 0, 0, 0})
+    ->Args({10000, 0, 0, 1, 0, 0, 0})
+    ->Args({10000, 50, 0, 1, 0, 0, 0})
+    ->Args({10000, 0, 0, 1, 2, 0, 0})
+    ->Args({10000, 50, 0, 1, 2, 0, 0})
+    ->Args({10000, 0, 0, 1, 2, 1, 0})
+    ->Args({10000, 50, 0, 1, 2, 1, 0})
+    ->Args({10000, 0, 0, 1, 0, 0, 1})
+    ->Args({10000, 50, 0, 1, 0, 0, 1})
+    ->Args({10000, 0, 0, 1, 0, 0, 2})
+    ->Args({10000, 50, 0, 1, 0, 0, 2})
+    ->Args({kLarge, 0, 0, 1, 0, 0, 0})
+    ->Args({kLarge, 50, 0, 1, 0, 0, 0})
     ->Unit(benchmark::kMillisecond)
     ->Iterations(1);  // the giving-up form consumes its inputs
 

@@ -6,6 +6,7 @@
 #include <span>
 #include <utility>
 
+#include "core/memory/member_views.h"
 #include "core/memory/recognition_cost.h"
 #include "core/merge/hyper_terminals.h"
 
@@ -72,9 +73,11 @@ std::vector<size_t> ByStar(const std::vector<size_t>& match_of) {
 
 // g of (4.1) for the place `p` against the candidates `star` of a hyper-terminal N* of
 // `base`: the g_N of recognition (core/memory/recognition_cost.h) with p's member views as the
-// vote points. Sets `best` to the nearest terminal place P¹ and `best_gamma` to γ(p, P¹)
-// between the means (the distance of the merged SLINK tree); −1, with an infinite cost, when
-// no terminal child of N* can take p.
+// vote points, at most memory.max_vote_points of them evenly spaced, as recognition takes D's
+// base points (a place seen twice keeps 64 views: all of them as vote points made a 10⁴ +
+// 10⁴ merge of such places 4x the products of one with 32). Sets `best` to the nearest terminal
+// place P¹ and `best_gamma` to γ(p, P¹) between the means (the distance of the merged SLINK tree);
+// −1, with an infinite cost, when no terminal child of N* can take p.
 double RecognitionCost(const PlaceMemory& base, const StarCandidates& star, const LearnedPlace& p,
                        int* best, double* best_gamma) {
   // Past `shortlist` places under N*'s children, only the nearest by the view index are
@@ -83,7 +86,7 @@ double RecognitionCost(const PlaceMemory& base, const StarCandidates& star, cons
   // 10⁴ synthetic places: N* of ~156 terminals, 1.6·10⁶ place measurements, 19 s).
   std::vector<const LearnedPlace*> places = star.places;
   std::vector<float> estimates;
-  const Eigen::MatrixXf views = p.samples.Decoded();
+  const Eigen::MatrixXf views = EvenlySpaced(p.samples.Decoded(), base.options().max_vote_points);
   if (base.options().Shortlists(places.size())) {
     estimates = star.keys.Estimate(ViewIndex::Queries(views));
     std::vector<char> measured(places.size(), 0);

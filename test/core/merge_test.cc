@@ -865,15 +865,20 @@ namespace {
 // One g_N serves recognition and merging (DESIGN §3.3 amended): an incoming place absorbed at
 // a hyper-terminal costs what recognising its member views costs at that node. Here the
 // root is the only hyper-terminal (three places equally far apart fold into one node).
+// The merge of `incoming` into `base`, and the recognition in `base` of the views of
+// incoming's first place: what its absorption should cost.
+std::pair<MemoryMerge, Recognition> MergeAndRecognise(const PlaceMemory& base,
+                                                      const PlaceMemory& incoming) {
+  DetectedPlace views;
+  views.descriptors = incoming.places()[0].samples.Decoded();
+  return {MergeMemories(base, incoming), base.Recognize(views)};
+}
+
 TEST(MergeMemories, AbsorptionCostsWhatRecognitionCosts) {
   const PlaceMemory base = MakeMemory(2, {At(0), At(0, 2), At(0, 4)}, 5);
   ASSERT_EQ(base.nodes()[static_cast<size_t>(base.root())].children.size(), 3u);
-  const PlaceMemory incoming = MakeMemory(1, {At(0.005f)}, 77);
-  const MemoryMerge dut = MergeMemories(base, incoming);
+  const auto [dut, r] = MergeAndRecognise(base, MakeMemory(1, {At(0.005f)}, 77));
   ASSERT_EQ(dut.absorbed.size(), 1u);
-  DetectedPlace views;
-  views.descriptors = incoming.places()[0].samples.Decoded();
-  const Recognition r = base.Recognize(views);
   ASSERT_TRUE(r.place.has_value());
   // The place recognition picks absorbed the incoming 1:1; the merged place carries the
   // smaller id of the two (canonical ids), so the record reads "2:1 into 1:1".
@@ -881,6 +886,24 @@ TEST(MergeMemories, AbsorptionCostsWhatRecognitionCosts) {
   EXPECT_EQ(recognised, (PlaceId{2, 1}));
   EXPECT_EQ(dut.absorbed[0].source, recognised);
   EXPECT_EQ(dut.absorbed[0].target, (PlaceId{1, 1}));
+  EXPECT_DOUBLE_EQ(dut.absorbed[0].cost, r.cost);
+}
+
+// A place keeps more views than recognition takes vote points (a place seen twice holds 64,
+// recognition takes 32 of D's base points): its absorption still costs what recognising its
+// views costs, with as many vote points, evenly spaced.
+TEST(MergeMemories, AnAbsorptionTakesAsManyVotePointsAsRecognition) {
+  PlaceMemoryOptions options = UnitScale();
+  options.max_vote_points = 3;
+  PlaceMemory base(2, options), incoming(1, options);
+  for (uint32_t p = 0; p < 3; ++p)
+    base.Learn(MakePlace(At(0, 2.0f * static_cast<float>(p)), 5 + p));
+  incoming.Learn(MakePlace(At(0.005f), 77));
+  ASSERT_GT(incoming.places()[0].samples.cols(), options.max_vote_points);
+  const auto [dut, r] = MergeAndRecognise(base, incoming);
+  ASSERT_EQ(dut.absorbed.size(), 1u);
+  ASSERT_TRUE(r.place.has_value());
+  EXPECT_EQ(dut.absorbed[0].source, base.places()[static_cast<size_t>(*r.place)].id);
   EXPECT_DOUBLE_EQ(dut.absorbed[0].cost, r.cost);
 }
 
