@@ -3,6 +3,7 @@
 // learned place p ∈ P (a terminal of the place memory, section 3.3).
 
 #include <Eigen/Core>
+#include <cstddef>
 #include <cstdint>
 #include <vector>
 
@@ -31,9 +32,23 @@ struct LearnedPlace {
   /// 16 bits a coordinate (core/memory/compact_views.h).
   CompactViews samples;
   std::vector<DetectedPlaceIndex> detected;  ///< detected places that compose it
-  std::vector<BaseIndex> members;            ///< member base points (this robot's stream)
+  /// Member base points (this robot's stream), the latest kMaxMembers of them (TrimMembers);
+  /// member_count counts every one.
+  std::vector<BaseIndex> members;
   /// Ids of other robots' places merged into this one (core/merge), sorted, without `id`.
   std::vector<PlaceId> sources;
+
+  /// A place recognised on every lap of a long run would hold, and its store rewrite on every
+  /// recognition, every base point it ever had: 0.9 MB for one place after an accelerated day
+  /// (issue 23). The store thins the oldest base points' records anyway.
+  static constexpr size_t kMaxMembers = 4096;
 };
+
+/// Drops the oldest of `p`'s members (the lowest base indices come first) past kMaxMembers.
+inline void TrimMembers(LearnedPlace& p) {
+  if (p.members.size() <= LearnedPlace::kMaxMembers) return;
+  p.members.erase(p.members.begin(),
+                  p.members.end() - static_cast<std::ptrdiff_t>(LearnedPlace::kMaxMembers));
+}
 
 }  // namespace tsc

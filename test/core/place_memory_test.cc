@@ -150,6 +150,29 @@ TEST_F(PlaceMemoryTest, UpdateMovesMeanAndKeepsTree) {
   EXPECT_TRUE(dut_.Centroid(2).isApprox(p.mean, 1e-5f));
 }
 
+// A place seen on every lap of a long run keeps the member base points of its latest visits
+// only, while its mean counts every one (issue 23: the list and its store row grew without end).
+TEST_F(PlaceMemoryTest, APlaceKeepsTheLatestMembersOnly) {
+  constexpr int kVisit = 1000;  // members m * 100 + j: visits m of 1000 overlap, so spaced apart
+  const size_t visits = LearnedPlace::kMaxMembers / kVisit + 2;
+  for (size_t v = 0; v < visits; ++v) {
+    DetectedPlace d =
+        MakePlace(static_cast<DetectedPlaceIndex>(100 + 20 * v), centres_[2], rng_, kVisit);
+    dut_.Update(2, d);
+  }
+  const LearnedPlace& p = dut_.places()[2];
+  EXPECT_EQ(p.member_count, 12 + static_cast<int64_t>(visits) * kVisit);
+  ASSERT_EQ(p.members.size(), LearnedPlace::kMaxMembers);
+  EXPECT_EQ(p.members.back(), (100 + 20 * static_cast<BaseIndex>(visits - 1)) * 100 + kVisit - 1);
+  EXPECT_TRUE(std::is_sorted(p.members.begin(), p.members.end()));
+  // A memory restored from members kept by an older tscd keeps the latest ones too.
+  std::vector<LearnedPlace> places = dut_.places();
+  places[2].members.insert(places[2].members.begin(), 5000, 0);
+  const PlaceMemory restored =
+      PlaceMemory::Restore(1, Options(), places, dut_.slink(), dut_.next_local_id(), {});
+  EXPECT_EQ(restored.places()[2].members, p.members);
+}
+
 TEST_F(PlaceMemoryTest, RestoreReproducesTreeWithoutRetraining) {
   std::unordered_map<uint64_t, OneClassDiscriminant> saved;
   for (size_t n = 0; n < dut_.nodes().size(); ++n) {
