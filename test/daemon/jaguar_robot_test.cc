@@ -222,8 +222,8 @@ TEST_P(JaguarRobotTest, LearnsPlacesAlongARouteDrivenByTeleop) {
                             Keys('d', 30) + "; " + Keys('w', 60) + "; " + Keys('a', 60) + "; " +
                             Keys('w', 60));
   EXPECT_EQ(teleop->Wait(seconds(40)), 0) << teleop->Log();
-  ASSERT_TRUE(WaitStill(seconds(2)));
-  tscd->Signal(SIGTERM);  // closes the open place
+  ASSERT_TRUE(WaitStill(seconds(10)));  // a bound only: a loaded machine stops late
+  tscd->Signal(SIGTERM);                // closes the open place
   ASSERT_EQ(tscd->Wait(seconds(20)), 0) << tscd->Log();
   std::this_thread::sleep_for(milliseconds(200));
   int learned = 0, mapped = 0;
@@ -248,7 +248,7 @@ TEST_P(JaguarRobotTest, SigtermOfTscdStopsTheMotors) {
   tscd->Signal(SIGTERM);
   // tscd stops the motors first thing (its driver's watchdog would within 0.5 s too); the
   // board's own silence rule is not what stops them: see "stopped by command" below.
-  ASSERT_TRUE(WaitStill(seconds(3)));
+  ASSERT_TRUE(WaitStill(seconds(10)));  // a bound only (still_after_ms records the time)
   RecordProperty("still_after_ms",
                  static_cast<int>(std::chrono::duration_cast<milliseconds>(
                                       std::chrono::steady_clock::now() - signalled)
@@ -273,7 +273,7 @@ TEST_P(JaguarRobotTest, KillNineOfTscdLeavesTheMotorsStoppedByTheBoard) {
   ASSERT_TRUE(WaitMoving(seconds(10))) << "not moving: " << teleop->Log();
   tscd->Signal(SIGKILL);
   EXPECT_EQ(tscd->Wait(seconds(10)), 128 + SIGKILL);
-  EXPECT_TRUE(WaitStill(seconds(3)));
+  EXPECT_TRUE(WaitStill(seconds(10)));  // a bound only: the board's 1 s silence rule stops it
   teleop->Signal(SIGTERM);
   teleop->Wait(seconds(5));
   const std::string summary = SimSummary();
