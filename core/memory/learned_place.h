@@ -38,9 +38,9 @@ struct LearnedPlace {
   /// Ids of other robots' places merged into this one (core/merge), sorted, without `id`.
   std::vector<PlaceId> sources;
 
-  /// A place recognised on every lap of a long run would hold, and its store rewrite on every
-  /// recognition, every base point it ever had: 0.9 MB for one place after an accelerated day
-  /// (issue 23). The store thins the oldest base points' records anyway.
+  /// A place recognised on every lap of a long run would otherwise hold every base point it
+  /// ever had (0.9 MB for one place after an accelerated day, issue 23), and the store
+  /// rewrites that row on each recognition. The store thins the oldest base points anyway.
   static constexpr size_t kMaxMembers = 4096;
 };
 

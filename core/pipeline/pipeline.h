@@ -181,9 +181,8 @@ class Pipeline {
   /// The whole state a pipeline continues from, copy evidence included.
   PipelineState state() const;
   /// The state without its copy evidence (`copies` empty): what a writer needs on every base
-  /// point, without copying the evidence, which rarely changes (copy_evidence()).
+  /// point, without copying the evidence, which rarely changes.
   PipelineState position() const;
-  const CopyEvidence& copy_evidence() const { return copies_; }
 
  private:
   void HandleDetection(const std::vector<DetectionEvent>& events, BaseIndex k, FrameResult& out);
