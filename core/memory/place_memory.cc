@@ -668,7 +668,9 @@ PlaceMemory PlaceMemory::Restore(uint32_t robot, PlaceMemoryOptions options,
       }
     }
   }
-  for (LearnedPlace& p : places) TrimMembers(p);  // a store or a peer of an older tscd
+  // Places read from a store (an older tscd kept every member), and places a merge or a
+  // consolidation folded together, keep their latest members here.
+  for (LearnedPlace& p : places) TrimMembers(p);
   for (const LearnedPlace& p : places) {
     if (p.mean.size() == 0 || p.mean.size() != places.front().mean.size() || !p.mean.allFinite() ||
         p.samples.cols() == 0 || p.member_count < 1) {

@@ -150,7 +150,6 @@ void Fold(LearnedPlace& target, const LearnedPlace& b, const PlaceMemoryOptions&
   if (target.id.robot == b.id.robot) {
     target.members.insert(target.members.end(), b.members.begin(), b.members.end());
     std::sort(target.members.begin(), target.members.end());
-    TrimMembers(target);
     target.detected.insert(target.detected.end(), b.detected.begin(), b.detected.end());
     std::sort(target.detected.begin(), target.detected.end());
   }

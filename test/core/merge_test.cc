@@ -862,9 +862,6 @@ TEST(MergeMemories, OurFresherPlaceWinsOverThePeersStaleCopyOfIt) {
 namespace tsc {
 namespace {
 
-// One g_N serves recognition and merging (DESIGN §3.3 amended): an incoming place absorbed at
-// a hyper-terminal costs what recognising its member views costs at that node. Here the
-// root is the only hyper-terminal (three places equally far apart fold into one node).
 // The merge of `incoming` into `base`, and the recognition in `base` of the views of
 // incoming's first place: what its absorption should cost.
 std::pair<MemoryMerge, Recognition> MergeAndRecognise(const PlaceMemory& base,
@@ -874,6 +871,9 @@ std::pair<MemoryMerge, Recognition> MergeAndRecognise(const PlaceMemory& base,
   return {MergeMemories(base, incoming), base.Recognize(views)};
 }
 
+// One g_N serves recognition and merging (DESIGN §3.3 amended): an incoming place absorbed at
+// a hyper-terminal costs what recognising its member views costs at that node. Here the
+// root is the only hyper-terminal (three places equally far apart fold into one node).
 TEST(MergeMemories, AbsorptionCostsWhatRecognitionCosts) {
   const PlaceMemory base = MakeMemory(2, {At(0), At(0, 2), At(0, 4)}, 5);
   ASSERT_EQ(base.nodes()[static_cast<size_t>(base.root())].children.size(), 3u);
