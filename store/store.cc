@@ -1062,6 +1062,37 @@ TopologicalMap ReadMap(const Db& db) {
 }
 
 /// MAX(column) of `table`, or nullopt for an empty table.
+/// Retention's second part: the detected places (and the transition regions before them)
+/// none of whose base points is kept any more, oldest first, at most `count` of each. They
+/// are the robot's history, as the base points are, and nothing reads them back but the
+/// assignments of an evaluation: kept forever they grew ~56 MB a day at 10 fps (the mean and
+/// members of ~10⁴ places, session 50's accelerated day) and squeezed every base point out of
+/// a 64 MiB budget within the day, then grew past it. With no base point left, all may go.
+int64_t ThinDetectedPlaces(const Db& db, int64_t count) {
+  const int64_t horizon =
+      PragmaInt(db, "SELECT COALESCE(MIN(idx), 9223372036854775807) FROM base_points");
+  std::vector<int64_t> gone;
+  {
+    Statement s(db, "SELECT idx, members FROM detected_places ORDER BY idx LIMIT ?1");
+    s.Int(1, count);
+    while (s.Step()) {
+      const Row row(db, s, "detected_places", "?");
+      const std::vector<int64_t> members = row.Array<int64_t>(1, "members");
+      if (!members.empty() && members.back() >= horizon) break;  // later places are newer
+      gone.push_back(row.Int(0, "idx"));
+    }
+  }
+  Statement erase(db, "DELETE FROM detected_places WHERE idx = ?1");
+  for (int64_t m : gone) erase.Int(1, m).Run();
+  Statement(db,
+            "DELETE FROM transition_regions WHERE id IN (SELECT id FROM transition_regions "
+            "WHERE last < ?1 ORDER BY id LIMIT ?2)")
+      .Int(1, horizon)
+      .Int(2, count)
+      .Run();
+  return static_cast<int64_t>(gone.size());
+}
+
 std::optional<int64_t> MaxIndex(const Db& db, const char* table) {
   Statement s(db, (std::string("SELECT MAX(idx) FROM ") + table).c_str());
   if (!s.Step()) return std::nullopt;
@@ -1241,7 +1272,10 @@ MaintenanceStep Store::Maintain(const StoreOptions& options) {
         .Int(1, count)
         .Run();
     step.base_points_deleted = sqlite3_changes(db_);
-    records_left = PragmaInt(db, "SELECT EXISTS(SELECT 1 FROM base_points)") != 0;
+    step.detected_places_deleted = ThinDetectedPlaces(db, count);
+    records_left = PragmaInt(db,
+                             "SELECT EXISTS(SELECT 1 FROM base_points) OR "
+                             "EXISTS(SELECT 1 FROM detected_places)") != 0;
     tx.Commit();
   }
   const bool reclaims = reclaims_space();

@@ -58,9 +58,11 @@ struct SpillReplay {
 /// What one Store::Maintain step did.
 struct MaintenanceStep {
   int64_t base_points_deleted = 0;  ///< oldest base point records deleted (one transaction)
-  int64_t pages_released = 0;       ///< free pages handed back to the file system
-  int64_t bytes_used = 0;           ///< pages in use after the step x page size
-  bool more = false;                ///< another step has work to do now
+  /// Detected place records deleted with them (none of their base points kept; same transaction)
+  int64_t detected_places_deleted = 0;
+  int64_t pages_released = 0;  ///< free pages handed back to the file system
+  int64_t bytes_used = 0;      ///< pages in use after the step x page size
+  bool more = false;           ///< another step has work to do now
 };
 
 class Store {
@@ -117,11 +119,12 @@ class Store {
 
   /// One bounded step of retention (issue 23): while the pages in use exceed
   /// `options.budget_mb`, deletes the oldest base point records (at most
-  /// `options.maintenance_pages` of them, in one transaction), then hands at most that many
-  /// free pages back to the file system (incremental vacuum, its own transaction) when the
-  /// database reclaims space (reclaims_space()). Nothing else is ever deleted: learned places
-  /// carry the member views recognition, merging and Load() use. Throws StoreError (the
-  /// deletion rolled back).
+  /// `options.maintenance_pages` of them) and, in the same transaction, as many of the oldest
+  /// detected places and transition regions whose base points are all gone (the robot's
+  /// history), then hands at most that many free pages back to the file system (incremental
+  /// vacuum, its own transaction) when the database reclaims space (reclaims_space()).
+  /// Nothing else is ever deleted: learned places carry the member views recognition, merging
+  /// and Load() use. Throws StoreError (the deletion rolled back).
   MaintenanceStep Maintain(const StoreOptions& options);
   /// True when freed pages can be handed back (auto_vacuum = INCREMENTAL): every database this
   /// code creates, and an older one EnableIncrementalVacuum() converted. A larger older

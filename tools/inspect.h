@@ -36,7 +36,8 @@ struct StoreSummary {
   int64_t good = 0;
   int64_t uninformative = 0;
   int64_t incoherent = 0;
-  int64_t detected_places = 0;
+  int64_t detected_places = 0;       ///< detected place records kept (thinned with base points)
+  int64_t detected_places_seen = 0;  ///< places the robot has detected (meta next_detected − 1)
   std::vector<LearnedPlaceSummary> learned_places;
   int tree_depth = 0;
   int64_t tree_nodes = 0;
@@ -59,9 +60,9 @@ InspectedStore InspectStore(const std::filesystem::path& db, const PlaceMemoryOp
 
 /// Human-readable summary.
 void PrintSummary(std::ostream& out, const StoreSummary& s);
-/// The same as one JSON object: db, schema_version, robot, base_points, good, uninformative,
-/// incoherent, detected_places, learned_places (count), places ([{id, members,
-/// detected_places}]), tree_depth, tree_nodes, map_nodes, map_edges.
+/// The same as one JSON object: db, schema_version, robot, base_points, base_points_seen, good,
+/// uninformative, incoherent, detected_places, detected_places_seen, learned_places (count), places
+/// ([{id, members, detected_places}]), tree_depth, tree_nodes, map_nodes, map_edges.
 void PrintSummaryJson(std::ostream& out, const StoreSummary& s);
 
 /// One Graphviz digraph with two clusters: "place memory" (the tree, root at the top,

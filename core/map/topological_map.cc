@@ -10,6 +10,15 @@ std::pair<PlaceId, PlaceId> Key(PlaceId x, PlaceId y) {
 }
 }  // namespace
 
+void MapEdge::TrimTransitions() {
+  if (transitions.size() <= kMaxTransitions) return;
+  std::stable_sort(
+      transitions.begin(), transitions.end(),
+      [](const TransitionRegion& x, const TransitionRegion& y) { return x.first < y.first; });
+  transitions.erase(transitions.begin(),
+                    transitions.end() - static_cast<std::ptrdiff_t>(kMaxTransitions));
+}
+
 void TopologicalMap::AddPlace(PlaceId p) { places_.insert(p); }
 
 bool TopologicalMap::RecordTransition(PlaceId from, PlaceId to, TransitionRegion region) {
@@ -19,7 +28,10 @@ bool TopologicalMap::RecordTransition(PlaceId from, PlaceId to, TransitionRegion
   const auto key = Key(from, to);
   auto [it, inserted] = edges_.try_emplace(key, MapEdge{key.first, key.second, 0, {}});
   ++it->second.traversals;
-  if (!region.empty()) it->second.transitions.push_back(region);
+  if (!region.empty()) {
+    it->second.transitions.push_back(region);
+    it->second.TrimTransitions();
+  }
   return true;
 }
 
@@ -32,6 +44,7 @@ void TopologicalMap::RestoreEdge(MapEdge edge) {
   edge.b = key.second;
   places_.insert(edge.a);
   places_.insert(edge.b);
+  edge.TrimTransitions();  // a merge joins the regions of the edges it collapses
   edges_[key] = std::move(edge);
 }
 

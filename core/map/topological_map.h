@@ -16,8 +16,16 @@ namespace tsc {
 struct MapEdge {
   PlaceId a;  ///< a < b
   PlaceId b;
-  int64_t traversals = 0;
+  int64_t traversals = 0;  ///< every traversal, also those whose region is no longer kept
+  /// The latest kMaxTransitions regions at most (oldest first once trimmed).
   std::vector<TransitionRegion> transitions;
+
+  /// A robot crosses an edge without end over months of laps (an accelerated day: up to 981
+  /// times), and the edge's row is rewritten at every crossing; the regions are history (the
+  /// store thins the base points they name), so an edge keeps the latest only.
+  static constexpr size_t kMaxTransitions = 256;
+  /// Beyond kMaxTransitions regions, keeps the latest (by first base point), oldest first.
+  void TrimTransitions();
 };
 
 class TopologicalMap {

@@ -687,6 +687,7 @@ TEST_F(StoreTest, MaintainThinsOldBasePointsUnderTheBudgetAndKeepsTheKnowledge) 
       step = dut.Maintain(options);
       // Bounded steps: neither part does more than maintenance_pages at once.
       EXPECT_LE(step.base_points_deleted, options.maintenance_pages);
+      EXPECT_LE(step.detected_places_deleted, options.maintenance_pages);
       EXPECT_LE(step.pages_released, options.maintenance_pages);
     }
     EXPECT_GT(steps, 10);  // the work was spread over many small steps
@@ -709,14 +710,28 @@ TEST_F(StoreTest, MaintainThinsOldBasePointsUnderTheBudgetAndKeepsTheKnowledge) 
   EXPECT_EQ(SqlText(path_, "PRAGMA integrity_check"), "ok");
 
   // Every learned place (members, member views), the tree, every map edge, the pipeline's
-  // position and the peer's version load back exactly; so do the detected places.
+  // position and the peer's version load back exactly.
   const testing_support::Knowledge after =
       testing_support::LoadKnowledge(path_, kRobot, Options().memory);
   EXPECT_TRUE(testing_support::Differences(before, after).empty())
       << testing_support::DescribeDifferences(before, after);
   ExpectSameState(before.state.pipeline, after.state.pipeline);
+  // The history went with its base points: exactly the detected places none of whose base
+  // points is kept, and the transition regions before them; the newer ones load back as they
+  // were.
   Store dut = Store::Open(path_);
-  EXPECT_EQ(dut.LoadAssignments(), assignments);
+  const int64_t horizon = committed.frames - kept;
+  std::vector<std::pair<PlaceId, std::vector<BaseIndex>>> newer;
+  for (const auto& a : assignments) {
+    if (a.second.back() >= horizon) newer.push_back(a);
+  }
+  EXPECT_LT(newer.size(), assignments.size());
+  EXPECT_FALSE(newer.empty());
+  EXPECT_EQ(dut.LoadAssignments(), newer);
+  EXPECT_EQ(
+      Sql(path_, "SELECT COUNT(*) FROM transition_regions WHERE last < " + std::to_string(horizon)),
+      0);
+  EXPECT_GT(Sql(path_, "SELECT COUNT(*) FROM transition_regions"), 0);
 
   // Learning continues where it stopped, recognising the places it kept.
   Pipeline pipeline = Continue(dut);
