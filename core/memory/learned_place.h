@@ -31,24 +31,35 @@ struct LearnedPlace {
   /// spread over every heading and visit; recognition measures distances to them. Kept in
   /// 16 bits a coordinate (core/memory/compact_views.h).
   CompactViews samples;
-  std::vector<DetectedPlaceIndex> detected;  ///< detected places that compose it
-  /// Member base points (this robot's stream), the latest kMaxMembers of them (TrimMembers);
+  /// Detected places that compose it, the latest kMaxDetected of them (TrimHistory).
+  std::vector<DetectedPlaceIndex> detected;
+  /// Member base points (this robot's stream), the latest kMaxMembers of them (TrimHistory);
   /// member_count counts every one.
   std::vector<BaseIndex> members;
   /// Ids of other robots' places merged into this one (core/merge), sorted, without `id`.
   std::vector<PlaceId> sources;
 
-  /// A place recognised on every lap of a long run would otherwise hold every base point it
-  /// ever had (0.9 MB for one place after an accelerated day, issue 23), and the store
-  /// rewrites that row on each recognition. The store thins the oldest base points anyway.
+  /// A place recognised on every lap of a long run would otherwise hold every base point and
+  /// detected place it ever had (0.9 MB of members for one place after an accelerated day,
+  /// issue 23; ~1500 detected places a day), and the store rewrites that row on each
+  /// recognition. The store thins the oldest base points and detected places anyway.
   static constexpr size_t kMaxMembers = 4096;
+  /// Past memory.sample_visits' largest value (1000), so the views a place keeps
+  /// (PlaceMemoryOptions::SampleCap) never depend on it.
+  static constexpr size_t kMaxDetected = 4096;
 };
 
-/// Drops the oldest of `p`'s members (the lowest base indices come first) past kMaxMembers.
-inline void TrimMembers(LearnedPlace& p) {
-  if (p.members.size() <= LearnedPlace::kMaxMembers) return;
-  p.members.erase(p.members.begin(),
-                  p.members.end() - static_cast<std::ptrdiff_t>(LearnedPlace::kMaxMembers));
+/// Drops the oldest of `p`'s members and detected places (the lowest indices come first) past
+/// kMaxMembers and kMaxDetected.
+inline void TrimHistory(LearnedPlace& p) {
+  if (p.members.size() > LearnedPlace::kMaxMembers) {
+    p.members.erase(p.members.begin(),
+                    p.members.end() - static_cast<std::ptrdiff_t>(LearnedPlace::kMaxMembers));
+  }
+  if (p.detected.size() > LearnedPlace::kMaxDetected) {
+    p.detected.erase(p.detected.begin(),
+                     p.detected.end() - static_cast<std::ptrdiff_t>(LearnedPlace::kMaxDetected));
+  }
 }
 
 }  // namespace tsc

@@ -271,7 +271,7 @@ int PlaceMemory::Learn(const DetectedPlace& d) {
                 options_.max_samples_per_place));
   p.detected = {d.index};
   p.members = d.members;
-  TrimMembers(p);
+  TrimHistory(p);
   // γ of (3.12) between the new place and every learned place. Without a basis every γ is
   // measured, streamed from the contiguous copy of the means; each column is read as an
   // aligned vector so the value is the same as (places_[i].mean − p.mean).squaredNorm(),
@@ -321,7 +321,7 @@ void PlaceMemory::Update(int place, const DetectedPlace& d) {
   p.detected.push_back(d.index);
   p.samples = CompactViews(ThinViews(pool, options_.SampleCap(p)));
   p.members.insert(p.members.end(), d.members.begin(), d.members.end());
-  TrimMembers(p);
+  TrimHistory(p);
   StoreDerived(place, place + 1);
   // The place's path to the root: centroids move, discriminants see new members.
   const Eigen::VectorXf delta = p.mean - old_mean;
@@ -670,7 +670,7 @@ PlaceMemory PlaceMemory::Restore(uint32_t robot, PlaceMemoryOptions options,
   }
   // Places read from a store (an older tscd kept every member), and places a merge or a
   // consolidation folded together, keep their latest members here.
-  for (LearnedPlace& p : places) TrimMembers(p);
+  for (LearnedPlace& p : places) TrimHistory(p);
   for (const LearnedPlace& p : places) {
     if (p.mean.size() == 0 || p.mean.size() != places.front().mean.size() || !p.mean.allFinite() ||
         p.samples.cols() == 0 || p.member_count < 1) {

@@ -173,6 +173,25 @@ TEST_F(PlaceMemoryTest, APlaceKeepsTheLatestMembersOnly) {
   EXPECT_EQ(restored.places()[2].members, p.members);
 }
 
+// So does the list of its detected places (a place recognised ~1500 times a day).
+TEST_F(PlaceMemoryTest, APlaceKeepsItsLatestDetectedPlacesOnly) {
+  std::vector<LearnedPlace> places = dut_.places();
+  places[2].detected.clear();
+  for (size_t m = 0; m < LearnedPlace::kMaxDetected + 100; ++m)
+    places[2].detected.push_back(static_cast<DetectedPlaceIndex>(m + 1));
+  PlaceMemory restored =
+      PlaceMemory::Restore(1, Options(), places, dut_.slink(), dut_.next_local_id(), {});
+  const std::vector<DetectedPlaceIndex>& kept = restored.places()[2].detected;
+  ASSERT_EQ(kept.size(), LearnedPlace::kMaxDetected);
+  EXPECT_EQ(kept.front(), 101);
+  EXPECT_EQ(kept.back(), static_cast<DetectedPlaceIndex>(LearnedPlace::kMaxDetected + 100));
+  const DetectedPlaceIndex next = LearnedPlace::kMaxDetected + 101;
+  restored.Update(2, MakePlace(next, centres_[2], rng_, 40));
+  ASSERT_EQ(restored.places()[2].detected.size(), LearnedPlace::kMaxDetected);
+  EXPECT_EQ(restored.places()[2].detected.front(), 102);
+  EXPECT_EQ(restored.places()[2].detected.back(), next);
+}
+
 TEST_F(PlaceMemoryTest, RestoreReproducesTreeWithoutRetraining) {
   std::unordered_map<uint64_t, OneClassDiscriminant> saved;
   for (size_t n = 0; n < dut_.nodes().size(); ++n) {
