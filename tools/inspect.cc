@@ -147,7 +147,7 @@ InspectedStore InspectStore(const fs::path& db, const PlaceMemoryOptions& option
     s.learned_places.push_back({p.id, p.member_count, static_cast<int64_t>(p.detected.size())});
   }
   s.base_points_seen = state.pipeline.next_base;
-  s.detected_places_seen = state.pipeline.next_detected - 1;
+  s.detected_places_numbered = state.pipeline.next_detected - 1;
   s.tree_depth = state.memory.empty() ? 0 : state.memory.Depth();
   s.tree_nodes = static_cast<int64_t>(state.memory.nodes().size());
   s.map_nodes = static_cast<int64_t>(state.map.places().size());
@@ -165,8 +165,8 @@ void PrintSummary(std::ostream& out, const StoreSummary& s) {
       << " (good " << s.good << ", uninformative " << s.uninformative << ", incoherent "
       << s.incoherent << ")\n"
       << "detected places  " << s.detected_places
-      << (s.detected_places != s.detected_places_seen
-              ? " kept of " + std::to_string(s.detected_places_seen) + " detected"
+      << (s.detected_places != s.detected_places_numbered
+              ? " (numbered up to " + std::to_string(s.detected_places_numbered) + ")"
               : std::string())
       << "\n"
       << "learned places   " << s.learned_places.size() << "\n";
@@ -184,7 +184,7 @@ void PrintSummaryJson(std::ostream& out, const StoreSummary& s) {
       << ",\"base_points_seen\":" << s.base_points_seen << ",\"good\":" << s.good
       << ",\"uninformative\":" << s.uninformative << ",\"incoherent\":" << s.incoherent
       << ",\"detected_places\":" << s.detected_places
-      << ",\"detected_places_seen\":" << s.detected_places_seen
+      << ",\"detected_places_numbered\":" << s.detected_places_numbered
       << ",\"learned_places\":" << s.learned_places.size() << ",\"places\":[";
   for (size_t i = 0; i < s.learned_places.size(); ++i) {
     const LearnedPlaceSummary& p = s.learned_places[i];

@@ -36,8 +36,10 @@ struct StoreSummary {
   int64_t good = 0;
   int64_t uninformative = 0;
   int64_t incoherent = 0;
-  int64_t detected_places = 0;       ///< detected place records kept (thinned with base points)
-  int64_t detected_places_seen = 0;  ///< places the robot has detected (meta next_detected − 1)
+  int64_t detected_places = 0;  ///< detected place records kept (thinned with base points)
+  /// Indices the robot has given detected places (meta next_detected − 1): a place open when
+  /// tscd stopped took one and was never closed.
+  int64_t detected_places_numbered = 0;
   std::vector<LearnedPlaceSummary> learned_places;
   int tree_depth = 0;
   int64_t tree_nodes = 0;
@@ -61,7 +63,8 @@ InspectedStore InspectStore(const std::filesystem::path& db, const PlaceMemoryOp
 /// Human-readable summary.
 void PrintSummary(std::ostream& out, const StoreSummary& s);
 /// The same as one JSON object: db, schema_version, robot, base_points, base_points_seen, good,
-/// uninformative, incoherent, detected_places, detected_places_seen, learned_places (count), places
+/// uninformative, incoherent, detected_places, detected_places_numbered, learned_places (count),
+/// places
 /// ([{id, members, detected_places}]), tree_depth, tree_nodes, map_nodes, map_edges.
 void PrintSummaryJson(std::ostream& out, const StoreSummary& s);
 
