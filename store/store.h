@@ -118,13 +118,14 @@ class Store {
                           const PlaceMemoryOptions& options);
 
   /// One bounded step of retention (issue 23): while the pages in use exceed
-  /// `options.budget_mb`, deletes the oldest base point records (at most
-  /// `options.maintenance_pages` of them) and, in the same transaction, as many of the oldest
-  /// detected places and transition regions whose base points are all gone (the robot's
-  /// history), then hands at most that many free pages back to the file system (incremental
-  /// vacuum, its own transaction) when the database reclaims space (reclaims_space()).
-  /// Nothing else is ever deleted: learned places carry the member views recognition, merging
-  /// and Load() use. Throws StoreError (the deletion rolled back).
+  /// `options.budget_mb`, deletes the oldest records of the robot's history, at most
+  /// `options.maintenance_pages` of them in one transaction: the detected places (and the
+  /// transition regions before them) none of whose base points is kept, then the oldest base
+  /// point records and the detected places left without base points by that; then hands at most
+  /// that many free pages back to the file system (incremental vacuum, its own transaction) when
+  /// the database reclaims space (reclaims_space()). Nothing else is ever deleted: learned places
+  /// carry the member views recognition, merging and Load() use. Throws StoreError (the deletion
+  /// rolled back).
   MaintenanceStep Maintain(const StoreOptions& options);
   /// True when freed pages can be handed back (auto_vacuum = INCREMENTAL): every database this
   /// code creates, and an older one EnableIncrementalVacuum() converted. A larger older
