@@ -1061,8 +1061,7 @@ TopologicalMap ReadMap(const Db& db) {
   return map;
 }
 
-/// MAX(column) of `table`, or nullopt for an empty table.
-/// Retention's second part: the detected places (and the transition regions before them)
+/// Retention of the history: the detected places (and the transition regions before them)
 /// none of whose base points is kept any more, oldest first, at most `count` of each. They
 /// are the robot's history, as the base points are, and nothing reads them back but the
 /// assignments of an evaluation: kept forever they grew ~56 MB a day at 10 fps (the mean and
@@ -1071,7 +1070,8 @@ TopologicalMap ReadMap(const Db& db) {
 int64_t ThinDetectedPlaces(const Db& db, int64_t count) {
   const int64_t horizon =
       PragmaInt(db, "SELECT COALESCE(MIN(idx), 9223372036854775807) FROM base_points");
-  std::vector<int64_t> gone;
+  // The places that go are a prefix in index order: the oldest up to the first newer one.
+  int64_t gone = 0, last = 0;
   {
     Statement s(db, "SELECT idx, members FROM detected_places ORDER BY idx LIMIT ?1");
     s.Int(1, count);
@@ -1079,20 +1079,21 @@ int64_t ThinDetectedPlaces(const Db& db, int64_t count) {
       const Row row(db, s, "detected_places", "?");
       const std::vector<int64_t> members = row.Array<int64_t>(1, "members");
       if (!members.empty() && members.back() >= horizon) break;  // later places are newer
-      gone.push_back(row.Int(0, "idx"));
+      last = row.Int(0, "idx");
+      ++gone;
     }
   }
-  Statement erase(db, "DELETE FROM detected_places WHERE idx = ?1");
-  for (int64_t m : gone) erase.Int(1, m).Run();
+  if (gone > 0) Statement(db, "DELETE FROM detected_places WHERE idx <= ?1").Int(1, last).Run();
   Statement(db,
             "DELETE FROM transition_regions WHERE id IN (SELECT id FROM transition_regions "
             "WHERE last < ?1 ORDER BY id LIMIT ?2)")
       .Int(1, horizon)
       .Int(2, count)
       .Run();
-  return static_cast<int64_t>(gone.size());
+  return gone;
 }
 
+/// MAX(column) of `table`, or nullopt for an empty table.
 std::optional<int64_t> MaxIndex(const Db& db, const char* table) {
   Statement s(db, (std::string("SELECT MAX(idx) FROM ") + table).c_str());
   if (!s.Step()) return std::nullopt;

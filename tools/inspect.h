@@ -63,9 +63,9 @@ InspectedStore InspectStore(const std::filesystem::path& db, const PlaceMemoryOp
 /// Human-readable summary.
 void PrintSummary(std::ostream& out, const StoreSummary& s);
 /// The same as one JSON object: db, schema_version, robot, base_points, base_points_seen, good,
-/// uninformative, incoherent, detected_places, detected_places_numbered, learned_places (count),
-/// places
-/// ([{id, members, detected_places}]), tree_depth, tree_nodes, map_nodes, map_edges.
+/// uninformative, incoherent, detected_places, detected_places_numbered, learned_places
+/// (count), places ([{id, members, detected_places}]), tree_depth, tree_nodes, map_nodes,
+/// map_edges.
 void PrintSummaryJson(std::ostream& out, const StoreSummary& s);
 
 /// One Graphviz digraph with two clusters: "place memory" (the tree, root at the top,

@@ -3,6 +3,8 @@
 #include <algorithm>
 #include <stdexcept>
 
+#include "core/keep_latest.h"
+
 namespace tsc {
 namespace {
 std::pair<PlaceId, PlaceId> Key(PlaceId x, PlaceId y) {
@@ -15,8 +17,7 @@ void MapEdge::TrimTransitions() {
   std::stable_sort(
       transitions.begin(), transitions.end(),
       [](const TransitionRegion& x, const TransitionRegion& y) { return x.first < y.first; });
-  transitions.erase(transitions.begin(),
-                    transitions.end() - static_cast<std::ptrdiff_t>(kMaxTransitions));
+  KeepLatest(transitions, kMaxTransitions);
 }
 
 void TopologicalMap::AddPlace(PlaceId p) { places_.insert(p); }

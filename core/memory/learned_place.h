@@ -8,6 +8,7 @@
 #include <vector>
 
 #include "core/detect/place_detector.h"
+#include "core/keep_latest.h"
 #include "core/memory/compact_views.h"
 #include "core/memory/place_id.h"
 
@@ -52,14 +53,8 @@ struct LearnedPlace {
 /// Drops the oldest of `p`'s members and detected places (the lowest indices come first) past
 /// kMaxMembers and kMaxDetected.
 inline void TrimHistory(LearnedPlace& p) {
-  if (p.members.size() > LearnedPlace::kMaxMembers) {
-    p.members.erase(p.members.begin(),
-                    p.members.end() - static_cast<std::ptrdiff_t>(LearnedPlace::kMaxMembers));
-  }
-  if (p.detected.size() > LearnedPlace::kMaxDetected) {
-    p.detected.erase(p.detected.begin(),
-                     p.detected.end() - static_cast<std::ptrdiff_t>(LearnedPlace::kMaxDetected));
-  }
+  KeepLatest(p.members, LearnedPlace::kMaxMembers);
+  KeepLatest(p.detected, LearnedPlace::kMaxDetected);
 }
 
 }  // namespace tsc

@@ -668,8 +668,8 @@ PlaceMemory PlaceMemory::Restore(uint32_t robot, PlaceMemoryOptions options,
       }
     }
   }
-  // Places read from a store (an older tscd kept every member), and places a merge or a
-  // consolidation folded together, keep their latest members here.
+  // Places read from a store (an older tscd kept every member and detected place), and places
+  // a merge or a consolidation folded together, keep their latest ones here.
   for (LearnedPlace& p : places) TrimHistory(p);
   for (const LearnedPlace& p : places) {
     if (p.mean.size() == 0 || p.mean.size() != places.front().mean.size() || !p.mean.allFinite() ||
