@@ -362,6 +362,18 @@ std::vector<ConfigKey> BuildTable() {
       "(memory.min_agreement) is learned as a new place; false leaves it without a place "
       "(an 'ambiguous' event)",
       [](auto& o) -> auto& { return o.pipeline.memory.learn_disagreed; }));
+  t.push_back(Number(
+      "memory.near_miss_margin",
+      "a detected place not recognised whose g_N is at most tau_r plus this margin while at "
+      "least memory.near_miss_vote of its points vote for N1, and N1 is nearer than another "
+      "place (ratio below 1), is left without a place (an 'ambiguous' event) instead of "
+      "learned as a copy; 0 = every such place is learned",
+      "", PlaceMemoryOptions::kNearMissMarginRange,
+      [](auto& o) -> auto& { return o.pipeline.memory.near_miss_margin; }));
+  t.push_back(Number(
+      "memory.near_miss_vote", "the vote V of N1 a near miss (memory.near_miss_margin) needs", "",
+      PlaceMemoryOptions::kNearMissVoteRange,
+      [](auto& o) -> auto& { return o.pipeline.memory.near_miss_vote; }));
   t.push_back(Bool(
       "memory.copies_keep_outer_ratio",
       "where every other child of N holds N1's place again, the ratio term is the one N1's node "

@@ -29,10 +29,17 @@ int PlaceMemoryOptions::SampleCap(const LearnedPlace& p) const {
   return max_samples_per_place * static_cast<int>(std::min<size_t>(visits, sample_visits));
 }
 
+bool PlaceMemoryOptions::NearMiss(double g, const CostTerms& terms) const {
+  return near_miss_margin > 0.0 && g > tau_r && g <= tau_r + near_miss_margin &&
+         terms.vote >= near_miss_vote && terms.ratio < 1.0;
+}
+
 void PlaceMemoryOptions::Validate() const {
   kTauRRange.Check("memory.tau_r", tau_r);
   kTauLRange.Check("memory.tau_l", tau_l);
   kNeighbourMarginRange.Check("memory.neighbour_margin", neighbour_margin);
+  kNearMissMarginRange.Check("memory.near_miss_margin", near_miss_margin);
+  kNearMissVoteRange.Check("memory.near_miss_vote", near_miss_vote);
   kTauHRange.Check("memory.tau_h", tau_h);
   kMaxSamplesRange.Check("memory.max_samples_per_place", max_samples_per_place);
   kSampleVisitsRange.Check("memory.sample_visits", sample_visits);
@@ -250,6 +257,7 @@ Recognition PlaceMemory::Recognize(const DetectedPlace& d, std::optional<int> pr
     }
   }
   if (!root_tried) absorb(Descend(vd, votes, root_, towards_neighbour));
+  total.near_miss = !total.place && options_.NearMiss(total.cost, total.terms);
   return total;
 }
 

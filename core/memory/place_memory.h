@@ -72,6 +72,17 @@ struct PlaceMemoryOptions {
   /// which place it is, and learning it adds a copy of a room held already
   /// (docs/decisions.md, "Recognition cost": long runs).
   bool learn_disagreed = false;
+  /// A detected place not recognised whose g_N came within this margin of τ_r while at least
+  /// near_miss_vote of its points voted for N¹, and N¹ was nearer than another place (ratio
+  /// term below 1), is left without a place too (the "ambiguous" event): half of it lies in
+  /// a place held already, and learning it adds a copy of that place that later passes,
+  /// nearer the original, never recognise. A lone N¹ (a memory of one place) is no such
+  /// evidence (docs/decisions.md "Recognition cost": near misses). 0: a place not recognised
+  /// is learned, as the thesis does.
+  double near_miss_margin = 1.5;
+  double near_miss_vote = 0.45;  ///< V of N¹ a near miss needs
+  /// Whether g_N = `g` above τ_r with its `terms` is a near miss (near_miss_margin).
+  bool NearMiss(double g, const CostTerms& terms) const;
   /// The unit u of the distance term and the vote radius, a squared descriptor distance: 0
   /// takes the memory's median view spacing (adapts to any camera); > 0 fixes it for a
   /// camera kind (a preset, docs/decisions.md "Recognition cost").
@@ -100,6 +111,8 @@ struct PlaceMemoryOptions {
   static constexpr Range kTauRRange{0, 1000, /*min_open=*/true};
   static constexpr Range kTauLRange{0, 1000};
   static constexpr Range kNeighbourMarginRange{0, 1000};
+  static constexpr Range kNearMissMarginRange{0, 1000};
+  static constexpr Range kNearMissVoteRange{0, 1};
   static constexpr Range kTauHRange{0, 1, false, /*max_open=*/true};
   static constexpr Range kMaxSamplesRange{1, 100000};
   static constexpr Range kSampleVisitsRange{1, 1000};
@@ -129,6 +142,9 @@ struct Recognition {
   /// Not recognised, though some descent reached a terminal within its τ: D's points did not
   /// agree with it (memory.min_agreement).
   bool disagreed = false;
+  /// Not recognised, but g_N came near τ_r with half of D's points voting for N¹
+  /// (PlaceMemoryOptions::near_miss_margin).
+  bool near_miss = false;
   std::vector<int> start_nodes;  ///< nodes a descent started from, in order
   std::vector<int> visited;      ///< every inner node whose g_N was evaluated, in order
 };

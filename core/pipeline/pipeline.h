@@ -21,8 +21,9 @@
 
 namespace tsc {
 
-/// kAmbiguous: a closed detected place that g_N would recognise but whose points name other
-/// places (memory.min_agreement), left without a place when memory.learn_disagreed is false.
+/// kAmbiguous: a closed detected place left without a place: g_N would recognise it but its
+/// points name other places (memory.min_agreement; when memory.learn_disagreed is false), or
+/// g_N nearly did with half of its points voting for N¹ (memory.near_miss_margin).
 enum class EventKind { kDetected, kRecognized, kLearned, kMapped, kPruned, kAmbiguous };
 const char* EventKindName(EventKind k);
 

@@ -309,6 +309,84 @@ TEST_F(PipelineTest, APlaceItsPointsDoNotAgreeWithIsLeftWithoutAPlaceUnlessLearn
   }
 }
 
+// A pass that starts in a known place B and leaves it gradually for ground never seen is
+// one detected place, part of whose points vote for B. When its g_N fails τ_r by less than
+// memory.near_miss_margin and N¹ = B had at least memory.near_miss_vote of the votes, it is
+// a near miss: left without a place (no copy of B learned, no map edge across it). Beyond
+// the margin, with fewer votes, or with a lone N¹ (a memory of one place, ratio term 1 by
+// rule: no evidence B was nearer than another place) it is learned.
+TEST_F(PipelineTest, ANearMissIsLeftWithoutAPlaceWhereBHadHalfTheVotes) {
+  struct Case {
+    const char* name;
+    bool with_c;           // the memory also holds C (else B alone: a lone N¹)
+    double under, margin;  // τ_r = the pass's g_N − under; memory.near_miss_margin
+    double extra_vote;     // memory.near_miss_vote = the pass's V + extra_vote
+    bool ambiguous;
+  };
+  // The pass's g_N and terms, learned with near misses off.
+  const auto run = [&](bool with_c, double tau_r, double margin, double vote,
+                       PlaceEvent* pass) -> size_t {
+    PipelineOptions options = Options();
+    options.memory.tau_r = tau_r;
+    options.memory.near_miss_margin = margin;
+    options.memory.near_miss_vote = vote;
+    options.memory.neighbour_margin = 0;  // B is C's map neighbour: τ_r alone decides
+    Pipeline pipeline(CameraIntrinsics::FromHorizontalFov(64, 48, 60), options,
+                      PlaceMemory(1, options.memory), TopologicalMap());
+    events_.clear();
+    rng_.seed(5);
+    Visit(pipeline, 0, 15);              // learns B
+    if (with_c) Visit(pipeline, 1, 15);  // learns C
+    std::normal_distribution<float> noise(0.0f, 0.02f);
+    constexpr int kIn = 30, kOut = 30;  // frames in B, then frames leaving it
+    for (int j = 0; j < kIn + kOut; ++j) {
+      const float t = static_cast<float>(std::max(0, j - kIn + 1)) / kOut;
+      Eigen::VectorXf v = (1 - t) * centres_[0] + t * centres_[2];
+      for (int i = 0; i < kDim; ++i) v[i] = std::max(0.0f, v[i] * (1.0f + noise(rng_)));
+      Collect(pipeline.ProcessDescriptor(Descriptor(Normalised(v)), IntensityStats{0.5, 0.05}));
+    }
+    Collect(pipeline.Finish());
+    const auto last = std::find_if(events_.rbegin(), events_.rend(), [](const PlaceEvent& e) {
+      return (e.kind == EventKind::kRecognized && !e.partial) || e.kind == EventKind::kLearned ||
+             e.kind == EventKind::kAmbiguous;
+    });
+    if (last != events_.rend()) *pass = *last;
+    return pipeline.memory().places().size();
+  };
+  for (const bool with_c : {true, false}) {
+    SCOPED_TRACE(with_c);
+    const size_t before = with_c ? 2u : 1u;
+    PlaceEvent measured;
+    ASSERT_EQ(run(with_c, 1e-3, 0.0, 1.0, &measured), before + 1);
+    ASSERT_EQ(measured.kind, EventKind::kLearned);
+    ASSERT_EQ(measured.detected_place, static_cast<DetectedPlaceIndex>(before + 1));
+    const double g = measured.cost, v = measured.terms.vote;
+    // Part of the pass lies in B, part does not.
+    ASSERT_GT(v, 0.2);
+    ASSERT_LT(v, 0.8);
+    ASSERT_GT(g, 0.5);
+    EXPECT_EQ(measured.terms.ratio < 1.0, with_c);
+    for (const Case& c : {Case{"near miss", true, 0.2, 0.5, 0.0, true},
+                          Case{"beyond the margin", true, 0.2, 0.1, 0.0, false},
+                          Case{"too few votes", true, 0.2, 0.5, 0.05, false},
+                          Case{"lone N1", false, 0.2, 0.5, 0.0, false}}) {
+      if (c.with_c != with_c) continue;
+      SCOPED_TRACE(c.name);
+      PlaceEvent pass;
+      const size_t places = run(with_c, g - c.under, c.margin, v + c.extra_vote, &pass);
+      EXPECT_NEAR(pass.cost, g, 1e-9);
+      if (c.ambiguous) {
+        EXPECT_EQ(pass.kind, EventKind::kAmbiguous);
+        EXPECT_FALSE(pass.place.has_value());
+        EXPECT_EQ(places, before) << "no copy of B learned";
+      } else {
+        EXPECT_EQ(pass.kind, EventKind::kLearned);
+        EXPECT_EQ(places, before + 1);
+      }
+    }
+  }
+}
+
 // A short passage through a known place P between A and B is pruned (extent ≤ τ_p). Without
 // whereabouts recognition the map joins A and B across it; with it, the robot recognises P
 // on the passage and the map records A → P → B, leaving the memory as it was.
