@@ -95,7 +95,9 @@ std::string Describe(const PlaceEvent& e) {
   }
   if (e.kind == EventKind::kAmbiguous) {
     s += ", cost " + std::to_string(e.cost) + terms() +
-         ": its points name other places; neither recognised nor learned";
+         (e.near_miss ? ": nearly recognised, half of it in a place held already"
+                      : ": its points name other places") +
+         "; neither recognised nor learned";
   }
   if (e.members > 0) s += ", " + std::to_string(e.members) + " base points";
   return s;

@@ -73,6 +73,7 @@ std::string EventToJson(const PlaceEvent& e) {
     case EventKind::kLearned:
     case EventKind::kAmbiguous:
       s += ",\"cost\":" + JsonNumber(e.cost) + TermsJson(e.terms);
+      if (e.near_miss) s += ",\"near_miss\":true";
       break;
     case EventKind::kMapped:
       if (e.from) s += ",\"from\":" + JsonString(e.from->ToString());

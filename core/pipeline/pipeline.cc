@@ -286,6 +286,7 @@ void Pipeline::HandleDetection(const std::vector<DetectionEvent>& events, BaseIn
         PlaceEvent e = MakeEvent(EventKind::kAmbiguous, k, closed->place);
         e.cost = r.cost;
         e.terms = r.terms;
+        e.near_miss = !r.disagreed || memory_.options().learn_disagreed;
         out.events.push_back(e);
         previous_place_.reset();
         whereabouts_.reset();

@@ -41,6 +41,9 @@ struct PlaceEvent {
   bool hybrid = false;   ///< recognised by the hybrid traversal
   /// Recognised with some g_N above τ_r, towards a map neighbour of the previous place.
   bool neighbour = false;
+  /// Ambiguous: g_N failed τ_r narrowly with half of D's points voting for N¹ (a near miss),
+  /// not a place whose points name other places.
+  bool near_miss = false;
   TransitionRegion transition;  ///< mapped: the region crossed
   int64_t members = 0;          ///< detected / pruned: number of base points
   /// Recognised: the ids of places folded into `place` as it was recognised (they left the

@@ -301,6 +301,7 @@ TEST_F(PipelineTest, APlaceItsPointsDoNotAgreeWithIsLeftWithoutAPlaceUnlessLearn
       continue;
     }
     EXPECT_EQ(pass->kind, EventKind::kAmbiguous);
+    EXPECT_FALSE(pass->near_miss);
     EXPECT_FALSE(pass->place.has_value());
     EXPECT_EQ(pipeline.memory().places().size(), 3u);  // nothing learned
     EXPECT_EQ(Count(EventKind::kRecognized), 1);       // B, on its revisit
@@ -377,6 +378,7 @@ TEST_F(PipelineTest, ANearMissIsLeftWithoutAPlaceWhereBHadHalfTheVotes) {
       EXPECT_NEAR(pass.cost, g, 1e-9);
       if (c.ambiguous) {
         EXPECT_EQ(pass.kind, EventKind::kAmbiguous);
+        EXPECT_TRUE(pass.near_miss);
         EXPECT_FALSE(pass.place.has_value());
         EXPECT_EQ(places, before) << "no copy of B learned";
       } else {

@@ -45,5 +45,25 @@ TEST(EventsJson, NoTermsWithoutACostAndNullForAnInfiniteOne) {
             "\"cost\":null}");
 }
 
+// An ambiguous place has a cost but no place; a near miss says so.
+TEST(EventsJson, AnAmbiguousPlaceSaysWhetherItWasANearMiss) {
+  PlaceEvent e;
+  e.kind = EventKind::kAmbiguous;
+  e.frame = 7;
+  e.detected_place = 2;
+  e.cost = 3.5;
+  e.terms.best = 1;
+  e.terms.distance = 2;
+  e.terms.ratio = 0.5;
+  e.terms.vote = 0.5;
+  e.terms.agreement = 1;
+  const std::string disagreed =
+      "{\"frame\":7,\"event\":\"ambiguous\",\"detected_place\":2,\"cost\":3.5,\"terms\":{"
+      "\"distance\":2,\"ratio\":0.5,\"vote\":0.5,\"agreement\":1}";
+  EXPECT_EQ(EventToJson(e), disagreed + "}");
+  e.near_miss = true;
+  EXPECT_EQ(EventToJson(e), disagreed + ",\"near_miss\":true}");
+}
+
 }  // namespace
 }  // namespace tsc
