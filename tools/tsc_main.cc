@@ -88,7 +88,8 @@ recognised or learned (towards a place the map joins to the previous one the cos
 tau_r by memory.neighbour_margin). A detected place within tau_r whose agreement is below
 memory.min_agreement is "ambiguous": it gets no place (memory.learn_disagreed = true learns it);
 so is one whose cost is within memory.near_miss_margin above tau_r while memory.near_miss_vote
-of its points vote for the nearest place ("near_miss":true; a margin of 0 learns it).
+of its points vote for the nearest place and that place is nearer than another one
+("near_miss":true; a margin of 0 learns it).
 
 Options)";
 

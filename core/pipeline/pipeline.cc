@@ -278,7 +278,8 @@ void Pipeline::HandleDetection(const std::vector<DetectionEvent>& events, BaseIn
       // Recognise or learn (sections 3.5, 3.6); the map says which places lie next to the
       // previous one.
       const Recognition r = memory_.Recognize(d, previous_index(), neighbour_indices());
-      if (!r.place && ((r.disagreed && !memory_.options().learn_disagreed) || r.near_miss)) {
+      const bool disagreement = r.disagreed && !memory_.options().learn_disagreed;
+      if (!r.place && (disagreement || r.near_miss)) {
         // Known by its cost, but its points name other places (a room held several times
         // splits them), or nearly known, half of it in a place held already: learning it
         // would add one more copy. It stays without a place, and the map joins nothing
@@ -286,7 +287,7 @@ void Pipeline::HandleDetection(const std::vector<DetectionEvent>& events, BaseIn
         PlaceEvent e = MakeEvent(EventKind::kAmbiguous, k, closed->place);
         e.cost = r.cost;
         e.terms = r.terms;
-        e.near_miss = !r.disagreed || memory_.options().learn_disagreed;
+        e.near_miss = !disagreement;
         out.events.push_back(e);
         previous_place_.reset();
         whereabouts_.reset();

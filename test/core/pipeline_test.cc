@@ -324,7 +324,8 @@ TEST_F(PipelineTest, ANearMissIsLeftWithoutAPlaceWhereBHadHalfTheVotes) {
     double extra_vote;     // memory.near_miss_vote = the pass's V + extra_vote
     bool ambiguous;
   };
-  // The pass's g_N and terms, learned with near misses off.
+  // Runs B (and C), then a pass half in B; returns the places learned and sets *pass to the
+  // pass's decision.
   const auto run = [&](bool with_c, double tau_r, double margin, double vote,
                        PlaceEvent* pass) -> size_t {
     PipelineOptions options = Options();
