@@ -102,7 +102,7 @@ class BubbleSurface {
   };
   const std::vector<PatchSite>& Sites(const PanTilt& pan_tilt);
   std::vector<PatchSite> ComputeSites(const PanTilt& pan_tilt) const;
-  // Resizes `in` to resized_size_ (area averaging).
+  // Resizes `in` to resized_size_ (area averaging, a prefiltered bilinear step).
   void Resize(const cv::Mat& in, cv::Mat& out);
 
   cv::Size resized_size_;  // image size at which a d_phi patch is patch_px wide
@@ -111,7 +111,7 @@ class BubbleSurface {
   // Per-frame images, reused from frame to frame to avoid allocations. A copy of the surface
   // starts with its own, empty ones (copied cv::Mats would share their pixels).
   struct Scratch {
-    cv::Mat shrunk, small_bgr, grey8, hsv, depth_norm, depth_valid;
+    cv::Mat shrunk, prefiltered, small_bgr, grey8, hsv, depth_norm, depth_valid;
     FeatureImages images;
     Scratch() = default;
     Scratch(const Scratch&) {}
