@@ -17,7 +17,7 @@ namespace po = boost::program_options;
 constexpr const char* kSimHelp =
     R"(usage: tsc sim --out DIR --seed N [--route-seed M] [--world office|corridors|outdoor]
                [--robots K] [--revisit-fraction F] [--lighting day|dim|flicker|mixed] [--depth]
-               [--size WxH] [--frames-per-room N] [--turn-step-deg D]
+               [--size WxH] [--hfov DEG] [--frames-per-room N] [--turn-step-deg D]
                [--scan-step-deg D] [--sweep-views K] [--sweep-deg D]
                [--sweep-world-aligned] [--png] [--max-frames N] [--every N]
 
@@ -69,9 +69,11 @@ int Sim(const std::vector<std::string>& args) {
       "day, dim (night), flicker (per-frame brightness), mixed (revisits dim)")(
       "depth", "also write depth/<stem>.png (16-bit, millimetres)")(
       "size", po::value<std::string>()->default_value("640x480")->value_name("WxH"),
-      "image size in pixels")("frames-per-room",
-                              po::value<int>()->default_value(72)->value_name("N"),
-                              "frames looking around at each visited room's centre")(
+      "image size in pixels")("hfov",
+                              po::value<double>()->default_value(58.0, "58")->value_name("DEG"),
+                              "the camera's horizontal field of view, degrees in (0, 180)")(
+      "frames-per-room", po::value<int>()->default_value(72)->value_name("N"),
+      "frames looking around at each visited room's centre")(
       "turn-step-deg", po::value<double>()->default_value(30.0, "30")->value_name("D"),
       "turning towards the next waypoint between frames, degrees (frames come every 0.15 m "
       "of travel, ~3 per second)")(
@@ -127,6 +129,7 @@ int Sim(const std::vector<std::string>& args) {
   options.sweep_world_aligned = vm.count("sweep-world-aligned") > 0;
   options.max_frames = vm["max-frames"].as<int>();
   ParseSize(vm["size"].as<std::string>(), &options.render.width, &options.render.height);
+  options.render.hfov_deg = vm["hfov"].as<double>();
   try {
     options.Validate();
   } catch (const std::invalid_argument& e) {

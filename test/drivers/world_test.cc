@@ -404,13 +404,15 @@ TEST_F(WorldTest, SlowerTurnsSpreadTheSameRouteOverMoreFrames) {
 }
 
 TEST_F(WorldTest, SimCommandWritesTeamFolders) {
-  const int rc = RunSimCommand({"--out", dir_.string(), "--seed", "4", "--robots", "2", "--size",
-                                "96x72", "--max-frames", "15", "--world", "outdoor"});
+  const int rc =
+      RunSimCommand({"--out", dir_.string(), "--seed", "4", "--robots", "2", "--size", "96x72",
+                     "--hfov", "90", "--max-frames", "15", "--world", "outdoor"});
   ASSERT_EQ(rc, 0);
   for (const char* id : {"1", "2"}) {
     const Dataset ds = Dataset::Open(dir_ / "robots" / id);
     EXPECT_EQ(ds.size(), 15);
     EXPECT_EQ(ds.camera().width(), 96);
+    EXPECT_NEAR(ds.camera().fx(), 48.0, 1e-6);  // 90°: the focal length is half the width
   }
   EXPECT_TRUE(fs::exists(dir_ / "world.json"));
   // Not empty any more: a runtime failure.
@@ -425,6 +427,7 @@ TEST_F(WorldTest, SimCommandRejectsBadUsage) {
   EXPECT_EQ(RunSimCommand({"--out", dir_.string(), "--seed", "4", "--revisit-fraction", "2"}), 2);
   EXPECT_EQ(RunSimCommand({"--out", dir_.string(), "--seed", "-1"}), 2);
   EXPECT_EQ(RunSimCommand({"--out", dir_.string(), "--seed", "4", "--robots", "0"}), 2);
+  EXPECT_EQ(RunSimCommand({"--out", dir_.string(), "--seed", "4", "--hfov", "180"}), 2);
   EXPECT_EQ(RunSimCommand({"--help"}), 0);
   EXPECT_FALSE(fs::exists(dir_));
 }
