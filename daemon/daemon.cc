@@ -319,7 +319,9 @@ void Daemon::PublishMerged(std::vector<std::pair<PlaceId, PlaceId>> absorbed, in
 void Daemon::WaitLcm() {
   loop_->lcm.async_wait(asio::posix::stream_descriptor::wait_read,
                         [this](const boost::system::error_code& ec) {
-                          if (ec) return;  // cancelled at shutdown
+                          // Cancelled at shutdown, or ready before the cancel (its handler
+                          // still runs, with success): waiting again would keep the loop up.
+                          if (ec || stopping_) return;
                           if (!bus_.HandleReady()) spdlog::warn("LCM: receive error");
                           WaitLcm();
                         });
@@ -404,6 +406,7 @@ void Daemon::OnStatusTimer() {
 }
 
 void Daemon::OnWatchdogTimer() {
+  if (stopping_) return;  // a wait that completed before Shutdown's cancel
   // Pet the watchdog only while the worker is alive: a hung pipeline gets the daemon restarted.
   const int64_t silent_ms = SteadyMs() - worker_->heartbeat_ms();
   if (silent_ms < 30000) {
@@ -418,6 +421,7 @@ void Daemon::OnWatchdogTimer() {
 }
 
 void Daemon::OnSignal(int signal) {
+  if (stopping_) return;  // a signal that arrived as the stop began: nothing to wait for again
   if (signal == SIGHUP) {
     Reload();
     loop_->signals.async_wait([this](const boost::system::error_code& ec, int sig) {

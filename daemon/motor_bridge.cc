@@ -40,7 +40,12 @@ void MotorBridge::StopMotors() {
   base_.Stop();
 }
 
-void MotorBridge::Cancel() { timer_->timer.cancel(); }
+void MotorBridge::Cancel() {
+  // A wait that completed before the cancel still runs its handler with success: the flag
+  // keeps it from arming the timer again (that kept a stopping tscd's loop alive).
+  cancelled_ = true;
+  timer_->timer.cancel();
+}
 
 void MotorBridge::OnTimer() {
   const Odometry odo = base_.state();
@@ -63,7 +68,7 @@ void MotorBridge::OnTimer() {
   if (!bus_.lcm().Publish(channel, m)) bus_.PublishFailed(channel);
   timer_->timer.expires_after(std::chrono::milliseconds(100));
   timer_->timer.async_wait([this](const boost::system::error_code& ec) {
-    if (!ec) OnTimer();
+    if (!ec && !cancelled_) OnTimer();
   });
 }
 

@@ -48,6 +48,7 @@ class MotorBridge {
   struct Timer;  // the Asio timer, kept out of this header
   std::unique_ptr<Timer> timer_;
   bool stopped_ = false;
+  bool cancelled_ = false;
 };
 
 }  // namespace tsc
