@@ -16,6 +16,7 @@
 
 #include "daemon/log_throttle.h"
 #include "daemon/motor_bridge.h"
+#include "drivers/dataset/base_point_stride.h"
 #include "tsc/announce_t.hpp"
 #include "tsc/memory_request_t.hpp"
 #include "tsc/place_event_t.hpp"
@@ -689,6 +690,9 @@ std::string Daemon::StatusLine() const {
 void Daemon::CameraLoop() {
   join_->Wait();
   const bool replay = camera_->replays_every_frame();  // fixed for the source's life
+  // A camera denser than the calibrated spacing: only every stride-th base point is taken
+  // (the others would change too little for κ); dropped here, before they take queue room.
+  BasePointStride taken(worker_->base_point_stride());
   while (!stopping_) {
     try {
       std::optional<CameraFrame> frame = camera_->Next();
@@ -700,6 +704,7 @@ void Daemon::CameraLoop() {
         return;
       }
       const bool ends = frame->ends_base_point;
+      if (!taken.Take(ends)) continue;
       queue_.Push(std::move(*frame), ends, replay);
     } catch (const CameraError& e) {
       if (stopping_) return;  // a read cut short by the stop

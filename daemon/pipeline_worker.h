@@ -67,6 +67,9 @@ class PipelineWorker {
   std::map<uint32_t, PeerMerge> TakeSavedPeers() { return std::exchange(saved_peers_, {}); }
   /// Whether the memory was empty at start (a robot that may be rejoining its team).
   bool started_empty() const { return started_empty_; }
+  /// Every how many of the camera's base points the pipeline takes one (StrideFor: 1 but for
+  /// a camera denser than the calibrated spacing); the camera thread drops the others.
+  int base_point_stride() const { return base_point_stride_; }
 
   /// Starts the thread; it learns only once `join` is open (the camera waits there) and opens
   /// it after merging a peer memory. It runs until the queue is closed and drained.
@@ -155,6 +158,7 @@ class PipelineWorker {
   int64_t base_points_thinned_ = 0;                           // by Maintain since the start
   std::map<uint32_t, PeerMerge> saved_peers_;
   bool started_empty_ = false;
+  int base_point_stride_ = 1;
 
   std::atomic<int64_t> pending_results_{0};  // pending_.size(), for the status line
   std::atomic<bool> degraded_store_{false};

@@ -391,16 +391,22 @@ DatasetOptions DatasetOptionsOf(const Settings& settings) {
   return out;
 }
 
-PipelineOptions OptionsForDataset(const Settings& settings, const Dataset& dataset,
-                                  std::ostream* say) {
-  PipelineOptions out = settings.pipeline;
-  const BasePointSpacing spacing =
-      ResolveSpacing(settings.daemon.camera.spacing_m, &dataset.spacing(), 0.0);
-  AdaptToSpacing(out, spacing);
+PreparedDataset PrepareDataset(const Settings& settings, const Dataset& opened, std::ostream* say) {
+  const BasePointSpacing frames =
+      ResolveSpacing(settings.daemon.camera.spacing_m, &opened.spacing(), 0.0);
+  const int stride = StrideFor(frames);
+  const BasePointSpacing spacing = EveryNth(frames, stride);
+  PreparedDataset out{opened.EveryNth(stride), settings.pipeline};
+  AdaptToSpacing(out.options, spacing);
   if (say != nullptr) {
     *say << "  base points     " << spacing.metres << " m apart (" << spacing.basis
-         << "): places of " << out.detector.EffectiveTauP() << " base points or fewer are pruned\n";
-    if (const std::optional<std::string> note = SparseCameraNote(out, spacing)) {
+         << "): places of " << out.options.detector.EffectiveTauP()
+         << " base points or fewer are pruned\n";
+    if (stride > 1) {
+      *say << "  dense camera    " << out.dataset.size() << " of " << opened.size()
+           << " frames are base points, and are what is scored\n";
+    }
+    if (const std::optional<std::string> note = SparseCameraNote(out.options, spacing)) {
       *say << "  sparse camera   " << *note << "\n";
     }
     if (const std::optional<std::string> caution = SpacingCaution(spacing)) {

@@ -95,11 +95,18 @@ struct EvalResult {
 /// cameras are.
 DatasetOptions DatasetOptionsOf(const Settings& settings);
 
-/// The pipeline options of `settings` for `dataset`: place detection counts τ_p in base
-/// points at the dataset's spacing (camera.spacing_m when set, else what the dataset declares;
-/// Dataset::spacing). Writes the spacing, its basis and τ_p to `say` unless it is null.
-PipelineOptions OptionsForDataset(const Settings& settings, const Dataset& dataset,
-                                  std::ostream* say);
+/// A dataset as the pipeline takes it, and the options it takes it with.
+struct PreparedDataset {
+  Dataset dataset;          ///< the frames that are base points (all but for a dense camera)
+  PipelineOptions options;  ///< `settings`' pipeline, adapted to those frames' spacing
+};
+
+/// `opened` as `settings` run it: the frames' spacing is camera.spacing_m when set, else what
+/// the dataset declares (Dataset::spacing); a camera denser than the calibrated spacing gives
+/// every StrideFor-th frame as a base point (Dataset::EveryNth), and place detection counts
+/// τ_p in base points at their spacing (AdaptToSpacing). Writes the spacing, its basis and τ_p
+/// to `say` unless it is null.
+PreparedDataset PrepareDataset(const Settings& settings, const Dataset& opened, std::ostream* say);
 
 /// Runs and scores. Throws DatasetError (naming the frame and file) for unreadable frames,
 /// std::invalid_argument for bad options.

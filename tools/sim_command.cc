@@ -17,8 +17,8 @@ namespace po = boost::program_options;
 constexpr const char* kSimHelp =
     R"(usage: tsc sim --out DIR --seed N [--route-seed M] [--world office|corridors|outdoor]
                [--robots K] [--revisit-fraction F] [--lighting day|dim|flicker|mixed] [--depth]
-               [--size WxH] [--hfov DEG] [--frames-per-room N] [--turn-step-deg D]
-               [--scan-step-deg D] [--sweep-views K] [--sweep-deg D]
+               [--size WxH] [--hfov DEG] [--frames-per-room N] [--step-m M]
+               [--turn-step-deg D] [--scan-step-deg D] [--sweep-views K] [--sweep-deg D]
                [--sweep-world-aligned] [--png] [--max-frames N] [--every N]
 
 Writes a simulated dataset (DESIGN §7.1): frames rendered from a generated floor plan along a
@@ -74,9 +74,11 @@ int Sim(const std::vector<std::string>& args) {
                               "the camera's horizontal field of view, degrees in (0, 180)")(
       "frames-per-room", po::value<int>()->default_value(72)->value_name("N"),
       "frames looking around at each visited room's centre")(
+      "step-m", po::value<double>()->default_value(0.15, "0.15")->value_name("M"),
+      "walking between frames, metres in (0, 2] (0.15: ~3 frames a second at 0.5 m/s; a "
+      "denser camera takes smaller steps and turn steps with them)")(
       "turn-step-deg", po::value<double>()->default_value(30.0, "30")->value_name("D"),
-      "turning towards the next waypoint between frames, degrees (frames come every 0.15 m "
-      "of travel, ~3 per second)")(
+      "turning towards the next waypoint between frames, degrees")(
       "scan-step-deg", po::value<double>()->default_value(5.0, "5")->value_name("D"),
       "turning between frames while looking around at a room's centre, degrees")(
       "every", po::value<int>()->default_value(1)->value_name("N"),
@@ -121,6 +123,7 @@ int Sim(const std::vector<std::string>& args) {
   options.robots = vm["robots"].as<int>();
   options.route.revisit_fraction = vm["revisit-fraction"].as<double>();
   options.route.dwell_frames = vm["frames-per-room"].as<int>();
+  options.route.step_m = vm["step-m"].as<double>();
   options.route.turn_step_deg = vm["turn-step-deg"].as<double>();
   options.route.scan_step_deg = vm["scan-step-deg"].as<double>();
   options.frame_every = vm["every"].as<int>();

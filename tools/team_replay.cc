@@ -17,6 +17,7 @@
 #include "drivers/camera/make_camera.h"
 #include "drivers/camera/sim_camera.h"
 #include "drivers/dataset/base_point_spacing.h"
+#include "drivers/dataset/base_point_stride.h"
 #include "tools/events_json.h"
 
 namespace tsc {
@@ -86,9 +87,18 @@ std::pair<PlaceMemory, TopologicalMap> AsReceived(const PlaceMemory& memory,
   return {ToPlaceMemory(*peer, options), ToTopologicalMap(*peer)};
 }
 
-// The route's ground truth: label and pose of every frame (= base point).
-void RecordRoute(const SimCamera& camera, ReplayedRobot& out) {
-  for (const sim::RouteFrame& f : camera.route()) {
+// How far apart the simulated camera's frames lie, as the daemon resolves it
+// (pipeline_worker.cc): camera.spacing_m when set, else what the route declares.
+BasePointSpacing FramesOf(const Settings& settings, const SimCamera& camera) {
+  const std::optional<BasePointSpacing> declared = camera.spacing();
+  return ResolveSpacing(settings.daemon.camera.spacing_m, declared ? &*declared : nullptr,
+                        settings.daemon.camera.fps);
+}
+
+// The route's ground truth: label and pose of every base point (every stride-th frame).
+void RecordRoute(const SimCamera& camera, int stride, ReplayedRobot& out) {
+  for (size_t i = 0; i < camera.route().size(); i += static_cast<size_t>(stride)) {
+    const sim::RouteFrame& f = camera.route()[i];
     out.labels.push_back(f.label);
     out.positions.emplace_back(f.pose.x, f.pose.y);
     out.poses.push_back(GroundTruthPose{f.pose.x, f.pose.y, f.pose.heading});
@@ -108,23 +118,23 @@ ReplayedRobot ReplayRoute(const Settings& settings, uint32_t robot) {
   camera_options.loop = false;
   SimCamera camera(camera_options);
 
-  ReplayedRobot out;
-  out.id = robot;
-  RecordRoute(camera, out);
-
-  // The daemon's pipeline (daemon.cc): its options, robot id, and the spacing its camera
-  // declares.
+  // The daemon's pipeline (daemon.cc, pipeline_worker.cc): its options, robot id, and the
+  // spacing its camera declares, with every stride-th base point of a dense camera.
   PipelineOptions options = settings.pipeline;
   options.robot = robot;
-  const std::optional<BasePointSpacing> declared = camera.spacing();
-  AdaptToSpacing(options,
-                 ResolveSpacing(settings.daemon.camera.spacing_m, declared ? &*declared : nullptr,
-                                settings.daemon.camera.fps));
+  const BasePointSpacing frames = FramesOf(settings, camera);
+  BasePointStride taken(StrideFor(frames));
+  AdaptToSpacing(options, EveryNth(frames, taken.stride()));
+
+  ReplayedRobot out;
+  out.id = robot;
+  RecordRoute(camera, taken.stride(), out);
   Pipeline pipeline(camera.intrinsics(), options, PlaceMemory(robot, options.memory),
                     TopologicalMap{});
   RouteRecorder recorder(out);
   std::vector<Observation> sweep;
   while (std::optional<CameraFrame> frame = camera.Next()) {
+    if (!taken.Take(frame->ends_base_point)) continue;
     sweep.push_back(std::move(frame->observation));
     if (!frame->ends_base_point) continue;
     recorder.Consume(pipeline.Process(sweep));
@@ -285,7 +295,7 @@ std::vector<ReplayedRobot> RoutesOf(const std::vector<Settings>& settings) {
     const SimCamera route(ToSimCameraOptions(settings[i].daemon.camera, settings[i].daemon.sim));
     ReplayedRobot r;
     r.id = static_cast<uint32_t>(i + 1);
-    RecordRoute(route, r);
+    RecordRoute(route, StrideFor(FramesOf(settings[i], route)), r);
     out.push_back(std::move(r));
   }
   return out;

@@ -238,9 +238,9 @@ int Run(const std::vector<std::string>& args) {
   const Settings settings = ConfigFrom(vm);
   const fs::path dataset_dir = vm["dataset"].as<std::string>();
   const fs::path db_path = vm["db"].as<std::string>();
-  const Dataset dataset = Dataset::Open(dataset_dir, DatasetOptionsOf(settings));
   std::ostringstream spacing;  // said after the summary line
-  const PipelineOptions options = OptionsForDataset(settings, dataset, &spacing);
+  const auto [dataset, options] =
+      PrepareDataset(settings, Dataset::Open(dataset_dir, DatasetOptionsOf(settings)), &spacing);
   if (options.features.NeedsDepth() && !dataset.has_depth()) {
     throw DatasetError(dataset_dir.string() + ": bubble.features = " + options.features.ToString() +
                        " needs depth, but the dataset has no depth/ folder");
@@ -378,9 +378,9 @@ int Eval(const std::vector<std::string>& args) {
   const Settings settings = ConfigFrom(vm);
   const fs::path dataset_dir = vm["dataset"].as<std::string>();
   const fs::path json_path = vm["json"].as<std::string>();
-  const Dataset dataset = Dataset::Open(dataset_dir, DatasetOptionsOf(settings));
   std::ostringstream spacing;  // said after the summary line
-  const PipelineOptions options = OptionsForDataset(settings, dataset, &spacing);
+  const auto [dataset, options] =
+      PrepareDataset(settings, Dataset::Open(dataset_dir, DatasetOptionsOf(settings)), &spacing);
   if (options.features.NeedsDepth() && !dataset.has_depth()) {
     throw DatasetError(dataset_dir.string() + ": bubble.features = " + options.features.ToString() +
                        " needs depth, but the dataset has no depth/ folder");

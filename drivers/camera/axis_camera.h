@@ -84,6 +84,8 @@ class AxisCamera : public CameraSource {
   const CameraIntrinsics& intrinsics() const override { return intrinsics_; }
   /// "axis:host:port".
   std::string name() const override;
+  /// Each view of a sweep is one paced frame.
+  int paced_frames_per_base_point() const override { return options_.sweep_steps; }
 
   /// PTZ (`ptz.cgi`): absolute move, degrees (pan wrapped to [−180, 180]).
   void MoveAbsolute(double pan_deg, double tilt_deg);

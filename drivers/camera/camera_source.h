@@ -57,6 +57,10 @@ class CameraSource {
   /// folder's declaration); nullopt for a live camera, whose spacing follows its frame rate
   /// (docs/decisions.md, "Frame rate").
   virtual std::optional<BasePointSpacing> spacing() const { return std::nullopt; }
+  /// How many of the frames camera.fps paces make one base point: a PTZ sweep whose views are
+  /// taken one by one (the Axis camera) counts each; a source that delivers a whole sweep at
+  /// once, or none, counts 1. A live camera's base points come fps / this a second.
+  virtual int paced_frames_per_base_point() const { return 1; }
   /// True for a recording read unpaced (a folder, video or simulated route at fps 0): its
   /// frames wait for the pipeline rather than being dropped, so a replay processes every frame
   /// whatever the machine's speed. A live or paced source is false: the robot would rather see

@@ -1,11 +1,23 @@
 #include "drivers/dataset/base_point_spacing.h"
 
 #include <algorithm>
+#include <cmath>
 #include <cstdio>
+#include <stdexcept>
+#include <string>
 
 #include "core/pipeline/pipeline.h"
 
 namespace tsc {
+namespace {
+
+std::string Metres(double m) {
+  char text[32];
+  std::snprintf(text, sizeof text, "%.3g", m);
+  return text;
+}
+
+}  // namespace
 
 BasePointSpacing ResolveSpacing(double configured, const BasePointSpacing* declared, double fps) {
   if (configured > 0.0) return {configured, "camera.spacing_m"};
@@ -19,6 +31,24 @@ BasePointSpacing ResolveSpacing(double configured, const BasePointSpacing* decla
 bool IsSparse(const BasePointSpacing& spacing) {
   // Half again the calibrated step is still near it; 0.3 m (twice it) is not.
   return !spacing.keyframes && spacing.metres > kCalibratedSpacingM * 1.5;
+}
+
+int StrideFor(const BasePointSpacing& frames) {
+  if (frames.keyframes || !(frames.metres > 0.0)) return 1;
+  // 1e-9: a spacing that divides the calibrated one exactly (0.05, 0.075) takes its quotient.
+  double stride = std::clamp(std::floor(kCalibratedSpacingM / frames.metres + 1e-9), 1.0, 1e6);
+  if (stride * frames.metres < kClosestSpacingM * (1.0 - 1e-9)) stride += 1.0;
+  return static_cast<int>(stride);
+}
+
+BasePointSpacing EveryNth(const BasePointSpacing& frames, int stride) {
+  if (stride < 1) throw std::invalid_argument("base point stride " + std::to_string(stride));
+  if (stride == 1) return frames;
+  BasePointSpacing out = frames;
+  out.metres = frames.metres * stride;
+  out.basis = frames.basis + ", frames " + Metres(frames.metres) + " m apart; one in " +
+              std::to_string(stride) + " taken";
+  return out;
 }
 
 void AdaptToSpacing(PipelineOptions& options, const BasePointSpacing& spacing) {

@@ -43,6 +43,24 @@ BasePointSpacing ResolveSpacing(double configured, const BasePointSpacing* decla
 /// spacing apart: 0.3 m (5 fps at walking speed) and beyond.
 bool IsSparse(const BasePointSpacing& spacing);
 
+/// Base points closer than this change too little between them for the calibrated κ: on
+/// simulated worlds, frames 0.1 m apart hold as they are, 0.085 m apart do not
+/// (docs/calibration.md, twenty-seventh pass).
+inline constexpr double kClosestSpacingM = 0.1;
+
+/// Which of a camera's frames are base points (DESIGN §3.2 amended: "take base points at a
+/// fixed spacing"): every stride-th, the largest stride that keeps them at most the calibrated
+/// spacing apart, or one more where that leaves them closer than kClosestSpacingM. 1 for a
+/// keyframe sequence and a camera at 0.1 m or more; 2 at 0.075 m (20 fps at walking speed) and
+/// 0.085 m; 3 at 0.05 m (30 fps). Why: a denser camera changes less between consecutive
+/// frames, so κ finds few transitions (nine simulated worlds at 0.05 m: boundary F1 0.42
+/// against 0.86 at 0.15 m, 12 right / 2 wrong recognitions against 49 / 0; one frame in three:
+/// 0.89, 52 / 2).
+int StrideFor(const BasePointSpacing& frames);
+
+/// The spacing of every `stride`-th frame of `frames` (stride ≥ 1), its basis saying so.
+BasePointSpacing EveryNth(const BasePointSpacing& frames, int stride);
+
 /// `options`, configured for a camera at the calibrated spacing, for base points `spacing`
 /// apart: detection counts τ_p at that spacing (DetectorOptions::spacing_m), and a sparse
 /// camera halves τ_w (at least 1) and memory.step_unit. There a door is crossed in one or two

@@ -485,4 +485,36 @@ std::vector<Observation> SplitSweep(Observation strip, const PanSweep& sweep) {
   return out;
 }
 
+Dataset Dataset::EveryNth(int stride) const {
+  if (stride < 1) throw std::invalid_argument("dataset stride " + std::to_string(stride));
+  Dataset out = *this;
+  if (stride == 1) return out;
+  const auto step = static_cast<size_t>(stride);
+  const auto thin = [step](auto& v) {
+    if (v.empty()) return;
+    size_t kept = 0;
+    for (size_t i = 0; i < v.size(); i += step, ++kept) {
+      if (kept != i) v[kept] = std::move(v[i]);  // (a string moved onto itself is emptied)
+    }
+    v.resize(kept);
+  };
+  thin(out.images_);
+  thin(out.depths_);
+  thin(out.labels_);
+  thin(out.poses_);
+  thin(out.revisits_);
+  for (size_t i = 0; i < out.revisits_.size(); ++i) {
+    std::vector<int> nearest;
+    for (int r : out.revisits_[i]) {
+      const int taken = (r + stride / 2) / stride;  // the taken frame nearest r
+      if (static_cast<size_t>(taken) < i) nearest.push_back(taken);
+    }
+    std::sort(nearest.begin(), nearest.end());
+    nearest.erase(std::unique(nearest.begin(), nearest.end()), nearest.end());
+    out.revisits_[i] = std::move(nearest);
+  }
+  out.spacing_ = tsc::EveryNth(spacing_, stride);
+  return out;
+}
+
 }  // namespace tsc

@@ -109,6 +109,13 @@ class Dataset {
   /// Per-frame earlier frames showing the same place (0-based); empty without revisits.csv.
   const std::vector<std::vector<int>>& revisits() const { return revisits_; }
 
+  /// Frames 0, stride, 2·stride, ... as a dataset of their own (the base points of a camera
+  /// denser than the calibrated spacing: StrideFor): labels, poses and depth follow their
+  /// frames, a revisit names the taken frame nearest it (kept when earlier than the frame),
+  /// and spacing() is EveryNth's. Image paths stay the files', so messages name them. Throws
+  /// std::invalid_argument unless stride ≥ 1.
+  Dataset EveryNth(int stride) const;
+
  private:
   Dataset(std::filesystem::path folder, std::vector<std::filesystem::path> images,
           std::vector<std::filesystem::path> depths, CameraIntrinsics camera, PanSweep sweep,

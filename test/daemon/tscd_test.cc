@@ -493,6 +493,39 @@ long PeakRssKbOf(pid_t pid) {
 // names the file and what it claims in the log, counts it as a camera error and goes on: every
 // other frame is processed (or dropped by the queue, counted), and the peak resident set stays
 // that of normal operation (before issue 18 the JPEG alone took tscd from 86 MB to 2.2 GB).
+// A camera denser than the calibrated spacing (camera.json: frames 0.05 m apart, a 30 fps
+// camera at walking speed) gives one frame in three as base points (StrideFor; docs/decisions.md
+// "Frame rate"): read unpaced, the folder's 12 frames make 4 base points, and the log says so.
+TEST_F(TscdTest, ADenseCameraGivesOneFrameInThreeAsBasePoints) {
+  TSCD_REQUIRE_PRIVATE_NETNS();
+  const fs::path frames = dir_ / "frames";
+  ASSERT_EQ(CopyLoopFrames(frames, 12).size(), 12u);
+  std::ofstream(frames / "camera.json") << R"({"hfov_deg": 60, "spacing_m": 0.05})";
+
+  BusListener bus;
+  ChildProcess dut({kTscd, "--robot", "1", "--state-dir", (dir_ / "state").string(), "--set",
+                    "camera.source=folder", "--set", "camera.path=" + frames.string(), "--set",
+                    "camera.fps=0", "--set", "lcm.announce_period_s=0.2"},
+                   dir_ / "tscd.log");
+  ASSERT_TRUE(bus.WaitFor(
+      [](const BusListener& b) {
+        if (!b.announces.count("TSC_ANNOUNCE")) return false;
+        const announce_t& a = b.announces.at("TSC_ANNOUNCE").back();
+        return a.status.find("camera ended") != std::string::npos && a.frames >= 4;
+      },
+      seconds(60)))
+      << dut.Log();
+  bus.Inspect([&](const BusListener& b) {
+    const announce_t& a = b.announces.at("TSC_ANNOUNCE").back();
+    EXPECT_EQ(a.frames, 4) << a.status;
+    EXPECT_EQ(a.frames_dropped, 0) << a.status;
+  });
+  EXPECT_NE(dut.Log().find("base points 0.15 m apart"), std::string::npos) << dut.Log();
+  EXPECT_NE(dut.Log().find("one in 3 taken"), std::string::npos) << dut.Log();
+  dut.Signal(SIGTERM);
+  EXPECT_EQ(dut.Wait(seconds(20)), 0) << dut.Log();
+}
+
 TEST_F(TscdTest, BombFramesInAFolderCameraAreRefusedCountedAndReadingGoesOn) {
   TSCD_REQUIRE_PRIVATE_NETNS();
   const fs::path frames = dir_ / "frames";

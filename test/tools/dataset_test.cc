@@ -10,10 +10,13 @@
 #include <opencv2/imgcodecs.hpp>
 #include <optional>
 #include <random>
+#include <stdexcept>
 #include <string>
+#include <vector>
 
 #include "core/pipeline/pipeline.h"
 #include "drivers/dataset/base_point_spacing.h"
+#include "drivers/dataset/base_point_stride.h"
 #include "test/support/image_bombs.h"
 #include "test/support/temp_dir.h"
 
@@ -206,6 +209,67 @@ TEST(AdaptToSpacingTest, HalvesTauWAndStepUnitOfASparseCameraOnly) {
   EXPECT_EQ(adapted(slow, 1).detector.tau_w, 1);  // at least one base point
   EXPECT_EQ(adapted(slow, 3).detector.tau_w, 1);
   EXPECT_EQ(adapted(slow, 4).detector.tau_w, 2);
+}
+
+// A camera denser than the calibrated spacing gives every stride-th frame as a base point:
+// the largest stride that keeps them at most 0.15 m apart, or one more where that leaves them
+// closer than 0.1 m (docs/calibration.md, twenty-seventh pass). Keyframes are never thinned.
+TEST(StrideForTest, ThinsADenseCameraToTheCalibratedSpacing) {
+  const auto stride = [](double fps) { return StrideFor(ResolveSpacing(0.0, nullptr, fps)); };
+  EXPECT_EQ(stride(10.0), 1);  // 0.15 m
+  EXPECT_EQ(stride(5.0), 1);   // 0.3 m: sparse, adapted otherwise (AdaptToSpacing)
+  EXPECT_EQ(stride(15.0), 1);  // 0.1 m: holds as it is
+  EXPECT_EQ(stride(17.0), 2);  // 0.088 m → 0.176 m
+  EXPECT_EQ(stride(20.0), 2);  // 0.075 m → 0.15 m
+  EXPECT_EQ(stride(25.0), 2);  // 0.06 m → 0.12 m
+  EXPECT_EQ(stride(30.0), 3);  // 0.05 m → 0.15 m
+  EXPECT_EQ(stride(60.0), 6);  // 0.025 m → 0.15 m
+  EXPECT_EQ(StrideFor(BasePointSpacing{0.01, "hand-held video"}), 15);
+  EXPECT_EQ(StrideFor(BasePointSpacing{0.01, "keyframes", true}), 1);
+
+  const BasePointSpacing thirty = ResolveSpacing(0.0, nullptr, 30.0);
+  const BasePointSpacing taken = EveryNth(thirty, 3);
+  EXPECT_NEAR(taken.metres, 0.15, 1e-12);
+  EXPECT_FALSE(taken.keyframes);
+  EXPECT_NE(taken.basis.find("one in 3 taken"), std::string::npos) << taken.basis;
+  EXPECT_EQ(EveryNth(thirty, 1).basis, thirty.basis);
+  EXPECT_THROW(EveryNth(thirty, 0), std::invalid_argument);
+
+  // Counted in base points: every view of a pan sweep's base point goes together.
+  BasePointStride every_second(2);
+  std::vector<bool> took;
+  for (int base = 0; base < 4; ++base) {
+    for (int view = 0; view < 3; ++view) took.push_back(every_second.Take(view == 2));
+  }
+  EXPECT_EQ(took, (std::vector<bool>{true, true, true, false, false, false, true, true, true, false,
+                                     false, false}));
+  EXPECT_THROW(BasePointStride(0), std::invalid_argument);
+}
+
+// The frames a dense camera's stride takes, as a dataset: ground truth follows them, and a
+// revisit names the taken frame nearest it, when that is earlier.
+TEST_F(DatasetTest, EveryNthFrameKeepsItsGroundTruth) {
+  for (int i = 1; i <= 7; ++i) WriteImage(dir_ / (std::to_string(i) + ".png"), Image(i));
+  WriteText(dir_ / "camera.json", R"({"hfov_deg": 60, "spacing_m": 0.05})");
+  WriteText(dir_ / "groundtruth.csv",
+            "frame,place,x,y,heading\n1,a,0,0,0\n2,a,0.05,0,0\n3,a,0.1,0,0\n4,b,0.15,0,0\n"
+            "5,b,0.2,0,0\n6,b,0.25,0,0\n7,a,0,0,3\n");
+  WriteText(dir_ / "revisits.csv", "frame,revisits\n7,2 3\n5,4\n");
+  const Dataset all = Dataset::Open(dir_);
+  const Dataset taken = all.EveryNth(3);  // frames 1, 4, 7
+  ASSERT_EQ(taken.size(), 3);
+  EXPECT_EQ(taken.image_path(1).filename(), "4.png");
+  EXPECT_EQ(taken.image_path(2), all.image_path(6));
+  EXPECT_EQ(taken.labels(), (std::vector<std::string>{"a", "b", "a"}));
+  ASSERT_EQ(taken.poses().size(), 3u);
+  EXPECT_DOUBLE_EQ(taken.poses()[1]->x, 0.15);
+  ASSERT_EQ(taken.revisits().size(), 3u);
+  // Frame 7 revisits 2 and 3, whose nearest taken frame is 1 (taken index 0) and 4 (index 1).
+  EXPECT_EQ(taken.revisits()[2], (std::vector<int>{0, 1}));
+  EXPECT_TRUE(taken.revisits()[1].empty());  // frame 5 is not taken
+  EXPECT_NEAR(taken.spacing().metres, 0.15, 1e-12);
+  EXPECT_EQ(all.EveryNth(1).size(), 7);
+  EXPECT_THROW(all.EveryNth(0), std::invalid_argument);
 }
 
 TEST_F(DatasetTest, BadCameraJsonNamesTheFile) {
