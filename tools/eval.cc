@@ -190,6 +190,15 @@ EvalResult Evaluate(const Dataset& dataset, const PipelineOptions& options,
     descriptor_ms.push_back(frame.descriptor_ms);
   }
 
+  std::vector<double> steps;  // what κ judges: a sweep's first view, else the descriptor
+  const auto judged = [](const BasePointView& v) -> const Eigen::VectorXf& {
+    return v.coherence.empty() ? v.descriptor.values() : v.coherence.values();
+  };
+  for (size_t i = 1; i < inputs.size(); ++i) {
+    steps.push_back(ChiSquared(judged(inputs[i - 1]), judged(inputs[i])));
+  }
+  result.consecutive_chi2_median = steps.empty() ? 0.0 : MedianOf(steps);
+
   // The main run at the configured τ_r.
   std::vector<double> step_ms;
   result.main = Replay(dataset, options, inputs, result.truth, true, &step_ms, &result.status);
@@ -424,6 +433,7 @@ void WriteEvalJson(std::ostream& out, const EvalResult& r) {
   w.Key("base_points").Begin('{');
   w.Key("good").Int(r.good).Key("uninformative").Int(r.uninformative);
   w.Key("incoherent").Int(r.incoherent);
+  w.Key("consecutive_chi2_median").Number(r.consecutive_chi2_median);
   w.End('}');
   w.Key("detected_places").Int(static_cast<long long>(r.main.detected.size()));
   w.Key("learned_places").Int(r.main.learned_places);

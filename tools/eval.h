@@ -87,6 +87,9 @@ struct EvalResult {
   std::optional<BoundaryScore> boundaries;  ///< with labels
   std::optional<EdgeScore> edges;           ///< with labels
   GroundTruth truth;
+  /// Median χ² between consecutive base points' coherence descriptors (what κ compares with
+  /// τ_κ): how much the view changes from one base point to the next (0 with one frame).
+  double consecutive_chi2_median = 0.0;
   double descriptor_ms_median = 0.0;  ///< bubble surface + descriptor + intensity, per frame
   double frame_ms_median = 0.0;       ///< descriptor + pipeline step of the main run, per frame
 };
@@ -114,7 +117,8 @@ EvalResult Evaluate(const Dataset& dataset, const PipelineOptions& options,
                     const EvalOptions& eval);
 
 /// The result as one JSON object with nested objects (keys of DESIGN §7.2):
-///   {"dataset", "frames", "base_points": {"good","uninformative","incoherent"},
+///   {"dataset", "frames", "base_points": {"good","uninformative","incoherent",
+///                   "consecutive_chi2_median"},
 ///    "detected_places", "learned_places",
 ///    "detection": {"boundary_f1","precision","recall","true_boundaries",
 ///                  "detected_boundaries","tolerance_frames"}   (with labels),

@@ -399,12 +399,14 @@ int Eval(const std::vector<std::string>& args) {
   const RecognitionScore& s = r.main.recognition;
   std::printf(
       "tsc eval: %d frames of %s (ground truth: %s)\n"
-      "  base points      good %d, uninformative %d, incoherent %d\n"
+      "  base points      good %d, uninformative %d, incoherent %d (median chi2 to the "
+      "previous %.4f, tau_kappa %g)\n"
       "  detected places  %zu, learned places %d, ambiguous (no place) %lld\n",
       r.frames, dataset_dir.c_str(),
       r.truth.has_labels() ? (r.truth.has_revisits() ? "labels, revisits" : "labels")
                            : (r.truth.has_revisits() ? "revisits" : "none"),
-      r.good, r.uninformative, r.incoherent, r.main.detected.size(), r.main.learned_places,
+      r.good, r.uninformative, r.incoherent, r.consecutive_chi2_median,
+      options.reliability.tau_kappa, r.main.detected.size(), r.main.learned_places,
       static_cast<long long>(std::count_if(r.main.detected.begin(), r.main.detected.end(),
                                            [](const EvalDetectedPlace& d) { return !d.place; })));
   std::cout << spacing.str();

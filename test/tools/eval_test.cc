@@ -124,6 +124,10 @@ TEST_F(EvalTest, RtabmapLoopRecognisesWithFullPrecisionAndWritesPlots) {
 
   EXPECT_EQ(r.frames, 84);
   EXPECT_EQ(r.good + r.uninformative + r.incoherent, 84);
+  // The loop's keyframes change by half of τ_κ from one to the next (measured 0.0102; the
+  // simulated routes' frames 0.15 m apart by 0.004, docs/calibration.md twenty-seventh pass).
+  EXPECT_GT(r.consecutive_chi2_median, 0.005);
+  EXPECT_LT(r.consecutive_chi2_median, 0.02);
   EXPECT_GE(r.main.learned_places, 3);
   EXPECT_DOUBLE_EQ(r.main.recognition.precision, 1.0);
   EXPECT_GT(r.main.recognition.recall, 0.0);
