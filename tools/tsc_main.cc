@@ -73,7 +73,8 @@ constexpr const char* kRunHelp =
 
 Runs the TSC loop (bubble descriptor, reliability, place detection, recognition or learning,
 mapping) over every frame of DATASET in natural name order and commits each result to the
-SQLite store FILE. A store that already holds a memory is continued.
+SQLite store FILE. A store that already holds a memory is continued. Of a camera whose
+frames lie closer than 0.1 m, every N-th frame is a base point (about 0.15 m apart).
 
 DATASET is a folder of frames (*.jpg, *.jpeg, *.png, directly or in rgb/) with optional
 depth/ (16-bit PNG, mm), camera.json ({"width","height","hfov_deg"} or fx,fy,cx,cy; default
@@ -99,7 +100,8 @@ constexpr const char* kEvalHelp =
 
 Runs the TSC loop over every frame of DATASET on a fresh memory (nothing is stored) and
 scores it with the rules of DESIGN section 7.1b against groundtruth.csv (place labels)
-and/or revisits.csv. Each frame's descriptor is computed once; the pipeline is then replayed
+and/or revisits.csv. Of a camera whose frames lie closer than 0.1 m, every N-th frame is
+a base point (about 0.15 m apart) and only those are run and scored. Each frame's descriptor is computed once; the pipeline is then replayed
 at the configured memory.tau_r (the main figures) and at each tau_r of the sweep (the PR
 curve; default 1.0:2.0:0.05, STEP 0 = no sweep).
 
