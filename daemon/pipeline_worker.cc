@@ -158,8 +158,8 @@ PipelineWorker::PipelineWorker(const Settings& settings, const CameraSource& cam
   const BasePointSpacing frames =
       ResolveSpacing(settings_.daemon.camera.spacing_m, declared ? &*declared : nullptr,
                      settings_.daemon.camera.fps / camera.paced_frames_per_base_point());
-  base_point_stride_ = StrideFor(frames);
-  const BasePointSpacing spacing = EveryNth(frames, base_point_stride_);
+  const auto [stride, spacing] = BasePointsOf(frames);
+  base_point_stride_ = stride;
   AdaptToSpacing(pipeline, spacing);
   spdlog::info("base points {:.3g} m apart ({}): places of {} base points or fewer are pruned",
                spacing.metres, spacing.basis, pipeline.detector.EffectiveTauP());

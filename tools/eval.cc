@@ -190,12 +190,9 @@ EvalResult Evaluate(const Dataset& dataset, const PipelineOptions& options,
     descriptor_ms.push_back(frame.descriptor_ms);
   }
 
-  std::vector<double> steps;  // what κ judges: a sweep's first view, else the descriptor
-  const auto judged = [](const BasePointView& v) -> const Eigen::VectorXf& {
-    return v.coherence.empty() ? v.descriptor.values() : v.coherence.values();
-  };
+  std::vector<double> steps;
   for (size_t i = 1; i < inputs.size(); ++i) {
-    steps.push_back(ChiSquared(judged(inputs[i - 1]), judged(inputs[i])));
+    steps.push_back(ChiSquared(inputs[i - 1].judged().values(), inputs[i].judged().values()));
   }
   result.consecutive_chi2_median = steps.empty() ? 0.0 : MedianOf(steps);
 
@@ -401,10 +398,8 @@ DatasetOptions DatasetOptionsOf(const Settings& settings) {
 }
 
 PreparedDataset PrepareDataset(const Settings& settings, const Dataset& opened, std::ostream* say) {
-  const BasePointSpacing frames =
-      ResolveSpacing(settings.daemon.camera.spacing_m, &opened.spacing(), 0.0);
-  const int stride = StrideFor(frames);
-  const BasePointSpacing spacing = EveryNth(frames, stride);
+  const auto [stride, spacing] =
+      BasePointsOf(ResolveSpacing(settings.daemon.camera.spacing_m, &opened.spacing(), 0.0));
   PreparedDataset out{opened.EveryNth(stride), settings.pipeline};
   AdaptToSpacing(out.options, spacing);
   if (say != nullptr) {

@@ -122,9 +122,9 @@ ReplayedRobot ReplayRoute(const Settings& settings, uint32_t robot) {
   // spacing its camera declares, with every stride-th base point of a dense camera.
   PipelineOptions options = settings.pipeline;
   options.robot = robot;
-  const BasePointSpacing frames = FramesOf(settings, camera);
-  BasePointStride taken(StrideFor(frames));
-  AdaptToSpacing(options, EveryNth(frames, taken.stride()));
+  const BasePoints base_points = BasePointsOf(FramesOf(settings, camera));
+  BasePointStride taken(base_points.stride);
+  AdaptToSpacing(options, base_points.spacing);
 
   ReplayedRobot out;
   out.id = robot;

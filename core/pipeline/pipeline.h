@@ -82,6 +82,8 @@ struct BasePointView {
   Descriptor descriptor;
   IntensityStats intensity;
   Descriptor coherence;
+  /// What κ compares with the previous base point's: `coherence`, else `descriptor`.
+  const Descriptor& judged() const { return coherence.empty() ? descriptor : coherence; }
 };
 /// Computes the view of the base point observed in `surface`, then resets the surface for the
 /// next base point.

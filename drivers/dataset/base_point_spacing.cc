@@ -51,6 +51,11 @@ BasePointSpacing EveryNth(const BasePointSpacing& frames, int stride) {
   return out;
 }
 
+BasePoints BasePointsOf(const BasePointSpacing& frames) {
+  const int stride = StrideFor(frames);
+  return {stride, EveryNth(frames, stride)};
+}
+
 void AdaptToSpacing(PipelineOptions& options, const BasePointSpacing& spacing) {
   options.detector.spacing_m = spacing.metres;
   if (!IsSparse(spacing)) return;

@@ -61,6 +61,14 @@ int StrideFor(const BasePointSpacing& frames);
 /// The spacing of every `stride`-th frame of `frames` (stride ≥ 1), its basis saying so.
 BasePointSpacing EveryNth(const BasePointSpacing& frames, int stride);
 
+/// The base points of a camera whose frames lie `frames` apart: every `stride`-th frame
+/// (StrideFor), `spacing` apart (EveryNth), what place detection is adapted to.
+struct BasePoints {
+  int stride = 1;
+  BasePointSpacing spacing;
+};
+BasePoints BasePointsOf(const BasePointSpacing& frames);
+
 /// `options`, configured for a camera at the calibrated spacing, for base points `spacing`
 /// apart: detection counts τ_p at that spacing (DetectorOptions::spacing_m), and a sparse
 /// camera halves τ_w (at least 1) and memory.step_unit. There a door is crossed in one or two
