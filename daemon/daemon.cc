@@ -16,6 +16,7 @@
 
 #include "daemon/log_throttle.h"
 #include "daemon/motor_bridge.h"
+#include "drivers/dataset/base_point_motion.h"
 #include "drivers/dataset/base_point_stride.h"
 #include "tsc/announce_t.hpp"
 #include "tsc/memory_request_t.hpp"
@@ -670,9 +671,11 @@ void Daemon::PublishPortion(const memory_portion_v2_t& portion) {
 }
 
 std::string Daemon::StatusLine() const {
+  const int64_t standing = counters_.frames_standing.load();
   std::string s = "frames " + std::to_string(counters_.frames.load()) + " (dropped " +
-                  std::to_string(queue_.dropped()) + "), places " +
-                  std::to_string(counters_.places.load()) + ", edges " +
+                  std::to_string(queue_.dropped()) +
+                  (standing > 0 ? ", " + std::to_string(standing) + " standing still" : "") +
+                  "), places " + std::to_string(counters_.places.load()) + ", edges " +
                   std::to_string(counters_.edges.load()) + ", detected " +
                   std::to_string(counters_.detected_places.load());
   if (worker_->store_degraded()) {
@@ -693,6 +696,11 @@ void Daemon::CameraLoop() {
   // A camera denser than the calibrated spacing: only every stride-th base point is taken
   // (the others would change too little for κ); dropped here, before they take queue room.
   BasePointStride taken(worker_->base_point_stride());
+  // Nor while the robot stands still (nothing changes for κ; a stop in a doorway would make a
+  // place of it): by the pose a simulated camera reports, else by the base's odometry for a
+  // camera mounted on the robot.
+  BasePointMotion motion;
+  const bool odometry = base_ != nullptr && camera_->rides_the_base();
   while (!stopping_) {
     try {
       std::optional<CameraFrame> frame = camera_->Next();
@@ -704,7 +712,17 @@ void Daemon::CameraLoop() {
         return;
       }
       const bool ends = frame->ends_base_point;
-      if (!taken.Take(ends)) continue;
+      std::optional<PlanarPose> pose = frame->pose;
+      if (!pose && odometry) {
+        const Odometry o = base_->state();
+        if (o.link_ok) pose = PlanarPose{o.x, o.y, o.heading};
+      }
+      const bool moved = !pose || motion.Moved(*pose);
+      if (!taken.Take(ends, moved)) {
+        if (!moved) ++counters_.frames_standing;
+        continue;
+      }
+      if (pose) motion.Taken(*pose);
       queue_.Push(std::move(*frame), ends, replay);
     } catch (const CameraError& e) {
       if (stopping_) return;  // a read cut short by the stop

@@ -10,6 +10,7 @@ namespace tsc {
 struct DaemonCounters {
   std::atomic<int64_t> frames{0};             ///< base points processed
   std::atomic<int64_t> camera_errors{0};      ///< frames the camera could not deliver
+  std::atomic<int64_t> frames_standing{0};    ///< views skipped while the robot stood still
   std::atomic<int64_t> store_failures{0};     ///< commits that failed (kept and retried)
   std::atomic<int64_t> results_dropped{0};    ///< kept results beyond max_pending_results
   std::atomic<int64_t> messages_rejected{0};  ///< malformed messages on our channels

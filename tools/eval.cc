@@ -6,6 +6,7 @@
 #include <cstdlib>
 #include <stdexcept>
 
+#include "drivers/dataset/base_point_motion.h"
 #include "drivers/dataset/base_point_spacing.h"
 #include "settings/settings.h"
 #include "tools/events_json.h"
@@ -400,15 +401,21 @@ DatasetOptions DatasetOptionsOf(const Settings& settings) {
 PreparedDataset PrepareDataset(const Settings& settings, const Dataset& opened, std::ostream* say) {
   const auto [stride, spacing] =
       BasePointsOf(ResolveSpacing(settings.daemon.camera.spacing_m, &opened.spacing(), 0.0));
-  PreparedDataset out{opened.EveryNth(stride), settings.pipeline};
+  // Poses stand in for the odometry by which tscd skips a robot standing still. A keyframe
+  // sequence keeps every frame: its frames were kept for what they show.
+  const std::vector<int> frames =
+      spacing.keyframes ? std::vector<int>{} : FramesOfRoute(opened.poses(), stride);
+  PreparedDataset out{frames.empty() ? opened.EveryNth(stride) : opened.Subset(frames),
+                      settings.pipeline};
   AdaptToSpacing(out.options, spacing);
   if (say != nullptr) {
     *say << "  base points     " << spacing.metres << " m apart (" << spacing.basis
          << "): places of " << out.options.detector.EffectiveTauP()
          << " base points or fewer are pruned\n";
-    if (stride > 1) {
-      *say << "  dense camera    " << out.dataset.size() << " of " << opened.size()
-           << " frames are base points, and are what is scored\n";
+    if (out.dataset.size() < opened.size()) {
+      *say << "  base points     " << out.dataset.size() << " of " << opened.size()
+           << " frames (every " << stride << (frames.empty() ? "" : ", none standing still")
+           << "), and they are what is scored\n";
     }
     if (const std::optional<std::string> note = SparseCameraNote(out.options, spacing)) {
       *say << "  sparse camera   " << *note << "\n";

@@ -11,6 +11,7 @@
 
 #include "core/bubble/camera.h"
 #include "core/bubble/surface.h"
+#include "drivers/dataset/base_point_motion.h"
 #include "drivers/dataset/base_point_spacing.h"
 #include "drivers/stop_signal.h"
 
@@ -37,6 +38,10 @@ struct CameraFrame {
   /// True when this view completes a base point; false while a PTZ sweep continues (tscd
   /// gathers the views of a sweep and the pipeline takes them together, Pipeline::Process).
   bool ends_base_point = true;
+  /// Where the robot was at capture, when the source knows it (a simulated camera: its route's
+  /// or its base's pose, without the camera's shake): tscd takes no base points while it stands
+  /// still (BasePointMotion).
+  std::optional<PlanarPose> pose;
 };
 
 class CameraSource {
@@ -66,6 +71,10 @@ class CameraSource {
   /// whatever the machine's speed. A live or paced source is false: the robot would rather see
   /// now than catch up on the past.
   virtual bool replays_every_frame() const { return false; }
+  /// True for a camera mounted on the robot whose frames do not carry a pose (a USB or PTZ
+  /// camera): tscd reads where it is from the motor base's odometry, when there is one. A
+  /// recording (folder, video) does not move with the base.
+  virtual bool rides_the_base() const { return false; }
 
  protected:
   /// Raised by Interrupt(); sources wait on it (Clock::WaitUntil(us, interrupted_)).

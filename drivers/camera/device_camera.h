@@ -55,6 +55,7 @@ class DeviceCamera : public CameraSource {
   /// Intrinsics at the size first opened; later frames of another size are resized to it.
   const CameraIntrinsics& intrinsics() const override { return intrinsics_; }
   std::string name() const override { return "device:" + options_.device; }
+  bool rides_the_base() const override { return true; }
 
   /// Current wait before the next reopen attempt, microseconds (for logs and tests).
   int64_t backoff_us() const { return backoff_us_; }

@@ -100,6 +100,7 @@ std::optional<CameraFrame> SimCamera::Next() {
     const sim::Pose2 pose =
         sim::RenderRouteFrame(scenario_.world, renderer_, frame, options_.scene, rng_, draws_,
                               &strip.bgr, options_.scene.depth ? &strip.depth_m : nullptr);
+    pose_ = PlanarPose{frame.pose.x, frame.pose.y, frame.pose.heading};  // before the shake
     last_ = frame;
     last_.pose = pose;
     last_.label = scenario_.world.LabelAt(pose.x, pose.y);
@@ -113,6 +114,7 @@ std::optional<CameraFrame> SimCamera::Next() {
   out.observation = std::move(pending_.front());
   pending_.pop_front();
   out.ends_base_point = pending_.empty();
+  out.pose = pose_;
   out.utime = clock_.WallMicros();
   out.sequence = delivered_++;
   return out;

@@ -97,6 +97,7 @@ class SimCamera : public CameraSource {
   size_t next_index_ = 0;
   int64_t delivered_ = 0;
   sim::RouteFrame last_;
+  PlanarPose pose_;  ///< of the base point being delivered, as the route or base had it
   std::deque<Observation> pending_;  ///< views of the current sweep not yet delivered
   // Revisit tracking when driven by a base (labels of finished visits, the current one).
   std::set<std::string> done_labels_;

@@ -214,8 +214,10 @@ std::optional<BasePointSpacing> DeclaredSpacing(const fs::path& file, const Json
   return out;
 }
 
-// Median distance between consecutive posed frames; nullopt with fewer than two steps or a
-// median of zero (a camera standing still says nothing of its spacing).
+// Median distance between consecutive posed frames while the camera moves: steps under a
+// quarter of the 90th percentile are a camera standing still or turning on the spot (its pose
+// jitters, it does not travel) and say nothing of its spacing. nullopt with fewer than two
+// steps or none that moves.
 std::optional<double> MedianPoseStep(const std::vector<std::optional<GroundTruthPose>>& poses) {
   std::vector<double> steps;
   for (size_t i = 1; i < poses.size(); ++i) {
@@ -224,9 +226,13 @@ std::optional<double> MedianPoseStep(const std::vector<std::optional<GroundTruth
     }
   }
   if (steps.size() < 2) return std::nullopt;
+  const auto p90 = steps.begin() + static_cast<long>(steps.size() * 9 / 10);
+  std::nth_element(steps.begin(), p90, steps.end());
+  const double moving = *p90 / 4.0;
+  std::erase_if(steps, [moving](double s) { return !(s > moving); });
+  if (steps.empty()) return std::nullopt;
   std::nth_element(steps.begin(), steps.begin() + static_cast<long>(steps.size() / 2), steps.end());
   const double median = steps[steps.size() / 2];
-  if (!(median > 0.0)) return std::nullopt;
   return median;
 }
 
@@ -487,33 +493,52 @@ std::vector<Observation> SplitSweep(Observation strip, const PanSweep& sweep) {
 
 Dataset Dataset::EveryNth(int stride) const {
   if (stride < 1) throw std::invalid_argument("dataset stride " + std::to_string(stride));
-  Dataset out = *this;
-  if (stride == 1) return out;
-  const auto step = static_cast<size_t>(stride);
-  const auto thin = [step](auto& v) {
-    if (v.empty()) return;
-    size_t kept = 0;
-    for (size_t i = 0; i < v.size(); i += step, ++kept) {
-      if (kept != i) v[kept] = std::move(v[i]);  // (a string moved onto itself is emptied)
+  if (stride == 1) return *this;
+  std::vector<int> frames;
+  for (int i = 0; i < size(); i += stride) frames.push_back(i);
+  Dataset out = Subset(frames);
+  out.spacing_ = tsc::EveryNth(spacing_, stride);
+  return out;
+}
+
+Dataset Dataset::Subset(const std::vector<int>& frames) const {
+  for (size_t j = 0; j < frames.size(); ++j) {
+    if (frames[j] < 0 || frames[j] >= size() || (j > 0 && frames[j] <= frames[j - 1])) {
+      throw std::invalid_argument("dataset subset: frame " + std::to_string(frames[j]) +
+                                  " out of order or outside 0.." + std::to_string(size() - 1));
     }
-    v.resize(kept);
+  }
+  Dataset out = *this;
+  const auto take = [&frames](auto& v) {
+    if (v.empty()) return;
+    std::remove_reference_t<decltype(v)> kept;
+    kept.reserve(frames.size());
+    for (int f : frames) kept.push_back(std::move(v[static_cast<size_t>(f)]));
+    v = std::move(kept);
   };
-  thin(out.images_);
-  thin(out.depths_);
-  thin(out.labels_);
-  thin(out.poses_);
-  thin(out.revisits_);
+  take(out.images_);
+  take(out.depths_);
+  take(out.labels_);
+  take(out.poses_);
+  take(out.revisits_);
+  // A revisit names the taken frame nearest it (the later one on a tie).
+  const auto nearest_taken = [&frames](int r) {
+    const auto after = std::lower_bound(frames.begin(), frames.end(), r);
+    if (after == frames.begin()) return 0;
+    if (after == frames.end()) return static_cast<int>(frames.size()) - 1;
+    const auto before = after - 1;
+    return static_cast<int>((r - *before < *after - r ? before : after) - frames.begin());
+  };
   for (size_t i = 0; i < out.revisits_.size(); ++i) {
     std::vector<int> nearest;
     for (int r : out.revisits_[i]) {
-      const int taken = (r + stride / 2) / stride;  // the taken frame nearest r
+      const int taken = nearest_taken(r);
       if (static_cast<size_t>(taken) < i) nearest.push_back(taken);
     }
     std::sort(nearest.begin(), nearest.end());
     nearest.erase(std::unique(nearest.begin(), nearest.end()), nearest.end());
     out.revisits_[i] = std::move(nearest);
   }
-  out.spacing_ = tsc::EveryNth(spacing_, stride);
   return out;
 }
 

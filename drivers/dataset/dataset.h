@@ -26,6 +26,7 @@
 
 #include "core/bubble/camera.h"
 #include "core/bubble/surface.h"
+#include "drivers/dataset/base_point_motion.h"
 #include "drivers/dataset/base_point_spacing.h"
 #include "drivers/image/bounded_decode.h"
 
@@ -39,11 +40,7 @@ class DatasetError : public std::runtime_error {
 
 /// Planar pose of the camera from groundtruth.csv (units as the dataset gives them; heading
 /// in radians by convention).
-struct GroundTruthPose {
-  double x = 0.0;
-  double y = 0.0;
-  double heading = 0.0;
-};
+using GroundTruthPose = PlanarPose;
 
 /// "2.jpg" < "10.jpg": runs of digits compare by value, everything else byte-wise.
 bool NaturalLess(const std::string& a, const std::string& b);
@@ -115,6 +112,10 @@ class Dataset {
   /// and spacing() is EveryNth's. Image paths stay the files', so messages name them. Throws
   /// std::invalid_argument unless stride ≥ 1.
   Dataset EveryNth(int stride) const;
+  /// The given frames (ascending, 0-based) as a dataset of their own, as EveryNth takes its
+  /// frames; spacing() stays this one's. Throws std::invalid_argument for a frame out of order
+  /// or range.
+  Dataset Subset(const std::vector<int>& frames) const;
 
  private:
   Dataset(std::filesystem::path folder, std::vector<std::filesystem::path> images,

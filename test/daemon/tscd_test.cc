@@ -14,7 +14,9 @@
 #include <filesystem>
 #include <fstream>
 #include <functional>
+#include <regex>
 #include <set>
+#include <string>
 #include <thread>
 
 #include "core/pipeline/pipeline.h"
@@ -522,6 +524,35 @@ TEST_F(TscdTest, ADenseCameraGivesOneFrameInThreeAsBasePoints) {
   });
   EXPECT_NE(dut.Log().find("base points 0.15 m apart"), std::string::npos) << dut.Log();
   EXPECT_NE(dut.Log().find("one in 3 taken"), std::string::npos) << dut.Log();
+  dut.Signal(SIGTERM);
+  EXPECT_EQ(dut.Wait(seconds(20)), 0) << dut.Log();
+}
+
+// A robot standing still adds no base points (BasePointMotion): the simulated camera rides a
+// simulated base nobody commands, so after the first base point every view is skipped, and the
+// status line counts them.
+TEST_F(TscdTest, ARobotStandingStillTakesNoBasePoints) {
+  TSCD_REQUIRE_PRIVATE_NETNS();
+  BusListener bus;
+  ChildProcess dut(
+      {kTscd, "--robot", "1", "--state-dir", (dir_ / "state").string(), "--set",
+       "camera.source=sim", "--set", "sim.drive=commands", "--set", "camera.fps=30", "--set",
+       "sim.width=160", "--set", "sim.height=120", "--set", "lcm.announce_period_s=0.2"},
+      dir_ / "tscd.log");
+  const std::regex standing(R"((\d+) standing still)");
+  ASSERT_TRUE(bus.WaitFor(
+      [&](const BusListener& b) {
+        if (!b.announces.count("TSC_ANNOUNCE")) return false;
+        std::smatch m;
+        const std::string status = b.announces.at("TSC_ANNOUNCE").back().status;
+        return std::regex_search(status, m, standing) && std::stoll(m[1].str()) >= 20;
+      },
+      seconds(60)))
+      << dut.Log();
+  bus.Inspect([&](const BusListener& b) {
+    const announce_t& a = b.announces.at("TSC_ANNOUNCE").back();
+    EXPECT_EQ(a.frames, 1) << a.status;
+  });
   dut.Signal(SIGTERM);
   EXPECT_EQ(dut.Wait(seconds(20)), 0) << dut.Log();
 }

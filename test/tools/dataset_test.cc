@@ -15,6 +15,7 @@
 #include <vector>
 
 #include "core/pipeline/pipeline.h"
+#include "drivers/dataset/base_point_motion.h"
 #include "drivers/dataset/base_point_spacing.h"
 #include "drivers/dataset/base_point_stride.h"
 #include "test/support/image_bombs.h"
@@ -244,6 +245,65 @@ TEST(StrideForTest, ThinsADenseCameraToTheCalibratedSpacing) {
   EXPECT_EQ(took, (std::vector<bool>{true, true, true, false, false, false, true, true, true, false,
                                      false, false}));
   EXPECT_THROW(BasePointStride(0), std::invalid_argument);
+}
+
+// A robot standing still adds no base points: nothing changes for κ, and a stop in a doorway
+// would become a place. The stride's count waits for a frame that moved.
+TEST(BasePointMotionTest, ACameraStandingStillGivesNoBasePoints) {
+  BasePointMotion motion;
+  EXPECT_TRUE(motion.Moved({5.0, 5.0, 1.0}));  // before the first base point
+  motion.Taken({0.0, 0.0, 0.0});
+  std::mt19937 rng(54);  // fixed seed: a pose jittering by 1 mm and 0.05°
+  std::normal_distribution<double> mm(0.0, 0.001);
+  std::normal_distribution<double> rad(0.0, 0.0009);
+  for (int i = 0; i < 200; ++i) EXPECT_FALSE(motion.Moved({mm(rng), mm(rng), rad(rng)}));
+  EXPECT_TRUE(motion.Moved({kStillTravelM, 0.0, 0.0}));
+  EXPECT_TRUE(motion.Moved({0.0, 0.0, -kStillTurnDeg * std::numbers::pi / 180.0}));
+  motion.Taken({0.0, 0.0, 3.14});  // across ±π
+  EXPECT_FALSE(motion.Moved({0.0, 0.0, -3.14}));
+
+  // Every second frame while moving 0.05 m a frame; the robot stops at 0.15 m (frames 3-8):
+  // frame 4 is still 0.05 m from the base point at frame 2, then none until frame 9 moved.
+  std::vector<std::optional<PlanarPose>> route;
+  for (int i = 0; i < 4; ++i) route.push_back(PlanarPose{0.05 * i, 0.0, 0.0});  // 0-3
+  for (int i = 0; i < 5; ++i) route.push_back(PlanarPose{0.15, 0.0, 0.0});      // 4-8 stand
+  for (int i = 1; i <= 4; ++i) route.push_back(PlanarPose{0.15 + 0.05 * i, 0.0, 0.0});
+  EXPECT_EQ(FramesOfRoute(route, 2), (std::vector<int>{0, 2, 4, 9, 11}));
+  EXPECT_EQ(FramesOfRoute(route, 1), (std::vector<int>{0, 1, 2, 3, 9, 10, 11, 12}));
+  route[5] = std::nullopt;  // a frame without a pose: the route is not picked by its poses
+  EXPECT_TRUE(FramesOfRoute(route, 2).empty());
+  EXPECT_THROW(FramesOfRoute(route, 0), std::invalid_argument);
+
+  // A sweep's views go together, and a base point taken after a stop keeps all of them.
+  BasePointStride stride(1);
+  std::vector<bool> took;
+  for (const bool moved : {true, false, true}) {
+    for (int view = 0; view < 2; ++view) took.push_back(stride.Take(view == 1, moved));
+  }
+  EXPECT_EQ(took, (std::vector<bool>{true, true, false, false, true, true}));
+}
+
+// A camera that stood still for most of its run still has its spacing from the steps it moved.
+TEST_F(DatasetTest, SpacingFromPosesIgnoresACameraStandingStill) {
+  std::string truth = "frame,place,x,y,heading\n";
+  for (int i = 1; i <= 30; ++i) {
+    WriteImage(dir_ / (std::to_string(i) + ".png"), Image(i, 40, 30));
+    // Frames 1-20 stand at the origin, the pose jittering by a millimetre; then 0.05 m a frame.
+    const double x = i <= 20 ? 0.001 * (i % 2) : 0.05 * (i - 20);
+    truth += std::to_string(i) + ",a," + std::to_string(x) + ",0,0\n";
+  }
+  WriteText(dir_ / "groundtruth.csv", truth);
+  const Dataset ds = Dataset::Open(dir_);
+  EXPECT_NEAR(ds.spacing().metres, 0.05, 1e-9) << ds.spacing().basis;
+  // The still frames give one base point, the moving ones one in three from the first.
+  const std::vector<int> frames = FramesOfRoute(ds.poses(), 3);
+  EXPECT_EQ(frames, (std::vector<int>{0, 20, 23, 26, 29}));
+  const Dataset picked = ds.Subset(frames);
+  ASSERT_EQ(picked.size(), 5);
+  EXPECT_EQ(picked.image_path(1).filename(), "21.png");
+  EXPECT_DOUBLE_EQ(picked.poses()[1]->x, 0.05);
+  EXPECT_THROW(ds.Subset({3, 2}), std::invalid_argument);
+  EXPECT_THROW(ds.Subset({30}), std::invalid_argument);
 }
 
 // The frames a dense camera's stride takes, as a dataset: ground truth follows them, and a
