@@ -192,14 +192,20 @@ TEST_F(SimBarsTest, SlowerCameraKeepsPrecisionWithTheAdaptedDefaults) {
 // A faster camera than the defaults were calibrated for: the same tours taken by a 30 fps
 // camera (route steps of 0.05 m at the simulated robot's 1.5 m/s, turn steps a third of the
 // default's). `tsc eval` takes one frame in three as base points (PrepareDataset, StrideFor;
-// DESIGN §3.2 amended), which keeps precision 1 and the boundaries. The rule was chosen on the
-// calibration worlds toured the same way; these seeds were not among them (docs/calibration.md,
-// twenty-seventh pass). Last measured (160x120; boundary F1, right / recognitions): office
-// 0.93, 8/8; corridors 0.97, 7/7; outdoor 0.74, 4/4. Every frame a base point (before session
-// 53): 0.55, 0/0; 0.42, 1/1; 0.40, 0/2.
+// DESIGN §3.2 amended), which keeps the boundaries and nearly every recognition right. The
+// rule was chosen on the calibration worlds toured the same way; these seeds were not among
+// them (docs/calibration.md, twenty-seventh pass). Which frame the stride starts at moves the
+// figures (twenty-eighth pass), so all three phases are scored and pooled. Last measured
+// (160x120; right / recognitions and boundary F1 at phases 0, 1, 2): office 8/8, 7/7, 7/7,
+// 0.93, 0.96, 0.91; corridors 7/7, 4/5, 8/8, 0.97, 0.88, 0.94; outdoor 4/4, 3/3, 4/5, 0.74,
+// 0.59, 0.67: 52 of 54 right, mean F1 0.84. Every frame a base point (before session 53): 1 of
+// 3 right, mean F1 0.46.
 TEST_F(SimBarsTest, FasterCameraIsTakenAtTheCalibratedSpacing) {
   const Settings defaults = LoadSettings(std::nullopt, {});
+  constexpr int kStride = 3;
   double f1 = 0.0;
+  int right = 0;
+  int recognitions = 0;
   for (const TestWorld& w : kWorlds) {
     sim::SimOptions o = Options(w, sim::LightingMode::kDay);
     o.route.step_m = 0.05;
@@ -211,17 +217,25 @@ TEST_F(SimBarsTest, FasterCameraIsTakenAtTheCalibratedSpacing) {
     const Dataset frames = Dataset::Open(out);
     const PreparedDataset taken = PrepareDataset(defaults, frames, nullptr);
     SCOPED_TRACE(out.filename().string());
-    EXPECT_EQ(taken.dataset.size(), (frames.size() + 2) / 3);
+    EXPECT_EQ(taken.dataset.size(), (frames.size() + kStride - 1) / kStride);
     EXPECT_NEAR(taken.options.detector.spacing_m, 0.15, 1e-9);
-    const EvalResult r = Evaluate(taken.dataset, taken.options, EvalOptions{});
-    ASSERT_TRUE(r.boundaries);
-    std::cout << out.filename().string() << ": " << r.frames << " of " << frames.size()
-              << " frames, boundary F1 " << r.boundaries->f1 << ", right / recognitions "
-              << r.main.recognition.correct << "/" << r.main.recognition.recognitions << "\n";
-    EXPECT_GT(r.main.recognition.recognitions, 0);
-    EXPECT_EQ(r.main.recognition.precision, 1.0);
-    f1 += r.boundaries->f1 / std::size(kWorlds);
+    for (int phase = 0; phase < kStride; ++phase) {
+      std::vector<int> every_third;
+      for (int i = phase; i < frames.size(); i += kStride) every_third.push_back(i);
+      const Dataset at_phase = phase == 0 ? taken.dataset : frames.Subset(every_third);
+      const EvalResult r = Evaluate(at_phase, taken.options, EvalOptions{});
+      ASSERT_TRUE(r.boundaries);
+      std::cout << out.filename().string() << " phase " << phase << ": " << r.frames << " of "
+                << frames.size() << " frames, boundary F1 " << r.boundaries->f1
+                << ", right / recognitions " << r.main.recognition.correct << "/"
+                << r.main.recognition.recognitions << "\n";
+      EXPECT_GT(r.main.recognition.recognitions, 0) << "phase " << phase;
+      right += r.main.recognition.correct;
+      recognitions += r.main.recognition.recognitions;
+      f1 += r.boundaries->f1 / (std::size(kWorlds) * kStride);
+    }
   }
+  EXPECT_GE(right, 0.95 * recognitions) << right << " of " << recognitions << " right";
   EXPECT_GE(f1, 0.8) << "mean boundary F1";
 }
 
