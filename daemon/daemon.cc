@@ -16,8 +16,7 @@
 
 #include "daemon/log_throttle.h"
 #include "daemon/motor_bridge.h"
-#include "drivers/dataset/base_point_motion.h"
-#include "drivers/dataset/base_point_stride.h"
+#include "drivers/dataset/base_point_picker.h"
 #include "tsc/announce_t.hpp"
 #include "tsc/memory_request_t.hpp"
 #include "tsc/place_event_t.hpp"
@@ -693,14 +692,13 @@ std::string Daemon::StatusLine() const {
 void Daemon::CameraLoop() {
   join_->Wait();
   const bool replay = camera_->replays_every_frame();  // fixed for the source's life
-  // A camera denser than the calibrated spacing: only every stride-th base point is taken
-  // (the others would change too little for κ); dropped here, before they take queue room.
-  BasePointStride taken(worker_->base_point_stride());
-  // Nor while the robot stands still (nothing changes for κ; a stop in a doorway would make a
-  // place of it): by the pose a simulated camera reports, else by the base's odometry for a
-  // camera mounted on the robot.
-  BasePointMotion motion;
-  const bool odometry = base_ != nullptr && camera_->rides_the_base();
+  // Base points about the calibrated spacing apart (BasePointPicker): every stride-th of a
+  // camera denser than that, none while the robot stands still, and the stride set by the
+  // robot's measured speed when its odometry is known. Dropped here, before they take queue
+  // room. The odometry is the motor base's, for a camera that moves with it (one mounted on
+  // the robot, or a simulated camera the base drives) and whose spacing was only assumed.
+  BasePointPicker taken(worker_->base_point_stride());
+  const bool live = base_ != nullptr && worker_->spacing_assumed() && !replay;
   while (!stopping_) {
     try {
       std::optional<CameraFrame> frame = camera_->Next();
@@ -712,17 +710,24 @@ void Daemon::CameraLoop() {
         return;
       }
       const bool ends = frame->ends_base_point;
-      std::optional<PlanarPose> pose = frame->pose;
-      if (!pose && odometry) {
+      ViewMotion motion{frame->pose, std::nullopt, frame->utime};
+      if (live && (frame->pose || camera_->rides_the_base())) {
         const Odometry o = base_->state();
-        if (o.link_ok) pose = PlanarPose{o.x, o.y, o.heading};
+        if (o.link_ok) {
+          motion.speed_mps = o.linear_mps;
+          if (!motion.pose) motion.pose = PlanarPose{o.x, o.y, o.heading};
+        }
       }
-      const bool moved = !pose || motion.Moved(*pose);
-      if (!taken.Take(ends, moved)) {
-        if (!moved) ++counters_.frames_standing;
+      const int stride = taken.stride();
+      const bool take = taken.Take(ends, motion);
+      if (taken.stride() != stride) {
+        spdlog::info("camera: frames {:.3g} m apart by odometry: one base point in {}",
+                     taken.measured_spacing_m().value_or(0.0), taken.stride());
+      }
+      if (!take) {
+        if (taken.standing()) ++counters_.frames_standing;
         continue;
       }
-      if (pose) motion.Taken(*pose);
       queue_.Push(std::move(*frame), ends, replay);
     } catch (const CameraError& e) {
       if (stopping_) return;  // a read cut short by the stop

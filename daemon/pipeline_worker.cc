@@ -160,6 +160,7 @@ PipelineWorker::PipelineWorker(const Settings& settings, const CameraSource& cam
                      settings_.daemon.camera.fps / camera.paced_frames_per_base_point());
   const auto [stride, spacing] = BasePointsOf(frames);
   base_point_stride_ = stride;
+  spacing_assumed_ = !(settings_.daemon.camera.spacing_m > 0.0) && !declared;
   AdaptToSpacing(pipeline, spacing);
   spdlog::info("base points {:.3g} m apart ({}): places of {} base points or fewer are pruned",
                spacing.metres, spacing.basis, pipeline.detector.EffectiveTauP());

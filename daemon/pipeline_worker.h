@@ -70,6 +70,10 @@ class PipelineWorker {
   /// Every how many of the camera's base points the pipeline takes one (StrideFor: 1 but for
   /// a camera denser than the calibrated spacing); the camera thread drops the others.
   int base_point_stride() const { return base_point_stride_; }
+  /// Whether that stride rests on a speed assumed for the camera's frame rate (neither
+  /// camera.spacing_m nor the source says how far apart its frames are): the robot's odometry
+  /// may measure it instead.
+  bool spacing_assumed() const { return spacing_assumed_; }
 
   /// Starts the thread; it learns only once `join` is open (the camera waits there) and opens
   /// it after merging a peer memory. It runs until the queue is closed and drained.
@@ -159,6 +163,7 @@ class PipelineWorker {
   std::map<uint32_t, PeerMerge> saved_peers_;
   bool started_empty_ = false;
   int base_point_stride_ = 1;
+  bool spacing_assumed_ = true;
 
   std::atomic<int64_t> pending_results_{0};  // pending_.size(), for the status line
   std::atomic<bool> degraded_store_{false};

@@ -538,8 +538,8 @@ std::vector<ConfigKey> BuildTable() {
       "camera.spacing_m",
       "metres of travel between frames; 0 = what the source declares (a folder's camera.json "
       "fps, spacing_m or keyframes, or its poses; undeclared: keyframes 1 m apart), else "
-      "camera.fps at 1.5 m/s. Frames closer than 0.1 m are thinned to base points about 0.15 "
-      "m apart (one in 3 at 0.05 m)",
+      "camera.fps at 1.5 m/s, or what a motor base's odometry measures. Frames closer than "
+      "0.1 m are thinned to base points about 0.15 m apart (one in 3 at 0.05 m)",
       "m", 0, 1000, [](auto& o) -> auto& { return o.daemon.camera.spacing_m; }));
   t.push_back(Number(
       "camera.width", "axis: requested resolution; device: requested capture size", "pixels", 16,

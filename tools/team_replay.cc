@@ -16,8 +16,8 @@
 #include "daemon/snapshot_assembler.h"
 #include "drivers/camera/make_camera.h"
 #include "drivers/camera/sim_camera.h"
+#include "drivers/dataset/base_point_picker.h"
 #include "drivers/dataset/base_point_spacing.h"
-#include "drivers/dataset/base_point_stride.h"
 #include "tools/events_json.h"
 
 namespace tsc {
@@ -96,12 +96,16 @@ BasePointSpacing FramesOf(const Settings& settings, const SimCamera& camera) {
 }
 
 // The route's ground truth: label and pose of every base point (every stride-th frame).
+// The route frames the daemon's camera thread takes as base points (BasePointPicker: the
+// simulated camera renders one route frame per base point and reports its pose).
 void RecordRoute(const SimCamera& camera, int stride, ReplayedRobot& out) {
-  for (size_t i = 0; i < camera.route().size(); i += static_cast<size_t>(stride)) {
-    const sim::RouteFrame& f = camera.route()[i];
+  BasePointPicker taken(stride);
+  for (const sim::RouteFrame& f : camera.route()) {
+    const PlanarPose pose{f.pose.x, f.pose.y, f.pose.heading};
+    if (!taken.Take(/*ends_base_point=*/true, ViewMotion{pose, std::nullopt, 0})) continue;
     out.labels.push_back(f.label);
     out.positions.emplace_back(f.pose.x, f.pose.y);
-    out.poses.push_back(GroundTruthPose{f.pose.x, f.pose.y, f.pose.heading});
+    out.poses.push_back(GroundTruthPose{pose});
   }
 }
 
@@ -119,22 +123,22 @@ ReplayedRobot ReplayRoute(const Settings& settings, uint32_t robot) {
   SimCamera camera(camera_options);
 
   // The daemon's pipeline (daemon.cc, pipeline_worker.cc): its options, robot id, and the
-  // spacing its camera declares, with every stride-th base point of a dense camera.
+  // spacing its camera declares, with the base points its camera thread takes.
   PipelineOptions options = settings.pipeline;
   options.robot = robot;
   const BasePoints base_points = BasePointsOf(FramesOf(settings, camera));
-  BasePointStride taken(base_points.stride);
+  BasePointPicker taken(base_points.stride);
   AdaptToSpacing(options, base_points.spacing);
 
   ReplayedRobot out;
   out.id = robot;
-  RecordRoute(camera, taken.stride(), out);
+  RecordRoute(camera, base_points.stride, out);
   Pipeline pipeline(camera.intrinsics(), options, PlaceMemory(robot, options.memory),
                     TopologicalMap{});
   RouteRecorder recorder(out);
   std::vector<Observation> sweep;
   while (std::optional<CameraFrame> frame = camera.Next()) {
-    if (!taken.Take(frame->ends_base_point)) continue;
+    if (!taken.Take(frame->ends_base_point, ViewMotion{frame->pose, std::nullopt, 0})) continue;
     sweep.push_back(std::move(frame->observation));
     if (!frame->ends_base_point) continue;
     recorder.Consume(pipeline.Process(sweep));

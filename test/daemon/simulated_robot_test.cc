@@ -108,8 +108,11 @@ class SimulatedRobot : public ::testing::Test {
   // announces every 0.2 s. detection.tau_p = 3: the drive at 10 frames/s gives ~225 base
   // points, and the default tau_p = 25 (for a camera sampled every ~0.15 m on long runs) prunes
   // all but one place of a route this short (tried: 1 learned, 0 mapped; with 3: 4-5 learned,
-  // 3-4 mapped); places of more than 3 base points are kept. Returns once the motor link is up
-  // and the camera delivers frames (the first frames are of the start).
+  // 3-4 mapped); places of more than 3 base points are kept. camera.spacing_m = 0.15 keeps
+  // every frame a base point: the board's odometry would measure the drive's 0.05 m a frame and
+  // take one in three (BasePointPicker; TscdTest.ASlowerRobotsOdometrySetsTheStride), ~80 base
+  // points, too few on this route for two places (tried: 1 learned, 0 mapped). Returns once the
+  // motor link is up and the camera delivers frames (the first frames are of the start).
   void StartTscd() {
     const fs::path config = dir_ / "tscd.ini";
     {
@@ -120,6 +123,7 @@ class SimulatedRobot : public ::testing::Test {
           << "[camera]\nsource = axis\nfps = 10\nwidth = 160\nheight = 120\n"
           << "axis_host = 127.0.0.1\naxis_port = " << camera_port_ << "\naxis_user = root\n"
           << "axis_password_file = " << password_.string() << "\nsweep_steps = 1\n"
+          << "spacing_m = 0.15\n"
           << "[lcm]\nannounce_period_s = 0.2\n"
           << "[motor]\ndriver = jaguar-v2\naddress = 127.0.0.1\nport = " << motor_port_ << "\n";
     }

@@ -557,6 +557,37 @@ TEST_F(TscdTest, ARobotStandingStillTakesNoBasePoints) {
   EXPECT_EQ(dut.Wait(seconds(20)), 0) << dut.Log();
 }
 
+// A robot slower than the speed its camera's rate was assumed at (1.5 m/s): driven at 0.5 m/s
+// with a 10 fps camera its frames lie 0.05 m apart, and once its odometry has measured that,
+// tscd takes one base point in three (BasePointPicker). It takes every frame as a base point
+// without the odometry.
+TEST_F(TscdTest, ASlowerRobotsOdometrySetsTheStride) {
+  TSCD_REQUIRE_PRIVATE_NETNS();
+  ChildProcess dut({kTscd, "--robot", "1", "--state-dir", (dir_ / "state").string(), "--set",
+                    "camera.source=sim", "--set", "sim.drive=commands", "--set", "camera.fps=10",
+                    "--set", "sim.width=160", "--set", "sim.height=120"},
+                   dir_ / "tscd.log");
+  lcm::LCM own(testing_support::kTestLcmUrl);
+  ASSERT_TRUE(own.good());
+  jaguar::motor_command_t cmd{};
+  cmd.linear_mps = 0.5;
+  cmd.angular_radps = 0.2;  // a wide circle, inside the room it starts in
+  // 0.05 m and one in three where the camera keeps its 10 fps; one in two if a loaded machine
+  // renders slower (frames further apart).
+  const std::regex wanted(R"(m apart by odometry: one base point in [23]\b)");
+  bool found = false;
+  for (int i = 0; i < 600 && !found && dut.running(); ++i) {  // a command every 100 ms
+    cmd.utime = i;
+    cmd.sequence = i;
+    own.publish("JAGUAR_CMD_1", &cmd);
+    std::this_thread::sleep_for(std::chrono::milliseconds(100));
+    found = std::regex_search(dut.Log(), wanted);
+  }
+  EXPECT_TRUE(found) << dut.Log();
+  dut.Signal(SIGTERM);
+  EXPECT_EQ(dut.Wait(seconds(20)), 0) << dut.Log();
+}
+
 TEST_F(TscdTest, BombFramesInAFolderCameraAreRefusedCountedAndReadingGoesOn) {
   TSCD_REQUIRE_PRIVATE_NETNS();
   const fs::path frames = dir_ / "frames";

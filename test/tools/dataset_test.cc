@@ -16,6 +16,7 @@
 
 #include "core/pipeline/pipeline.h"
 #include "drivers/dataset/base_point_motion.h"
+#include "drivers/dataset/base_point_picker.h"
 #include "drivers/dataset/base_point_spacing.h"
 #include "drivers/dataset/base_point_stride.h"
 #include "test/support/image_bombs.h"
@@ -281,6 +282,56 @@ TEST(BasePointMotionTest, ACameraStandingStillGivesNoBasePoints) {
     for (int view = 0; view < 2; ++view) took.push_back(stride.Take(view == 1, moved));
   }
   EXPECT_EQ(took, (std::vector<bool>{true, true, false, false, true, true}));
+}
+
+// A live camera on a robot whose odometry gives its speed: the stride follows the measured
+// spacing (a robot at 0.5 m/s with a 10 fps camera takes frames 0.05 m apart: one in three),
+// not the 1.5 m/s assumed for its frame rate; a robot standing still gives none.
+TEST(BasePointPickerTest, TheRobotsMeasuredSpeedSetsTheStride) {
+  const auto drive = [](double speed_mps, int frames) {
+    BasePointPicker picker(1);  // 10 fps at the assumed 1.5 m/s: every frame
+    std::vector<int> taken;
+    for (int i = 0; i < frames; ++i) {
+      const ViewMotion at{PlanarPose{speed_mps * 0.1 * i, 0.0, 0.0}, speed_mps, 100000LL * i};
+      if (picker.Take(true, at)) taken.push_back(i);
+    }
+    return std::make_pair(taken, picker);
+  };
+  const auto [slow, slow_picker] = drive(0.5, 26);
+  // Every frame until 16 driving steps are measured (frame 16), then one in three.
+  std::vector<int> expected;
+  for (int i = 0; i <= 16; ++i) expected.push_back(i);
+  for (int i = 19; i < 26; i += 3) expected.push_back(i);
+  EXPECT_EQ(slow, expected);
+  EXPECT_EQ(slow_picker.stride(), 3);
+  ASSERT_TRUE(slow_picker.measured_spacing_m());
+  EXPECT_NEAR(*slow_picker.measured_spacing_m(), 0.05, 1e-9);
+
+  const auto [brisk, brisk_picker] = drive(1.5, 30);
+  EXPECT_EQ(brisk.size(), 30u);
+  EXPECT_EQ(brisk_picker.stride(), 1);
+
+  // Without a speed nothing is measured: the assumed stride stays.
+  BasePointPicker unknown(2);
+  int taken = 0;
+  for (int i = 0; i < 40; ++i) {
+    taken +=
+        unknown.Take(true, ViewMotion{PlanarPose{0.05 * i, 0.0, 0.0}, std::nullopt, 0}) ? 1 : 0;
+  }
+  EXPECT_EQ(taken, 20);
+  EXPECT_FALSE(unknown.measured_spacing_m());
+
+  // Standing still (speed 0, the pose unchanged): the first base point only, and every view of
+  // a sweep goes with its base point.
+  BasePointPicker still(1);
+  std::vector<bool> views;
+  for (int base = 0; base < 3; ++base) {
+    for (int view = 0; view < 2; ++view) {
+      views.push_back(still.Take(view == 1, ViewMotion{PlanarPose{}, 0.0, 100000LL * base}));
+    }
+  }
+  EXPECT_EQ(views, (std::vector<bool>{true, true, false, false, false, false}));
+  EXPECT_TRUE(still.standing());
 }
 
 // A camera that stood still for most of its run still has its spacing from the steps it moved.

@@ -1,0 +1,48 @@
+#include "drivers/dataset/base_point_picker.h"
+
+#include <algorithm>
+#include <cmath>
+
+#include "drivers/dataset/base_point_spacing.h"
+
+namespace tsc {
+
+void BasePointPicker::Measure(const ViewMotion& motion) {
+  const std::optional<int64_t> previous = last_utime_;
+  last_utime_ = motion.utime;
+  if (!previous || !motion.speed_mps || motion.utime <= *previous) return;
+  const double speed = std::abs(*motion.speed_mps);
+  if (!(speed >= kDrivingMps) || !std::isfinite(speed)) return;
+  // Travel per base point: the speed over the time since the previous one (a sweep's views
+  // and any frames the camera did not deliver included).
+  const double step = speed * static_cast<double>(motion.utime - *previous) * 1e-6;
+  if (steps_.size() < static_cast<size_t>(kWindow)) {
+    steps_.push_back(step);
+  } else {
+    steps_[next_step_] = step;
+    next_step_ = (next_step_ + 1) % steps_.size();
+  }
+  if (steps_.size() < static_cast<size_t>(kLeastSamples)) return;
+  std::vector<double> sorted = steps_;
+  std::nth_element(sorted.begin(), sorted.begin() + static_cast<long>(sorted.size() / 2),
+                   sorted.end());
+  measured_m_ = sorted[sorted.size() / 2];
+  // The stride at the measured spacing, per base point as it was before (a sweep's views
+  // are already one base point).
+  const int stride = StrideFor(BasePointSpacing{*measured_m_, "odometry"});
+  if (stride != stride_.stride()) stride_ = BasePointStride(stride);
+}
+
+bool BasePointPicker::Take(bool ends_base_point, const ViewMotion& motion) {
+  if (at_start_) {
+    Measure(motion);
+    const bool moved = !motion.pose || still_.Moved(*motion.pose);
+    taking_ = stride_.Take(/*ends_base_point=*/true, moved);
+    standing_ = !taking_ && !moved;
+    if (taking_ && motion.pose) still_.Taken(*motion.pose);
+  }
+  at_start_ = ends_base_point;
+  return taking_;
+}
+
+}  // namespace tsc

@@ -1,0 +1,65 @@
+#pragma once
+// Which of a live camera's views are base points, as tscd's camera thread takes them: every
+// stride-th, none while the robot stands still (BasePointMotion), and, when the robot's
+// odometry gives its speed, the stride its measured speed asks for instead of the one an
+// assumed speed gave (StrideFor: base points about the calibrated 0.15 m apart). A robot at
+// 0.5 m/s with a 10 fps camera takes frames 0.05 m apart, which the defaults detect little in
+// (boundary F1 0.42 on the nine calibration worlds, 0.87 one frame in three; docs/calibration.md,
+// twenty-seventh and twenty-eighth passes). A base point's first view decides for all its
+// views, so a pan sweep's views stay together.
+
+#include <cstdint>
+#include <optional>
+#include <vector>
+
+#include "drivers/dataset/base_point_motion.h"
+#include "drivers/dataset/base_point_stride.h"
+
+namespace tsc {
+
+/// What is known of the robot when a view is taken.
+struct ViewMotion {
+  std::optional<PlanarPose> pose;   ///< odometry, or the pose a simulated camera reports
+  std::optional<double> speed_mps;  ///< forward speed by odometry
+  int64_t utime = 0;                ///< capture time, microseconds
+};
+
+class BasePointPicker {
+ public:
+  /// Forward speeds below this are a robot turning or stopping, not driving: they say nothing
+  /// of its spacing.
+  static constexpr double kDrivingMps = 0.05;
+  /// Base points a measured spacing takes (the median of the last kWindow driving ones), and
+  /// how many it needs before it replaces the assumed one.
+  static constexpr int kWindow = 64;
+  static constexpr int kLeastSamples = 16;
+
+  /// `stride` for the spacing assumed or declared (StrideFor). Throws std::invalid_argument
+  /// unless stride ≥ 1.
+  explicit BasePointPicker(int stride) : stride_(stride) {}
+
+  /// Whether the next view, closing its base point when `ends_base_point`, is taken.
+  bool Take(bool ends_base_point, const ViewMotion& motion);
+
+  /// Whether the current base point was passed over because the robot stood still.
+  bool standing() const { return standing_; }
+  /// The stride in use: the assumed one until the robot's speed was measured.
+  int stride() const { return stride_.stride(); }
+  /// How far apart the robot's frames lie by its odometry, once measured.
+  std::optional<double> measured_spacing_m() const { return measured_m_; }
+
+ private:
+  void Measure(const ViewMotion& motion);
+
+  BasePointStride stride_;
+  BasePointMotion still_;
+  bool at_start_ = true;  // the next view opens a base point
+  bool taking_ = false;
+  bool standing_ = false;
+  std::optional<int64_t> last_utime_;  // of the previous base point's first view
+  std::vector<double> steps_;          // ring of the last kWindow driving steps, metres
+  size_t next_step_ = 0;
+  std::optional<double> measured_m_;
+};
+
+}  // namespace tsc
