@@ -414,7 +414,7 @@ PreparedDataset PrepareDataset(const Settings& settings, const Dataset& opened, 
          << " base points or fewer are pruned\n";
     if (out.dataset.size() < opened.size()) {
       *say << "  base points     " << out.dataset.size() << " of " << opened.size()
-           << " frames (every " << stride << (frames.empty() ? "" : ", none standing still")
+           << " frames (every " << stride << (frames.empty() ? "" : ", frames standing still skipped")
            << "), and they are what is scored\n";
     }
     if (const std::optional<std::string> note = SparseCameraNote(out.options, spacing)) {
