@@ -27,10 +27,15 @@ void BasePointPicker::Measure(const ViewMotion& motion) {
   std::nth_element(sorted.begin(), sorted.begin() + static_cast<long>(sorted.size() / 2),
                    sorted.end());
   measured_m_ = sorted[sorted.size() / 2];
-  // The stride at the measured spacing, per base point as it was before (a sweep's views
-  // are already one base point).
-  const int stride = StrideFor(BasePointSpacing{*measured_m_, "odometry"});
-  if (stride != stride_.stride()) stride_ = BasePointStride(stride);
+  // The stride changes only when the base points it gives leave what StrideFor allows
+  // (kClosestSpacingM to kCalibratedSpacingM apart) by more than 5 %: a Jaguar at its 1 m/s
+  // limit with a 10 fps camera is at 0.1 m, where StrideFor steps from 1 to 2, and its speed's
+  // noise must not flip the stride to and fro.
+  const double apart = *measured_m_ * stride_.stride();
+  if (apart < kClosestSpacingM * 0.95 || apart > kCalibratedSpacingM * 1.05) {
+    const int stride = StrideFor(BasePointSpacing{*measured_m_, "odometry"});
+    if (stride != stride_.stride()) stride_ = BasePointStride(stride);
+  }
 }
 
 bool BasePointPicker::Take(bool ends_base_point, const ViewMotion& motion) {

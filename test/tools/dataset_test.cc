@@ -311,6 +311,21 @@ TEST(BasePointPickerTest, TheRobotsMeasuredSpeedSetsTheStride) {
   EXPECT_EQ(brisk.size(), 30u);
   EXPECT_EQ(brisk_picker.stride(), 1);
 
+  // At 1 m/s (0.1 m a frame, where StrideFor steps from 1 to 2) the speed's noise does not
+  // flip the stride: it stays what it was.
+  BasePointPicker edge(1);
+  std::mt19937 rng(54);  // fixed seed
+  std::normal_distribution<double> noise(1.0, 0.02);
+  double x = 0.0;
+  for (int i = 0; i < 200; ++i) {
+    const double speed = noise(rng);
+    x += speed * 0.1;
+    edge.Take(true, ViewMotion{PlanarPose{x, 0.0, 0.0}, speed, 100000LL * i});
+    ASSERT_EQ(edge.stride(), 1) << "frame " << i;
+  }
+  ASSERT_TRUE(edge.measured_spacing_m());
+  EXPECT_NEAR(*edge.measured_spacing_m(), 0.1, 0.005);
+
   // Without a speed nothing is measured: the assumed stride stays.
   BasePointPicker unknown(2);
   int taken = 0;
