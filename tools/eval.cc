@@ -6,7 +6,7 @@
 #include <cstdlib>
 #include <stdexcept>
 
-#include "drivers/dataset/base_point_motion.h"
+#include "drivers/dataset/base_point_picker.h"
 #include "drivers/dataset/base_point_spacing.h"
 #include "settings/settings.h"
 #include "tools/events_json.h"
@@ -414,7 +414,8 @@ PreparedDataset PrepareDataset(const Settings& settings, const Dataset& opened, 
          << " base points or fewer are pruned\n";
     if (out.dataset.size() < opened.size()) {
       *say << "  base points     " << out.dataset.size() << " of " << opened.size()
-           << " frames (every " << stride << (frames.empty() ? "" : ", frames standing still skipped")
+           << " frames (every " << stride
+           << (frames.empty() ? "" : ", frames standing still skipped")
            << "), and they are what is scored\n";
     }
     if (const std::optional<std::string> note = SparseCameraNote(out.options, spacing)) {

@@ -12,6 +12,7 @@
 #include <tuple>
 
 #include "core/memory/sequence_localisation.h"
+#include "drivers/dataset/planar_pose.h"
 
 namespace tsc {
 
@@ -60,8 +61,7 @@ bool ViewsOverlap(const GroundTruthPose& a, const GroundTruthPose& b) {
   constexpr double kNearM = 2.0;                     // DESIGN §7.1b
   constexpr double kNearRad = std::numbers::pi / 4;  // 45°
   constexpr double kSlack = 1e-9;                    // the limits themselves count as near
-  const double turn = std::remainder(a.heading - b.heading, 2 * std::numbers::pi);
-  return std::hypot(a.x - b.x, a.y - b.y) <= kNearM + kSlack && std::abs(turn) <= kNearRad + kSlack;
+  return Travel(a, b) <= kNearM + kSlack && Turn(a, b) <= kNearRad + kSlack;
 }
 
 bool FramesShareView(const GroundTruth& truth, const std::vector<int>& a,

@@ -95,17 +95,19 @@ BasePointSpacing FramesOf(const Settings& settings, const SimCamera& camera) {
                         settings.daemon.camera.fps);
 }
 
-// The route's ground truth: label and pose of every base point (every stride-th frame).
-// The route frames the daemon's camera thread takes as base points (BasePointPicker: the
-// simulated camera renders one route frame per base point and reports its pose).
+// The route's ground truth: label and pose of every base point, the route frames the daemon's
+// camera thread takes (the simulated camera renders one route frame per base point and reports
+// its pose: FramesOfRoute).
 void RecordRoute(const SimCamera& camera, int stride, ReplayedRobot& out) {
-  BasePointPicker taken(stride);
+  std::vector<std::optional<PlanarPose>> poses;
   for (const sim::RouteFrame& f : camera.route()) {
-    const PlanarPose pose{f.pose.x, f.pose.y, f.pose.heading};
-    if (!taken.Take(/*ends_base_point=*/true, ViewMotion{pose, std::nullopt, 0})) continue;
+    poses.emplace_back(PlanarPose{f.pose.x, f.pose.y, f.pose.heading});
+  }
+  for (const int i : FramesOfRoute(poses, stride)) {
+    const sim::RouteFrame& f = camera.route()[static_cast<size_t>(i)];
     out.labels.push_back(f.label);
     out.positions.emplace_back(f.pose.x, f.pose.y);
-    out.poses.push_back(GroundTruthPose{pose});
+    out.poses.push_back(GroundTruthPose{f.pose.x, f.pose.y, f.pose.heading});
   }
 }
 

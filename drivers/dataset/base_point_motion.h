@@ -7,18 +7,10 @@
 // docs/calibration.md, twenty-eighth pass).
 
 #include <optional>
-#include <vector>
 
-#include "drivers/dataset/base_point_spacing.h"
+#include "drivers/dataset/planar_pose.h"
 
 namespace tsc {
-
-/// Where the camera is: metres and radians (counter-clockwise), in any fixed frame.
-struct PlanarPose {
-  double x = 0.0;
-  double y = 0.0;
-  double heading = 0.0;
-};
 
 /// Less than this travel and turn since the last base point is standing still: a resting
 /// robot's odometry does not change, and ground-truth poses of a resting camera jitter by
@@ -39,10 +31,5 @@ class BasePointMotion {
  private:
   std::optional<PlanarPose> last_;
 };
-
-/// The frames of a route seen at `poses` that are base points: every `stride`-th
-/// (BasePointStride), the count waiting while the camera stands still (BasePointMotion).
-/// Empty unless every frame has a pose. Throws std::invalid_argument unless stride ≥ 1.
-std::vector<int> FramesOfRoute(const std::vector<std::optional<PlanarPose>>& poses, int stride);
 
 }  // namespace tsc

@@ -50,4 +50,18 @@ bool BasePointPicker::Take(bool ends_base_point, const ViewMotion& motion) {
   return taking_;
 }
 
+std::vector<int> FramesOfRoute(const std::vector<std::optional<PlanarPose>>& poses, int stride) {
+  BasePointPicker taken(stride);
+  for (const std::optional<PlanarPose>& pose : poses) {
+    if (!pose) return {};
+  }
+  std::vector<int> frames;
+  for (size_t i = 0; i < poses.size(); ++i) {
+    if (taken.Take(/*ends_base_point=*/true, ViewMotion{poses[i], std::nullopt, 0})) {
+      frames.push_back(static_cast<int>(i));
+    }
+  }
+  return frames;
+}
+
 }  // namespace tsc

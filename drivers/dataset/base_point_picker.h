@@ -62,4 +62,9 @@ class BasePointPicker {
   std::optional<double> measured_m_;
 };
 
+/// The frames of a route seen at `poses` that are base points, as BasePointPicker takes them
+/// without a speed: every `stride`-th, the count waiting while the camera stands still. Empty
+/// unless every frame has a pose. Throws std::invalid_argument unless stride ≥ 1.
+std::vector<int> FramesOfRoute(const std::vector<std::optional<PlanarPose>>& poses, int stride);
+
 }  // namespace tsc

@@ -26,8 +26,8 @@
 
 #include "core/bubble/camera.h"
 #include "core/bubble/surface.h"
-#include "drivers/dataset/base_point_motion.h"
 #include "drivers/dataset/base_point_spacing.h"
+#include "drivers/dataset/planar_pose.h"
 #include "drivers/image/bounded_decode.h"
 
 namespace tsc {

@@ -19,6 +19,7 @@
 #include "drivers/dataset/base_point_picker.h"
 #include "drivers/dataset/base_point_spacing.h"
 #include "drivers/dataset/base_point_stride.h"
+#include "drivers/dataset/planar_pose.h"
 #include "test/support/image_bombs.h"
 #include "test/support/temp_dir.h"
 
