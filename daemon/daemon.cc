@@ -719,10 +719,14 @@ void Daemon::CameraLoop() {
         }
       }
       const int stride = taken.stride();
+      const std::optional<double> spacing = taken.base_point_spacing_m();
       const bool take = taken.Take(ends, motion);
       if (taken.stride() != stride) {
         spdlog::info("camera: frames {:.3g} m apart by odometry: one base point in {}",
                      taken.measured_spacing_m().value_or(0.0), taken.stride());
+      }
+      if (taken.base_point_spacing_m() != spacing) {
+        worker_->MeasuredSpacing(*taken.base_point_spacing_m());
       }
       if (!take) {
         if (taken.standing()) ++counters_.frames_standing;

@@ -153,7 +153,6 @@ PipelineWorker::PipelineWorker(const Settings& settings, const CameraSource& cam
   counters_.detected_places = static_cast<int32_t>(state.next_detected - 1);
   counters_.memory_version = 1;
   heartbeat_ms_ = SteadyMs();
-  PipelineOptions pipeline = settings_.pipeline;
   const std::optional<BasePointSpacing> declared = camera.spacing();
   const BasePointSpacing frames =
       ResolveSpacing(settings_.daemon.camera.spacing_m, declared ? &*declared : nullptr,
@@ -161,6 +160,18 @@ PipelineWorker::PipelineWorker(const Settings& settings, const CameraSource& cam
   const auto [stride, spacing] = BasePointsOf(frames);
   base_point_stride_ = stride;
   spacing_assumed_ = !(settings_.daemon.camera.spacing_m > 0.0) && !declared;
+  const PipelineOptions pipeline = AdaptedTo(spacing);
+  started_empty_ = memory.places().empty();
+  pipeline_ = std::make_unique<Pipeline>(camera.intrinsics(), pipeline, std::move(memory),
+                                         std::move(map), state);
+  pipeline_->set_before_update(
+      [this](int place) { bodies_.BeforeUpdate(pipeline_->memory(), place); });
+  pipeline_->set_before_replace([this] { bodies_.BeforeReplace(pipeline_->memory()); });
+  BuildSnapshot();  // version 1, what the first announce names
+}
+
+PipelineOptions PipelineWorker::AdaptedTo(const BasePointSpacing& spacing) const {
+  PipelineOptions pipeline = settings_.pipeline;
   AdaptToSpacing(pipeline, spacing);
   spdlog::info("base points {:.3g} m apart ({}): places of {} base points or fewer are pruned",
                spacing.metres, spacing.basis, pipeline.detector.EffectiveTauP());
@@ -170,13 +181,23 @@ PipelineWorker::PipelineWorker(const Settings& settings, const CameraSource& cam
   if (const std::optional<std::string> caution = SpacingCaution(spacing)) {
     spdlog::warn("{}", *caution);
   }
-  started_empty_ = memory.places().empty();
-  pipeline_ = std::make_unique<Pipeline>(camera.intrinsics(), pipeline, std::move(memory),
-                                         std::move(map), state);
-  pipeline_->set_before_update(
-      [this](int place) { bodies_.BeforeUpdate(pipeline_->memory(), place); });
-  pipeline_->set_before_replace([this] { bodies_.BeforeReplace(pipeline_->memory()); });
-  BuildSnapshot();  // version 1, what the first announce names
+  return pipeline;
+}
+
+void PipelineWorker::MeasuredSpacing(double metres) {
+  std::lock_guard lock(spacing_mutex_);
+  measured_spacing_m_ = metres;
+}
+
+void PipelineWorker::AdoptMeasuredSpacing() {
+  std::optional<double> metres;
+  {
+    std::lock_guard lock(spacing_mutex_);
+    metres = std::exchange(measured_spacing_m_, std::nullopt);
+  }
+  if (!metres) return;
+  const PipelineOptions pipeline = AdaptedTo(BasePointSpacing{*metres, "by odometry"});
+  pipeline_->Readapt(pipeline.detector, pipeline.memory.step_unit);
 }
 
 PipelineWorker::~PipelineWorker() {
@@ -295,6 +316,7 @@ void PipelineWorker::Loop() {
       continue;
     }
     try {
+      AdoptMeasuredSpacing();
       Handle(std::move(*item));
     } catch (const std::exception& e) {
       // A frame the pipeline refuses (wrong size, say) is logged and skipped.

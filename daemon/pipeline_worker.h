@@ -74,6 +74,10 @@ class PipelineWorker {
   /// camera.spacing_m nor the source says how far apart its frames are): the robot's odometry
   /// may measure it instead.
   bool spacing_assumed() const { return spacing_assumed_; }
+  /// Thread-safe: the robot's odometry says its base points lie `metres` apart (the camera
+  /// thread's BasePointPicker); before its next base point the pipeline counts τ_p and τ_w,
+  /// and scales its step unit, at that spacing (AdaptToSpacing), as for a declared one.
+  void MeasuredSpacing(double metres);
 
   /// Starts the thread; it learns only once `join` is open (the camera waits there) and opens
   /// it after merging a peer memory. It runs until the queue is closed and drained.
@@ -117,6 +121,10 @@ class PipelineWorker {
 
  private:
   void Loop();
+  // settings_.pipeline for base points `spacing` apart (AdaptToSpacing), saying so in the log.
+  PipelineOptions AdaptedTo(const BasePointSpacing& spacing) const;
+  // Readapts the pipeline to the spacing MeasuredSpacing gave, if one waits.
+  void AdoptMeasuredSpacing();
   void Handle(BasePoint views);
   void CommitOrKeep(FrameResult result);
   void MergePeers();
@@ -164,6 +172,8 @@ class PipelineWorker {
   bool started_empty_ = false;
   int base_point_stride_ = 1;
   bool spacing_assumed_ = true;
+  std::mutex spacing_mutex_;
+  std::optional<double> measured_spacing_m_;  // under spacing_mutex_: not yet adopted
 
   std::atomic<int64_t> pending_results_{0};  // pending_.size(), for the status line
   std::atomic<bool> degraded_store_{false};

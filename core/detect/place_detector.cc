@@ -31,6 +31,12 @@ PlaceDetector::PlaceDetector(DetectorOptions options, DetectedPlaceIndex next_pl
   if (next_place < 1) throw std::invalid_argument("detected place indices start at 1");
 }
 
+void PlaceDetector::Readapt(const DetectorOptions& options) {
+  options.Validate();
+  options_ = options;
+  tau_p_ = options_.EffectiveTauP();
+}
+
 std::vector<DetectionEvent> PlaceDetector::Add(BaseIndex k, bool good) {
   if (k != expected_k_) {
     throw std::invalid_argument("base point " + std::to_string(k) + " out of order, expected " +

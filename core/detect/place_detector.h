@@ -94,6 +94,11 @@ class PlaceDetector {
   bool place_open() const { return current_opened_; }
   bool window_open() const { return window_open_; }
 
+  /// Continues under `options` (validated): base points now taken at another spacing count
+  /// τ_p and τ_w anew. A place already opened stays open; one not yet opened opens once its
+  /// extent passes the new τ_p. Throws std::invalid_argument on invalid options.
+  void Readapt(const DetectorOptions& options);
+
   const DetectorOptions& options() const { return options_; }
   DetectedPlaceIndex next_place() const { return next_place_; }
   /// Members of the place being accumulated (possibly not yet opened).

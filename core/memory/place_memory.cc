@@ -115,6 +115,11 @@ double PlaceMemory::MedianViewSpacing() const {
   return *mid;
 }
 
+void PlaceMemory::set_step_unit(double step_unit) {
+  PlaceMemoryOptions::kStepUnitRange.Check("memory.step_unit", step_unit);
+  options_.step_unit = step_unit;
+}
+
 double PlaceMemory::DistanceUnit() const {
   return options_.distance_unit > 0.0 ? options_.distance_unit : MedianViewSpacing();
 }

@@ -197,6 +197,9 @@ class PlaceMemory {
 
   uint32_t robot() const { return robot_; }
   const PlaceMemoryOptions& options() const { return options_; }
+  /// options().step_unit for base points now taken at another spacing (the unit scales D's
+  /// own step, which the spacing sets). Throws std::invalid_argument outside kStepUnitRange.
+  void set_step_unit(double step_unit);
   const std::vector<LearnedPlace>& places() const { return places_; }
   const std::vector<MemoryNode>& nodes() const { return nodes_; }
   const std::vector<OneClassDiscriminant>& discriminants() const { return discriminants_; }

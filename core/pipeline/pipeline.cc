@@ -163,6 +163,15 @@ FrameResult Pipeline::ProcessDescriptor(const Descriptor& descriptor,
   return out;
 }
 
+void Pipeline::Readapt(const DetectorOptions& detector, double step_unit) {
+  detector.Validate();
+  PlaceMemoryOptions::kStepUnitRange.Check("memory.step_unit", step_unit);
+  detector_.Readapt(detector);
+  memory_.set_step_unit(step_unit);
+  options_.detector = detector;
+  options_.memory.step_unit = step_unit;
+}
+
 void Pipeline::AdoptMerged(PlaceMemory memory, TopologicalMap map) {
   if (memory.robot() != memory_.robot()) {
     throw std::invalid_argument("merged memory of robot " + std::to_string(memory.robot()) +
@@ -182,6 +191,9 @@ void Pipeline::AdoptMerged(PlaceMemory memory, TopologicalMap map) {
   partial_recognition_.reset();
   known_tail_.reset();
   memory_ = std::move(memory);
+  // A merge may take the peer's memory as its base; the step unit stays the one this robot's
+  // base points are taken at (Readapt).
+  memory_.set_step_unit(options_.memory.step_unit);
   map_ = std::move(map);
 }
 

@@ -171,6 +171,12 @@ class Pipeline {
   /// place that absorbed it. Throws std::invalid_argument when `memory` belongs to another robot.
   void AdoptMerged(PlaceMemory memory, TopologicalMap map);
 
+  /// Base points now lie at another spacing (tscd measures it by the robot's odometry): place
+  /// detection continues with `detector` (its spacing, τ_p and τ_w; PlaceDetector::Readapt)
+  /// and recognition with `step_unit` (memory.step_unit). The memory, map and open place are
+  /// kept. Throws std::invalid_argument on invalid options; the pipeline is then unchanged.
+  void Readapt(const DetectorOptions& detector, double step_unit);
+
   /// Called with a learned place's index just before the pipeline changes that place (it
   /// recognised it: PlaceMemory::Update); places are otherwise only appended, or all replaced
   /// by AdoptMerged. tscd keeps there what its snapshots of the memory still serve.

@@ -32,9 +32,18 @@ void BasePointPicker::Measure(const ViewMotion& motion) {
   // limit with a 10 fps camera is at 0.1 m, where StrideFor steps from 1 to 2, and its speed's
   // noise must not flip the stride to and fro.
   const double apart = *measured_m_ * stride_.stride();
+  bool restrided = false;
   if (apart < kClosestSpacingM * 0.95 || apart > kCalibratedSpacingM * 1.05) {
     const int stride = StrideFor(BasePointSpacing{*measured_m_, "odometry"});
-    if (stride != stride_.stride()) stride_ = BasePointStride(stride);
+    if (stride != stride_.stride()) {
+      stride_ = BasePointStride(stride);
+      restrided = true;
+    }
+  }
+  const double taken = *measured_m_ * stride_.stride();
+  if (!adopted_m_ || restrided || taken > *adopted_m_ * kRespaceRatio ||
+      taken < *adopted_m_ / kRespaceRatio) {
+    adopted_m_ = taken;
   }
 }
 

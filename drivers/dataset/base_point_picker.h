@@ -33,6 +33,9 @@ class BasePointPicker {
   /// how many it needs before it replaces the assumed one.
   static constexpr int kWindow = 64;
   static constexpr int kLeastSamples = 16;
+  /// The base points' measured spacing replaces the one adopted when it differs by more than
+  /// this factor (or the stride changed).
+  static constexpr double kRespaceRatio = 1.2;
 
   /// `stride` for the spacing assumed or declared (StrideFor). Throws std::invalid_argument
   /// unless stride ≥ 1.
@@ -47,6 +50,12 @@ class BasePointPicker {
   int stride() const { return stride_.stride(); }
   /// How far apart the robot's frames lie by its odometry, once measured.
   std::optional<double> measured_spacing_m() const { return measured_m_; }
+  /// How far apart the base points it takes lie by the robot's odometry (the frames' spacing
+  /// times the stride), once measured: what place detection counts τ_p and τ_w at
+  /// (AdaptToSpacing). It moves only with the stride, or when the base points' spacing
+  /// leaves a fifth either way of it, so that a speed's noise does not recount them at every
+  /// base point.
+  std::optional<double> base_point_spacing_m() const { return adopted_m_; }
 
  private:
   void Measure(const ViewMotion& motion);
@@ -60,6 +69,7 @@ class BasePointPicker {
   std::vector<double> steps_;          // ring of the last kWindow driving steps, metres
   size_t next_step_ = 0;
   std::optional<double> measured_m_;
+  std::optional<double> adopted_m_;
 };
 
 /// The frames of a route seen at `poses` that are base points, as BasePointPicker takes them

@@ -586,6 +586,31 @@ TEST_F(PipelineTest, AdoptingTheMergedMemoryContinuesWithIt) {
   EXPECT_GE(Count(EventKind::kRecognized), 1);
 }
 
+// Base points found to lie at another spacing (tscd's odometry): detection counts with the
+// new options from the next base point, recognition scales its unit with the new step unit,
+// and a merged memory adopted later keeps it.
+TEST_F(PipelineTest, ReadaptsDetectionAndTheStepUnitAndKeepsThemAcrossAMerge) {
+  DetectorOptions detector = Options().detector;
+  detector.tau_p = 5;
+  dut_.Readapt(detector, 0.25);
+  EXPECT_EQ(dut_.options().detector.tau_p, 5);
+  EXPECT_EQ(dut_.memory().options().step_unit, 0.25);
+  Visit(0, 5);  // 5 base points: a place under τ_p 3, pruned under 5
+  Visit(1, 15);
+  Visit(2, 15);
+  EXPECT_EQ(dut_.memory().places().size(), 1u);  // place 1's; place 2 is open
+  testing_support::RandomMemory peer = testing_support::MakeRandomMemory(2, 1, kDim, 5);
+  const MemoryMerge merged = MergeMemories(dut_.memory(), peer.memory);
+  dut_.AdoptMerged(merged.memory, MergeMaps(dut_.map(), peer.map, merged.memory));
+  EXPECT_EQ(dut_.memory().options().step_unit, 0.25);
+
+  EXPECT_THROW(dut_.Readapt(detector, -1.0), std::invalid_argument);
+  detector.tau_w = 0;
+  EXPECT_THROW(dut_.Readapt(detector, 0.5), std::invalid_argument);
+  EXPECT_EQ(dut_.options().detector.tau_w, 2);
+  EXPECT_EQ(dut_.memory().options().step_unit, 0.25);
+}
+
 TEST(PipelineOptions, RefusesANegativeWhereaboutsWindow) {
   PipelineOptions options;
   options.whereabouts_points = -1;

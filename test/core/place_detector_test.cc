@@ -89,6 +89,45 @@ TEST(PlaceDetector, TauPFollowsTheBasePointSpacing) {
   EXPECT_THROW(options.Validate(), std::invalid_argument);
 }
 
+// Base points found to lie at another spacing (tscd's odometry): the detector counts τ_p and
+// τ_w anew from the next base point on, and a place already open stays open.
+TEST(PlaceDetector, ReadaptsToAnotherSpacingMidStream) {
+  DetectorOptions sparse;  // assumed 0.3 m apart: τ_p 12, τ_w 1
+  sparse.spacing_m = 0.3;
+  sparse.tau_w = 1;
+  PlaceDetector dut(sparse);
+  BaseIndex k = 0;
+  for (; k < 10; ++k) EXPECT_TRUE(dut.Add(k, true).empty());
+  DetectorOptions measured = sparse;  // 0.1 m apart: τ_p 37, τ_w 2
+  measured.spacing_m = 0.1;
+  measured.tau_w = 2;
+  dut.Readapt(measured);
+  EXPECT_EQ(dut.options().EffectiveTauP(), 37);
+  for (; k < 37; ++k) EXPECT_TRUE(dut.Add(k, true).empty()) << "no place at " << k + 1;
+  const std::vector<DetectionEvent> opened = dut.Add(k++, true);  // the 38th: 3.8 m
+  ASSERT_EQ(opened.size(), 1u);
+  EXPECT_TRUE(std::holds_alternative<PlaceOpened>(opened[0]));
+  // One bad point is noise under τ_w 2 (it was a transition under 1).
+  EXPECT_TRUE(dut.Add(k++, false).empty());
+  for (int i = 0; i < 2; ++i) dut.Add(k++, true);
+  EXPECT_TRUE(dut.place_open());
+  // Back to 0.3 m: the open place stays open though it is now longer than τ_p anyway, and a
+  // single bad point now closes it.
+  dut.Readapt(sparse);
+  EXPECT_TRUE(dut.place_open());
+  dut.Add(k++, false);
+  int closed = 0;
+  for (int i = 0; i < 2; ++i) {
+    for (const DetectionEvent& e : dut.Add(k++, true))
+      closed += std::holds_alternative<PlaceClosed>(e);
+  }
+  EXPECT_EQ(closed, 1);
+  DetectorOptions invalid = sparse;
+  invalid.spacing_m = 0.0;
+  EXPECT_THROW(dut.Readapt(invalid), std::invalid_argument);
+  EXPECT_EQ(dut.options().spacing_m, 0.3);
+}
+
 TEST(PlaceDetector, AbsorbsGoodPointsBetweenBadPointsWithinTauN) {
   // Bad, good, good, bad: with τ_n = 3 the two good points belong to the window, which then
   // spans 4 points and is a transition (τ_w = 4).

@@ -69,6 +69,34 @@ class TscdTest : public ::testing::Test {
     return images;
   }
 
+  // Runs tscd on a simulated camera of `fps` frames a second on the simulated base, drives
+  // the base at 0.5 m/s in a wide circle (inside the room it starts in) with a motor command
+  // every 100 ms until tscd's log matches `wanted` (at most 60 s), stops tscd and returns its
+  // log.
+  std::string DriveUntilLogged(int fps, const std::regex& wanted) {
+    ChildProcess dut(
+        {kTscd, "--robot", "1", "--state-dir", (dir_ / "state").string(), "--set",
+         "camera.source=sim", "--set", "sim.drive=commands", "--set",
+         "camera.fps=" + std::to_string(fps), "--set", "sim.width=160", "--set", "sim.height=120"},
+        dir_ / "tscd.log");
+    lcm::LCM own(testing_support::kTestLcmUrl);
+    EXPECT_TRUE(own.good());
+    jaguar::motor_command_t cmd{};
+    cmd.linear_mps = 0.5;
+    cmd.angular_radps = 0.2;
+    bool found = false;
+    for (int i = 0; i < 600 && !found && dut.running(); ++i) {
+      cmd.utime = i;
+      cmd.sequence = i;
+      own.publish("JAGUAR_CMD_1", &cmd);
+      std::this_thread::sleep_for(std::chrono::milliseconds(100));
+      found = std::regex_search(dut.Log(), wanted);
+    }
+    dut.Signal(SIGTERM);
+    EXPECT_EQ(dut.Wait(seconds(20)), 0) << dut.Log();
+    return dut.Log();
+  }
+
   testing_support::TempDir temp_{"tscd_test"};
   fs::path dir_ = temp_.path();
 };
@@ -563,29 +591,32 @@ TEST_F(TscdTest, ARobotStandingStillTakesNoBasePoints) {
 // without the odometry.
 TEST_F(TscdTest, ASlowerRobotsOdometrySetsTheStride) {
   TSCD_REQUIRE_PRIVATE_NETNS();
-  ChildProcess dut({kTscd, "--robot", "1", "--state-dir", (dir_ / "state").string(), "--set",
-                    "camera.source=sim", "--set", "sim.drive=commands", "--set", "camera.fps=10",
-                    "--set", "sim.width=160", "--set", "sim.height=120"},
-                   dir_ / "tscd.log");
-  lcm::LCM own(testing_support::kTestLcmUrl);
-  ASSERT_TRUE(own.good());
-  jaguar::motor_command_t cmd{};
-  cmd.linear_mps = 0.5;
-  cmd.angular_radps = 0.2;  // a wide circle, inside the room it starts in
   // 0.05 m and one in three where the camera keeps its 10 fps; one in two if a loaded machine
   // renders slower (frames further apart).
   const std::regex wanted(R"(m apart by odometry: one base point in [23]\b)");
-  bool found = false;
-  for (int i = 0; i < 600 && !found && dut.running(); ++i) {  // a command every 100 ms
-    cmd.utime = i;
-    cmd.sequence = i;
-    own.publish("JAGUAR_CMD_1", &cmd);
-    std::this_thread::sleep_for(std::chrono::milliseconds(100));
-    found = std::regex_search(dut.Log(), wanted);
-  }
-  EXPECT_TRUE(found) << dut.Log();
-  dut.Signal(SIGTERM);
-  EXPECT_EQ(dut.Wait(seconds(20)), 0) << dut.Log();
+  const std::string log = DriveUntilLogged(10, wanted);
+  EXPECT_TRUE(std::regex_search(log, wanted)) << log;
+}
+
+// A 5 fps camera is taken for base points 0.3 m apart (its rate at the assumed 1.5 m/s): a
+// sparse camera, τ_p 12 and τ_w halved. Driven at 0.5 m/s its base points lie 0.1 m apart, and
+// once its odometry has measured that, detection counts τ_p (3.75 m: 37 base points) and τ_w
+// at 0.1 m, as for a dataset that declares it (BasePointPicker::base_point_spacing_m,
+// Pipeline::Readapt).
+TEST_F(TscdTest, ARobotsOdometrySetsTheSpacingDetectionCountsAt) {
+  TSCD_REQUIRE_PRIVATE_NETNS();
+  const std::regex wanted(R"(base points ([0-9.]+) m apart \(by odometry\): places of (\d+) base)");
+  const std::string log = DriveUntilLogged(5, wanted);
+  std::smatch m;
+  ASSERT_TRUE(std::regex_search(log, m, wanted)) << log;
+  // 0.1 m where the camera keeps its 5 fps (37 base points); further apart if a loaded
+  // machine renders slower, but not the assumed 0.3 m (12).
+  EXPECT_GE(std::stod(m[1].str()), 0.08) << log;
+  EXPECT_LT(std::stod(m[1].str()), 0.25) << log;
+  EXPECT_GT(std::stoi(m[2].str()), 15) << log;
+  EXPECT_NE(log.find("m apart (5 fps at 1.5 m/s): places of 12 base points"), std::string::npos)
+      << "the rate's assumed spacing first\n"
+      << log;
 }
 
 TEST_F(TscdTest, BombFramesInAFolderCameraAreRefusedCountedAndReadingGoesOn) {

@@ -307,6 +307,8 @@ TEST(BasePointPickerTest, TheRobotsMeasuredSpeedSetsTheStride) {
   EXPECT_EQ(slow_picker.stride(), 3);
   ASSERT_TRUE(slow_picker.measured_spacing_m());
   EXPECT_NEAR(*slow_picker.measured_spacing_m(), 0.05, 1e-9);
+  ASSERT_TRUE(slow_picker.base_point_spacing_m());
+  EXPECT_NEAR(*slow_picker.base_point_spacing_m(), 0.15, 1e-9);
 
   const auto [brisk, brisk_picker] = drive(1.5, 30);
   EXPECT_EQ(brisk.size(), 30u);
@@ -326,6 +328,8 @@ TEST(BasePointPickerTest, TheRobotsMeasuredSpeedSetsTheStride) {
   }
   ASSERT_TRUE(edge.measured_spacing_m());
   EXPECT_NEAR(*edge.measured_spacing_m(), 0.1, 0.005);
+  ASSERT_TRUE(edge.base_point_spacing_m());
+  EXPECT_NEAR(*edge.base_point_spacing_m(), 0.1, 0.005);
 
   // Without a speed nothing is measured: the assumed stride stays.
   BasePointPicker unknown(2);
@@ -336,6 +340,7 @@ TEST(BasePointPickerTest, TheRobotsMeasuredSpeedSetsTheStride) {
   }
   EXPECT_EQ(taken, 20);
   EXPECT_FALSE(unknown.measured_spacing_m());
+  EXPECT_FALSE(unknown.base_point_spacing_m());
 
   // Standing still (speed 0, the pose unchanged): the first base point only, and every view of
   // a sweep goes with its base point.
@@ -348,6 +353,41 @@ TEST(BasePointPickerTest, TheRobotsMeasuredSpeedSetsTheStride) {
   }
   EXPECT_EQ(views, (std::vector<bool>{true, true, false, false, false, false}));
   EXPECT_TRUE(still.standing());
+}
+
+// The base points' spacing by odometry is what detection counts τ_p at (tscd readapts its
+// pipeline to it): a 5 fps camera on a robot at 0.5 m/s takes base points 0.1 m apart, not the
+// 0.3 m its rate at the assumed 1.5 m/s gave. The spacing moves with the robot's speed only
+// once it leaves a fifth either way, so it is not recounted at every base point.
+TEST(BasePointPickerTest, TheBasePointsSpacingFollowsTheRobotsSpeedWithHysteresis) {
+  BasePointPicker picker(1);  // 5 fps at the assumed 1.5 m/s: 0.3 m, every frame
+  double x = 0.0;
+  int64_t utime = 0;
+  const auto drive = [&](double speed_mps, int frames) {
+    for (int i = 0; i < frames; ++i) {
+      x += speed_mps * 0.2;
+      utime += 200000;
+      picker.Take(true, ViewMotion{PlanarPose{x, 0.0, 0.0}, speed_mps, utime});
+    }
+  };
+  drive(0.5, 15);
+  EXPECT_FALSE(picker.base_point_spacing_m()) << "measured from 16 driving steps on";
+  drive(0.5, 10);
+  ASSERT_TRUE(picker.base_point_spacing_m());
+  EXPECT_NEAR(*picker.base_point_spacing_m(), 0.1, 1e-9);
+  EXPECT_EQ(picker.stride(), 1);
+  // 0.55 m/s: 0.11 m, within a fifth of 0.1 m; the adopted spacing stays.
+  drive(0.55, 64);
+  EXPECT_NEAR(*picker.measured_spacing_m(), 0.11, 1e-9);
+  EXPECT_NEAR(*picker.base_point_spacing_m(), 0.1, 1e-9);
+  // 1 m/s, the Jaguar's limit: 0.2 m a frame, still every frame; the spacing follows.
+  drive(1.0, 64);
+  EXPECT_EQ(picker.stride(), 1);
+  EXPECT_NEAR(*picker.base_point_spacing_m(), 0.2, 1e-9);
+  // 0.25 m/s: 0.05 m a frame, one in three, 0.15 m apart.
+  drive(0.25, 64 * 3);
+  EXPECT_EQ(picker.stride(), 3);
+  EXPECT_NEAR(*picker.base_point_spacing_m(), 0.15, 1e-9);
 }
 
 // A camera that stood still for most of its run still has its spacing from the steps it moved.
