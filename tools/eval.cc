@@ -406,7 +406,7 @@ PreparedDataset PrepareDataset(const Settings& settings, const Dataset& opened, 
   const std::vector<int> frames =
       spacing.keyframes ? std::vector<int>{} : FramesOfRoute(opened.poses(), stride);
   PreparedDataset out{frames.empty() ? opened.EveryNth(stride) : opened.Subset(frames),
-                      settings.pipeline};
+                      settings.pipeline, spacing};
   AdaptToSpacing(out.options, spacing);
   if (say != nullptr) {
     *say << "  base points     " << spacing.metres << " m apart (" << spacing.basis

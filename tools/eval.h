@@ -100,8 +100,9 @@ DatasetOptions DatasetOptionsOf(const Settings& settings);
 
 /// A dataset as the pipeline takes it, and the options it takes it with.
 struct PreparedDataset {
-  Dataset dataset;          ///< the frames that are base points (all but for a dense camera)
-  PipelineOptions options;  ///< `settings`' pipeline, adapted to those frames' spacing
+  Dataset dataset;           ///< the frames that are base points (all but for a dense camera)
+  PipelineOptions options;   ///< `settings`' pipeline, adapted to those frames' spacing
+  BasePointSpacing spacing;  ///< how far apart those frames are, and on what evidence
 };
 
 /// `opened` as `settings` run it: the frames' spacing is camera.spacing_m when set, else what

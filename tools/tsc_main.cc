@@ -241,7 +241,7 @@ int Run(const std::vector<std::string>& args) {
   const fs::path dataset_dir = vm["dataset"].as<std::string>();
   const fs::path db_path = vm["db"].as<std::string>();
   std::ostringstream spacing;  // said after the summary line
-  const auto [dataset, options] =
+  [[maybe_unused]] const auto [dataset, options, frames_apart] =
       PrepareDataset(settings, Dataset::Open(dataset_dir, DatasetOptionsOf(settings)), &spacing);
   if (options.features.NeedsDepth() && !dataset.has_depth()) {
     throw DatasetError(dataset_dir.string() + ": bubble.features = " + options.features.ToString() +
@@ -381,7 +381,7 @@ int Eval(const std::vector<std::string>& args) {
   const fs::path dataset_dir = vm["dataset"].as<std::string>();
   const fs::path json_path = vm["json"].as<std::string>();
   std::ostringstream spacing;  // said after the summary line
-  const auto [dataset, options] =
+  const auto [dataset, options, frames_apart] =
       PrepareDataset(settings, Dataset::Open(dataset_dir, DatasetOptionsOf(settings)), &spacing);
   if (options.features.NeedsDepth() && !dataset.has_depth()) {
     throw DatasetError(dataset_dir.string() + ": bubble.features = " + options.features.ToString() +
@@ -412,6 +412,10 @@ int Eval(const std::vector<std::string>& args) {
       static_cast<long long>(std::count_if(r.main.detected.begin(), r.main.detected.end(),
                                            [](const EvalDetectedPlace& d) { return !d.place; })));
   std::cout << spacing.str();
+  if (const std::optional<std::string> caution =
+          AssumedKeyframesCaution(frames_apart, r.consecutive_chi2_median)) {
+    std::cout << "  caution         " << *caution << "\n";
+  }
   if (r.boundaries) {
     std::printf("  boundaries       F1 %.3f (precision %.3f, recall %.3f; %d true, %d detected)\n",
                 r.boundaries->f1, r.boundaries->precision, r.boundaries->recall,

@@ -32,6 +32,9 @@ struct BasePointSpacing {
   /// A keyframe sequence (declared or assumed): frames kept for what they show, as the real
   /// loop's are, not at a camera's rate.
   bool keyframes = false;
+  /// Nothing declared it: a folder without camera.json's spacing and without poses, taken for
+  /// a keyframe sequence.
+  bool assumed = false;
 };
 
 /// The spacing place detection uses: `configured` (camera.spacing_m) when positive, else what
@@ -89,5 +92,17 @@ std::optional<std::string> SparseCameraNote(const PipelineOptions& adapted,
 /// spacing makes none (docs/calibration.md, twenty-first pass). Nothing when the spacing is
 /// within what was measured to hold.
 std::optional<std::string> SpacingCaution(const BasePointSpacing& spacing);
+
+/// Keyframes change more than this from one to the next (χ² of normalised descriptors, the
+/// median over a sequence): the real loop's, about a metre apart, by 0.010; a simulated
+/// camera's frames 0.05-0.15 m apart by 0.0025-0.005 (docs/calibration.md, twenty-ninth pass).
+inline constexpr double kKeyframeChangeChi2 = 0.005;
+
+/// When keyframes were only assumed (`spacing.assumed`) but consecutive frames change less than
+/// kKeyframeChangeChi2 in the median, as a camera's frames do: a caution that names what to
+/// declare (camera.json "fps" or "spacing_m"), since τ_p would count keyframes a metre apart
+/// (3) where a video needs ~25. Nothing otherwise.
+std::optional<std::string> AssumedKeyframesCaution(const BasePointSpacing& spacing,
+                                                   double consecutive_chi2_median);
 
 }  // namespace tsc

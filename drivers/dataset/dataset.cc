@@ -422,7 +422,8 @@ Dataset Dataset::Open(const fs::path& folder, const DatasetOptions& options) {
     ds.spacing_ = BasePointSpacing{*step, "poses (median step)"};
   } else {
     ds.spacing_ =
-        BasePointSpacing{kKeyframeSpacingM, "undeclared: keyframes assumed", /*keyframes=*/true};
+        BasePointSpacing{kKeyframeSpacingM, "undeclared: keyframes assumed", /*keyframes=*/true,
+                         /*assumed=*/true};
   }
 
   const fs::path revisits_file = folder / "revisits.csv";

@@ -152,6 +152,29 @@ TEST_F(DatasetTest, SpacingIsDeclaredOrTakenFromThePosesOrKeyframesAreAssumed) {
   }
 }
 
+// Keyframes only assumed (nothing declared how far apart the frames are) while consecutive
+// frames change as little as a camera's: the user is told to declare the video's rate. Not
+// when keyframes were declared, nor when the frames change as keyframes do (the real loop:
+// 0.0102, EvalTest.RtabmapLoopRecognisesWithFullPrecisionAndWritesPlots).
+TEST_F(DatasetTest, AssumedKeyframesThatChangeLikeAVideosFramesAreCautioned) {
+  for (int i = 1; i <= 2; ++i) WriteImage(dir_ / (std::to_string(i) + ".png"), Image(i, 40, 30));
+  const BasePointSpacing assumed = Dataset::Open(dir_).spacing();
+  EXPECT_TRUE(assumed.assumed);
+  const std::optional<std::string> video = AssumedKeyframesCaution(assumed, 0.0026);
+  ASSERT_TRUE(video);
+  EXPECT_NE(video->find("declare its \"fps\""), std::string::npos) << *video;
+  EXPECT_NE(video->find("0.0026"), std::string::npos) << *video;
+  EXPECT_FALSE(AssumedKeyframesCaution(assumed, 0.0102));
+  EXPECT_FALSE(AssumedKeyframesCaution(assumed, kKeyframeChangeChi2));
+  WriteText(dir_ / "camera.json", R"({"hfov_deg": 60, "keyframes": true})");
+  const BasePointSpacing declared = Dataset::Open(dir_).spacing();
+  EXPECT_TRUE(declared.keyframes);
+  EXPECT_FALSE(declared.assumed);
+  EXPECT_FALSE(AssumedKeyframesCaution(declared, 0.0026));
+  WriteText(dir_ / "camera.json", R"({"hfov_deg": 60, "fps": 30})");
+  EXPECT_FALSE(AssumedKeyframesCaution(Dataset::Open(dir_).spacing(), 0.0026));
+}
+
 // A camera whose base points lie further apart than the defaults were calibrated for is told
 // so (docs/calibration.md, twenty-first pass); a keyframe sequence, declared or assumed, is not.
 TEST_F(DatasetTest, ACameraSparserThanCalibratedIsCautioned) {

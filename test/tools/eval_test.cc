@@ -128,6 +128,7 @@ TEST_F(EvalTest, RtabmapLoopRecognisesWithFullPrecisionAndWritesPlots) {
   // simulated routes' frames 0.15 m apart by 0.004, docs/calibration.md twenty-seventh pass).
   EXPECT_GT(r.consecutive_chi2_median, 0.005);
   EXPECT_LT(r.consecutive_chi2_median, 0.02);
+  EXPECT_FALSE(AssumedKeyframesCaution(dataset.spacing(), r.consecutive_chi2_median));
   EXPECT_GE(r.main.learned_places, 3);
   EXPECT_DOUBLE_EQ(r.main.recognition.precision, 1.0);
   EXPECT_GT(r.main.recognition.recall, 0.0);
