@@ -161,6 +161,7 @@ PipelineWorker::PipelineWorker(const Settings& settings, const CameraSource& cam
   base_point_stride_ = stride;
   spacing_assumed_ = !(settings_.daemon.camera.spacing_m > 0.0) && !declared;
   const PipelineOptions pipeline = AdaptedTo(spacing);
+  keyframes_check_ = AssumedKeyframesCheck(spacing);
   started_empty_ = memory.places().empty();
   pipeline_ = std::make_unique<Pipeline>(camera.intrinsics(), pipeline, std::move(memory),
                                          std::move(map), state);
@@ -371,6 +372,9 @@ void PipelineWorker::Handle(BasePoint views) {
     for (CameraFrame& v : views) observations.push_back(std::move(v.observation));
     result = pipeline_->Process(observations);
     ++counters_.frames;
+    if (const std::optional<std::string> caution = keyframes_check_.Add(result.base.descriptor)) {
+      spdlog::warn("camera: {}", *caution);
+    }
   }
   const PipelineState state = pipeline_->position();
   counters_.places = static_cast<int32_t>(pipeline_->memory().places().size());

@@ -29,6 +29,7 @@
 #include "daemon/snapshot_assembler.h"
 #include "daemon/system_notifier.h"
 #include "drivers/camera/camera_source.h"
+#include "drivers/dataset/assumed_keyframes_check.h"
 #include "settings/settings.h"
 #include "store/store.h"
 
@@ -172,6 +173,7 @@ class PipelineWorker {
   bool started_empty_ = false;
   int base_point_stride_ = 1;
   bool spacing_assumed_ = true;
+  AssumedKeyframesCheck keyframes_check_{BasePointSpacing{}};  // the worker thread's
   std::mutex spacing_mutex_;
   std::optional<double> measured_spacing_m_;  // under spacing_mutex_: not yet adopted
 

@@ -16,6 +16,7 @@
 #include <string>
 #include <vector>
 
+#include "drivers/dataset/assumed_keyframes_check.h"
 #include "drivers/dataset/dataset.h"
 #include "settings/settings.h"
 #include "store/store.h"
@@ -241,8 +242,10 @@ int Run(const std::vector<std::string>& args) {
   const fs::path dataset_dir = vm["dataset"].as<std::string>();
   const fs::path db_path = vm["db"].as<std::string>();
   std::ostringstream spacing;  // said after the summary line
-  [[maybe_unused]] const auto [dataset, options, frames_apart] =
+  const auto [dataset, options, frames_apart] =
       PrepareDataset(settings, Dataset::Open(dataset_dir, DatasetOptionsOf(settings)), &spacing);
+  AssumedKeyframesCheck keyframes_check(frames_apart);
+  std::optional<std::string> keyframes_caution;
   if (options.features.NeedsDepth() && !dataset.has_depth()) {
     throw DatasetError(dataset_dir.string() + ": bubble.features = " + options.features.ToString() +
                        " needs depth, but the dataset has no depth/ folder");
@@ -295,6 +298,9 @@ int Run(const std::vector<std::string>& args) {
     } catch (const std::exception& e) {
       throw std::runtime_error(where + ": " + e.what());
     }
+    if (std::optional<std::string> c = keyframes_check.Add(result.base.descriptor)) {
+      keyframes_caution = std::move(c);
+    }
     pipeline_ms.push_back(ms(Clock::now() - t1));
     emit(result, where);
     total_ms.push_back(ms(Clock::now() - t0));
@@ -324,6 +330,7 @@ int Run(const std::vector<std::string>& args) {
       pipeline.map().edges().size(), static_cast<long long>(counts.mapped), Median(pipeline_ms),
       Median(total_ms));
   std::cout << spacing.str();
+  if (keyframes_caution) std::cout << "  caution         " << *keyframes_caution << "\n";
   return kExitOk;
 }
 

@@ -97,6 +97,34 @@ class TscdTest : public ::testing::Test {
     return dut.Log();
   }
 
+  // The first `frames` frames of simulated world 5's route at 160x120.
+  static sim::SimOptions SmallWorld(int frames) {
+    sim::SimOptions world;
+    world.seed = 5;
+    world.render.width = 160;
+    world.render.height = 120;
+    world.max_frames = frames;
+    return world;
+  }
+
+  // Runs tscd on the folder camera `frames`, read unpaced, with the state directory `name`
+  // until the folder ends (at most 60 s), stops it (the worker takes every queued base point
+  // first) and returns its log.
+  std::string ReadFolderToItsEnd(const fs::path& frames, const std::string& name) {
+    ChildProcess dut({kTscd, "--robot", "1", "--state-dir", (dir_ / name).string(), "--set",
+                      "camera.source=folder", "--set", "camera.path=" + frames.string(), "--set",
+                      "camera.fps=0"},
+                     dir_ / (name + ".log"));
+    const auto deadline = std::chrono::steady_clock::now() + seconds(60);
+    while (dut.Log().find("ended;") == std::string::npos &&
+           std::chrono::steady_clock::now() < deadline) {
+      std::this_thread::sleep_for(milliseconds(50));
+    }
+    dut.Signal(SIGTERM);
+    EXPECT_EQ(dut.Wait(seconds(20)), 0) << dut.Log();
+    return dut.Log();
+  }
+
   testing_support::TempDir temp_{"tscd_test"};
   fs::path dir_ = temp_.path();
 };
@@ -495,22 +523,35 @@ TEST_F(TscdTest, LibjpegWarningsGoThroughTheLog) {
     jpeg = jpeg.substr(0, jpeg.size() / 2) + "\xFF\xD9";
     std::ofstream(frames / "9999.jpg", std::ios::binary) << jpeg;
   }
-  ChildProcess dut(
-      {kTscd, "--robot", "1", "--state-dir", (dir_ / "state").string(), "--set",
-       "camera.source=folder", "--set", "camera.path=" + frames.string(), "--set", "camera.fps=0"},
-      dir_ / "tscd.log");
-  const auto deadline = std::chrono::steady_clock::now() + seconds(30);
-  while (dut.Log().find("ended;") == std::string::npos &&
-         std::chrono::steady_clock::now() < deadline) {
-    std::this_thread::sleep_for(milliseconds(50));
-  }
-  dut.Signal(SIGTERM);
-  EXPECT_EQ(dut.Wait(seconds(20)), 0) << dut.Log();
-  const std::string log = dut.Log();
+  const std::string log = ReadFolderToItsEnd(frames, "state");
   EXPECT_NE(log.find("tscd[1] warning: libjpeg: Corrupt JPEG data: premature end"),
             std::string::npos)
       << log;
   EXPECT_EQ(log.find("\nCorrupt JPEG data"), std::string::npos) << "printed past the log\n" << log;
+}
+
+// A folder of a simulated camera's frames (0.15 m apart) that says nothing of its spacing is
+// taken for keyframes a metre apart, as the real loop is; its consecutive frames change as
+// little as a camera's do, so tscd's log says so once its first 64 base points are in and asks
+// for the video's rate (AssumedKeyframesCheck). The same frames with their spacing declared
+// get no caution.
+TEST_F(TscdTest, AFolderOfACamerasFramesThatDeclaresNothingIsCautioned) {
+  TSCD_REQUIRE_PRIVATE_NETNS();
+  const sim::SimOptions world = SmallWorld(80);
+  const fs::path frames = dir_ / "frames";
+  sim::WriteSimulatedDataset(frames, world);
+  const std::string declared = ReadFolderToItsEnd(frames, "declared");
+  EXPECT_NE(declared.find("(camera.json spacing_m)"), std::string::npos) << declared;
+  EXPECT_EQ(declared.find("declare its \"fps\""), std::string::npos) << declared;
+
+  std::ofstream(frames / "camera.json", std::ios::trunc) << R"({"hfov_deg": 58})";
+  fs::remove(frames / "groundtruth.csv");
+  const std::string assumed = ReadFolderToItsEnd(frames, "assumed");
+  EXPECT_NE(assumed.find("(undeclared: keyframes assumed)"), std::string::npos) << assumed;
+  EXPECT_NE(assumed.find("warning: camera: nothing says how far apart these frames are"),
+            std::string::npos)
+      << assumed;
+  EXPECT_NE(assumed.find("declare its \"fps\""), std::string::npos) << assumed;
 }
 
 // The peak resident set of process `pid` (VmHWM), kB; -1 when it cannot be read.
@@ -699,12 +740,8 @@ std::vector<Eigen::VectorXf> StoredDescriptors(const fs::path& db_path) {
 // the sweeps it skipped are exactly the dropped count.
 TEST_F(TscdTest, AFullQueueDropsWholeSweepsAndCountsEachOnce) {
   TSCD_REQUIRE_PRIVATE_NETNS();
-  sim::SimOptions world;
-  world.seed = 5;
-  world.render.width = 160;
-  world.render.height = 120;
+  sim::SimOptions world = SmallWorld(80);
   world.sweep = PanSweep(6, 360.0);
-  world.max_frames = 80;
   const fs::path frames = dir_ / "sweeps";
   sim::WriteSimulatedDataset(frames, world);
   const Dataset dataset = Dataset::Open(frames);

@@ -15,6 +15,7 @@
 #include <vector>
 
 #include "core/pipeline/pipeline.h"
+#include "drivers/dataset/assumed_keyframes_check.h"
 #include "drivers/dataset/base_point_motion.h"
 #include "drivers/dataset/base_point_picker.h"
 #include "drivers/dataset/base_point_spacing.h"
@@ -173,6 +174,31 @@ TEST_F(DatasetTest, AssumedKeyframesThatChangeLikeAVideosFramesAreCautioned) {
   EXPECT_FALSE(AssumedKeyframesCaution(declared, 0.0026));
   WriteText(dir_ / "camera.json", R"({"hfov_deg": 60, "fps": 30})");
   EXPECT_FALSE(AssumedKeyframesCaution(Dataset::Open(dir_).spacing(), 0.0026));
+}
+
+// The same caution base point by base point (tscd, tsc run): given once, at the base point
+// that completes the sample, when the keyframes were only assumed.
+TEST(AssumedKeyframesCheckTest, CautionsOnceAfterItsSampleWhenKeyframesWereAssumed) {
+  const auto feed = [](const BasePointSpacing& spacing, double step) {
+    AssumedKeyframesCheck check(spacing);
+    std::vector<int> cautioned;
+    Eigen::VectorXf d = Eigen::VectorXf::Constant(100, 0.01f);
+    for (int k = 0; k < 3 * AssumedKeyframesCheck::kSample; ++k) {
+      // Mass moves by `step` between entries 0 and 1, to and fro.
+      const float moved = static_cast<float>(step * (k % 2 == 0 ? 1 : -1));
+      d[0] -= moved;
+      d[1] += moved;
+      if (check.Add(d)) cautioned.push_back(k);
+    }
+    return cautioned;
+  };
+  BasePointSpacing assumed{kKeyframeSpacingM, "undeclared: keyframes assumed", true, true};
+  // χ² 0.0013 a base point, as a camera's frames change: cautioned once.
+  EXPECT_EQ(feed(assumed, 0.005), std::vector<int>{AssumedKeyframesCheck::kSample - 1});
+  EXPECT_TRUE(feed(assumed, 0.0095).empty());  // χ² 0.0058: as keyframes change
+  BasePointSpacing declared = assumed;
+  declared.assumed = false;
+  EXPECT_TRUE(feed(declared, 0.005).empty());
 }
 
 // A camera whose base points lie further apart than the defaults were calibrated for is told
