@@ -699,6 +699,11 @@ void Daemon::CameraLoop() {
   // the robot, or a simulated camera the base drives) and whose spacing was only assumed.
   BasePointPicker taken(worker_->base_point_stride());
   const bool live = base_ != nullptr && worker_->spacing_assumed() && !replay;
+  if (live) {
+    spdlog::info(
+        "camera: the spacing above is assumed from camera.fps; the robot's odometry measures "
+        "it once the robot drives");
+  }
   while (!stopping_) {
     try {
       std::optional<CameraFrame> frame = camera_->Next();

@@ -260,6 +260,7 @@ class JsonWriter {
   JsonWriter& Int(long long v) { return Raw(std::to_string(v)); }
   JsonWriter& Bool(bool v) { return Raw(v ? "true" : "false"); }
   JsonWriter& String(const std::string& s) { return Raw(JsonString(s)); }
+  JsonWriter& Null() { return Raw("null"); }
 
  private:
   JsonWriter& Raw(const std::string& text) {
@@ -362,6 +363,25 @@ void WriteLoopClosure(JsonWriter& w, const EvalResult& r) {
   w.End('}');
 }
 
+// "spacing": how far apart the base points were taken, on what evidence, and any caution.
+void WriteSpacing(JsonWriter& w, const EvalResult& r) {
+  if (r.spacing) {
+    const EvalSpacing& sp = *r.spacing;
+    w.Key("spacing").Begin('{');
+    w.Key("metres").Number(sp.base_points.metres).Key("basis").String(sp.base_points.basis);
+    w.Key("keyframes").Bool(sp.base_points.keyframes).Key("assumed").Bool(sp.base_points.assumed);
+    w.Key("stride").Int(sp.stride).Key("dataset_frames").Int(sp.dataset_frames);
+    w.Key("tau_p").Int(r.options.detector.EffectiveTauP());
+    w.Key("caution");
+    if (sp.caution) {
+      w.String(*sp.caution);
+    } else {
+      w.Null();
+    }
+    w.End('}');
+  }
+}
+
 // "config": every pipeline key with its value, numbers as numbers.
 void WriteConfig(JsonWriter& w, const PipelineOptions& options) {
   w.Key("config").Begin('{');
@@ -406,7 +426,7 @@ PreparedDataset PrepareDataset(const Settings& settings, const Dataset& opened, 
   const std::vector<int> frames =
       spacing.keyframes ? std::vector<int>{} : FramesOfRoute(opened.poses(), stride);
   PreparedDataset out{frames.empty() ? opened.EveryNth(stride) : opened.Subset(frames),
-                      settings.pipeline, spacing};
+                      settings.pipeline, spacing, stride};
   AdaptToSpacing(out.options, spacing);
   if (say != nullptr) {
     *say << "  base points     " << spacing.metres << " m apart (" << spacing.basis
@@ -470,6 +490,7 @@ void WriteEvalJson(std::ostream& out, const EvalResult& r) {
   w.Key("from").Number(r.eval.sweep_from).Key("to").Number(r.eval.sweep_to);
   w.Key("step").Number(r.eval.sweep_step);
   w.End('}');
+  WriteSpacing(w, r);
   WriteConfig(w, r.options);
   w.End('}');
   out << "\n";

@@ -68,6 +68,15 @@ struct EvalRun {
   std::optional<PlaceMemory> memory;  ///< kept for the main run only
 };
 
+/// How a dataset's frames were taken as base points (PrepareDataset), for the JSON.
+struct EvalSpacing {
+  BasePointSpacing base_points;  ///< how far apart the base points are, and on what evidence
+  int stride = 1;                ///< every stride-th frame (StrideFor)
+  int dataset_frames = 0;        ///< frames in the folder (EvalResult::frames: base points)
+  /// SpacingCaution, or AssumedKeyframesCaution of the consecutive change.
+  std::optional<std::string> caution;
+};
+
 struct EvalResult {
   std::string dataset;
   int frames = 0;
@@ -90,8 +99,9 @@ struct EvalResult {
   /// Median χ² between consecutive base points' coherence descriptors (what κ compares with
   /// τ_κ): how much the view changes from one base point to the next (0 with one frame).
   double consecutive_chi2_median = 0.0;
-  double descriptor_ms_median = 0.0;  ///< bubble surface + descriptor + intensity, per frame
-  double frame_ms_median = 0.0;       ///< descriptor + pipeline step of the main run, per frame
+  double descriptor_ms_median = 0.0;   ///< bubble surface + descriptor + intensity, per frame
+  double frame_ms_median = 0.0;        ///< descriptor + pipeline step of the main run, per frame
+  std::optional<EvalSpacing> spacing;  ///< set by the caller that prepared the dataset
 };
 
 /// How the offline tools read a dataset: images bounded by camera.max_image_pixels, as tscd's
@@ -103,6 +113,7 @@ struct PreparedDataset {
   Dataset dataset;           ///< the frames that are base points (all but for a dense camera)
   PipelineOptions options;   ///< `settings`' pipeline, adapted to those frames' spacing
   BasePointSpacing spacing;  ///< how far apart those frames are, and on what evidence
+  int stride = 1;            ///< every stride-th frame of the folder (StrideFor)
 };
 
 /// `opened` as `settings` run it: the frames' spacing is camera.spacing_m when set, else what

@@ -115,8 +115,9 @@ recall,recall_at_full_precision,pr_curve} (frame level: each frame of a recognis
 names its nearest member frame of that place; correct within 2 frames of a revisit in
 revisits.csv, or with labels only within 2 frames of a frame of its label before its own
 visit; unlabelled frames are not judged, loop_closure.not_judged), map.{edges,
-edge_precision (with labels)}, timing.{descriptor_ms_median,frame_ms_median}, config, sweep,
-and decisions: per detected place of the main run, its frames, label, decision (recognised
+edge_precision (with labels)}, timing.{descriptor_ms_median,frame_ms_median}, spacing.{metres,
+basis,keyframes,assumed,stride,dataset_frames,tau_p,caution} (how far apart the base points
+were taken and on what evidence), config, sweep, and decisions: per detected place of the main run, its frames, label, decision (recognised
 ones say whether they needed memory.neighbour_margin, "neighbour"), place, cost g_N with its
 terms (and the recognition tried when it opened, "partial"), and whether it should have been
 recognised and was correct: why a place was missed or taken for another.
@@ -242,7 +243,7 @@ int Run(const std::vector<std::string>& args) {
   const fs::path dataset_dir = vm["dataset"].as<std::string>();
   const fs::path db_path = vm["db"].as<std::string>();
   std::ostringstream spacing;  // said after the summary line
-  const auto [dataset, options, frames_apart] =
+  const auto [dataset, options, frames_apart, stride] =
       PrepareDataset(settings, Dataset::Open(dataset_dir, DatasetOptionsOf(settings)), &spacing);
   AssumedKeyframesCheck keyframes_check(frames_apart);
   std::optional<std::string> keyframes_caution;
@@ -388,13 +389,17 @@ int Eval(const std::vector<std::string>& args) {
   const fs::path dataset_dir = vm["dataset"].as<std::string>();
   const fs::path json_path = vm["json"].as<std::string>();
   std::ostringstream spacing;  // said after the summary line
-  const auto [dataset, options, frames_apart] =
-      PrepareDataset(settings, Dataset::Open(dataset_dir, DatasetOptionsOf(settings)), &spacing);
+  const Dataset opened = Dataset::Open(dataset_dir, DatasetOptionsOf(settings));
+  const auto [dataset, options, frames_apart, stride] = PrepareDataset(settings, opened, &spacing);
   if (options.features.NeedsDepth() && !dataset.has_depth()) {
     throw DatasetError(dataset_dir.string() + ": bubble.features = " + options.features.ToString() +
                        " needs depth, but the dataset has no depth/ folder");
   }
-  const EvalResult r = Evaluate(dataset, options, eval);
+  EvalResult r = Evaluate(dataset, options, eval);
+  const std::optional<std::string> keyframes_caution =
+      AssumedKeyframesCaution(frames_apart, r.consecutive_chi2_median);
+  r.spacing = EvalSpacing{frames_apart, stride, opened.size(),
+                          keyframes_caution ? keyframes_caution : SpacingCaution(frames_apart)};
   {
     std::ofstream out(json_path, std::ios::trunc);
     if (!out) throw std::runtime_error(json_path.string() + ": cannot write JSON file");
@@ -419,10 +424,7 @@ int Eval(const std::vector<std::string>& args) {
       static_cast<long long>(std::count_if(r.main.detected.begin(), r.main.detected.end(),
                                            [](const EvalDetectedPlace& d) { return !d.place; })));
   std::cout << spacing.str();
-  if (const std::optional<std::string> caution =
-          AssumedKeyframesCaution(frames_apart, r.consecutive_chi2_median)) {
-    std::cout << "  caution         " << *caution << "\n";
-  }
+  if (keyframes_caution) std::cout << "  caution         " << *keyframes_caution << "\n";
   if (r.boundaries) {
     std::printf("  boundaries       F1 %.3f (precision %.3f, recall %.3f; %d true, %d detected)\n",
                 r.boundaries->f1, r.boundaries->precision, r.boundaries->recall,

@@ -172,6 +172,21 @@ TEST_F(EvalTest, RtabmapLoopRecognisesWithFullPrecisionAndWritesPlots) {
   EXPECT_EQ(text.find("\"neighbour\":true"), std::string::npos);
   EXPECT_EQ(text.find("\"detection\""), std::string::npos);  // no labels, no boundary F1
 
+  // How its frames were taken, as `tsc eval` sets it from PrepareDataset: keyframes a metre
+  // apart, only assumed (no camera.json), τ_p 3, and no caution (they change as keyframes do).
+  EXPECT_EQ(text.find("\"spacing\""), std::string::npos);
+  EvalResult with_spacing = r;
+  with_spacing.spacing =
+      EvalSpacing{dataset.spacing(), 1, 84,
+                  AssumedKeyframesCaution(dataset.spacing(), r.consecutive_chi2_median)};
+  std::ostringstream spaced;
+  WriteEvalJson(spaced, with_spacing);
+  EXPECT_NE(spaced.str().find("\"spacing\":{\"metres\":1,\"basis\":\"undeclared: keyframes "
+                              "assumed\",\"keyframes\":true,\"assumed\":true,\"stride\":1,"
+                              "\"dataset_frames\":84,\"tau_p\":3,\"caution\":null}"),
+            std::string::npos)
+      << spaced.str();
+
   const auto written = WritePlots(r, dataset, dir_ / "plots");
   EXPECT_EQ(written.size(), 3u);  // no poses: no floor plan
   ExpectPng(dir_ / "plots" / "timeline.png", 900, 250);
