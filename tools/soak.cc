@@ -8,6 +8,7 @@
 #include <sstream>
 #include <stdexcept>
 
+#include "core/median.h"
 #include "tools/events_json.h"
 
 namespace tsc {
@@ -49,15 +50,6 @@ double ParseNumber(const std::string& cell, const fs::path& file, int line, cons
   }
   throw std::runtime_error(file.string() + ":" + std::to_string(line) + ": column " + column +
                            ": not a number: '" + cell + "'");
-}
-
-double Median(std::vector<double> v) {
-  if (v.empty()) return 0.0;
-  const size_t mid = v.size() / 2;
-  std::nth_element(v.begin(), v.begin() + static_cast<std::ptrdiff_t>(mid), v.end());
-  const double upper = v[mid];
-  if (v.size() % 2 == 1) return upper;
-  return (*std::max_element(v.begin(), v.begin() + static_cast<std::ptrdiff_t>(mid)) + upper) / 2;
 }
 
 // Slope of y over t with one intercept per group (a fixed-effects least-squares fit): the

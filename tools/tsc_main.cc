@@ -16,6 +16,7 @@
 #include <string>
 #include <vector>
 
+#include "core/median.h"
 #include "drivers/dataset/assumed_keyframes_check.h"
 #include "drivers/dataset/dataset.h"
 #include "settings/settings.h"
@@ -161,17 +162,6 @@ Settings ConfigFrom(const po::variables_map& vm) {
   if (vm.count("robot"))
     return SettingsFromCommandLine(vm, {"robot.id=" + vm["robot"].as<std::string>()});
   return SettingsFromCommandLine(vm);
-}
-
-double Median(std::vector<double> v) {
-  if (v.empty()) return 0.0;
-  const size_t mid = v.size() / 2;
-  std::nth_element(v.begin(), v.begin() + static_cast<std::ptrdiff_t>(mid), v.end());
-  double m = v[mid];
-  if (v.size() % 2 == 0) {
-    m = (m + *std::max_element(v.begin(), v.begin() + static_cast<std::ptrdiff_t>(mid))) / 2;
-  }
-  return m;
 }
 
 struct RunCounts {

@@ -13,6 +13,8 @@
 #include <sstream>
 #include <stdexcept>
 
+#include "core/median.h"
+
 namespace tsc {
 namespace {
 
@@ -189,8 +191,7 @@ double MedianGamma(const Eigen::MatrixXf& x) {
     if (j != i) d2.push_back((x.col(i) - x.col(j)).squaredNorm());
   }
   if (d2.empty()) return 1.0;
-  std::nth_element(d2.begin(), d2.begin() + static_cast<std::ptrdiff_t>(d2.size() / 2), d2.end());
-  const double median = d2[d2.size() / 2];
+  const double median = UpperMedian(std::move(d2));
   return median > 1e-20 ? 1.0 / median : 1.0;
 }
 

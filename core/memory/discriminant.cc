@@ -9,6 +9,8 @@
 #include <stdexcept>
 #include <string>
 
+#include "core/median.h"
+
 namespace tsc {
 namespace {
 
@@ -24,8 +26,7 @@ double MedianGamma(const Eigen::MatrixXf& x) {
     const Eigen::Index j = (i + std::max<Eigen::Index>(1, n / 2)) % n;
     if (j != i) d2.push_back((x.col(i) - x.col(j)).squaredNorm());
   }
-  std::nth_element(d2.begin(), d2.begin() + static_cast<std::ptrdiff_t>(d2.size() / 2), d2.end());
-  const double median = d2.empty() ? 0.0 : d2[d2.size() / 2];
+  const double median = d2.empty() ? 0.0 : UpperMedian(std::move(d2));
   if (median > 1e-12) return 1.0 / median;
   // All samples (nearly) equal: size the support from the vector's own scale instead.
   const double scale = x.col(0).squaredNorm();

@@ -5,6 +5,7 @@
 #include <vector>
 
 #include "core/assert.h"
+#include "core/median.h"
 #include "core/memory/simd.h"
 
 namespace tsc {
@@ -97,9 +98,7 @@ double Spacing(const Eigen::MatrixXf& d) {
         nearest[static_cast<size_t>(j)] = std::min(nearest[static_cast<size_t>(j)], d(i, j));
     }
   }
-  auto mid = nearest.begin() + static_cast<std::ptrdiff_t>(n / 2);
-  std::nth_element(nearest.begin(), mid, nearest.end());
-  return *mid;
+  return UpperMedian(std::move(nearest));
 }
 
 }  // namespace

@@ -9,6 +9,7 @@
 #include <string>
 
 #include "core/assert.h"
+#include "core/median.h"
 #include "core/memory/member_views.h"
 #include "core/split_mix64.h"
 
@@ -109,10 +110,7 @@ double PlaceMemory::MedianViewSpacing() const {
   for (double u : spacings_) {
     if (u > 0.0) positive.push_back(u);
   }
-  if (positive.empty()) return 0.0;
-  auto mid = positive.begin() + static_cast<std::ptrdiff_t>(positive.size() / 2);
-  std::nth_element(positive.begin(), mid, positive.end());
-  return *mid;
+  return positive.empty() ? 0.0 : UpperMedian(std::move(positive));
 }
 
 void PlaceMemory::set_step_unit(double step_unit) {
@@ -131,11 +129,9 @@ double PlaceMemory::UnitFor(const DetectedPlace& d) const {
   for (Eigen::Index i = 0; i + 1 < n; ++i) {
     steps[static_cast<size_t>(i)] = (d.descriptors.col(i + 1) - d.descriptors.col(i)).squaredNorm();
   }
-  auto mid = steps.begin() + static_cast<std::ptrdiff_t>(steps.size() / 2);
-  std::nth_element(steps.begin(), mid, steps.end());
   // At least D's own step: a revisit is not expected nearer the memory's views than D's
   // consecutive base points are to each other.
-  return std::max(DistanceUnit(), options_.step_unit * *mid);
+  return std::max(DistanceUnit(), options_.step_unit * UpperMedian(std::move(steps)));
 }
 
 ViewDistances PlaceMemory::DistancesOf(const Eigen::MatrixXf& votes, double unit) const {

@@ -9,18 +9,13 @@
 #include <utility>
 #include <vector>
 
+#include "core/median.h"
 #include "core/memory/member_views.h"
 #include "core/memory/point_agreement.h"
 #include "core/memory/simd.h"
 
 namespace tsc {
 namespace {
-
-double Median(std::vector<double>& v) {
-  auto mid = v.begin() + static_cast<std::ptrdiff_t>(v.size() / 2);
-  std::nth_element(v.begin(), mid, v.end());
-  return *mid;
-}
 
 // Per vote point: the nearest view of a candidate (its distance and place), viewed in the
 // rows of a NearestTable.
@@ -68,7 +63,7 @@ class NearestTable {
 // The median of `v` (the element at size / 2 once sorted), through `scratch`.
 double MedianOf(std::span<const double> v, std::vector<double>& scratch) {
   scratch.assign(v.begin(), v.end());
-  return Median(scratch);
+  return UpperMedianInPlace(scratch);
 }
 
 // Whether candidate `other` coincides with N¹ for D: the views of `other` nearest to D's
@@ -227,7 +222,7 @@ ViewDistances::ViewDistances(const Eigen::MatrixXf& votes, std::vector<const Lea
   for (double u : units_) {
     if (u > 0.0) positive.push_back(u);
   }
-  double fallback = positive.empty() ? ViewSpacing(votes) : Median(positive);
+  double fallback = positive.empty() ? ViewSpacing(votes) : UpperMedianInPlace(positive);
   if (!(fallback > 0.0)) fallback = std::numeric_limits<float>::min();
   for (double& u : units_) {
     if (!(u > 0.0)) u = fallback;
@@ -255,7 +250,7 @@ CostTerms RecognitionCost(const ViewDistances& vd, const Eigen::VectorXf& mean,
   // Per-point nearest views only of the children with a measured place (a merge's N* has
   // ~1500 children, a few dozen measured): `nearest_of` is a child's entry in `nearest`, or −1.
   NearestTable nearest(vd.num_votes());
-  std::vector<double> scratch;  // Median's copies
+  std::vector<double> scratch;  // the medians' copies
   // One pass over the children: a crowded N*'s 1500 were scanned three times per place.
   std::vector<int> nearest_of(candidates.size(), -1);
   std::vector<double> gamma(candidates.size(), std::numeric_limits<double>::infinity());
@@ -307,7 +302,7 @@ CostTerms RecognitionCost(const ViewDistances& vd, const Eigen::VectorXf& mean,
     scaled.push_back(d / u);
     if (d <= options.vote_radius * u) ++accepted;
   }
-  t.distance = Median(scaled);
+  t.distance = UpperMedianInPlace(scaled);
   t.vote = static_cast<double>(accepted) / vd.num_votes();
   // The distance term from the means too, where a camera kind sets their unit: a pan sweep's
   // base points see the whole room, and a revisit along another path through it is far from

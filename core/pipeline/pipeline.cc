@@ -164,7 +164,7 @@ FrameResult Pipeline::ProcessDescriptor(const Descriptor& descriptor,
 }
 
 void Pipeline::Readapt(const DetectorOptions& detector, double step_unit) {
-  detector.Validate();
+  // Each check comes before anything changes: a throw leaves the pipeline as it was.
   PlaceMemoryOptions::kStepUnitRange.Check("memory.step_unit", step_unit);
   detector_.Readapt(detector);
   memory_.set_step_unit(step_unit);
@@ -190,10 +190,9 @@ void Pipeline::AdoptMerged(PlaceMemory memory, TopologicalMap map) {
   }
   partial_recognition_.reset();
   known_tail_.reset();
+  // A merged memory carries our memory's options (MergeMemories, Consolidate): the step unit
+  // stays the one this robot's base points are taken at (Readapt).
   memory_ = std::move(memory);
-  // A merge may take the peer's memory as its base; the step unit stays the one this robot's
-  // base points are taken at (Readapt).
-  memory_.set_step_unit(options_.memory.step_unit);
   map_ = std::move(map);
 }
 

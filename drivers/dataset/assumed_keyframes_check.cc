@@ -3,6 +3,7 @@
 #include <algorithm>
 
 #include "core/bubble/descriptor.h"
+#include "core/median.h"
 
 namespace tsc {
 
@@ -17,12 +18,10 @@ std::optional<std::string> AssumedKeyframesCheck::Add(const Eigen::VectorXf& des
   previous_ = descriptor;
   if (static_cast<int>(changes_.size()) + 1 < kSample) return std::nullopt;
   watching_ = false;  // judged once
-  std::vector<double> sorted = std::move(changes_);
+  std::vector<double> changes = std::move(changes_);
   previous_.reset();
-  if (sorted.empty()) return std::nullopt;
-  const auto mid = sorted.begin() + static_cast<long>(sorted.size() / 2);
-  std::nth_element(sorted.begin(), mid, sorted.end());
-  return AssumedKeyframesCaution(spacing_, *mid);
+  if (changes.empty()) return std::nullopt;
+  return AssumedKeyframesCaution(spacing_, UpperMedian(std::move(changes)));
 }
 
 }  // namespace tsc

@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <cmath>
 
+#include "core/median.h"
 #include "drivers/dataset/base_point_spacing.h"
 
 namespace tsc {
@@ -23,10 +24,7 @@ void BasePointPicker::Measure(const ViewMotion& motion) {
     next_step_ = (next_step_ + 1) % steps_.size();
   }
   if (steps_.size() < static_cast<size_t>(kLeastSamples)) return;
-  std::vector<double> sorted = steps_;
-  std::nth_element(sorted.begin(), sorted.begin() + static_cast<long>(sorted.size() / 2),
-                   sorted.end());
-  measured_m_ = sorted[sorted.size() / 2];
+  measured_m_ = UpperMedian(steps_);
   // The stride changes only when the base points it gives leave what StrideFor allows
   // (kClosestSpacingM to kCalibratedSpacingM apart) by more than 5 %: a Jaguar at its 1 m/s
   // limit with a 10 fps camera is at 0.1 m, where StrideFor steps from 1 to 2, and its speed's

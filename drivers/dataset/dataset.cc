@@ -12,6 +12,7 @@
 #include <system_error>
 #include <utility>
 
+#include "core/median.h"
 #include "drivers/dataset/json_reader.h"
 #include "drivers/image/bounded_decode.h"
 #include "drivers/image/image_header.h"
@@ -231,9 +232,7 @@ std::optional<double> MedianPoseStep(const std::vector<std::optional<GroundTruth
   const double moving = *p90 / 4.0;
   std::erase_if(steps, [moving](double s) { return !(s > moving); });
   if (steps.empty()) return std::nullopt;
-  std::nth_element(steps.begin(), steps.begin() + static_cast<long>(steps.size() / 2), steps.end());
-  const double median = steps[steps.size() / 2];
-  return median;
+  return UpperMedian(std::move(steps));
 }
 
 CameraFile ReadCamera(const fs::path& file, int image_width, int height) {
