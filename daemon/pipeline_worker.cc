@@ -16,6 +16,7 @@
 #include "core/merge/merge_maps.h"
 #include "daemon/log_throttle.h"
 #include "drivers/dataset/base_point_spacing.h"
+#include "drivers/dataset/lens_response.h"
 
 namespace tsc {
 namespace fs = std::filesystem;
@@ -160,7 +161,16 @@ PipelineWorker::PipelineWorker(const Settings& settings, const CameraSource& cam
   const auto [stride, spacing] = BasePointsOf(frames);
   base_point_stride_ = stride;
   spacing_assumed_ = !(settings_.daemon.camera.spacing_m > 0.0) && !declared;
+  hfov_deg_ = HorizontalFovDeg(camera.intrinsics());
+  views_per_base_point_ = camera.views_per_base_point();
   const PipelineOptions pipeline = AdaptedTo(spacing);
+  if (const std::optional<std::string> note =
+          LensNote(pipeline, hfov_deg_, views_per_base_point_)) {
+    spdlog::info("{}", *note);
+  }
+  if (const std::optional<std::string> caution = LensCaution(hfov_deg_, views_per_base_point_)) {
+    spdlog::warn("{}", *caution);
+  }
   keyframes_check_ = AssumedKeyframesCheck(spacing);
   started_empty_ = memory.places().empty();
   pipeline_ = std::make_unique<Pipeline>(camera.intrinsics(), pipeline, std::move(memory),
@@ -174,6 +184,7 @@ PipelineWorker::PipelineWorker(const Settings& settings, const CameraSource& cam
 PipelineOptions PipelineWorker::AdaptedTo(const BasePointSpacing& spacing) const {
   PipelineOptions pipeline = settings_.pipeline;
   AdaptToSpacing(pipeline, spacing);
+  AdaptToLens(pipeline, hfov_deg_, views_per_base_point_);
   spdlog::info("base points {:.3g} m apart ({}): places of {} base points or fewer are pruned",
                spacing.metres, spacing.basis, pipeline.detector.EffectiveTauP());
   if (const std::optional<std::string> note = SparseCameraNote(pipeline, spacing)) {
@@ -431,7 +442,8 @@ void PipelineWorker::MergePeers() {
 void PipelineWorker::MergePeer(const PeerSnapshot& snapshot) {
   const auto start = Clock::now();
   RetryStore(true);  // results from before the merge go in first
-  PlaceMemory peer = ToPlaceMemory(snapshot, settings_.pipeline.memory);
+  // The peer's places are measured in our units (our camera's spacing and lens): one g_N.
+  PlaceMemory peer = ToPlaceMemory(snapshot, pipeline_->memory().options());
   const TopologicalMap peer_map = ToTopologicalMap(snapshot);
   std::vector<std::pair<PlaceId, PlaceId>> absorbed;
   std::string absorptions;  // for the log: which place went into which, and at what cost

@@ -122,7 +122,8 @@ class PipelineWorker {
 
  private:
   void Loop();
-  // settings_.pipeline for base points `spacing` apart (AdaptToSpacing), saying so in the log.
+  // settings_.pipeline for base points `spacing` apart (AdaptToSpacing), saying so in the log,
+  // and for the camera's lens (AdaptToLens).
   PipelineOptions AdaptedTo(const BasePointSpacing& spacing) const;
   // Readapts the pipeline to the spacing MeasuredSpacing gave, if one waits.
   void AdoptMeasuredSpacing();
@@ -173,6 +174,9 @@ class PipelineWorker {
   bool started_empty_ = false;
   int base_point_stride_ = 1;
   bool spacing_assumed_ = true;
+  // The camera's lens and views a base point, which the thresholds follow (AdaptToLens).
+  double hfov_deg_ = 0.0;
+  int views_per_base_point_ = 1;
   AssumedKeyframesCheck keyframes_check_{BasePointSpacing{}};  // the worker thread's
   std::mutex spacing_mutex_;
   std::optional<double> measured_spacing_m_;  // under spacing_mutex_: not yet adopted

@@ -8,6 +8,7 @@
 
 #include "drivers/dataset/base_point_picker.h"
 #include "drivers/dataset/base_point_spacing.h"
+#include "drivers/dataset/lens_response.h"
 #include "settings/settings.h"
 #include "tools/events_json.h"
 #include "tools/frame_view.h"
@@ -382,6 +383,22 @@ void WriteSpacing(JsonWriter& w, const EvalResult& r) {
   }
 }
 
+// "lens": the field of view the thresholds were adapted to, and what they came to.
+void WriteLens(JsonWriter& w, const EvalResult& r) {
+  if (!r.lens) return;
+  w.Key("lens").Begin('{');
+  w.Key("hfov_deg").Number(r.lens->hfov_deg).Key("views").Int(r.lens->views);
+  w.Key("tau_kappa").Number(r.options.reliability.tau_kappa);
+  w.Key("distance_unit").Number(r.options.memory.distance_unit);
+  w.Key("caution");
+  if (r.lens->caution) {
+    w.String(*r.lens->caution);
+  } else {
+    w.Null();
+  }
+  w.End('}');
+}
+
 // "config": every pipeline key with its value, numbers as numbers.
 void WriteConfig(JsonWriter& w, const PipelineOptions& options) {
   w.Key("config").Begin('{');
@@ -428,6 +445,8 @@ PreparedDataset PrepareDataset(const Settings& settings, const Dataset& opened, 
   PreparedDataset out{frames.empty() ? opened.EveryNth(stride) : opened.Subset(frames),
                       settings.pipeline, spacing, stride};
   AdaptToSpacing(out.options, spacing);
+  const double hfov = HorizontalFovDeg(opened.camera());
+  AdaptToLens(out.options, hfov, opened.sweep().views());
   if (say != nullptr) {
     *say << "  base points     " << spacing.metres << " m apart (" << spacing.basis
          << "): places of " << out.options.detector.EffectiveTauP()
@@ -442,6 +461,13 @@ PreparedDataset PrepareDataset(const Settings& settings, const Dataset& opened, 
       *say << "  sparse camera   " << *note << "\n";
     }
     if (const std::optional<std::string> caution = SpacingCaution(spacing)) {
+      *say << "  caution         " << *caution << "\n";
+    }
+    if (const std::optional<std::string> note =
+            LensNote(out.options, hfov, opened.sweep().views())) {
+      *say << "  lens            " << *note << "\n";
+    }
+    if (const std::optional<std::string> caution = LensCaution(hfov, opened.sweep().views())) {
       *say << "  caution         " << *caution << "\n";
     }
   }
@@ -491,6 +517,7 @@ void WriteEvalJson(std::ostream& out, const EvalResult& r) {
   w.Key("step").Number(r.eval.sweep_step);
   w.End('}');
   WriteSpacing(w, r);
+  WriteLens(w, r);
   WriteConfig(w, r.options);
   w.End('}');
   out << "\n";

@@ -77,6 +77,13 @@ struct EvalSpacing {
   std::optional<std::string> caution;
 };
 
+/// The lens the thresholds were adapted to (AdaptToLens), for the JSON.
+struct EvalLens {
+  double hfov_deg = 0.0;
+  int views = 1;                       ///< views a base point (a pan sweep's keep their preset)
+  std::optional<std::string> caution;  ///< LensCaution
+};
+
 struct EvalResult {
   std::string dataset;
   int frames = 0;
@@ -102,6 +109,7 @@ struct EvalResult {
   double descriptor_ms_median = 0.0;   ///< bubble surface + descriptor + intensity, per frame
   double frame_ms_median = 0.0;        ///< descriptor + pipeline step of the main run, per frame
   std::optional<EvalSpacing> spacing;  ///< set by the caller that prepared the dataset
+  std::optional<EvalLens> lens;        ///< likewise
 };
 
 /// How the offline tools read a dataset: images bounded by camera.max_image_pixels, as tscd's
@@ -119,8 +127,9 @@ struct PreparedDataset {
 /// `opened` as `settings` run it: the frames' spacing is camera.spacing_m when set, else what
 /// the dataset declares (Dataset::spacing); a camera denser than the calibrated spacing gives
 /// every StrideFor-th frame as a base point (Dataset::EveryNth), and place detection counts
-/// τ_p in base points at their spacing (AdaptToSpacing). Writes the spacing, its basis and τ_p
-/// to `say` unless it is null.
+/// τ_p in base points at their spacing (AdaptToSpacing); a forward camera's τ_κ and distance
+/// unit follow its lens (AdaptToLens). Writes the spacing, its basis, τ_p and the lens's
+/// thresholds to `say` unless it is null.
 PreparedDataset PrepareDataset(const Settings& settings, const Dataset& opened, std::ostream* say);
 
 /// Runs and scores. Throws DatasetError (naming the frame and file) for unreadable frames,

@@ -18,6 +18,7 @@
 #include "drivers/camera/sim_camera.h"
 #include "drivers/dataset/base_point_picker.h"
 #include "drivers/dataset/base_point_spacing.h"
+#include "drivers/dataset/lens_response.h"
 #include "tools/events_json.h"
 
 namespace tsc {
@@ -131,6 +132,7 @@ ReplayedRobot ReplayRoute(const Settings& settings, uint32_t robot) {
   const BasePoints base_points = BasePointsOf(FramesOf(settings, camera));
   BasePointPicker taken(base_points.stride);
   AdaptToSpacing(options, base_points.spacing);
+  AdaptToLens(options, HorizontalFovDeg(camera.intrinsics()), camera.views_per_base_point());
 
   ReplayedRobot out;
   out.id = robot;

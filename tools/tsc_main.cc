@@ -19,6 +19,7 @@
 #include "core/median.h"
 #include "drivers/dataset/assumed_keyframes_check.h"
 #include "drivers/dataset/dataset.h"
+#include "drivers/dataset/lens_response.h"
 #include "settings/settings.h"
 #include "store/store.h"
 #include "tools/axis_sim_command.h"
@@ -118,7 +119,9 @@ revisits.csv, or with labels only within 2 frames of a frame of its label before
 visit; unlabelled frames are not judged, loop_closure.not_judged), map.{edges,
 edge_precision (with labels)}, timing.{descriptor_ms_median,frame_ms_median}, spacing.{metres,
 basis,keyframes,assumed,stride,dataset_frames,tau_p,caution} (how far apart the base points
-were taken and on what evidence), config, sweep, and decisions: per detected place of the main run, its frames, label, decision (recognised
+were taken and on what evidence), lens.{hfov_deg,views,tau_kappa,distance_unit,caution} (a
+forward camera narrower than 58 degrees runs with tau_kappa and memory.distance_unit scaled
+to its lens), config, sweep, and decisions: per detected place of the main run, its frames, label, decision (recognised
 ones say whether they needed memory.neighbour_margin, "neighbour"), place, cost g_N with its
 terms (and the recognition tried when it opened, "partial"), and whether it should have been
 recognised and was correct: why a place was missed or taken for another.
@@ -390,6 +393,8 @@ int Eval(const std::vector<std::string>& args) {
       AssumedKeyframesCaution(frames_apart, r.consecutive_chi2_median);
   r.spacing = EvalSpacing{frames_apart, stride, opened.size(),
                           keyframes_caution ? keyframes_caution : SpacingCaution(frames_apart)};
+  const double hfov = HorizontalFovDeg(opened.camera());
+  r.lens = EvalLens{hfov, opened.sweep().views(), LensCaution(hfov, opened.sweep().views())};
   {
     std::ofstream out(json_path, std::ios::trunc);
     if (!out) throw std::runtime_error(json_path.string() + ": cannot write JSON file");

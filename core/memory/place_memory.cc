@@ -113,9 +113,11 @@ double PlaceMemory::MedianViewSpacing() const {
   return positive.empty() ? 0.0 : UpperMedian(std::move(positive));
 }
 
-void PlaceMemory::set_step_unit(double step_unit) {
-  PlaceMemoryOptions::kStepUnitRange.Check("memory.step_unit", step_unit);
-  options_.step_unit = step_unit;
+void PlaceMemory::AdoptUnits(const PlaceMemoryOptions& camera) {
+  PlaceMemoryOptions::kStepUnitRange.Check("memory.step_unit", camera.step_unit);
+  PlaceMemoryOptions::kDistanceUnitRange.Check("memory.distance_unit", camera.distance_unit);
+  options_.step_unit = camera.step_unit;
+  options_.distance_unit = camera.distance_unit;
 }
 
 double PlaceMemory::DistanceUnit() const {

@@ -197,9 +197,11 @@ class PlaceMemory {
 
   uint32_t robot() const { return robot_; }
   const PlaceMemoryOptions& options() const { return options_; }
-  /// options().step_unit for base points now taken at another spacing (the unit scales D's
-  /// own step, which the spacing sets). Throws std::invalid_argument outside kStepUnitRange.
-  void set_step_unit(double step_unit);
+  /// Takes options().distance_unit and step_unit from `camera`: the units follow the spacing
+  /// and the lens of the camera whose base points the memory is now given (AdaptToSpacing,
+  /// AdaptToLens), which a stored or received memory does not carry. Throws
+  /// std::invalid_argument outside their ranges, changing nothing.
+  void AdoptUnits(const PlaceMemoryOptions& camera);
   const std::vector<LearnedPlace>& places() const { return places_; }
   const std::vector<MemoryNode>& nodes() const { return nodes_; }
   const std::vector<OneClassDiscriminant>& discriminants() const { return discriminants_; }

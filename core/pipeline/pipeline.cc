@@ -72,6 +72,9 @@ Pipeline::Pipeline(CameraIntrinsics camera, PipelineOptions options, PlaceMemory
                                 " given to the pipeline of robot " +
                                 std::to_string(options_.robot));
   }
+  // A stored memory does not know the camera: its units are those of the options, adapted to
+  // the camera's spacing and lens.
+  memory_.AdoptUnits(options_.memory);
   if (const ViewBasis* basis = memory_.view_basis()) {
     // Said here, at start, rather than when the first place is learned.
     const int dim = computer_.Compute(surface_).dim();
@@ -165,11 +168,13 @@ FrameResult Pipeline::ProcessDescriptor(const Descriptor& descriptor,
 
 void Pipeline::Readapt(const DetectorOptions& detector, double step_unit) {
   // Each check comes before anything changes: a throw leaves the pipeline as it was.
+  PlaceMemoryOptions units = options_.memory;
+  units.step_unit = step_unit;
   PlaceMemoryOptions::kStepUnitRange.Check("memory.step_unit", step_unit);
   detector_.Readapt(detector);
-  memory_.set_step_unit(step_unit);
+  memory_.AdoptUnits(units);
   options_.detector = detector;
-  options_.memory.step_unit = step_unit;
+  options_.memory = units;
 }
 
 void Pipeline::AdoptMerged(PlaceMemory memory, TopologicalMap map) {

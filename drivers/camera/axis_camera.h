@@ -86,6 +86,7 @@ class AxisCamera : public CameraSource {
   std::string name() const override;
   /// Each view of a sweep is one paced frame.
   int paced_frames_per_base_point() const override { return options_.sweep_steps; }
+  int views_per_base_point() const override { return options_.sweep_steps; }
   bool rides_the_base() const override { return true; }
 
   /// PTZ (`ptz.cgi`): absolute move, degrees (pan wrapped to [−180, 180]).

@@ -66,6 +66,9 @@ class CameraSource {
   /// taken one by one (the Axis camera) counts each; a source that delivers a whole sweep at
   /// once, or none, counts 1. A live camera's base points come fps / this a second.
   virtual int paced_frames_per_base_point() const { return 1; }
+  /// Views one base point's bubble surface is filled from: a pan sweep's, else 1 (a forward
+  /// camera, whose thresholds follow its lens: AdaptToLens).
+  virtual int views_per_base_point() const { return 1; }
   /// True for a recording read unpaced (a folder, video or simulated route at fps 0): its
   /// frames wait for the pipeline rather than being dropped, so a replay processes every frame
   /// whatever the machine's speed. A live or paced source is false: the robot would rather see

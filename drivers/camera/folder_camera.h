@@ -44,6 +44,7 @@ class FolderCamera : public CameraSource {
   const CameraIntrinsics& intrinsics() const override { return intrinsics_; }
   std::string name() const override { return "folder:" + options_.folder.string(); }
   std::optional<BasePointSpacing> spacing() const override { return dataset_.spacing(); }
+  int views_per_base_point() const override { return dataset_.sweep().views(); }
 
   /// Frames in the folder.
   int size() const { return dataset_.size(); }

@@ -60,6 +60,7 @@ class SimCamera : public CameraSource {
   std::optional<CameraFrame> Next() override;
   bool replays_every_frame() const override { return options_.fps == 0.0; }
   const CameraIntrinsics& intrinsics() const override { return intrinsics_; }
+  int views_per_base_point() const override { return options_.scene.sweep.views(); }
   /// "sim:office/7/route 2" or "sim:office/7/base".
   std::string name() const override;
   /// Scripted route: its walking step, one route frame per base point whatever the frame rate

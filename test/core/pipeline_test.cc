@@ -611,6 +611,22 @@ TEST_F(PipelineTest, ReadaptsDetectionAndTheStepUnitAndKeepsThemAcrossAMerge) {
   EXPECT_EQ(dut_.memory().options().step_unit, 0.25);
 }
 
+// A stored memory does not know the camera: a pipeline given one measures with its own units,
+// adapted to the camera's spacing and lens (AdaptToSpacing, AdaptToLens).
+TEST(PipelineUnits, AMemoryGivenToAPipelineTakesItsUnits) {
+  PipelineOptions options;
+  options.memory.view_basis = nullptr;
+  PlaceMemoryOptions stored = options.memory;
+  stored.distance_unit = 9e-6;
+  stored.step_unit = 0.5;
+  options.memory.distance_unit = 2.5e-6;
+  options.memory.step_unit = 0.25;
+  const Pipeline pipeline(CameraIntrinsics::FromHorizontalFov(64, 48, 45), options,
+                          PlaceMemory(1, stored), TopologicalMap{});
+  EXPECT_EQ(pipeline.memory().options().distance_unit, 2.5e-6);
+  EXPECT_EQ(pipeline.memory().options().step_unit, 0.25);
+}
+
 TEST(PipelineOptions, RefusesANegativeWhereaboutsWindow) {
   PipelineOptions options;
   options.whereabouts_points = -1;

@@ -554,6 +554,35 @@ TEST_F(TscdTest, AFolderOfACamerasFramesThatDeclaresNothingIsCautioned) {
   EXPECT_NE(assumed.find("declare its \"fps\""), std::string::npos) << assumed;
 }
 
+// A forward camera narrower than the calibrated 58° runs with τ_κ and the distance unit scaled
+// as descriptors change at its lens (AdaptToLens; docs/decisions.md "Lens"), and the log says
+// what they came to; the calibrated lens keeps them, a lens outside the measured 45°-100° is
+// cautioned. The frames are a 45° world's, declared as such.
+TEST_F(TscdTest, ANarrowLensRunsWithThresholdsThatFollowIt) {
+  TSCD_REQUIRE_PRIVATE_NETNS();
+  sim::SimOptions world = SmallWorld(40);
+  world.render.hfov_deg = 45.0;
+  const fs::path frames = dir_ / "frames";
+  sim::WriteSimulatedDataset(frames, world);
+  const std::string narrow = ReadFolderToItsEnd(frames, "narrow");
+  EXPECT_NE(narrow.find("a 45° lens: detection.tau_kappa 0.0123 and memory.distance_unit 2.49e-06"),
+            std::string::npos)
+      << narrow;
+  EXPECT_EQ(narrow.find("outside the lenses"), std::string::npos) << narrow;
+
+  std::ofstream(frames / "camera.json", std::ios::trunc)
+      << R"({"hfov_deg": 58, "spacing_m": 0.15})";
+  const std::string calibrated = ReadFolderToItsEnd(frames, "calibrated");
+  EXPECT_EQ(calibrated.find("lens:"), std::string::npos) << calibrated;
+
+  std::ofstream(frames / "camera.json", std::ios::trunc)
+      << R"({"hfov_deg": 35, "spacing_m": 0.15})";
+  const std::string narrowest = ReadFolderToItsEnd(frames, "narrowest");
+  EXPECT_NE(narrowest.find("warning: a 35° lens is outside the lenses recognition was measured"),
+            std::string::npos)
+      << narrowest;
+}
+
 // The peak resident set of process `pid` (VmHWM), kB; -1 when it cannot be read.
 long PeakRssKbOf(pid_t pid) {
   return testing_support::ProcStatusKb("/proc/" + std::to_string(pid) + "/status", "VmHWM:");
