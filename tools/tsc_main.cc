@@ -120,8 +120,8 @@ visit; unlabelled frames are not judged, loop_closure.not_judged), map.{edges,
 edge_precision (with labels)}, timing.{descriptor_ms_median,frame_ms_median}, spacing.{metres,
 basis,keyframes,assumed,stride,dataset_frames,tau_p,caution} (how far apart the base points
 were taken and on what evidence), lens.{hfov_deg,views,tau_kappa,distance_unit,caution} (a
-forward camera narrower than 58 degrees runs with tau_kappa and memory.distance_unit scaled
-to its lens), config, sweep, and decisions: per detected place of the main run, its frames, label, decision (recognised
+forward camera's tau_kappa and memory.distance_unit follow its lens; the defaults are for 58
+degrees), config, sweep, and decisions: per detected place of the main run, its frames, label, decision (recognised
 ones say whether they needed memory.neighbour_margin, "neighbour"), place, cost g_N with its
 terms (and the recognition tried when it opened, "partial"), and whether it should have been
 recognised and was correct: why a place was missed or taken for another.

@@ -2,11 +2,12 @@
 // How a forward camera's thresholds follow its lens (docs/decisions.md, "Lens"). τ_κ and
 // memory.distance_unit were calibrated on simulated worlds seen through a 58° lens. A narrower
 // lens observes less of the viewing sphere, so its bubble descriptors change less between
-// consecutive base points and lie nearer each other. Left as configured, a 45° camera finds
-// few place boundaries and recognises wrongly half the time (nine calibration worlds:
-// boundary F1 0.53, 14 right / 17 wrong), so for lenses narrower than 58° both thresholds are
-// scaled by how much descriptors change at that lens, as measured on those worlds. Wider
-// lenses (measured to 100°) keep the configured values, which hold there.
+// consecutive base points and lie nearer each other; a wider one, more. Left as configured,
+// a 45° camera found few place boundaries and recognised wrongly half the time (nine
+// calibration worlds: boundary F1 0.53, 14 right / 17 wrong), and a 90° one recognised fewer
+// places than it could. So the distance unit is scaled by how much consecutive descriptors
+// differ at the camera's lens, as measured on those worlds, and τ_κ by how much their χ²
+// differs, for lenses narrower than 58° only (wider ones detect as well unscaled).
 
 #include <optional>
 #include <string>
@@ -20,17 +21,18 @@ struct PipelineOptions;
 inline constexpr double kCalibratedHfovDeg = 58.0;
 
 /// How much a forward camera's descriptors change at a lens, relative to the calibrated one:
-/// `kappa`, the median χ² between consecutive base points (what τ_κ compares), and `unit`,
-/// their median squared distance (what memory.distance_unit measures in).
+/// `kappa`, the median χ² between consecutive base points (what τ_κ compares; 1 from 58° up,
+/// see above), and `unit`, their median squared distance (what memory.distance_unit measures
+/// in).
 struct LensResponse {
   double hfov_deg = kCalibratedHfovDeg;
   double kappa = 1.0;
   double unit = 1.0;
 };
 
-/// The response at `hfov_deg` (in (0, 180); std::invalid_argument otherwise): 1 from the
-/// calibrated 58° up, interpolated log-log between the lenses measured on the calibration
-/// worlds (45°, 50°, 58°) below it, and 45°'s for narrower lenses.
+/// The response at `hfov_deg` (in (0, 180); std::invalid_argument otherwise): interpolated
+/// log-log between the lenses measured on the calibration worlds (45°, 50°, 58°, 75°, 90°),
+/// and the nearer end's outside them.
 LensResponse LensResponseAt(double hfov_deg);
 
 /// Whether recognition was measured with lenses of `hfov_deg`: 45° to 100°.
@@ -46,7 +48,7 @@ double HorizontalFovDeg(const CameraIntrinsics& camera);
 void AdaptToLens(PipelineOptions& options, double hfov_deg, int views_per_base_point);
 
 /// What AdaptToLens made of τ_κ and distance_unit, for a log line; nothing when it changed
-/// neither (a pan sweep, a lens of 58° or more).
+/// neither (a pan sweep, the calibrated 58° lens).
 std::optional<std::string> LensNote(const PipelineOptions& adapted, double hfov_deg,
                                     int views_per_base_point);
 

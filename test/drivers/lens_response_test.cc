@@ -1,7 +1,8 @@
 // How a forward camera's thresholds follow its lens (drivers/dataset/lens_response.h): the
-// calibrated 58° and wider lenses keep the configured τ_κ and distance unit; narrower ones
-// scale both down by the response measured at 45° and 50°, continuously between them; a pan
-// sweep keeps its preset; lenses outside 45°-100° are cautioned. What the scaling does to
+// calibrated 58° keeps the configured τ_κ and distance unit; narrower lenses scale both down
+// by the response measured at 45° and 50°, wider ones the unit up by that at 75° and 90°,
+// continuously between them; a pan sweep keeps its preset; lenses outside 45°-100° are
+// cautioned. What the scaling does to
 // recognition is SimBarsTest.NarrowerLensIsServedByThresholdsThatFollowIt.
 
 #include "drivers/dataset/lens_response.h"
@@ -16,17 +17,36 @@
 namespace tsc {
 namespace {
 
-TEST(LensResponseTest, TheCalibratedAndWiderLensesKeepTheConfiguredThresholds) {
-  for (const double hfov : {58.0, 60.0, 75.0, 90.0, 120.0}) {
+TEST(LensResponseTest, TheCalibratedLensKeepsTheConfiguredThresholds) {
+  const LensResponse r = LensResponseAt(58.0);
+  EXPECT_EQ(r.kappa, 1.0);
+  EXPECT_EQ(r.unit, 1.0);
+  PipelineOptions options;
+  AdaptToLens(options, 58.0, 1);
+  EXPECT_EQ(options.reliability.tau_kappa, PipelineOptions{}.reliability.tau_kappa);
+  EXPECT_EQ(options.memory.distance_unit, PipelineOptions{}.memory.distance_unit);
+  EXPECT_FALSE(LensNote(options, 58.0, 1));
+}
+
+TEST(LensResponseTest, WiderLensesScaleTheUnitUpAndKeepTauKappa) {
+  EXPECT_NEAR(LensResponseAt(75.0).unit, 1.223, 1e-12);
+  EXPECT_NEAR(LensResponseAt(90.0).unit, 1.405, 1e-12);
+  double previous_unit = 1.0;
+  for (double hfov = 58.5; hfov <= 90.0; hfov += 0.5) {
     const LensResponse r = LensResponseAt(hfov);
     EXPECT_EQ(r.kappa, 1.0) << hfov;
-    EXPECT_EQ(r.unit, 1.0) << hfov;
-    PipelineOptions options;
-    AdaptToLens(options, hfov, 1);
-    EXPECT_EQ(options.reliability.tau_kappa, PipelineOptions{}.reliability.tau_kappa);
-    EXPECT_EQ(options.memory.distance_unit, PipelineOptions{}.memory.distance_unit);
-    EXPECT_FALSE(LensNote(options, hfov, 1)) << hfov;
+    EXPECT_GT(r.unit, previous_unit) << hfov;
+    previous_unit = r.unit;
   }
+  // Wider than measured: held at 90°'s.
+  EXPECT_EQ(LensResponseAt(110.0).unit, LensResponseAt(90.0).unit);
+  PipelineOptions options;
+  AdaptToLens(options, 90.0, 1);
+  EXPECT_EQ(options.reliability.tau_kappa, PipelineOptions{}.reliability.tau_kappa);
+  EXPECT_NEAR(options.memory.distance_unit, 1.405 * PipelineOptions{}.memory.distance_unit, 1e-18);
+  const std::optional<std::string> note = LensNote(options, 90.0, 1);
+  ASSERT_TRUE(note);
+  EXPECT_NE(note->find("a 90° lens: detection.tau_kappa 0.02 and"), std::string::npos) << *note;
 }
 
 TEST(LensResponseTest, NarrowerLensesScaleBothDownContinuously) {
