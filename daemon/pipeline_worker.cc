@@ -161,17 +161,15 @@ PipelineWorker::PipelineWorker(const Settings& settings, const CameraSource& cam
   const auto [stride, spacing] = BasePointsOf(frames);
   base_point_stride_ = stride;
   spacing_assumed_ = !(settings_.daemon.camera.spacing_m > 0.0) && !declared;
-  hfov_deg_ = HorizontalFovDeg(camera.intrinsics());
-  views_per_base_point_ = camera.views_per_base_point();
+  lens_ = CameraLens::Of(camera.intrinsics(), camera.views_per_base_point());
   const PipelineOptions pipeline = AdaptedTo(spacing);
-  if (const std::optional<std::string> note =
-          LensNote(pipeline, hfov_deg_, views_per_base_point_)) {
+  if (const std::optional<std::string> note = LensNote(pipeline, lens_)) {
     spdlog::info("{}", *note);
   }
-  if (const std::optional<std::string> caution = LensCaution(hfov_deg_, views_per_base_point_)) {
+  if (const std::optional<std::string> caution = LensCaution(lens_)) {
     spdlog::warn("{}", *caution);
   }
-  keyframes_check_ = AssumedKeyframesCheck(spacing);
+  keyframes_check_ = AssumedKeyframesCheck(spacing, ChangeResponse(lens_));
   started_empty_ = memory.places().empty();
   pipeline_ = std::make_unique<Pipeline>(camera.intrinsics(), pipeline, std::move(memory),
                                          std::move(map), state);
@@ -184,7 +182,7 @@ PipelineWorker::PipelineWorker(const Settings& settings, const CameraSource& cam
 PipelineOptions PipelineWorker::AdaptedTo(const BasePointSpacing& spacing) const {
   PipelineOptions pipeline = settings_.pipeline;
   AdaptToSpacing(pipeline, spacing);
-  AdaptToLens(pipeline, hfov_deg_, views_per_base_point_);
+  AdaptToLens(pipeline, lens_);
   spdlog::info("base points {:.3g} m apart ({}): places of {} base points or fewer are pruned",
                spacing.metres, spacing.basis, pipeline.detector.EffectiveTauP());
   if (const std::optional<std::string> note = SparseCameraNote(pipeline, spacing)) {

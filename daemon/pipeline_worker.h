@@ -30,6 +30,7 @@
 #include "daemon/system_notifier.h"
 #include "drivers/camera/camera_source.h"
 #include "drivers/dataset/assumed_keyframes_check.h"
+#include "drivers/dataset/camera_lens.h"
 #include "settings/settings.h"
 #include "store/store.h"
 
@@ -174,9 +175,7 @@ class PipelineWorker {
   bool started_empty_ = false;
   int base_point_stride_ = 1;
   bool spacing_assumed_ = true;
-  // The camera's lens and views a base point, which the thresholds follow (AdaptToLens).
-  double hfov_deg_ = 0.0;
-  int views_per_base_point_ = 1;
+  CameraLens lens_;  // which the thresholds follow (AdaptToLens)
   AssumedKeyframesCheck keyframes_check_{BasePointSpacing{}};  // the worker thread's
   std::mutex spacing_mutex_;
   std::optional<double> measured_spacing_m_;  // under spacing_mutex_: not yet adopted

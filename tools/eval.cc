@@ -387,7 +387,8 @@ void WriteSpacing(JsonWriter& w, const EvalResult& r) {
 void WriteLens(JsonWriter& w, const EvalResult& r) {
   if (!r.lens) return;
   w.Key("lens").Begin('{');
-  w.Key("hfov_deg").Number(r.lens->hfov_deg).Key("views").Int(r.lens->views);
+  w.Key("hfov_deg").Number(r.lens->lens.hfov_deg());
+  w.Key("views").Int(r.lens->lens.views_per_base_point());
   w.Key("tau_kappa").Number(r.options.reliability.tau_kappa);
   w.Key("distance_unit").Number(r.options.memory.distance_unit);
   w.Key("caution");
@@ -442,11 +443,14 @@ PreparedDataset PrepareDataset(const Settings& settings, const Dataset& opened, 
   // sequence keeps every frame: its frames were kept for what they show.
   const std::vector<int> frames =
       spacing.keyframes ? std::vector<int>{} : FramesOfRoute(opened.poses(), stride);
+  const CameraLens lens = CameraLens::Of(opened.camera(), opened.sweep().views());
   PreparedDataset out{frames.empty() ? opened.EveryNth(stride) : opened.Subset(frames),
-                      settings.pipeline, spacing, stride};
+                      settings.pipeline,
+                      spacing,
+                      stride,
+                      {lens, LensCaution(lens)}};
   AdaptToSpacing(out.options, spacing);
-  const double hfov = HorizontalFovDeg(opened.camera());
-  AdaptToLens(out.options, hfov, opened.sweep().views());
+  AdaptToLens(out.options, lens);
   if (say != nullptr) {
     *say << "  base points     " << spacing.metres << " m apart (" << spacing.basis
          << "): places of " << out.options.detector.EffectiveTauP()
@@ -463,13 +467,10 @@ PreparedDataset PrepareDataset(const Settings& settings, const Dataset& opened, 
     if (const std::optional<std::string> caution = SpacingCaution(spacing)) {
       *say << "  caution         " << *caution << "\n";
     }
-    if (const std::optional<std::string> note =
-            LensNote(out.options, hfov, opened.sweep().views())) {
+    if (const std::optional<std::string> note = LensNote(out.options, lens)) {
       *say << "  lens            " << *note << "\n";
     }
-    if (const std::optional<std::string> caution = LensCaution(hfov, opened.sweep().views())) {
-      *say << "  caution         " << *caution << "\n";
-    }
+    if (out.lens.caution) *say << "  caution         " << *out.lens.caution << "\n";
   }
   return out;
 }

@@ -18,6 +18,7 @@
 #include <vector>
 
 #include "core/pipeline/pipeline.h"
+#include "drivers/dataset/camera_lens.h"
 #include "drivers/dataset/dataset.h"
 #include "settings/settings.h"
 #include "tools/scoring.h"
@@ -79,8 +80,7 @@ struct EvalSpacing {
 
 /// The lens the thresholds were adapted to (AdaptToLens), for the JSON.
 struct EvalLens {
-  double hfov_deg = 0.0;
-  int views = 1;                       ///< views a base point (a pan sweep's keep their preset)
+  CameraLens lens;
   std::optional<std::string> caution;  ///< LensCaution
 };
 
@@ -122,6 +122,7 @@ struct PreparedDataset {
   PipelineOptions options;   ///< `settings`' pipeline, adapted to those frames' spacing
   BasePointSpacing spacing;  ///< how far apart those frames are, and on what evidence
   int stride = 1;            ///< every stride-th frame of the folder (StrideFor)
+  EvalLens lens;             ///< the lens `options` were adapted to (AdaptToLens)
 };
 
 /// `opened` as `settings` run it: the frames' spacing is camera.spacing_m when set, else what

@@ -132,7 +132,7 @@ ReplayedRobot ReplayRoute(const Settings& settings, uint32_t robot) {
   const BasePoints base_points = BasePointsOf(FramesOf(settings, camera));
   BasePointPicker taken(base_points.stride);
   AdaptToSpacing(options, base_points.spacing);
-  AdaptToLens(options, HorizontalFovDeg(camera.intrinsics()), camera.views_per_base_point());
+  AdaptToLens(options, CameraLens::Of(camera.intrinsics(), camera.views_per_base_point()));
 
   ReplayedRobot out;
   out.id = robot;

@@ -236,9 +236,9 @@ int Run(const std::vector<std::string>& args) {
   const fs::path dataset_dir = vm["dataset"].as<std::string>();
   const fs::path db_path = vm["db"].as<std::string>();
   std::ostringstream spacing;  // said after the summary line
-  const auto [dataset, options, frames_apart, stride] =
+  const auto [dataset, options, frames_apart, stride, lens] =
       PrepareDataset(settings, Dataset::Open(dataset_dir, DatasetOptionsOf(settings)), &spacing);
-  AssumedKeyframesCheck keyframes_check(frames_apart);
+  AssumedKeyframesCheck keyframes_check(frames_apart, ChangeResponse(lens.lens));
   std::optional<std::string> keyframes_caution;
   if (options.features.NeedsDepth() && !dataset.has_depth()) {
     throw DatasetError(dataset_dir.string() + ": bubble.features = " + options.features.ToString() +
@@ -383,18 +383,18 @@ int Eval(const std::vector<std::string>& args) {
   const fs::path json_path = vm["json"].as<std::string>();
   std::ostringstream spacing;  // said after the summary line
   const Dataset opened = Dataset::Open(dataset_dir, DatasetOptionsOf(settings));
-  const auto [dataset, options, frames_apart, stride] = PrepareDataset(settings, opened, &spacing);
+  const auto [dataset, options, frames_apart, stride, lens] =
+      PrepareDataset(settings, opened, &spacing);
   if (options.features.NeedsDepth() && !dataset.has_depth()) {
     throw DatasetError(dataset_dir.string() + ": bubble.features = " + options.features.ToString() +
                        " needs depth, but the dataset has no depth/ folder");
   }
   EvalResult r = Evaluate(dataset, options, eval);
   const std::optional<std::string> keyframes_caution =
-      AssumedKeyframesCaution(frames_apart, r.consecutive_chi2_median);
+      AssumedKeyframesCaution(frames_apart, r.consecutive_chi2_median, ChangeResponse(lens.lens));
   r.spacing = EvalSpacing{frames_apart, stride, opened.size(),
                           keyframes_caution ? keyframes_caution : SpacingCaution(frames_apart)};
-  const double hfov = HorizontalFovDeg(opened.camera());
-  r.lens = EvalLens{hfov, opened.sweep().views(), LensCaution(hfov, opened.sweep().views())};
+  r.lens = lens;
   {
     std::ofstream out(json_path, std::ios::trunc);
     if (!out) throw std::runtime_error(json_path.string() + ": cannot write JSON file");

@@ -51,10 +51,14 @@ void PlaceMemoryOptions::Validate() const {
   }
   kMaxVotePointsRange.Check("memory.max_vote_points", max_vote_points);
   kShortlistRange.Check("memory.shortlist", shortlist);
-  kStepUnitRange.Check("memory.step_unit", step_unit);
-  kDistanceUnitRange.Check("memory.distance_unit", distance_unit);
+  ValidateUnits();
   cost.Validate();
   discriminant.Validate();
+}
+
+void PlaceMemoryOptions::ValidateUnits() const {
+  kStepUnitRange.Check("memory.step_unit", step_unit);
+  kDistanceUnitRange.Check("memory.distance_unit", distance_unit);
 }
 
 PlaceMemory::PlaceMemory(uint32_t robot, PlaceMemoryOptions options)
@@ -114,8 +118,7 @@ double PlaceMemory::MedianViewSpacing() const {
 }
 
 void PlaceMemory::AdoptUnits(const PlaceMemoryOptions& camera) {
-  PlaceMemoryOptions::kStepUnitRange.Check("memory.step_unit", camera.step_unit);
-  PlaceMemoryOptions::kDistanceUnitRange.Check("memory.distance_unit", camera.distance_unit);
+  camera.ValidateUnits();
   options_.step_unit = camera.step_unit;
   options_.distance_unit = camera.distance_unit;
 }

@@ -121,6 +121,8 @@ struct PlaceMemoryOptions {
   static constexpr Range kStepUnitRange{0, 1e6};
   static constexpr Range kShortlistRange{0, 1000000};
   void Validate() const;
+  /// The camera's units alone (step_unit, distance_unit): what AdoptUnits takes.
+  void ValidateUnits() const;
 };
 
 /// D's vote points (evenly spaced base points, at most memory.max_vote_points): in the view

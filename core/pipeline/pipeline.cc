@@ -170,7 +170,7 @@ void Pipeline::Readapt(const DetectorOptions& detector, double step_unit) {
   // Each check comes before anything changes: a throw leaves the pipeline as it was.
   PlaceMemoryOptions units = options_.memory;
   units.step_unit = step_unit;
-  PlaceMemoryOptions::kStepUnitRange.Check("memory.step_unit", step_unit);
+  units.ValidateUnits();
   detector_.Readapt(detector);
   memory_.AdoptUnits(units);
   options_.detector = detector;

@@ -7,8 +7,8 @@
 
 namespace tsc {
 
-AssumedKeyframesCheck::AssumedKeyframesCheck(const BasePointSpacing& spacing)
-    : spacing_(spacing), watching_(spacing.assumed) {}
+AssumedKeyframesCheck::AssumedKeyframesCheck(const BasePointSpacing& spacing, double lens_change)
+    : spacing_(spacing), lens_change_(lens_change), watching_(spacing.assumed) {}
 
 std::optional<std::string> AssumedKeyframesCheck::Add(const Eigen::VectorXf& descriptor) {
   if (!watching_) return std::nullopt;
@@ -21,7 +21,7 @@ std::optional<std::string> AssumedKeyframesCheck::Add(const Eigen::VectorXf& des
   std::vector<double> changes = std::move(changes_);
   previous_.reset();
   if (changes.empty()) return std::nullopt;
-  return AssumedKeyframesCaution(spacing_, UpperMedian(std::move(changes)));
+  return AssumedKeyframesCaution(spacing_, UpperMedian(std::move(changes)), lens_change_);
 }
 
 }  // namespace tsc

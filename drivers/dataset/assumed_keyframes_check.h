@@ -18,15 +18,17 @@ class AssumedKeyframesCheck {
   /// a video).
   static constexpr int kSample = 64;
 
-  /// Watches only when `spacing.assumed`.
-  explicit AssumedKeyframesCheck(const BasePointSpacing& spacing);
+  /// Watches only when `spacing.assumed`; `lens_change` as AssumedKeyframesCaution's.
+  explicit AssumedKeyframesCheck(const BasePointSpacing& spacing, double lens_change = 1.0);
 
   /// The next base point's descriptor. Returns the caution once, at the base point that
-  /// completes the sample, when its median consecutive χ² is below kKeyframeChangeChi2.
+  /// completes the sample, when its median consecutive χ² is below kKeyframeChangeChi2
+  /// scaled by the lens.
   std::optional<std::string> Add(const Eigen::VectorXf& descriptor);
 
  private:
   BasePointSpacing spacing_;
+  double lens_change_;
   bool watching_;
   std::optional<Eigen::VectorXf> previous_;
   std::vector<double> changes_;

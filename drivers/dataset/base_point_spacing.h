@@ -101,8 +101,10 @@ inline constexpr double kKeyframeChangeChi2 = 0.005;
 /// When keyframes were only assumed (`spacing.assumed`) but consecutive frames change less than
 /// kKeyframeChangeChi2 in the median, as a camera's frames do: a caution that names what to
 /// declare (camera.json "fps" or "spacing_m"), since τ_p would count keyframes a metre apart
-/// (3) where a video needs ~25. Nothing otherwise.
+/// (3) where a video needs ~25. Nothing otherwise. `lens_change` scales the threshold to the
+/// camera's lens (ChangeResponse: a 45° lens's frames change 0.62x as much as 58°'s).
 std::optional<std::string> AssumedKeyframesCaution(const BasePointSpacing& spacing,
-                                                   double consecutive_chi2_median);
+                                                   double consecutive_chi2_median,
+                                                   double lens_change = 1.0);
 
 }  // namespace tsc

@@ -1,29 +1,25 @@
 #include "drivers/dataset/lens_response.h"
 
+#include <algorithm>
 #include <array>
 #include <cmath>
 #include <cstdio>
-#include <numbers>
 #include <stdexcept>
 
-#include "core/bubble/camera.h"
 #include "core/pipeline/pipeline.h"
 
 namespace tsc {
 namespace {
 
 // Medians over the nine calibration worlds (seeds 31, 32, 41; office, corridors, outdoor;
-// 160x120, 0.15 m apart) of each world's ratio to its 58° run: consecutive χ² for kappa,
-// consecutive squared distance for unit (docs/calibration.md, thirtieth pass). τ_κ follows
-// only narrower lenses: scaled by the wide lenses' response (1.12 at 75°, 1.31 at 90°)
-// detection found no more boundaries and recognition made more wrong ones, while the unit's
-// scaling recognised more there and no more wrongly.
+// 160x120, 0.15 m apart) of each world's ratio to its 58° run: consecutive χ² and
+// consecutive squared distance (docs/calibration.md, thirtieth pass).
 constexpr std::array<LensResponse, 5> kMeasured{{
     {45.0, 0.616, 0.554},
     {50.0, 0.799, 0.742},
     {kCalibratedHfovDeg, 1.0, 1.0},
-    {75.0, 1.0, 1.223},
-    {90.0, 1.0, 1.405},
+    {75.0, 1.123, 1.223},
+    {90.0, 1.306, 1.405},
 }};
 // Lenses recognition was measured with: beyond them a caution.
 constexpr double kNarrowestMeasuredDeg = 45.0;
@@ -34,7 +30,9 @@ double Interpolated(double x, double x0, double y0, double x1, double y1) {
   return std::exp(std::log(y0) + t * (std::log(y1) - std::log(y0)));
 }
 
-bool IsForward(int views_per_base_point) { return views_per_base_point <= 1; }
+bool WithinMeasuredLenses(double hfov_deg) {
+  return hfov_deg >= kNarrowestMeasuredDeg && hfov_deg <= kWidestMeasuredDeg;
+}
 
 }  // namespace
 
@@ -44,48 +42,48 @@ LensResponse LensResponseAt(double hfov_deg) {
   }
   const LensResponse& narrowest = kMeasured.front();
   const LensResponse& widest = kMeasured.back();
-  if (hfov_deg <= narrowest.hfov_deg) return {hfov_deg, narrowest.kappa, narrowest.unit};
-  if (hfov_deg >= widest.hfov_deg) return {hfov_deg, widest.kappa, widest.unit};
+  if (hfov_deg <= narrowest.hfov_deg) {
+    return {hfov_deg, narrowest.chi2, narrowest.squared_distance};
+  }
+  if (hfov_deg >= widest.hfov_deg) return {hfov_deg, widest.chi2, widest.squared_distance};
   size_t i = 1;
   while (kMeasured[i].hfov_deg < hfov_deg) ++i;
   const LensResponse& a = kMeasured[i - 1];
   const LensResponse& b = kMeasured[i];
-  return {hfov_deg, Interpolated(hfov_deg, a.hfov_deg, a.kappa, b.hfov_deg, b.kappa),
-          Interpolated(hfov_deg, a.hfov_deg, a.unit, b.hfov_deg, b.unit)};
+  return {hfov_deg, Interpolated(hfov_deg, a.hfov_deg, a.chi2, b.hfov_deg, b.chi2),
+          Interpolated(hfov_deg, a.hfov_deg, a.squared_distance, b.hfov_deg, b.squared_distance)};
 }
 
-bool WithinMeasuredLenses(double hfov_deg) {
-  return hfov_deg >= kNarrowestMeasuredDeg && hfov_deg <= kWidestMeasuredDeg;
+double ChangeResponse(const CameraLens& lens) {
+  return lens.forward() ? LensResponseAt(lens.hfov_deg()).chi2 : 1.0;
 }
 
-double HorizontalFovDeg(const CameraIntrinsics& camera) {
-  const double deg = 2.0 * std::atan(0.5 * camera.width() / camera.fx()) * 180.0 / std::numbers::pi;
-  // To a millionth of a degree: a camera made from a field of view gives that field back.
-  return std::round(deg * 1e6) / 1e6;
-}
-
-void AdaptToLens(PipelineOptions& options, double hfov_deg, int views_per_base_point) {
-  if (!IsForward(views_per_base_point)) return;
-  const LensResponse r = LensResponseAt(hfov_deg);
-  options.reliability.tau_kappa *= r.kappa;
+void AdaptToLens(PipelineOptions& options, const CameraLens& lens) {
+  if (!lens.forward()) return;
+  const LensResponse r = LensResponseAt(lens.hfov_deg());
+  // Scaled up for wide lenses (1.12 at 75°, 1.31 at 90°) detection found no more boundaries
+  // and recognition made more wrong ones; the configured τ_κ already detects there.
+  options.reliability.tau_kappa *= std::min(r.chi2, 1.0);
   // 0 is the memory's own median view spacing, which follows the lens by itself.
-  options.memory.distance_unit *= r.unit;
+  options.memory.distance_unit *= r.squared_distance;
 }
 
-std::optional<std::string> LensNote(const PipelineOptions& adapted, double hfov_deg,
-                                    int views_per_base_point) {
-  if (!IsForward(views_per_base_point) || hfov_deg == kCalibratedHfovDeg) return std::nullopt;
-  char text[240];
+std::optional<std::string> LensNote(const PipelineOptions& adapted, const CameraLens& lens) {
+  if (!lens.forward() || lens.hfov_deg() == kCalibratedHfovDeg) return std::nullopt;
+  char text[260];
   std::snprintf(text, sizeof text,
-                "a %.3g° lens: detection.tau_kappa %.3g and memory.distance_unit %.3g, the "
-                "configured values (for %.3g°) scaled as descriptors change at that lens",
-                hfov_deg, adapted.reliability.tau_kappa, adapted.memory.distance_unit,
-                kCalibratedHfovDeg);
+                "a %.3g° lens: detection.tau_kappa %.3g (%s) and memory.distance_unit %.3g, "
+                "scaled from the configured values (for %.3g°) as descriptors change at that "
+                "lens",
+                lens.hfov_deg(), adapted.reliability.tau_kappa,
+                lens.hfov_deg() < kCalibratedHfovDeg ? "scaled" : "as configured",
+                adapted.memory.distance_unit, kCalibratedHfovDeg);
   return std::string(text);
 }
 
-std::optional<std::string> LensCaution(double hfov_deg, int views_per_base_point) {
-  if (!IsForward(views_per_base_point) || WithinMeasuredLenses(hfov_deg)) return std::nullopt;
+std::optional<std::string> LensCaution(const CameraLens& lens) {
+  const double hfov_deg = lens.hfov_deg();
+  if (!lens.forward() || WithinMeasuredLenses(hfov_deg)) return std::nullopt;
   char text[260];
   std::snprintf(text, sizeof text,
                 "a %.3g° lens is outside the lenses recognition was measured with (%.3g° to "

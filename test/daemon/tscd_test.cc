@@ -565,8 +565,10 @@ TEST_F(TscdTest, ANarrowLensRunsWithThresholdsThatFollowIt) {
   const fs::path frames = dir_ / "frames";
   sim::WriteSimulatedDataset(frames, world);
   const std::string narrow = ReadFolderToItsEnd(frames, "narrow");
-  EXPECT_NE(narrow.find("a 45° lens: detection.tau_kappa 0.0123 and memory.distance_unit 2.49e-06"),
-            std::string::npos)
+  EXPECT_NE(
+      narrow.find(
+          "a 45° lens: detection.tau_kappa 0.0123 (scaled) and memory.distance_unit 2.49e-06"),
+      std::string::npos)
       << narrow;
   EXPECT_EQ(narrow.find("outside the lenses"), std::string::npos) << narrow;
 

@@ -20,6 +20,7 @@
 #include "drivers/dataset/base_point_picker.h"
 #include "drivers/dataset/base_point_spacing.h"
 #include "drivers/dataset/base_point_stride.h"
+#include "drivers/dataset/lens_response.h"
 #include "drivers/dataset/planar_pose.h"
 #include "test/support/image_bombs.h"
 #include "test/support/temp_dir.h"
@@ -174,6 +175,24 @@ TEST_F(DatasetTest, AssumedKeyframesThatChangeLikeAVideosFramesAreCautioned) {
   EXPECT_FALSE(AssumedKeyframesCaution(declared, 0.0026));
   WriteText(dir_ / "camera.json", R"({"hfov_deg": 60, "fps": 30})");
   EXPECT_FALSE(AssumedKeyframesCaution(Dataset::Open(dir_).spacing(), 0.0026));
+}
+
+// The threshold follows the lens as τ_κ does: a 45° lens's frames change 0.62x as much, so
+// the real loop's keyframes seen through it (0.0102 x 0.62) are still keyframes and a 45°
+// video's frames (0.0026 x 0.62) still cautioned; a 90° lens's video (0.005 x 1.31) is
+// cautioned where the 58° threshold would have taken it for keyframes.
+TEST_F(DatasetTest, TheAssumedKeyframesCautionFollowsTheLens) {
+  for (int i = 1; i <= 2; ++i) WriteImage(dir_ / (std::to_string(i) + ".png"), Image(i, 40, 30));
+  const BasePointSpacing assumed = Dataset::Open(dir_).spacing();
+  const double narrow = ChangeResponse(CameraLens(45.0, 1));
+  const double wide = ChangeResponse(CameraLens(90.0, 1));
+  EXPECT_FALSE(AssumedKeyframesCaution(assumed, 0.0102 * narrow, narrow));
+  EXPECT_FALSE(AssumedKeyframesCaution(assumed, 0.0045, narrow));
+  EXPECT_TRUE(AssumedKeyframesCaution(assumed, 0.0026 * narrow, narrow));
+  EXPECT_FALSE(AssumedKeyframesCaution(assumed, 0.0055, 1.0));
+  const std::optional<std::string> video = AssumedKeyframesCaution(assumed, 0.0055, wide);
+  ASSERT_TRUE(video);
+  EXPECT_NE(video->find("above 0.0065"), std::string::npos) << *video;
 }
 
 // The same caution base point by base point (tscd, tsc run): given once, at the base point
