@@ -1,6 +1,6 @@
 // Fuzz target: one file of a dataset folder (TSCD_FUZZ_FILE: camera.json, groundtruth.csv,
-// revisits.csv, or a frame image), read by Dataset::Open (and Load for images) as `tsc run`,
-// `tsc eval` and the folder camera read it. Any input must load or be refused with a
+// revisits.csv, groundtruth.bmp, or a frame image), read by Dataset::Open (and Load for images) as
+// `tsc run`, `tsc eval` and the folder camera read it. Any input must load or be refused with a
 // DatasetError.
 
 #include <unistd.h>

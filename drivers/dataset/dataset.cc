@@ -14,6 +14,7 @@
 
 #include "core/median.h"
 #include "drivers/dataset/json_reader.h"
+#include "drivers/dataset/revisit_bitmap.h"
 #include "drivers/image/bounded_decode.h"
 #include "drivers/image/image_header.h"
 
@@ -442,6 +443,8 @@ Dataset Dataset::Open(const fs::path& folder, const DatasetOptions& options) {
         ds.revisits_[f].push_back(r);
       }
     }
+  } else if (const fs::path bitmap = folder / kRevisitBitmapName; fs::exists(bitmap, ec)) {
+    ds.revisits_ = ReadRevisitBitmap(bitmap, n);
   }
   return ds;
 }

@@ -14,6 +14,8 @@
 //                       how far apart the frames are (BasePointSpacing)
 //   DATASET/groundtruth.csv  optional: frame,place[,x,y,heading]   (frame 1-based)
 //   DATASET/revisits.csv     optional: frame,revisits              (1-based, space separated)
+//   DATASET/groundtruth.bmp  optional, read when there is no revisits.csv: the same as an
+//                            N x N bitmap, RTAB-Map's form (drivers/dataset/revisit_bitmap.h)
 //
 // Frames are read one at a time by Load(): a dataset of 10⁴ frames costs a list of paths.
 
@@ -71,8 +73,8 @@ class Dataset {
   /// folder, the presence of images, zero-size image files (options.empty_images), the first
   /// image that is not empty (for the size; decoded only when its header claims at most
   /// options.max_image_pixels), one depth file per frame, camera.json, groundtruth.csv and
-  /// revisits.csv. Throws DatasetError naming the file or folder at fault (and an image's
-  /// claimed size), std::invalid_argument for bad options.
+  /// revisits.csv (or groundtruth.bmp). Throws DatasetError naming the file or folder at fault (and
+  /// an image's claimed size), std::invalid_argument for bad options.
   static Dataset Open(const std::filesystem::path& folder, const DatasetOptions& options = {});
 
   const std::filesystem::path& folder() const { return folder_; }
@@ -103,7 +105,8 @@ class Dataset {
   const std::vector<std::string>& labels() const { return labels_; }
   /// Per-frame pose when groundtruth.csv has x,y,heading; empty otherwise.
   const std::vector<std::optional<GroundTruthPose>>& poses() const { return poses_; }
-  /// Per-frame earlier frames showing the same place (0-based); empty without revisits.csv.
+  /// Per-frame earlier frames showing the same place (0-based); empty without revisits.csv
+  /// or groundtruth.bmp.
   const std::vector<std::vector<int>>& revisits() const { return revisits_; }
 
   /// Frames 0, stride, 2·stride, ... as a dataset of their own (the base points of a camera
