@@ -7,117 +7,22 @@
 #include <algorithm>
 #include <array>
 #include <bit>
-#include <cerrno>
-#include <cstring>
 #include <limits>
 #include <span>
 #include <string_view>
-#include <system_error>
-#include <type_traits>
 #include <unordered_map>
 #include <unordered_set>
 #include <utility>
 #include <vector>
 
+#include "store/blob.h"
+#include "store/schema.h"
+#include "store/sqlite_db.h"
+
 namespace tsc {
 namespace {
 
-// ---------------------------------------------------------------------------------------
-// Schema. kMigrations[v] takes a database from version v to v + 1; a step that has shipped is
-// never edited, a change is a new step appended here.
-
-constexpr std::array<const char*, 5> kMigrations = {
-    // Version 1: the initial schema, after appendix D.2.
-    R"sql(
-CREATE TABLE meta(key TEXT PRIMARY KEY, value) WITHOUT ROWID;
-CREATE TABLE base_points(
-  idx INTEGER PRIMARY KEY,          -- BaseIndex k
-  status INTEGER NOT NULL,          -- BaseStatus: 0 good, 1 uninformative, 2 incoherent
-  descriptor BLOB NOT NULL,         -- float32 LE
-  intensity_mean REAL NOT NULL,
-  intensity_var REAL NOT NULL);
-CREATE TABLE detected_places(
-  idx INTEGER PRIMARY KEY,          -- DetectedPlaceIndex m
-  mean BLOB NOT NULL,               -- float32 LE
-  members BLOB NOT NULL,            -- int64 LE base point indices
-  place_robot INTEGER,              -- β(D_m), once recognised or learned
-  place_local INTEGER);
-CREATE TABLE transition_regions(
-  id INTEGER PRIMARY KEY AUTOINCREMENT,
-  first INTEGER NOT NULL,           -- base points, inclusive
-  last INTEGER NOT NULL,
-  from_robot INTEGER, from_local INTEGER,
-  to_robot INTEGER, to_local INTEGER,
-  UNIQUE(first, last));
-CREATE TABLE learned_places(
-  position INTEGER PRIMARY KEY,     -- index in PlaceMemory::places()
-  robot INTEGER NOT NULL,
-  local INTEGER NOT NULL,
-  mean BLOB NOT NULL,               -- float32 LE
-  member_count INTEGER NOT NULL,
-  samples BLOB NOT NULL,            -- int32 rows, int32 cols, float32 column-major
-  detected BLOB NOT NULL,           -- int64 LE detected place indices
-  members BLOB NOT NULL,            -- int64 LE base point indices
-  UNIQUE(robot, local));
-CREATE TABLE memory_nodes(
-  idx INTEGER PRIMARY KEY,
-  parent INTEGER NOT NULL,          -- -1 for the root
-  place INTEGER NOT NULL,           -- place position for terminals, -1 for inner nodes
-  height REAL NOT NULL,
-  first_leaf INTEGER NOT NULL,
-  end_leaf INTEGER NOT NULL,
-  set_key INTEGER NOT NULL);        -- uint64 bit-cast to int64
-CREATE TABLE discriminants(
-  set_key INTEGER PRIMARY KEY,      -- uint64 bit-cast to int64
-  dim INTEGER NOT NULL,
-  n_sv INTEGER NOT NULL,
-  rho REAL NOT NULL,
-  gamma REAL NOT NULL,
-  support BLOB NOT NULL,            -- float32 LE, dim x n_sv column-major
-  coef BLOB NOT NULL);              -- float32 LE, n_sv
-CREATE TABLE map_places(
-  robot INTEGER NOT NULL,
-  local INTEGER NOT NULL,
-  PRIMARY KEY(robot, local)) WITHOUT ROWID;
-CREATE TABLE map_edges(
-  a_robot INTEGER NOT NULL, a_local INTEGER NOT NULL,  -- a < b
-  b_robot INTEGER NOT NULL, b_local INTEGER NOT NULL,
-  traversals INTEGER NOT NULL,
-  transitions BLOB NOT NULL,        -- int64 LE (first, last) pairs
-  PRIMARY KEY(a_robot, a_local, b_robot, b_local)) WITHOUT ROWID;
-CREATE TABLE peers(                 -- teammates merged so far (written by the merge issue)
-  robot INTEGER PRIMARY KEY,
-  last_merged_version INTEGER NOT NULL,
-  merged_at_utime INTEGER NOT NULL);
-)sql",
-    // Version 2: the ids of other robots' places a learned place absorbed by merging
-    // (core/merge), uint32 LE (robot, local) pairs; empty for places never merged.
-    R"sql(
-ALTER TABLE learned_places ADD COLUMN sources BLOB NOT NULL DEFAULT x'';
-)sql",
-    // Version 3: the digest of the peer memory merged last (the exchange fetches a peer again
-    // only when its digest changes).
-    R"sql(
-ALTER TABLE peers ADD COLUMN digest INTEGER NOT NULL DEFAULT 0;
-)sql",
-    // Version 4: learned_places.samples written as 16-bit views (EncodeSamples); rows of the
-    // float32 layout are still read. No table changes: the version keeps an older tscd from
-    // reading views it cannot decode.
-    R"sql(
-SELECT 1;
-)sql",
-    // Version 5: the revisits seen so far that showed two places holding one room
-    // (core/pipeline/copy_evidence.h), so that a restart between laps does not forget them.
-    R"sql(
-CREATE TABLE copy_evidence(
-  a_robot INTEGER NOT NULL, a_local INTEGER NOT NULL,
-  b_robot INTEGER NOT NULL, b_local INTEGER NOT NULL,
-  count INTEGER NOT NULL,           -- revisits that showed the pair
-  last INTEGER NOT NULL,            -- detected place index of the latest
-  PRIMARY KEY(a_robot, a_local, b_robot, b_local)) WITHOUT ROWID;
-)sql",
-};
-static_assert(static_cast<int>(kMigrations.size()) == Store::kSchemaVersion);
+using namespace store_internal;  // the store's blobs, connection and schema
 
 constexpr int kBusyTimeoutMs = 5000;
 
@@ -144,113 +49,6 @@ constexpr const char* kMetaSlink = "slink";  // int32 π[n] then float64 λ[n]
 // In a spill only (Store::WriteSpill): the next_base of the database it continues; NULL when
 // the process that wrote it never loaded that database.
 constexpr const char* kMetaSpillContinues = "spill_continues_base";
-
-// ---------------------------------------------------------------------------------------
-// Blobs: little-endian raw arrays of arithmetic values with explicit length checks.
-
-template <typename T>
-concept Arithmetic = std::is_arithmetic_v<T> && !std::is_same_v<T, bool>;
-
-using Bytes = std::vector<unsigned char>;
-
-/// Copies `count` values between native and little-endian byte order (the conversion is its
-/// own inverse, so one function serves both directions).
-template <Arithmetic T>
-void CopyLittleEndian(const unsigned char* src, unsigned char* dst, size_t count) {
-  static_assert(std::endian::native == std::endian::little ||
-                std::endian::native == std::endian::big);
-  if constexpr (std::endian::native == std::endian::little) {
-    if (count > 0) std::memcpy(dst, src, count * sizeof(T));
-  } else {
-    for (size_t i = 0; i < count; ++i) {
-      std::reverse_copy(src + i * sizeof(T), src + (i + 1) * sizeof(T), dst + i * sizeof(T));
-    }
-  }
-}
-
-class BlobWriter {
- public:
-  template <Arithmetic T>
-  BlobWriter& Put(std::span<const T> values) {
-    const size_t at = bytes_.size();
-    bytes_.resize(at + values.size_bytes());
-    CopyLittleEndian<T>(reinterpret_cast<const unsigned char*>(values.data()), bytes_.data() + at,
-                        values.size());
-    return *this;
-  }
-  template <Arithmetic T>
-  BlobWriter& PutOne(T value) {
-    return Put(std::span<const T>(&value, 1));
-  }
-  Bytes Finish() { return std::move(bytes_); }
-
- private:
-  Bytes bytes_;
-};
-
-/// A blob that does not decode; the caller adds table, row and column.
-class BlobError : public std::runtime_error {
- public:
-  using std::runtime_error::runtime_error;
-};
-
-class BlobReader {
- public:
-  explicit BlobReader(std::span<const unsigned char> bytes) : bytes_(bytes) {}
-
-  size_t remaining() const { return bytes_.size() - pos_; }
-
-  template <Arithmetic T>
-  void TakeInto(T* out, size_t count) {
-    if (count > remaining() / sizeof(T)) {
-      throw BlobError("blob of " + std::to_string(bytes_.size()) +
-                      " bytes is too short: " + std::to_string(count) + " values of " +
-                      std::to_string(sizeof(T)) + " bytes wanted at byte " + std::to_string(pos_));
-    }
-    CopyLittleEndian<T>(bytes_.data() + pos_, reinterpret_cast<unsigned char*>(out), count);
-    pos_ += count * sizeof(T);
-  }
-  template <Arithmetic T>
-  std::vector<T> Take(size_t count) {
-    if (count > remaining() / sizeof(T)) {
-      TakeInto<T>(nullptr, count);  // throws with the standard message
-    }
-    std::vector<T> out(count);
-    TakeInto(out.data(), count);
-    return out;
-  }
-  template <Arithmetic T>
-  T TakeOne() {
-    T value{};
-    TakeInto(&value, 1);
-    return value;
-  }
-  /// Everything left, which must be a whole number of values.
-  template <Arithmetic T>
-  std::vector<T> TakeRest() {
-    if (remaining() % sizeof(T) != 0) {
-      throw BlobError("blob of " + std::to_string(bytes_.size()) +
-                      " bytes is not a whole number of " + std::to_string(sizeof(T)) +
-                      "-byte values");
-    }
-    return Take<T>(remaining() / sizeof(T));
-  }
-  void ExpectEnd() const {
-    if (remaining() != 0) {
-      throw BlobError("blob of " + std::to_string(bytes_.size()) + " bytes has " +
-                      std::to_string(remaining()) + " trailing bytes");
-    }
-  }
-
- private:
-  std::span<const unsigned char> bytes_;
-  size_t pos_ = 0;
-};
-
-template <Arithmetic T>
-Bytes EncodeArray(std::span<const T> values) {
-  return BlobWriter().Put(values).Finish();
-}
 
 Bytes EncodeVector(const Eigen::VectorXf& v) {
   return EncodeArray(std::span<const float>(v.data(), static_cast<size_t>(v.size())));
@@ -296,314 +94,44 @@ int64_t ToSqlKey(uint64_t key) { return std::bit_cast<int64_t>(key); }
 uint64_t FromSqlKey(int64_t key) { return std::bit_cast<uint64_t>(key); }
 
 // ---------------------------------------------------------------------------------------
-// sqlite3 wrappers.
+// Member views (Row::Decode of their blob).
 
-/// The open connection and the file name every message carries.
-struct Db {
-  sqlite3* handle;
-  const std::filesystem::path& path;
-};
-
-[[noreturn]] void Fail(const Db& db, const std::string& what) {
-  throw StoreError(db.path.string() + ": " + what);
-}
-
-/// Why this process cannot write the database `path` (an errno: EACCES, EROFS, ENOTDIR,
-/// ENOENT for a missing folder), or 0 when it could: the file when it exists, then the folder,
-/// where SQLite makes the file, its -wal and its -shm.
-int CannotWriteReason(const std::filesystem::path& path) {
-  if (::faccessat(AT_FDCWD, path.c_str(), F_OK, AT_EACCESS) == 0) {
-    if (::faccessat(AT_FDCWD, path.c_str(), R_OK | W_OK, AT_EACCESS) != 0) return errno;
-  } else if (errno != ENOENT) {
-    return errno;
-  }
-  const std::filesystem::path dir = path.has_parent_path() ? path.parent_path() : ".";
-  return ::faccessat(AT_FDCWD, dir.c_str(), W_OK | X_OK, AT_EACCESS) == 0 ? 0 : errno;
-}
-
-/// The last failure came from the file system under SQLite (not a full disk: that passes).
-bool FileSystemFailure(const Db& db) {
-  if (db.handle == nullptr) return false;
-  const int primary = sqlite3_errcode(db.handle) & 0xff;
-  return primary == SQLITE_IOERR || primary == SQLITE_READONLY || primary == SQLITE_CANTOPEN;
-}
-
-/// " (No space left on device)" when the last failure came from the file system: SQLite's own
-/// text says "disk I/O error" or "database or disk is full", the operating system's says which.
-std::string OsError(const Db& db) {
-  const int primary = sqlite3_errcode(db.handle) & 0xff;
-  const bool io = primary == SQLITE_IOERR || primary == SQLITE_FULL || primary == SQLITE_CANTOPEN ||
-                  primary == SQLITE_READONLY;
-  int os_errno = sqlite3_system_errno(db.handle);
-  if (primary == SQLITE_CANTOPEN || primary == SQLITE_READONLY) {
-    // SQLite falls back to opening read-only after a refused read-write open, so the errno it
-    // keeps is that of the fallback (ENOENT for a file not made yet), or none, not why it
-    // could not write: ask the system about the file and the folder it makes its files in.
-    if (const int why = CannotWriteReason(db.path); why != 0) os_errno = why;
-  }
-  if (!io || os_errno == 0) return "";
-  return " (" + std::system_category().message(os_errno) + ")";
-}
-
-[[noreturn]] void FailSqlite(const Db& db, const std::string& what) {
-  if (db.handle == nullptr) Fail(db, what + ": out of memory");
-  throw StoreError(db.path.string() + ": " + what + ": " + sqlite3_errmsg(db.handle) + OsError(db),
-                   FileSystemFailure(db));
-}
-
-void Exec(const Db& db, const char* sql) {
-  char* message = nullptr;
-  if (sqlite3_exec(db.handle, sql, nullptr, nullptr, &message) != SQLITE_OK) {
-    const std::string text = (message ? message : sqlite3_errmsg(db.handle)) + OsError(db);
-    sqlite3_free(message);
-    const std::string_view head(sql);
-    throw StoreError(
-        db.path.string() + ": cannot execute `" + std::string(head.substr(0, 60)) + "`: " + text,
-        FileSystemFailure(db));
-  }
-}
-
-/// A prepared statement, finalised on destruction.
-class Statement {
- public:
-  Statement(const Db& db, const char* sql) : db_(db) {
-    if (sqlite3_prepare_v2(db.handle, sql, -1, &stmt_, nullptr) != SQLITE_OK) {
-      FailSqlite(db, std::string("cannot prepare `") + sql + "`");
+/// Member views in either layout of EncodeSamples, from `row`'s column `col`.
+CompactViews ReadSamples(const Row& row, int col, const char* name) {
+  // Sizes are checked before anything of rows x cols is allocated.
+  const auto count_of = [](BlobReader& r, int32_t rows, int32_t cols, size_t value_bytes) {
+    if (rows < 0 || cols < 0) {
+      throw BlobError("negative size " + std::to_string(rows) + " x " + std::to_string(cols));
     }
-  }
-  Statement(const Statement&) = delete;
-  Statement& operator=(const Statement&) = delete;
-  ~Statement() { sqlite3_finalize(stmt_); }
-
-  Statement& Int(int i, int64_t v) { return Check(sqlite3_bind_int64(stmt_, i, v)); }
-  Statement& Real(int i, double v) { return Check(sqlite3_bind_double(stmt_, i, v)); }
-  Statement& Null(int i) { return Check(sqlite3_bind_null(stmt_, i)); }
-  Statement& Text(int i, const char* text) {
-    return Check(sqlite3_bind_text(stmt_, i, text, -1, SQLITE_TRANSIENT));
-  }
-  Statement& Blob(int i, const Bytes& bytes) {
-    static const unsigned char kEmpty = 0;  // a null pointer would bind NULL, not an empty blob
-    return Check(sqlite3_bind_blob64(stmt_, i, bytes.empty() ? &kEmpty : bytes.data(), bytes.size(),
-                                     SQLITE_TRANSIENT));
-  }
-  /// Binds robot at i and local at i + 1 (NULLs when absent).
-  Statement& Place(int i, const std::optional<PlaceId>& id) {
-    if (!id) return Null(i).Null(i + 1);
-    return Int(i, id->robot).Int(i + 1, id->local);
-  }
-
-  /// True when a row is ready; false when the statement is done.
-  bool Step() {
-    const int rc = sqlite3_step(stmt_);
-    if (rc == SQLITE_ROW) return true;
-    if (rc == SQLITE_DONE) return false;
-    FailSqlite(db_, std::string("cannot run `") + sqlite3_sql(stmt_) + "`");
-  }
-  /// Runs a statement that returns no rows and makes it ready for new bindings.
-  void Run() {
-    while (Step()) {
+    const uint64_t count = uint64_t{static_cast<uint32_t>(rows)} * static_cast<uint32_t>(cols);
+    if (count > r.remaining() / value_bytes) {
+      throw BlobError(std::to_string(rows) + " x " + std::to_string(cols) + " values need " +
+                      std::to_string(count * value_bytes) + " bytes, " +
+                      std::to_string(r.remaining()) + " left");
     }
-    Reset();
-  }
-  void Reset() {
-    sqlite3_reset(stmt_);
-    sqlite3_clear_bindings(stmt_);
-  }
-  sqlite3_stmt* get() const { return stmt_; }
-
- private:
-  Statement& Check(int rc) {
-    if (rc != SQLITE_OK)
-      FailSqlite(db_, std::string("cannot bind to `") + sqlite3_sql(stmt_) + "`");
-    return *this;
-  }
-
-  Db db_;
-  sqlite3_stmt* stmt_ = nullptr;
-};
-
-/// BEGIN IMMEDIATE … COMMIT; rolls back unless Commit() succeeded (on exceptions too).
-class Transaction {
- public:
-  explicit Transaction(const Db& db) : db_(db) { Exec(db_, "BEGIN IMMEDIATE"); }
-  Transaction(const Transaction&) = delete;
-  Transaction& operator=(const Transaction&) = delete;
-  ~Transaction() {
-    if (!committed_) sqlite3_exec(db_.handle, "ROLLBACK", nullptr, nullptr, nullptr);
-  }
-  void Commit() {
-    Exec(db_, "COMMIT");
-    committed_ = true;
-  }
-
- private:
-  Db db_;
-  bool committed_ = false;
-};
-
-/// The current row of a query, with checked typed access: every failure names the table, the
-/// row and the column.
-class Row {
- public:
-  Row(const Db& db, const Statement& stmt, std::string table, std::string row)
-      : db_(db), stmt_(stmt.get()), table_(std::move(table)), row_(std::move(row)) {}
-
-  [[noreturn]] void Fail(const char* column, const std::string& what) const {
-    tsc::Fail(db_, "table " + table_ + ", row " + row_ + ", column " + column + ": " + what);
-  }
-
-  bool IsNull(int col) const { return sqlite3_column_type(stmt_, col) == SQLITE_NULL; }
-
-  int64_t Int(int col, const char* name, int64_t lo = std::numeric_limits<int64_t>::min(),
-              int64_t hi = std::numeric_limits<int64_t>::max()) const {
-    if (sqlite3_column_type(stmt_, col) != SQLITE_INTEGER) Fail(name, "not an integer");
-    const int64_t v = sqlite3_column_int64(stmt_, col);
-    if (v < lo || v > hi) {
-      Fail(name,
-           std::to_string(v) + " outside [" + std::to_string(lo) + ", " + std::to_string(hi) + "]");
-    }
-    return v;
-  }
-  std::optional<int64_t> OptionalInt(int col, const char* name, int64_t lo, int64_t hi) const {
-    if (IsNull(col)) return std::nullopt;
-    return Int(col, name, lo, hi);
-  }
-  double Real(int col, const char* name) const {
-    const int type = sqlite3_column_type(stmt_, col);
-    if (type != SQLITE_FLOAT && type != SQLITE_INTEGER) Fail(name, "not a number");
-    return sqlite3_column_double(stmt_, col);
-  }
-  PlaceId Place(int col, const char* name) const {
-    std::optional<PlaceId> id = OptionalPlace(col, name);
-    if (!id) Fail(name, "no place");
-    return *id;
-  }
-  /// Robot at `col`, local at `col + 1`; both NULL → none.
-  std::optional<PlaceId> OptionalPlace(int col, const char* name) const {
-    constexpr int64_t kMax = std::numeric_limits<uint32_t>::max();
-    if (IsNull(col) && IsNull(col + 1)) return std::nullopt;
-    return PlaceId{static_cast<uint32_t>(Int(col, name, 0, kMax)),
-                   static_cast<uint32_t>(Int(col + 1, name, 0, kMax))};
-  }
-
-  /// Runs `decode(BlobReader&)` over a BLOB column; decoding errors name the cell.
-  template <typename F>
-  auto Decode(int col, const char* name, F&& decode) const {
-    if (sqlite3_column_type(stmt_, col) != SQLITE_BLOB) Fail(name, "not a blob");
-    const auto* data = static_cast<const unsigned char*>(sqlite3_column_blob(stmt_, col));
-    const int size = sqlite3_column_bytes(stmt_, col);
-    BlobReader reader(std::span<const unsigned char>(data, data ? static_cast<size_t>(size) : 0));
+    return static_cast<size_t>(count);
+  };
+  return row.Decode(col, name, [&](BlobReader& r) {
     try {
-      return decode(reader);
-    } catch (const BlobError& e) {
-      Fail(name, e.what());
-    }
-  }
-  template <Arithmetic T>
-  std::vector<T> Array(int col, const char* name) const {
-    return Decode(col, name, [](BlobReader& r) { return r.TakeRest<T>(); });
-  }
-  /// A float32 vector; `dim` ≥ 0 requires that many values. Values must be finite.
-  Eigen::VectorXf Vector(int col, const char* name, int64_t dim = -1) const {
-    Eigen::VectorXf v = Decode(col, name, [&](BlobReader& r) {
-      if (r.remaining() % sizeof(float) != 0 ||
-          (dim >= 0 && r.remaining() != static_cast<size_t>(dim) * sizeof(float))) {
-        throw BlobError("blob of " + std::to_string(r.remaining()) + " bytes is not " +
-                        (dim >= 0 ? std::to_string(dim) : std::string("a whole number of")) +
-                        " float32 values");
-      }
-      Eigen::VectorXf out(static_cast<Eigen::Index>(r.remaining() / sizeof(float)));
-      r.TakeInto(out.data(), static_cast<size_t>(out.size()));
-      return out;
-    });
-    if (!v.allFinite()) Fail(name, "non-finite value");
-    return v;
-  }
-  /// A float32 matrix stored column-major, of `rows` x `cols` (both in [0, 2^31)).
-  Eigen::MatrixXf Matrix(int col, const char* name, int64_t rows, int64_t cols) const {
-    Eigen::MatrixXf m = Decode(col, name, [&](BlobReader& r) {
-      // Sizes are checked before anything of rows x cols is allocated.
-      if (static_cast<uint64_t>(rows) * static_cast<uint64_t>(cols) * sizeof(float) !=
-          r.remaining()) {
-        throw BlobError("blob of " + std::to_string(r.remaining()) + " bytes is not " +
-                        std::to_string(rows) + " x " + std::to_string(cols) + " float32 values");
-      }
-      Eigen::MatrixXf out(rows, cols);
-      r.TakeInto(out.data(), static_cast<size_t>(out.size()));
-      r.ExpectEnd();
-      return out;
-    });
-    if (!m.allFinite()) Fail(name, "non-finite value");
-    return m;
-  }
-  /// Member views in either layout of EncodeSamples.
-  CompactViews Samples(int col, const char* name) const {
-    // Sizes are checked before anything of rows x cols is allocated.
-    const auto count_of = [](BlobReader& r, int32_t rows, int32_t cols, size_t value_bytes) {
-      if (rows < 0 || cols < 0) {
-        throw BlobError("negative size " + std::to_string(rows) + " x " + std::to_string(cols));
-      }
-      const uint64_t count = uint64_t{static_cast<uint32_t>(rows)} * static_cast<uint32_t>(cols);
-      if (count > r.remaining() / value_bytes) {
-        throw BlobError(std::to_string(rows) + " x " + std::to_string(cols) + " values need " +
-                        std::to_string(count * value_bytes) + " bytes, " +
-                        std::to_string(r.remaining()) + " left");
-      }
-      return static_cast<size_t>(count);
-    };
-    return Decode(col, name, [&](BlobReader& r) {
-      try {
-        const int32_t first = r.TakeOne<int32_t>();
-        if (first == kCompactSamples) {
-          const int32_t rows = r.TakeOne<int32_t>(), cols = r.TakeOne<int32_t>();
-          const int32_t shift = r.TakeOne<int32_t>();
-          std::vector<int16_t> values = r.Take<int16_t>(count_of(r, rows, cols, sizeof(int16_t)));
-          r.ExpectEnd();
-          return CompactViews(rows, cols, shift, std::move(values));
-        }
-        const int32_t cols = r.TakeOne<int32_t>();
-        const size_t count = count_of(r, first, cols, sizeof(float));
-        Eigen::MatrixXf floats(first, cols);
-        r.TakeInto(floats.data(), count);
+      const int32_t first = r.TakeOne<int32_t>();
+      if (first == kCompactSamples) {
+        const int32_t rows = r.TakeOne<int32_t>(), cols = r.TakeOne<int32_t>();
+        const int32_t shift = r.TakeOne<int32_t>();
+        std::vector<int16_t> values = r.Take<int16_t>(count_of(r, rows, cols, sizeof(int16_t)));
         r.ExpectEnd();
-        if (!floats.allFinite()) throw BlobError("non-finite value");
-        return CompactViews(floats);
-      } catch (const std::invalid_argument& e) {  // views no encoding gives, or too large
-        throw BlobError(e.what());
+        return CompactViews(rows, cols, shift, std::move(values));
       }
-    });
-  }
-
- private:
-  Db db_;
-  sqlite3_stmt* stmt_;
-  std::string table_;
-  std::string row_;
-};
-
-/// A row keyed by two places (columns 0-3: a_robot, a_local, b_robot, b_local), named by them
-/// for the errors of its other columns.
-struct PairRow {
-  PlaceId a, b;
-  Row row;
-};
-PairRow ReadPairRow(const Db& db, const Statement& s, const char* table) {
-  const Row key(db, s, table, "?");
-  const PlaceId a = key.Place(0, "a_robot/a_local"), b = key.Place(2, "b_robot/b_local");
-  return PairRow{a, b, Row(db, s, table, a.ToString() + "-" + b.ToString())};
-}
-
-/// The integer a pragma (or any one-value query) returns.
-int64_t PragmaInt(const Db& db, const char* sql) {
-  Statement s(db, sql);
-  if (!s.Step()) Fail(db, std::string("`") + sql + "` returned nothing");
-  return sqlite3_column_int64(s.get(), 0);
-}
-
-/// Pages in use (not on the free list) x page size.
-int64_t BytesUsed(const Db& db) {
-  return (PragmaInt(db, "PRAGMA page_count") - PragmaInt(db, "PRAGMA freelist_count")) *
-         PragmaInt(db, "PRAGMA page_size");
+      const int32_t cols = r.TakeOne<int32_t>();
+      const size_t count = count_of(r, first, cols, sizeof(float));
+      Eigen::MatrixXf floats(first, cols);
+      r.TakeInto(floats.data(), count);
+      r.ExpectEnd();
+      if (!floats.allFinite()) throw BlobError("non-finite value");
+      return CompactViews(floats);
+    } catch (const std::invalid_argument& e) {  // views no encoding gives, or too large
+      throw BlobError(e.what());
+    }
+  });
 }
 
 // ---------------------------------------------------------------------------------------
@@ -651,34 +179,6 @@ void CheckRobot(const Db& db, uint32_t robot) {
     Fail(db, "database belongs to robot " + std::to_string(*stored) + ", not to robot " +
                  std::to_string(robot));
   }
-}
-
-int64_t ReadSchemaVersion(const Db& db) {
-  Statement s(db, "SELECT MAX(version) FROM schema_version");
-  if (!s.Step()) return 0;
-  const Row row(db, s, "schema_version", "max");
-  return row.IsNull(0) ? 0 : row.Int(0, "version", 0, std::numeric_limits<int32_t>::max());
-}
-
-void Migrate(const Db& db) {
-  Transaction tx(db);
-  Exec(db, "CREATE TABLE IF NOT EXISTS schema_version(version INTEGER NOT NULL)");
-  const int64_t version = ReadSchemaVersion(db);
-  if (version > Store::kSchemaVersion) {
-    Fail(db, "database schema version " + std::to_string(version) + " is newer than the version " +
-                 std::to_string(Store::kSchemaVersion) +
-                 " this program knows; refusing to open it");
-  }
-  if (version < Store::kSchemaVersion) {
-    for (int64_t v = version; v < Store::kSchemaVersion; ++v) {
-      Exec(db, kMigrations[static_cast<size_t>(v)]);
-    }
-    Exec(db, "DELETE FROM schema_version");
-    Statement(db, "INSERT INTO schema_version(version) VALUES(?1)")
-        .Int(1, Store::kSchemaVersion)
-        .Run();
-  }
-  tx.Commit();
 }
 
 // ---------------------------------------------------------------------------------------
@@ -966,7 +466,7 @@ std::vector<LearnedPlace> ReadLearnedPlaces(const Db& db) {
                            std::to_string(places.front().mean.size()) + " of position 0");
     }
     p.member_count = row.Int(4, "member_count", 1);
-    p.samples = row.Samples(5, "samples");
+    p.samples = ReadSamples(row, 5, "samples");
     // Their dimension is the view basis' (or the mean's, before views were kept in a basis):
     // Load checks it against the configured basis (PlaceMemory::Restore).
     if (p.samples.rows() == 0 || p.samples.cols() == 0) {
