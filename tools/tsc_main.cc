@@ -358,6 +358,16 @@ EvalOptions ParseSweep(const std::string& text) {
   return e;
 }
 
+// "labels, revisits (groundtruth.bmp)": what the ground truth holds, for the summary line.
+std::string TruthKinds(const GroundTruth& truth, const std::string& revisits_file) {
+  std::string kinds = truth.has_labels() ? "labels" : "";
+  if (truth.has_revisits()) {
+    kinds += (kinds.empty() ? "" : ", ") + std::string("revisits");
+    if (revisits_file != "revisits.csv") kinds += " (" + revisits_file + ")";
+  }
+  return kinds.empty() ? "none" : kinds;
+}
+
 int Eval(const std::vector<std::string>& args) {
   po::options_description desc(kEvalHelp);
   desc.add_options()("help,h", "show this help")(
@@ -411,11 +421,9 @@ int Eval(const std::vector<std::string>& args) {
       "  base points      good %d, uninformative %d, incoherent %d (median chi2 to the "
       "previous %.4f, tau_kappa %g)\n"
       "  detected places  %zu, learned places %d, ambiguous (no place) %lld\n",
-      r.frames, dataset_dir.c_str(),
-      r.truth.has_labels() ? (r.truth.has_revisits() ? "labels, revisits" : "labels")
-                           : (r.truth.has_revisits() ? "revisits" : "none"),
-      r.good, r.uninformative, r.incoherent, r.consecutive_chi2_median,
-      options.reliability.tau_kappa, r.main.detected.size(), r.main.learned_places,
+      r.frames, dataset_dir.c_str(), TruthKinds(r.truth, opened.revisits_file()).c_str(), r.good,
+      r.uninformative, r.incoherent, r.consecutive_chi2_median, options.reliability.tau_kappa,
+      r.main.detected.size(), r.main.learned_places,
       static_cast<long long>(std::count_if(r.main.detected.begin(), r.main.detected.end(),
                                            [](const EvalDetectedPlace& d) { return !d.place; })));
   std::cout << spacing.str();

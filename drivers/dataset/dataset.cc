@@ -428,6 +428,7 @@ Dataset Dataset::Open(const fs::path& folder, const DatasetOptions& options) {
 
   const fs::path revisits_file = folder / "revisits.csv";
   if (fs::exists(revisits_file, ec)) {
+    ds.revisits_file_ = revisits_file.filename().string();
     ds.revisits_.assign(n, {});
     for (const auto& [line, fields] : ReadCsv(revisits_file)) {
       const int f = FrameIndex(revisits_file, line, fields[0], n);
@@ -445,6 +446,7 @@ Dataset Dataset::Open(const fs::path& folder, const DatasetOptions& options) {
     }
   } else if (const fs::path bitmap = folder / kRevisitBitmapName; fs::exists(bitmap, ec)) {
     ds.revisits_ = ReadRevisitBitmap(bitmap, n);
+    ds.revisits_file_ = kRevisitBitmapName;
   }
   return ds;
 }

@@ -108,6 +108,8 @@ class Dataset {
   /// Per-frame earlier frames showing the same place (0-based); empty without revisits.csv
   /// or groundtruth.bmp.
   const std::vector<std::vector<int>>& revisits() const { return revisits_; }
+  /// The file the revisits were read from ("revisits.csv" or "groundtruth.bmp"; "" without).
+  const std::string& revisits_file() const { return revisits_file_; }
 
   /// Frames 0, stride, 2·stride, ... as a dataset of their own (the base points of a camera
   /// denser than the calibrated spacing: StrideFor): labels, poses and depth follow their
@@ -136,6 +138,7 @@ class Dataset {
   std::vector<std::string> labels_;
   std::vector<std::optional<GroundTruthPose>> poses_;
   std::vector<std::vector<int>> revisits_;
+  std::string revisits_file_;
 };
 
 }  // namespace tsc

@@ -112,6 +112,8 @@ TEST_F(RevisitBitmapTest, TheRealLoopsBitmapIsItsRevisitsCsv) {
   }
   const Dataset with_bitmap = Dataset::Open(copy);
   EXPECT_EQ(with_bitmap.revisits(), with_csv.revisits());
+  EXPECT_EQ(with_csv.revisits_file(), "revisits.csv");
+  EXPECT_EQ(with_bitmap.revisits_file(), "groundtruth.bmp");
   int revisiting = 0;
   for (const std::vector<int>& r : with_bitmap.revisits()) revisiting += r.empty() ? 0 : 1;
   EXPECT_EQ(revisiting, 44);  // frames 41-84

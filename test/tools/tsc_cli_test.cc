@@ -266,11 +266,25 @@ TEST_F(TscCliTest, EvalWritesJsonAndPlots) {
                         " --plots " + Quote(plots.string()) + " --sweep 1.0:1.5:0.25");
   ASSERT_EQ(o.code, 0) << o.err;
   EXPECT_NE(o.out.find("tsc eval: 12 frames"), std::string::npos) << o.out;
+  EXPECT_NE(o.out.find("(ground truth: none)"), std::string::npos) << o.out;
   const std::string text = ReadFile(json);
   EXPECT_NE(text.find("\"frames\":12"), std::string::npos) << text;
   EXPECT_NE(text.find("\"pr_curve\":[[1,"), std::string::npos) << text;
   EXPECT_TRUE(fs::exists(plots / "timeline.png"));
   EXPECT_TRUE(fs::exists(plots / "pr_curve.png"));
+}
+
+// Revisits read from RTAB-Map's bitmap are scored, and the summary says where they came from.
+TEST_F(TscCliTest, EvalNamesAGroundTruthBitmap) {
+  const fs::path ds = MakeDataset(12);
+  cv::Mat truth(12, 12, CV_8UC1, cv::Scalar(0));
+  for (int i = 6; i < 12; ++i) truth.at<uint8_t>(i, i - 6) = 255;  // a second pass
+  ASSERT_TRUE(cv::imwrite((ds / "groundtruth.bmp").string(), truth));
+  const fs::path json = dir_ / "e.json";
+  const Outcome o = Tsc("eval " + Quote(ds.string()) + " --json " + Quote(json.string()));
+  ASSERT_EQ(o.code, 0) << o.err;
+  EXPECT_NE(o.out.find("(ground truth: revisits (groundtruth.bmp))"), std::string::npos) << o.out;
+  EXPECT_NE(ReadFile(json).find("\"frames_with_revisit\":6"), std::string::npos);
 }
 
 }  // namespace
