@@ -28,7 +28,7 @@ namespace tsc {
 struct EvalOptions {
   /// τ_r values of the PR sweep: from, from + step, ... up to `sweep_to` (inclusive, within
   /// step/1000). An empty sweep (sweep_step = 0) uses only the configured τ_r.
-  // Around the default τ_r (2.7): where precision breaks on the calibration worlds.
+  // Around the default τ_r (2.9): where precision breaks on the calibration worlds.
   double sweep_from = 1.5;
   double sweep_to = 3.5;
   double sweep_step = 0.1;

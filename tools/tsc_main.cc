@@ -103,10 +103,11 @@ constexpr const char* kEvalHelp =
 
 Runs the TSC loop over every frame of DATASET on a fresh memory (nothing is stored) and
 scores it with the rules of DESIGN section 7.1b against groundtruth.csv (place labels)
-and/or revisits.csv. Of a camera whose frames lie closer than 0.1 m, every N-th frame is
-a base point (about 0.15 m apart) and only those are run and scored. Each frame's descriptor is computed once; the pipeline is then replayed
+and/or revisits.csv (or, without it, RTAB-Map's groundtruth.bmp). Of a camera whose frames
+lie closer than 0.1 m, every N-th frame is a base point (about 0.15 m apart) and only those
+are run and scored. Each frame's descriptor is computed once; the pipeline is then replayed
 at the configured memory.tau_r (the main figures) and at each tau_r of the sweep (the PR
-curve; default 1.0:2.0:0.05, STEP 0 = no sweep).
+curve; default 1.5:3.5:0.1, around the default 2.9; STEP 0 = no sweep).
 
 --json FILE gets one JSON object: frames, base_points, detected_places, learned_places,
 detection.{boundary_f1,precision,recall} (with labels), recognition.{precision,recall,
@@ -335,7 +336,7 @@ EvalOptions ParseSweep(const std::string& text) {
   for (int i = 0; i < 3; ++i) {
     const size_t colon = text.find(':', start);
     if ((i < 2) != (colon != std::string::npos)) {
-      throw UsageError("--sweep " + text + ": expected FROM:TO:STEP, e.g. 1.0:2.0:0.05");
+      throw UsageError("--sweep " + text + ": expected FROM:TO:STEP, e.g. 1.5:3.5:0.1");
     }
     const std::string part = text.substr(start, i < 2 ? colon - start : std::string::npos);
     size_t used = 0;
@@ -377,7 +378,7 @@ int Eval(const std::vector<std::string>& args) {
       "write the figures as one JSON object to FILE")(
       "plots", po::value<std::string>()->value_name("DIR"), "write PNG plots into DIR")(
       "sweep", po::value<std::string>()->value_name("FROM:TO:STEP"),
-      "tau_r values of the PR curve (default 1.0:2.0:0.05)");
+      "tau_r values of the PR curve (default 1.5:3.5:0.1)");
   AddConfigOptions(desc);
   po::positional_options_description pos;
   pos.add("dataset", 1);
