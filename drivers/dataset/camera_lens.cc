@@ -9,13 +9,17 @@
 
 namespace tsc {
 
-CameraLens::CameraLens(double hfov_deg, int views_per_base_point)
-    : hfov_deg_(hfov_deg), views_(views_per_base_point) {
+void CheckHorizontalFov(double hfov_deg) {
   if (!(hfov_deg > 0.0 && hfov_deg < 180.0)) {
     throw std::invalid_argument(
         "a lens's horizontal field of view must be in (0, 180) degrees, not " +
         std::to_string(hfov_deg));
   }
+}
+
+CameraLens::CameraLens(double hfov_deg, int views_per_base_point)
+    : hfov_deg_(hfov_deg), views_(views_per_base_point) {
+  CheckHorizontalFov(hfov_deg);
   if (views_per_base_point < 1) {
     throw std::invalid_argument("a base point takes at least one view, not " +
                                 std::to_string(views_per_base_point));

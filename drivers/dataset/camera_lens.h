@@ -10,6 +10,9 @@ class CameraIntrinsics;
 /// Horizontal field of view of the simulated camera the defaults were calibrated with.
 inline constexpr double kCalibratedHfovDeg = 58.0;
 
+/// std::invalid_argument unless `hfov_deg` is a horizontal field of view, in (0, 180) degrees.
+void CheckHorizontalFov(double hfov_deg);
+
 class CameraLens {
  public:
   /// The calibrated lens, forward.

@@ -28,7 +28,7 @@ constexpr double kDefaultHfovDeg = 60.0;
 constexpr int kMaxImageSide = 65535;
 
 [[noreturn]] void Fail(const fs::path& where, const std::string& what) {
-  throw DatasetError(where.string() + ": " + what);
+  throw DatasetError(where, what);
 }
 
 // The bytes of `file` (empty when it cannot be read).

@@ -38,6 +38,9 @@ namespace tsc {
 class DatasetError : public std::runtime_error {
  public:
   using std::runtime_error::runtime_error;
+  /// "<where>: <what>".
+  DatasetError(const std::filesystem::path& where, const std::string& what)
+      : std::runtime_error(where.string() + ": " + what) {}
 };
 
 /// Planar pose of the camera from groundtruth.csv (units as the dataset gives them; heading

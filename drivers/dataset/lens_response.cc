@@ -4,7 +4,6 @@
 #include <array>
 #include <cmath>
 #include <cstdio>
-#include <stdexcept>
 
 #include "core/pipeline/pipeline.h"
 
@@ -37,9 +36,7 @@ bool WithinMeasuredLenses(double hfov_deg) {
 }  // namespace
 
 LensResponse LensResponseAt(double hfov_deg) {
-  if (!(hfov_deg > 0.0 && hfov_deg < 180.0)) {
-    throw std::invalid_argument("a lens's horizontal field of view must be in (0, 180) degrees");
-  }
+  CheckHorizontalFov(hfov_deg);
   const LensResponse& narrowest = kMeasured.front();
   const LensResponse& widest = kMeasured.back();
   if (hfov_deg <= narrowest.hfov_deg) {

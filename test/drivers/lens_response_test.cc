@@ -10,6 +10,7 @@
 
 #include <gtest/gtest.h>
 
+#include <functional>
 #include <stdexcept>
 
 #include "core/bubble/camera.h"
@@ -17,6 +18,21 @@
 
 namespace tsc {
 namespace {
+
+// Both responses rise at every half degree from `from` to `to`, from above `floor`; `also`
+// checks each lens's response further.
+void ExpectBothRise(double from, double to, double floor,
+                    const std::function<void(double, const LensResponse&)>& also) {
+  double previous_chi2 = floor, previous_distance = floor;
+  for (double hfov = from; hfov <= to; hfov += 0.5) {
+    const LensResponse r = LensResponseAt(hfov);
+    EXPECT_GT(r.chi2, previous_chi2) << hfov;
+    EXPECT_GT(r.squared_distance, previous_distance) << hfov;
+    previous_chi2 = r.chi2;
+    previous_distance = r.squared_distance;
+    also(hfov, r);
+  }
+}
 
 TEST(LensResponseTest, TheCalibratedLensKeepsTheConfiguredThresholds) {
   const LensResponse r = LensResponseAt(58.0);
@@ -35,17 +51,11 @@ TEST(LensResponseTest, WiderLensesScaleTheUnitUpAndKeepTauKappa) {
   EXPECT_NEAR(LensResponseAt(75.0).squared_distance, 1.223, 1e-12);
   EXPECT_NEAR(LensResponseAt(90.0).chi2, 1.306, 1e-12);
   EXPECT_NEAR(LensResponseAt(90.0).squared_distance, 1.405, 1e-12);
-  double previous_chi2 = 1.0, previous_distance = 1.0;
-  for (double hfov = 58.5; hfov <= 90.0; hfov += 0.5) {
-    const LensResponse r = LensResponseAt(hfov);
-    EXPECT_GT(r.chi2, previous_chi2) << hfov;
-    EXPECT_GT(r.squared_distance, previous_distance) << hfov;
-    previous_chi2 = r.chi2;
-    previous_distance = r.squared_distance;
+  ExpectBothRise(58.5, 90.0, 1.0, [](double hfov, const LensResponse&) {
     PipelineOptions options;
     AdaptToLens(options, CameraLens(hfov, 1));
     EXPECT_EQ(options.reliability.tau_kappa, PipelineOptions{}.reliability.tau_kappa) << hfov;
-  }
+  });
   // Wider than measured: held at 90°'s.
   EXPECT_EQ(LensResponseAt(110.0).squared_distance, LensResponseAt(90.0).squared_distance);
   PipelineOptions options;
@@ -65,15 +75,7 @@ TEST(LensResponseTest, NarrowerLensesScaleBothDownContinuously) {
   EXPECT_NEAR(LensResponseAt(50.0).chi2, 0.799, 1e-12);
   EXPECT_NEAR(LensResponseAt(50.0).squared_distance, 0.742, 1e-12);
   // Monotone from 45° to 58°, and continuous at the measured lenses.
-  double previous_chi2 = 0.0, previous_distance = 0.0;
-  for (double hfov = 45.0; hfov <= 58.0; hfov += 0.5) {
-    const LensResponse r = LensResponseAt(hfov);
-    EXPECT_GT(r.chi2, previous_chi2) << hfov;
-    EXPECT_GT(r.squared_distance, previous_distance) << hfov;
-    EXPECT_LE(r.chi2, 1.0);
-    previous_chi2 = r.chi2;
-    previous_distance = r.squared_distance;
-  }
+  ExpectBothRise(45.0, 58.0, 0.0, [](double, const LensResponse& r) { EXPECT_LE(r.chi2, 1.0); });
   EXPECT_NEAR(LensResponseAt(57.999).chi2, 1.0, 1e-4);
   EXPECT_NEAR(LensResponseAt(50.001).squared_distance, 0.742, 1e-4);
   // Narrower than measured: held at 45°'s.
