@@ -35,8 +35,12 @@ bool IsSparse(const BasePointSpacing& spacing) {
 
 int StrideFor(const BasePointSpacing& frames) {
   if (frames.keyframes || !(frames.metres > 0.0)) return 1;
-  // 1e-9: a spacing that divides the calibrated one exactly (0.05, 0.075) takes its quotient.
-  double stride = std::clamp(std::floor(kCalibratedSpacingM / frames.metres + 1e-9), 1.0, 1e6);
+  // A spacing within 2 % of dividing the calibrated one (0.05, 0.075) takes its quotient, so
+  // that a measured spacing's noise does not choose the stride: a Jaguar teleoperated at 0.5
+  // m/s with a 10 fps camera measured 0.0496 m in one run and 0.0501 m in the next, one base
+  // point in 3 and in 2 without it. The base points then lie up to 2 % beyond 0.15 m.
+  const double quotient = kCalibratedSpacingM / frames.metres;
+  double stride = std::clamp(std::floor(quotient * (1.0 + kQuotientTolerance)), 1.0, 1e6);
   if (stride * frames.metres < kClosestSpacingM * (1.0 - 1e-9)) stride += 1.0;
   return static_cast<int>(stride);
 }

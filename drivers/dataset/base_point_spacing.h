@@ -51,6 +51,10 @@ bool IsSparse(const BasePointSpacing& spacing);
 /// (docs/calibration.md, twenty-seventh pass).
 inline constexpr double kClosestSpacingM = 0.1;
 
+/// How near a divisor of kCalibratedSpacingM a spacing takes its quotient as the stride
+/// (relative): odometry's noise around 0.05 m must not choose between 2 and 3.
+inline constexpr double kQuotientTolerance = 0.02;
+
 /// Which of a camera's frames are base points (DESIGN §3.2 amended: "take base points at a
 /// fixed spacing"): every stride-th, the largest stride that keeps them at most the calibrated
 /// spacing apart, or one more where that leaves them closer than kClosestSpacingM. 1 for a
@@ -58,7 +62,8 @@ inline constexpr double kClosestSpacingM = 0.1;
 /// 0.085 m; 3 at 0.05 m (30 fps). Why: a denser camera changes less between consecutive
 /// frames, so κ finds few transitions (nine simulated worlds at 0.05 m: boundary F1 0.42
 /// against 0.86 at 0.15 m, 12 right / 2 wrong recognitions against 49 / 0; one frame in three:
-/// 0.89, 52 / 2).
+/// 0.89, 52 / 2). A spacing within kQuotientTolerance of dividing the calibrated one takes
+/// the quotient (0.0501 m: 3).
 int StrideFor(const BasePointSpacing& frames);
 
 /// The spacing of every `stride`-th frame of `frames` (stride ≥ 1), its basis saying so.

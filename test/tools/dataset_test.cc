@@ -296,6 +296,12 @@ TEST(StrideForTest, ThinsADenseCameraToTheCalibratedSpacing) {
   EXPECT_EQ(stride(30.0), 3);  // 0.05 m → 0.15 m
   EXPECT_EQ(stride(60.0), 6);  // 0.025 m → 0.15 m
   EXPECT_EQ(StrideFor(BasePointSpacing{0.01, "hand-held video"}), 15);
+  // Odometry's noise around a quotient does not choose the stride; 2 % off it does.
+  EXPECT_EQ(StrideFor(BasePointSpacing{0.0496, "odometry"}), 3);
+  EXPECT_EQ(StrideFor(BasePointSpacing{0.0501, "odometry"}), 3);
+  EXPECT_EQ(StrideFor(BasePointSpacing{0.0508, "odometry"}), 3);  // 0.152 m
+  EXPECT_EQ(StrideFor(BasePointSpacing{0.052, "odometry"}), 2);   // 0.104 m
+  EXPECT_EQ(StrideFor(BasePointSpacing{0.0755, "odometry"}), 2);
   EXPECT_EQ(StrideFor(BasePointSpacing{0.01, "keyframes", true}), 1);
 
   const BasePointSpacing thirty = ResolveSpacing(0.0, nullptr, 30.0);
@@ -382,22 +388,38 @@ TEST(BasePointPickerTest, TheRobotsMeasuredSpeedSetsTheStride) {
   EXPECT_EQ(brisk.size(), 30u);
   EXPECT_EQ(brisk_picker.stride(), 1);
 
+  // A 10 fps camera on a robot whose speed is Gaussian about `mean_mps` (a fixed seed): the
+  // picker's stride after each frame.
+  const auto drive_noisy = [](BasePointPicker& picker, double mean_mps, double sd_mps,
+                              unsigned seed, int frames) {
+    std::mt19937 rng(seed);
+    std::normal_distribution<double> speeds(mean_mps, sd_mps);
+    std::vector<int> strides;
+    double x = 0.0;
+    for (int i = 0; i < frames; ++i) {
+      const double speed = speeds(rng);
+      x += speed * 0.1;
+      picker.Take(true, ViewMotion{PlanarPose{x, 0.0, 0.0}, speed, 100000LL * i});
+      strides.push_back(picker.stride());
+    }
+    return strides;
+  };
+
   // At 1 m/s (0.1 m a frame, where StrideFor steps from 1 to 2) the speed's noise does not
   // flip the stride: it stays what it was.
   BasePointPicker edge(1);
-  std::mt19937 rng(54);  // fixed seed
-  std::normal_distribution<double> noise(1.0, 0.02);
-  double x = 0.0;
-  for (int i = 0; i < 200; ++i) {
-    const double speed = noise(rng);
-    x += speed * 0.1;
-    edge.Take(true, ViewMotion{PlanarPose{x, 0.0, 0.0}, speed, 100000LL * i});
-    ASSERT_EQ(edge.stride(), 1) << "frame " << i;
-  }
+  EXPECT_EQ(drive_noisy(edge, 1.0, 0.02, 54, 200), std::vector<int>(200, 1));
   ASSERT_TRUE(edge.measured_spacing_m());
   EXPECT_NEAR(*edge.measured_spacing_m(), 0.1, 0.005);
   ASSERT_TRUE(edge.base_point_spacing_m());
   EXPECT_NEAR(*edge.base_point_spacing_m(), 0.1, 0.005);
+
+  // At 0.5 m/s (0.05 m a frame, which divides 0.15 m) the speed's noise does not choose
+  // between one in 2 and one in 3 (StrideFor's quotient tolerance): one in 3 on every seed.
+  for (const unsigned seed : {1u, 2u, 3u, 4u, 5u, 6u, 7u, 8u}) {
+    BasePointPicker round(1);
+    EXPECT_EQ(drive_noisy(round, 0.5, 0.005, seed, 100).back(), 3) << "seed " << seed;
+  }
 
   // Without a speed nothing is measured: the assumed stride stays.
   BasePointPicker unknown(2);
