@@ -169,7 +169,7 @@ PipelineWorker::PipelineWorker(const Settings& settings, const CameraSource& cam
   if (const std::optional<std::string> caution = LensCaution(lens_)) {
     spdlog::warn("{}", *caution);
   }
-  keyframes_check_ = AssumedKeyframesCheck(spacing, ChangeResponse(lens_));
+  keyframes_check_ = AssumedKeyframesCheck(spacing, lens_);
   started_empty_ = memory.places().empty();
   pipeline_ = std::make_unique<Pipeline>(camera.intrinsics(), pipeline, std::move(memory),
                                          std::move(map), state);

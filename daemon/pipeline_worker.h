@@ -176,7 +176,7 @@ class PipelineWorker {
   int base_point_stride_ = 1;
   bool spacing_assumed_ = true;
   CameraLens lens_;  // which the thresholds follow (AdaptToLens)
-  AssumedKeyframesCheck keyframes_check_{BasePointSpacing{}};  // the worker thread's
+  AssumedKeyframesCheck keyframes_check_{BasePointSpacing{}, CameraLens()};  // the worker thread's
   std::mutex spacing_mutex_;
   std::optional<double> measured_spacing_m_;  // under spacing_mutex_: not yet adopted
 

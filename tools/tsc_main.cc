@@ -239,7 +239,7 @@ int Run(const std::vector<std::string>& args) {
   std::ostringstream spacing;  // said after the summary line
   const auto [dataset, options, frames_apart, stride, lens] =
       PrepareDataset(settings, Dataset::Open(dataset_dir, DatasetOptionsOf(settings)), &spacing);
-  AssumedKeyframesCheck keyframes_check(frames_apart, ChangeResponse(lens.lens));
+  AssumedKeyframesCheck keyframes_check(frames_apart, lens.lens);
   std::optional<std::string> keyframes_caution;
   if (options.features.NeedsDepth() && !dataset.has_depth()) {
     throw DatasetError(dataset_dir.string() + ": bubble.features = " + options.features.ToString() +
@@ -402,7 +402,7 @@ int Eval(const std::vector<std::string>& args) {
   }
   EvalResult r = Evaluate(dataset, options, eval);
   const std::optional<std::string> keyframes_caution =
-      AssumedKeyframesCaution(frames_apart, r.consecutive_chi2_median, ChangeResponse(lens.lens));
+      AssumedKeyframesCaution(frames_apart, r.consecutive_chi2_median, lens.lens);
   r.spacing = EvalSpacing{frames_apart, stride, opened.size(),
                           keyframes_caution ? keyframes_caution : SpacingCaution(frames_apart)};
   r.lens = lens;

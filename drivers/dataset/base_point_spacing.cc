@@ -89,20 +89,4 @@ std::optional<std::string> SpacingCaution(const BasePointSpacing& spacing) {
   return std::string(text);
 }
 
-std::optional<std::string> AssumedKeyframesCaution(const BasePointSpacing& spacing,
-                                                   double consecutive_chi2_median,
-                                                   double lens_change) {
-  const double threshold = kKeyframeChangeChi2 * lens_change;
-  if (!spacing.assumed || !(consecutive_chi2_median < threshold)) return std::nullopt;
-  char text[420];
-  std::snprintf(text, sizeof text,
-                "nothing says how far apart these frames are, so they were taken for keyframes "
-                "about a metre apart, but consecutive frames change as little as a camera's "
-                "frames do (median chi2 %.4f, keyframes at this lens: above %.4f, such as the "
-                "real loop's 0.010): if they are a video's, declare its \"fps\" (or "
-                "\"spacing_m\") in camera.json",
-                consecutive_chi2_median, threshold);
-  return std::string(text);
-}
-
 }  // namespace tsc

@@ -98,18 +98,4 @@ std::optional<std::string> SparseCameraNote(const PipelineOptions& adapted,
 /// within what was measured to hold.
 std::optional<std::string> SpacingCaution(const BasePointSpacing& spacing);
 
-/// Keyframes change more than this from one to the next (χ² of normalised descriptors, the
-/// median over a sequence): the real loop's, about a metre apart, by 0.010; a simulated
-/// camera's frames 0.05-0.15 m apart by 0.0025-0.005 (docs/calibration.md, twenty-ninth pass).
-inline constexpr double kKeyframeChangeChi2 = 0.005;
-
-/// When keyframes were only assumed (`spacing.assumed`) but consecutive frames change less than
-/// kKeyframeChangeChi2 in the median, as a camera's frames do: a caution that names what to
-/// declare (camera.json "fps" or "spacing_m"), since τ_p would count keyframes a metre apart
-/// (3) where a video needs ~25. Nothing otherwise. `lens_change` scales the threshold to the
-/// camera's lens (ChangeResponse: a 45° lens's frames change 0.62x as much as 58°'s).
-std::optional<std::string> AssumedKeyframesCaution(const BasePointSpacing& spacing,
-                                                   double consecutive_chi2_median,
-                                                   double lens_change = 1.0);
-
 }  // namespace tsc

@@ -162,19 +162,19 @@ TEST_F(DatasetTest, AssumedKeyframesThatChangeLikeAVideosFramesAreCautioned) {
   for (int i = 1; i <= 2; ++i) WriteImage(dir_ / (std::to_string(i) + ".png"), Image(i, 40, 30));
   const BasePointSpacing assumed = Dataset::Open(dir_).spacing();
   EXPECT_TRUE(assumed.assumed);
-  const std::optional<std::string> video = AssumedKeyframesCaution(assumed, 0.0026);
+  const std::optional<std::string> video = AssumedKeyframesCaution(assumed, 0.0026, CameraLens());
   ASSERT_TRUE(video);
   EXPECT_NE(video->find("declare its \"fps\""), std::string::npos) << *video;
   EXPECT_NE(video->find("0.0026"), std::string::npos) << *video;
-  EXPECT_FALSE(AssumedKeyframesCaution(assumed, 0.0102));
-  EXPECT_FALSE(AssumedKeyframesCaution(assumed, kKeyframeChangeChi2));
+  EXPECT_FALSE(AssumedKeyframesCaution(assumed, 0.0102, CameraLens()));
+  EXPECT_FALSE(AssumedKeyframesCaution(assumed, kKeyframeChangeChi2, CameraLens()));
   WriteText(dir_ / "camera.json", R"({"hfov_deg": 60, "keyframes": true})");
   const BasePointSpacing declared = Dataset::Open(dir_).spacing();
   EXPECT_TRUE(declared.keyframes);
   EXPECT_FALSE(declared.assumed);
-  EXPECT_FALSE(AssumedKeyframesCaution(declared, 0.0026));
+  EXPECT_FALSE(AssumedKeyframesCaution(declared, 0.0026, CameraLens()));
   WriteText(dir_ / "camera.json", R"({"hfov_deg": 60, "fps": 30})");
-  EXPECT_FALSE(AssumedKeyframesCaution(Dataset::Open(dir_).spacing(), 0.0026));
+  EXPECT_FALSE(AssumedKeyframesCaution(Dataset::Open(dir_).spacing(), 0.0026, CameraLens()));
 }
 
 // The threshold follows the lens as τ_κ does: a 45° lens's frames change 0.62x as much, so
@@ -184,12 +184,12 @@ TEST_F(DatasetTest, AssumedKeyframesThatChangeLikeAVideosFramesAreCautioned) {
 TEST_F(DatasetTest, TheAssumedKeyframesCautionFollowsTheLens) {
   for (int i = 1; i <= 2; ++i) WriteImage(dir_ / (std::to_string(i) + ".png"), Image(i, 40, 30));
   const BasePointSpacing assumed = Dataset::Open(dir_).spacing();
-  const double narrow = ChangeResponse(CameraLens(45.0, 1));
-  const double wide = ChangeResponse(CameraLens(90.0, 1));
-  EXPECT_FALSE(AssumedKeyframesCaution(assumed, 0.0102 * narrow, narrow));
+  const CameraLens narrow(45.0, 1), wide(90.0, 1);
+  const double narrow_change = ChangeResponse(narrow);
+  EXPECT_FALSE(AssumedKeyframesCaution(assumed, 0.0102 * narrow_change, narrow));
   EXPECT_FALSE(AssumedKeyframesCaution(assumed, 0.0045, narrow));
-  EXPECT_TRUE(AssumedKeyframesCaution(assumed, 0.0026 * narrow, narrow));
-  EXPECT_FALSE(AssumedKeyframesCaution(assumed, 0.0055, 1.0));
+  EXPECT_TRUE(AssumedKeyframesCaution(assumed, 0.0026 * narrow_change, narrow));
+  EXPECT_FALSE(AssumedKeyframesCaution(assumed, 0.0055, CameraLens()));
   const std::optional<std::string> video = AssumedKeyframesCaution(assumed, 0.0055, wide);
   ASSERT_TRUE(video);
   EXPECT_NE(video->find("above 0.0065"), std::string::npos) << *video;
@@ -199,7 +199,7 @@ TEST_F(DatasetTest, TheAssumedKeyframesCautionFollowsTheLens) {
 // that completes the sample, when the keyframes were only assumed.
 TEST(AssumedKeyframesCheckTest, CautionsOnceAfterItsSampleWhenKeyframesWereAssumed) {
   const auto feed = [](const BasePointSpacing& spacing, double step) {
-    AssumedKeyframesCheck check(spacing);
+    AssumedKeyframesCheck check(spacing, CameraLens());
     std::vector<int> cautioned;
     Eigen::VectorXf d = Eigen::VectorXf::Constant(100, 0.01f);
     for (int k = 0; k < 3 * AssumedKeyframesCheck::kSample; ++k) {

@@ -13,6 +13,7 @@
 #include <random>
 #include <sstream>
 
+#include "drivers/dataset/assumed_keyframes_check.h"
 #include "drivers/dataset/json_reader.h"
 #include "drivers/world/dataset_writer.h"
 #include "test/support/default_profile.h"
@@ -128,7 +129,7 @@ TEST_F(EvalTest, RtabmapLoopRecognisesWithFullPrecisionAndWritesPlots) {
   // simulated routes' frames 0.15 m apart by 0.004, docs/calibration.md twenty-seventh pass).
   EXPECT_GT(r.consecutive_chi2_median, 0.005);
   EXPECT_LT(r.consecutive_chi2_median, 0.02);
-  EXPECT_FALSE(AssumedKeyframesCaution(dataset.spacing(), r.consecutive_chi2_median));
+  EXPECT_FALSE(AssumedKeyframesCaution(dataset.spacing(), r.consecutive_chi2_median, CameraLens()));
   EXPECT_GE(r.main.learned_places, 3);
   EXPECT_DOUBLE_EQ(r.main.recognition.precision, 1.0);
   EXPECT_GT(r.main.recognition.recall, 0.0);
@@ -176,9 +177,9 @@ TEST_F(EvalTest, RtabmapLoopRecognisesWithFullPrecisionAndWritesPlots) {
   // apart, only assumed (no camera.json), τ_p 3, and no caution (they change as keyframes do).
   EXPECT_EQ(text.find("\"spacing\""), std::string::npos);
   EvalResult with_spacing = r;
-  with_spacing.spacing =
-      EvalSpacing{dataset.spacing(), 1, 84,
-                  AssumedKeyframesCaution(dataset.spacing(), r.consecutive_chi2_median)};
+  with_spacing.spacing = EvalSpacing{
+      dataset.spacing(), 1, 84,
+      AssumedKeyframesCaution(dataset.spacing(), r.consecutive_chi2_median, CameraLens())};
   std::ostringstream spaced;
   WriteEvalJson(spaced, with_spacing);
   EXPECT_NE(spaced.str().find("\"spacing\":{\"metres\":1,\"basis\":\"undeclared: keyframes "
