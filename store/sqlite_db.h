@@ -6,7 +6,6 @@
 
 #include <sqlite3.h>
 
-#include <Eigen/Core>
 #include <cstdint>
 #include <filesystem>
 #include <limits>
@@ -175,39 +174,6 @@ class Row {
   template <Arithmetic T>
   std::vector<T> Array(int col, const char* name) const {
     return Decode(col, name, [](BlobReader& r) { return r.TakeRest<T>(); });
-  }
-  /// A float32 vector; `dim` ≥ 0 requires that many values. Values must be finite.
-  Eigen::VectorXf Vector(int col, const char* name, int64_t dim = -1) const {
-    Eigen::VectorXf v = Decode(col, name, [&](BlobReader& r) {
-      if (r.remaining() % sizeof(float) != 0 ||
-          (dim >= 0 && r.remaining() != static_cast<size_t>(dim) * sizeof(float))) {
-        throw BlobError("blob of " + std::to_string(r.remaining()) + " bytes is not " +
-                        (dim >= 0 ? std::to_string(dim) : std::string("a whole number of")) +
-                        " float32 values");
-      }
-      Eigen::VectorXf out(static_cast<Eigen::Index>(r.remaining() / sizeof(float)));
-      r.TakeInto(out.data(), static_cast<size_t>(out.size()));
-      return out;
-    });
-    if (!v.allFinite()) Fail(name, "non-finite value");
-    return v;
-  }
-  /// A float32 matrix stored column-major, of `rows` x `cols` (both in [0, 2^31)).
-  Eigen::MatrixXf Matrix(int col, const char* name, int64_t rows, int64_t cols) const {
-    Eigen::MatrixXf m = Decode(col, name, [&](BlobReader& r) {
-      // Sizes are checked before anything of rows x cols is allocated.
-      if (static_cast<uint64_t>(rows) * static_cast<uint64_t>(cols) * sizeof(float) !=
-          r.remaining()) {
-        throw BlobError("blob of " + std::to_string(r.remaining()) + " bytes is not " +
-                        std::to_string(rows) + " x " + std::to_string(cols) + " float32 values");
-      }
-      Eigen::MatrixXf out(rows, cols);
-      r.TakeInto(out.data(), static_cast<size_t>(out.size()));
-      r.ExpectEnd();
-      return out;
-    });
-    if (!m.allFinite()) Fail(name, "non-finite value");
-    return m;
   }
 
  private:

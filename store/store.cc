@@ -16,13 +16,14 @@
 #include <vector>
 
 #include "store/blob.h"
+#include "store/layouts.h"
 #include "store/schema.h"
 #include "store/sqlite_db.h"
 
 namespace tsc {
 namespace {
 
-using namespace store_internal;  // the store's blobs, connection and schema
+using namespace store_internal;  // the store's blobs, their layouts, connection and schema
 
 constexpr int kBusyTimeoutMs = 5000;
 
@@ -45,94 +46,13 @@ constexpr const char* kMetaNextDetected = "next_detected";
 constexpr const char* kMetaPreviousRobot = "previous_place_robot";
 constexpr const char* kMetaPreviousLocal = "previous_place_local";
 constexpr const char* kMetaNextLocal = "next_local_id";
-constexpr const char* kMetaSlink = "slink";  // int32 π[n] then float64 λ[n]
+constexpr const char* kMetaSlink = "slink";  // EncodeSlink
 // In a spill only (Store::WriteSpill): the next_base of the database it continues; NULL when
 // the process that wrote it never loaded that database.
 constexpr const char* kMetaSpillContinues = "spill_continues_base";
 
-Bytes EncodeVector(const Eigen::VectorXf& v) {
-  return EncodeArray(std::span<const float>(v.data(), static_cast<size_t>(v.size())));
-}
-
-// Member views as the memory keeps them (core/memory/compact_views.h): the marker
-// kCompactSamples, int32 rows, int32 cols, int32 shift, then rows x cols int16 column-major.
-// Schema versions before 4 wrote int32 rows, int32 cols and float32 values (a row count is
-// never negative, so the marker tells the layouts apart); both are read.
-constexpr int32_t kCompactSamples = -1;
-
-Bytes EncodeSamples(const CompactViews& v) {
-  BlobWriter w;
-  w.PutOne(kCompactSamples)
-      .PutOne(static_cast<int32_t>(v.rows()))
-      .PutOne(static_cast<int32_t>(v.cols()))
-      .PutOne(static_cast<int32_t>(v.shift()));
-  w.Put(std::span<const int16_t>(v.values(), static_cast<size_t>(v.size())));
-  return w.Finish();
-}
-
-Bytes EncodeTransitions(const std::vector<TransitionRegion>& regions) {
-  BlobWriter w;
-  for (const TransitionRegion& r : regions) w.PutOne<int64_t>(r.first).PutOne<int64_t>(r.last);
-  return w.Finish();
-}
-
-Bytes EncodeSlink(const Slink& slink) {
-  std::vector<int32_t> pi(slink.pi().begin(), slink.pi().end());
-  return BlobWriter()
-      .Put(std::span<const int32_t>(pi))
-      .Put(std::span<const double>(slink.lambda()))
-      .Finish();
-}
-
-Bytes EncodeSources(const std::vector<PlaceId>& sources) {
-  BlobWriter w;
-  for (const PlaceId& id : sources) w.PutOne<uint32_t>(id.robot).PutOne<uint32_t>(id.local);
-  return w.Finish();
-}
-
 int64_t ToSqlKey(uint64_t key) { return std::bit_cast<int64_t>(key); }
 uint64_t FromSqlKey(int64_t key) { return std::bit_cast<uint64_t>(key); }
-
-// ---------------------------------------------------------------------------------------
-// Member views (Row::Decode of their blob).
-
-/// Member views in either layout of EncodeSamples, from `row`'s column `col`.
-CompactViews ReadSamples(const Row& row, int col, const char* name) {
-  // Sizes are checked before anything of rows x cols is allocated.
-  const auto count_of = [](BlobReader& r, int32_t rows, int32_t cols, size_t value_bytes) {
-    if (rows < 0 || cols < 0) {
-      throw BlobError("negative size " + std::to_string(rows) + " x " + std::to_string(cols));
-    }
-    const uint64_t count = uint64_t{static_cast<uint32_t>(rows)} * static_cast<uint32_t>(cols);
-    if (count > r.remaining() / value_bytes) {
-      throw BlobError(std::to_string(rows) + " x " + std::to_string(cols) + " values need " +
-                      std::to_string(count * value_bytes) + " bytes, " +
-                      std::to_string(r.remaining()) + " left");
-    }
-    return static_cast<size_t>(count);
-  };
-  return row.Decode(col, name, [&](BlobReader& r) {
-    try {
-      const int32_t first = r.TakeOne<int32_t>();
-      if (first == kCompactSamples) {
-        const int32_t rows = r.TakeOne<int32_t>(), cols = r.TakeOne<int32_t>();
-        const int32_t shift = r.TakeOne<int32_t>();
-        std::vector<int16_t> values = r.Take<int16_t>(count_of(r, rows, cols, sizeof(int16_t)));
-        r.ExpectEnd();
-        return CompactViews(rows, cols, shift, std::move(values));
-      }
-      const int32_t cols = r.TakeOne<int32_t>();
-      const size_t count = count_of(r, first, cols, sizeof(float));
-      Eigen::MatrixXf floats(first, cols);
-      r.TakeInto(floats.data(), count);
-      r.ExpectEnd();
-      if (!floats.allFinite()) throw BlobError("non-finite value");
-      return CompactViews(floats);
-    } catch (const std::invalid_argument& e) {  // views no encoding gives, or too large
-      throw BlobError(e.what());
-    }
-  });
-}
 
 // ---------------------------------------------------------------------------------------
 // Meta table.
@@ -331,8 +251,7 @@ void WriteTree(const Db& db, const PlaceMemory& memory, const std::vector<int>& 
         .Int(3, support.cols())
         .Real(4, d.rho())
         .Real(5, d.gamma())
-        .Blob(6, EncodeArray(
-                     std::span<const float>(support.data(), static_cast<size_t>(support.size()))))
+        .Blob(6, EncodeMatrix(support))
         .Blob(7, EncodeVector(d.coef()))
         .Run();
   }
@@ -459,14 +378,14 @@ std::vector<LearnedPlace> ReadLearnedPlaces(const Db& db) {
     }
     LearnedPlace p;
     p.id = row.Place(1, "robot/local");
-    p.mean = row.Vector(3, "mean");
+    p.mean = row.Decode(3, "mean", [](BlobReader& r) { return DecodeVector(r); });
     if (p.mean.size() == 0) row.Fail("mean", "empty");
     if (!places.empty() && p.mean.size() != places.front().mean.size()) {
       row.Fail("mean", "dimension " + std::to_string(p.mean.size()) + " differs from " +
                            std::to_string(places.front().mean.size()) + " of position 0");
     }
     p.member_count = row.Int(4, "member_count", 1);
-    p.samples = ReadSamples(row, 5, "samples");
+    p.samples = row.Decode(5, "samples", DecodeSamples);
     // Their dimension is the view basis' (or the mean's, before views were kept in a basis):
     // Load checks it against the configured basis (PlaceMemory::Restore).
     if (p.samples.rows() == 0 || p.samples.cols() == 0) {
@@ -475,11 +394,7 @@ std::vector<LearnedPlace> ReadLearnedPlaces(const Db& db) {
     }
     p.detected = row.Array<int64_t>(6, "detected");
     p.members = row.Array<int64_t>(7, "members");
-    const std::vector<uint32_t> sources = row.Array<uint32_t>(8, "sources");
-    if (sources.size() % 2 != 0) row.Fail("sources", "odd number of robot/local values");
-    for (size_t i = 0; i < sources.size(); i += 2) {
-      p.sources.push_back(PlaceId{sources[i], sources[i + 1]});
-    }
+    p.sources = row.Decode(8, "sources", DecodeSources);
     places.push_back(std::move(p));
   }
   return places;
@@ -487,20 +402,7 @@ std::vector<LearnedPlace> ReadLearnedPlaces(const Db& db) {
 
 Slink ReadSlink(const Db& db, size_t expected) {
   std::optional<Slink> slink = ReadMeta(db, kMetaSlink, [&](const Row& row) {
-    auto [pi, lambda] = row.Decode(0, "value", [&](BlobReader& r) {
-      if (r.remaining() != expected * (sizeof(int32_t) + sizeof(double))) {
-        throw BlobError("blob of " + std::to_string(r.remaining()) + " bytes is not a SLINK " +
-                        "state of " + std::to_string(expected) + " places");
-      }
-      std::vector<int32_t> p = r.Take<int32_t>(expected);
-      std::vector<double> l = r.Take<double>(expected);
-      return std::make_pair(std::vector<int>(p.begin(), p.end()), std::move(l));
-    });
-    try {
-      return Slink(std::move(pi), std::move(lambda));
-    } catch (const std::invalid_argument& e) {
-      row.Fail("value", e.what());
-    }
+    return row.Decode(0, "value", [&](BlobReader& r) { return DecodeSlink(r, expected); });
   });
   if (slink) return std::move(*slink);
   if (expected != 0) {
@@ -520,8 +422,10 @@ std::unordered_map<uint64_t, OneClassDiscriminant> ReadDiscriminants(const Db& d
     const int64_t dim = row.Int(1, "dim", 0, kMaxSize);
     const int64_t n_sv = row.Int(2, "n_sv", 0, kMaxSize);
     const double rho = row.Real(3, "rho"), gamma = row.Real(4, "gamma");
-    Eigen::MatrixXf support = row.Matrix(5, "support", dim, n_sv);
-    Eigen::VectorXf coef = row.Vector(6, "coef", n_sv);
+    Eigen::MatrixXf support =
+        row.Decode(5, "support", [&](BlobReader& r) { return DecodeMatrix(r, dim, n_sv); });
+    Eigen::VectorXf coef =
+        row.Decode(6, "coef", [&](BlobReader& r) { return DecodeVector(r, n_sv); });
     try {
       saved.emplace(FromSqlKey(key),
                     OneClassDiscriminant(std::move(support), std::move(coef), rho, gamma));
@@ -547,11 +451,7 @@ TopologicalMap ReadMap(const Db& db) {
     edge.a = a;
     edge.b = b;
     edge.traversals = row.Int(4, "traversals", 0);
-    const std::vector<int64_t> bounds = row.Array<int64_t>(5, "transitions");
-    if (bounds.size() % 2 != 0) row.Fail("transitions", "odd number of region bounds");
-    for (size_t i = 0; i < bounds.size(); i += 2) {
-      edge.transitions.push_back(TransitionRegion{bounds[i], bounds[i + 1]});
-    }
+    edge.transitions = row.Decode(5, "transitions", DecodeTransitions);
     try {
       map.RestoreEdge(std::move(edge));
     } catch (const std::invalid_argument& e) {
