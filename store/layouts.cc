@@ -12,14 +12,12 @@ constexpr int32_t kCompactSamples = -1;  // EncodeSamples' marker
 
 /// rows x cols values of `value_bytes` each, checked against what `r` holds before anything
 /// is allocated.
-size_t CountOf(const BlobReader& r, int64_t rows, int64_t cols, size_t value_bytes) {
+/// int32 sizes: their product times a value's bytes fits 64 bits.
+size_t CountOf(const BlobReader& r, int32_t rows, int32_t cols, size_t value_bytes) {
   if (rows < 0 || cols < 0) {
     throw BlobError("negative size " + std::to_string(rows) + " x " + std::to_string(cols));
   }
   const uint64_t count = static_cast<uint64_t>(rows) * static_cast<uint64_t>(cols);
-  if (rows > 0 && count / static_cast<uint64_t>(rows) != static_cast<uint64_t>(cols)) {
-    throw BlobError(std::to_string(rows) + " x " + std::to_string(cols) + " values overflow");
-  }
   if (count > r.remaining() / value_bytes) {
     throw BlobError(std::to_string(rows) + " x " + std::to_string(cols) + " values need " +
                     std::to_string(count * value_bytes) + " bytes, " +
@@ -59,8 +57,8 @@ Bytes EncodePairs(const std::vector<Pair>& pairs, Split split) {
 
 }  // namespace
 
-Bytes EncodeVector(const Eigen::VectorXf& v) {
-  return EncodeArray(std::span<const float>(v.data(), static_cast<size_t>(v.size())));
+Bytes EncodeFloats(const Eigen::Ref<const Eigen::MatrixXf>& values) {
+  return EncodeArray(std::span<const float>(values.data(), static_cast<size_t>(values.size())));
 }
 
 Eigen::VectorXf DecodeVector(BlobReader& r, int64_t dim) {
@@ -75,11 +73,7 @@ Eigen::VectorXf DecodeVector(BlobReader& r, int64_t dim) {
   return Finite(std::move(out));
 }
 
-Bytes EncodeMatrix(const Eigen::MatrixXf& m) {
-  return EncodeArray(std::span<const float>(m.data(), static_cast<size_t>(m.size())));
-}
-
-Eigen::MatrixXf DecodeMatrix(BlobReader& r, int64_t rows, int64_t cols) {
+Eigen::MatrixXf DecodeMatrix(BlobReader& r, int32_t rows, int32_t cols) {
   if (rows < 0 || cols < 0 ||
       static_cast<uint64_t>(rows) * static_cast<uint64_t>(cols) * sizeof(float) != r.remaining()) {
     throw BlobError("blob of " + std::to_string(r.remaining()) + " bytes is not " +

@@ -16,13 +16,15 @@
 
 namespace tsc::store_internal {
 
+/// float32 values of a vector, or of a matrix column-major.
+Bytes EncodeFloats(const Eigen::Ref<const Eigen::MatrixXf>& values);
+
 /// float32 values; `dim` ≥ 0 requires that many. Values must be finite.
-Bytes EncodeVector(const Eigen::VectorXf& v);
 Eigen::VectorXf DecodeVector(BlobReader& r, int64_t dim = -1);
 
-/// float32 values column-major, `rows` x `cols` given beside the blob. Values must be finite.
-Bytes EncodeMatrix(const Eigen::MatrixXf& m);
-Eigen::MatrixXf DecodeMatrix(BlobReader& r, int64_t rows, int64_t cols);
+/// float32 values column-major, `rows` x `cols` given beside the blob (int32, so the byte
+/// count cannot overflow). Values must be finite.
+Eigen::MatrixXf DecodeMatrix(BlobReader& r, int32_t rows, int32_t cols);
 
 /// Member views as the memory keeps them (core/memory/compact_views.h): the marker -1, int32
 /// rows, int32 cols, int32 shift, then rows x cols int16 column-major. Schema versions before

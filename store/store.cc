@@ -110,7 +110,7 @@ void InsertBasePoint(const Db& db, const BasePointRecord& base) {
             "intensity_var) VALUES(?1, ?2, ?3, ?4, ?5)")
       .Int(1, base.index)
       .Int(2, static_cast<int64_t>(base.status))
-      .Blob(3, EncodeVector(base.descriptor))
+      .Blob(3, EncodeFloats(base.descriptor))
       .Real(4, base.intensity.mean)
       .Real(5, base.intensity.variance)
       .Run();
@@ -134,7 +134,7 @@ void InsertDetectedPlaces(const Db& db, const FrameResult& result) {
   for (const DetectedPlace& d : result.closed_places) {
     const PlaceEvent* assigned = Assignment(result, d.index);
     s.Int(1, d.index)
-        .Blob(2, d.descriptors.cols() > 0 ? EncodeVector(d.Mean()) : Bytes{})
+        .Blob(2, d.descriptors.cols() > 0 ? EncodeFloats(d.Mean()) : Bytes{})
         .Blob(3, EncodeArray(std::span<const int64_t>(d.members)))
         .Place(4, assigned ? assigned->place : std::nullopt)
         .Run();
@@ -192,7 +192,7 @@ void UpsertLearnedPlaces(const Db& db, const PlaceMemory& memory, const std::vec
     s.Int(1, position)
         .Int(2, p.id.robot)
         .Int(3, p.id.local)
-        .Blob(4, EncodeVector(p.mean))
+        .Blob(4, EncodeFloats(p.mean))
         .Int(5, p.member_count)
         .Blob(6, EncodeSamples(p.samples))
         .Blob(7, EncodeArray(std::span<const int64_t>(p.detected)))
@@ -251,8 +251,8 @@ void WriteTree(const Db& db, const PlaceMemory& memory, const std::vector<int>& 
         .Int(3, support.cols())
         .Real(4, d.rho())
         .Real(5, d.gamma())
-        .Blob(6, EncodeMatrix(support))
-        .Blob(7, EncodeVector(d.coef()))
+        .Blob(6, EncodeFloats(support))
+        .Blob(7, EncodeFloats(d.coef()))
         .Run();
   }
   Statement erase(db, "DELETE FROM discriminants WHERE set_key = ?1");
@@ -419,8 +419,8 @@ std::unordered_map<uint64_t, OneClassDiscriminant> ReadDiscriminants(const Db& d
   while (s.Step()) {
     const int64_t key = Row(db, s, "discriminants", "?").Int(0, "set_key");
     const Row row(db, s, "discriminants", "set_key=" + std::to_string(key));
-    const int64_t dim = row.Int(1, "dim", 0, kMaxSize);
-    const int64_t n_sv = row.Int(2, "n_sv", 0, kMaxSize);
+    const auto dim = static_cast<int32_t>(row.Int(1, "dim", 0, kMaxSize));
+    const auto n_sv = static_cast<int32_t>(row.Int(2, "n_sv", 0, kMaxSize));
     const double rho = row.Real(3, "rho"), gamma = row.Real(4, "gamma");
     Eigen::MatrixXf support =
         row.Decode(5, "support", [&](BlobReader& r) { return DecodeMatrix(r, dim, n_sv); });

@@ -50,9 +50,9 @@ TEST(Layouts, EachValueIsReadBackAsWritten) {
     for (Eigen::Index i = 0; i < m.size(); ++i) m.data()[i] = unit(rng);
     const Eigen::VectorXf v = m.col(0);
 
-    EXPECT_EQ(Read(EncodeVector(v), [](BlobReader& r) { return DecodeVector(r); }), v);
-    EXPECT_EQ(Read(EncodeVector(v), [&](BlobReader& r) { return DecodeVector(r, rows); }), v);
-    EXPECT_EQ(Read(EncodeMatrix(m), [&](BlobReader& r) { return DecodeMatrix(r, rows, cols); }), m);
+    EXPECT_EQ(Read(EncodeFloats(v), [](BlobReader& r) { return DecodeVector(r); }), v);
+    EXPECT_EQ(Read(EncodeFloats(v), [&](BlobReader& r) { return DecodeVector(r, rows); }), v);
+    EXPECT_EQ(Read(EncodeFloats(m), [&](BlobReader& r) { return DecodeMatrix(r, rows, cols); }), m);
 
     const CompactViews views(m);
     const CompactViews samples = Read(EncodeSamples(views), DecodeSamples);
@@ -108,17 +108,17 @@ TEST(Layouts, CellsNoEncoderWritesAreRefused) {
     return [dim](BlobReader& r) { return DecodeVector(r, dim); };
   };
   const Eigen::VectorXf three = Eigen::VectorXf::Constant(3, 0.5f);
-  EXPECT_EQ(Refusal(EncodeVector(three), vector(4)), "blob of 12 bytes is not 4 float32 values");
+  EXPECT_EQ(Refusal(EncodeFloats(three), vector(4)), "blob of 12 bytes is not 4 float32 values");
   EXPECT_EQ(Refusal(Bytes{1, 2, 3}, vector(-1)),
             "blob of 3 bytes is not a whole number of float32 values");
   Eigen::VectorXf nan = three;
   nan[1] = std::numeric_limits<float>::quiet_NaN();
-  EXPECT_EQ(Refusal(EncodeVector(nan), vector(3)), "non-finite value");
+  EXPECT_EQ(Refusal(EncodeFloats(nan), vector(3)), "non-finite value");
 
   const Eigen::MatrixXf m = Eigen::MatrixXf::Constant(2, 3, 0.25f);
-  EXPECT_EQ(Refusal(EncodeMatrix(m), [](BlobReader& r) { return DecodeMatrix(r, 3, 3); }),
+  EXPECT_EQ(Refusal(EncodeFloats(m), [](BlobReader& r) { return DecodeMatrix(r, 3, 3); }),
             "blob of 24 bytes is not 3 x 3 float32 values");
-  EXPECT_EQ(Refusal(EncodeMatrix(m), [](BlobReader& r) { return DecodeMatrix(r, -2, -3); }),
+  EXPECT_EQ(Refusal(EncodeFloats(m), [](BlobReader& r) { return DecodeMatrix(r, -2, -3); }),
             "blob of 24 bytes is not -2 x -3 float32 values");
 
   // Member views claiming more than the cell holds, or negative, or not an encoding.
