@@ -30,13 +30,14 @@ extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
     (void)tsc::LoadSettings(file, {});
   } catch (const tsc::ConfigError&) {
   }
-  // The same text as --set overrides, one per line.
+  // The same text as --set overrides, one per line, applied in order to one Settings as a
+  // command line's are.
   std::string text(reinterpret_cast<const char*>(data), size);
+  tsc::Settings settings;
   size_t start = 0;
   while (start <= text.size()) {
     const size_t end = std::min(text.find('\n', start), text.size());
     try {
-      tsc::Settings settings;
       tsc::ApplyOverride(text.substr(start, end - start), settings);
     } catch (const tsc::ConfigError&) {
     }
