@@ -15,7 +15,6 @@
 #include "settings/settings.h"
 #include "tools/classify.h"
 #include "tools/command_line.h"
-#include "tools/eval.h"
 #include "tools/events_json.h"
 #include "tools/plots.h"
 
@@ -57,31 +56,6 @@ descriptor.*); a model remembers them, so test needs none.
 
 Options)";
 
-EvalOptions GridArg(const std::string& option, const std::string& text) {
-  double v[3];
-  size_t start = 0;
-  for (int i = 0; i < 3; ++i) {
-    const size_t colon = text.find(':', start);
-    if ((i < 2) != (colon != std::string::npos)) {
-      throw UsageError(option + " " + text + ": expected FROM:TO:STEP (log2), e.g. -1:9:2");
-    }
-    const std::string part = text.substr(start, i < 2 ? colon - start : std::string::npos);
-    size_t used = 0;
-    try {
-      v[i] = std::stod(part, &used);
-    } catch (const std::exception&) {
-      used = 0;
-    }
-    if (used == 0 || used != part.size()) {
-      throw UsageError(option + " " + text + ": '" + part + "' is not a number");
-    }
-    start = colon + 1;
-  }
-  EvalOptions e;
-  e.sweep_from = v[0], e.sweep_to = v[1], e.sweep_step = v[2];
-  return e;
-}
-
 struct Common {
   std::vector<fs::path> datasets;
   std::optional<fs::path> json, plots;
@@ -120,13 +94,14 @@ std::string JsonPaths(const std::vector<fs::path>& datasets) {
 ClassifierOptions GridOptions(const po::variables_map& vm) {
   ClassifierOptions o;
   if (vm.count("grid-c")) {
-    const EvalOptions g = GridArg("--grid-c", vm["grid-c"].as<std::string>());
-    o.log2_c_from = g.sweep_from, o.log2_c_to = g.sweep_to, o.log2_c_step = g.sweep_step;
+    const FromToStep g =
+        ParseFromToStep("--grid-c", vm["grid-c"].as<std::string>(), "-1:9:2 (log2)");
+    o.log2_c_from = g.from, o.log2_c_to = g.to, o.log2_c_step = g.step;
   }
   if (vm.count("grid-gamma")) {
-    const EvalOptions g = GridArg("--grid-gamma", vm["grid-gamma"].as<std::string>());
-    o.log2_gamma_from = g.sweep_from, o.log2_gamma_to = g.sweep_to,
-    o.log2_gamma_step = g.sweep_step;
+    const FromToStep g =
+        ParseFromToStep("--grid-gamma", vm["grid-gamma"].as<std::string>(), "-3:3:1.5 (log2)");
+    o.log2_gamma_from = g.from, o.log2_gamma_to = g.to, o.log2_gamma_step = g.step;
   }
   o.folds = vm["folds"].as<int>();
   const long long seed = vm["seed"].as<long long>();

@@ -45,6 +45,35 @@ inline boost::program_options::variables_map ParseCommandLine(
   return vm;
 }
 
+/// A FROM:TO:STEP option value (a sweep, a grid) as its three numbers; a UsageError naming
+/// `option` and showing `example` otherwise. Their ranges are the caller's to check.
+struct FromToStep {
+  double from = 0.0, to = 0.0, step = 0.0;
+};
+inline FromToStep ParseFromToStep(const std::string& option, const std::string& text,
+                                  const std::string& example) {
+  double v[3];
+  size_t start = 0;
+  for (int i = 0; i < 3; ++i) {
+    const size_t colon = text.find(':', start);
+    if ((i < 2) != (colon != std::string::npos)) {
+      throw UsageError(option + " " + text + ": expected FROM:TO:STEP, e.g. " + example);
+    }
+    const std::string part = text.substr(start, i < 2 ? colon - start : std::string::npos);
+    size_t used = 0;
+    try {
+      v[i] = std::stod(part, &used);
+    } catch (const std::exception&) {
+      used = 0;
+    }
+    if (used == 0 || used != part.size()) {
+      throw UsageError(option + " " + text + ": '" + part + "' is not a number");
+    }
+    start = colon + 1;
+  }
+  return {v[0], v[1], v[2]};
+}
+
 /// Adds the configuration options every pipeline subcommand takes: --config F and the
 /// repeatable --set KEY=VALUE.
 inline void AddConfigOptions(boost::program_options::options_description& desc,

@@ -330,27 +330,9 @@ int Run(const std::vector<std::string>& args) {
 }
 
 EvalOptions ParseSweep(const std::string& text) {
+  const FromToStep sweep = ParseFromToStep("--sweep", text, "1.5:3.5:0.1");
   EvalOptions e;
-  double v[3];
-  size_t start = 0;
-  for (int i = 0; i < 3; ++i) {
-    const size_t colon = text.find(':', start);
-    if ((i < 2) != (colon != std::string::npos)) {
-      throw UsageError("--sweep " + text + ": expected FROM:TO:STEP, e.g. 1.5:3.5:0.1");
-    }
-    const std::string part = text.substr(start, i < 2 ? colon - start : std::string::npos);
-    size_t used = 0;
-    try {
-      v[i] = std::stod(part, &used);
-    } catch (const std::exception&) {
-      used = 0;
-    }
-    if (used == 0 || used != part.size()) {
-      throw UsageError("--sweep " + text + ": '" + part + "' is not a number");
-    }
-    start = colon + 1;
-  }
-  e.sweep_from = v[0], e.sweep_to = v[1], e.sweep_step = v[2];
+  e.sweep_from = sweep.from, e.sweep_to = sweep.to, e.sweep_step = sweep.step;
   try {
     e.Validate();
   } catch (const std::invalid_argument& ex) {

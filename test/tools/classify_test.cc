@@ -98,6 +98,18 @@ TEST_F(ClassifyTest, VisionAndDepthBeatDepthOnlyAndDayNightTrainingBeatsDayOnly)
   EXPECT_GT(l5, TrainAndTest({day}, test, "L5").best_imageclef);
 }
 
+TEST_F(ClassifyTest, AGridThatIsNotFromToStepIsAUsageError) {
+  const fs::path day = ShortDay();
+  const fs::path model = dir_.path() / "bad-grid.model";
+  for (const std::string grid : {"--grid-c 1:7", "--grid-gamma 0:x:1", "--grid-c 1:7:3:4"}) {
+    const auto r = RunTsc(dir_.path(), "classify train " + Quote(day.string()) + " --model " +
+                                           Quote(model.string()) + " " + grid);
+    EXPECT_EQ(r.code, 2) << grid << ": " << r.err;
+    EXPECT_NE(r.err.find(grid.substr(0, grid.find(' '))), std::string::npos) << r.err;
+    EXPECT_FALSE(fs::exists(model)) << grid;
+  }
+}
+
 TEST_F(ClassifyTest, TrainThenTestThroughTheCommandLine) {
   const fs::path day = ShortDay();
   const fs::path scratch = dir_.path() / "cli";
