@@ -98,6 +98,14 @@ inline Settings SettingsFromCommandLine(const boost::program_options::variables_
   return LoadSettings(file, overrides);
 }
 
+/// SettingsFromCommandLine, with a subcommand's --robot ID (where it has one) applied last as
+/// robot.id, so it wins and is checked like every other key.
+inline Settings SettingsWithRobotOption(const boost::program_options::variables_map& vm) {
+  if (vm.count("robot"))
+    return SettingsFromCommandLine(vm, {"robot.id=" + vm["robot"].as<std::string>()});
+  return SettingsFromCommandLine(vm);
+}
+
 /// Runs subcommand `name` and turns what it throws into one line on stderr and an exit code:
 /// UsageError → kExitUsage (with a pointer to its --help), ConfigError → kExitConfig, any
 /// other exception → kExitFailure. Subcommands throw; only `tsc`'s dispatcher (and tests that

@@ -449,6 +449,11 @@ PreparedDataset PrepareDataset(const Settings& settings, const Dataset& opened, 
                       spacing,
                       stride,
                       {lens, LensCaution(lens)}};
+  if (out.options.features.NeedsDepth() && !out.dataset.has_depth()) {
+    throw DatasetError(opened.folder().string() +
+                       ": bubble.features = " + out.options.features.ToString() +
+                       " needs depth, but the dataset has no depth/ folder");
+  }
   AdaptToSpacing(out.options, spacing);
   AdaptToLens(out.options, lens);
   if (say != nullptr) {

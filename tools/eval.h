@@ -130,7 +130,8 @@ struct PreparedDataset {
 /// every StrideFor-th frame as a base point (Dataset::EveryNth), and place detection counts
 /// τ_p in base points at their spacing (AdaptToSpacing); a forward camera's τ_κ and distance
 /// unit follow its lens (AdaptToLens). Writes the spacing, its basis, τ_p and the lens's
-/// thresholds to `say` unless it is null.
+/// thresholds to `say` unless it is null. Throws DatasetError when the configured features
+/// need depth and the dataset has none.
 PreparedDataset PrepareDataset(const Settings& settings, const Dataset& opened, std::ostream* say);
 
 /// Runs and scores. Throws DatasetError (naming the frame and file) for unreadable frames,

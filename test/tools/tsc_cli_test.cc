@@ -238,6 +238,24 @@ TEST_F(TscCliTest, StoreOfAnotherRobotExits1) {
   EXPECT_NE(o.err.find("r.db"), std::string::npos) << o.err;
 }
 
+// Features that need depth on a dataset without depth/: both commands refuse before anything
+// is written (no store, no JSON).
+TEST_F(TscCliTest, FeaturesThatNeedDepthWithoutDepthExit1BeforeWriting) {
+  const fs::path ds = MakeDataset(3);
+  const fs::path db = dir_ / "depth.db", json = dir_ / "depth.json";
+  const std::string features = " --set bubble.features=L5+I";
+  for (const std::string& command :
+       {"run " + Quote(ds.string()) + " --db " + Quote(db.string()) + features,
+        "eval " + Quote(ds.string()) + " --json " + Quote(json.string()) + features}) {
+    const Outcome o = Tsc(command);
+    EXPECT_EQ(o.code, 1) << command << ": " << o.err;
+    EXPECT_NE(o.err.find("needs depth, but the dataset has no depth/ folder"), std::string::npos)
+        << o.err;
+  }
+  EXPECT_FALSE(fs::exists(db));
+  EXPECT_FALSE(fs::exists(json));
+}
+
 TEST_F(TscCliTest, EvalMissingDatasetExits1NamingIt) {
   const fs::path missing = dir_ / "no_such_dataset";
   const Outcome o =
