@@ -14,7 +14,6 @@
 
 #include "drivers/dataset/assumed_keyframes_check.h"
 #include "drivers/dataset/dataset.h"
-#include "drivers/dataset/lens_response.h"
 #include "settings/settings.h"
 #include "tools/command_line.h"
 #include "tools/eval.h"
