@@ -161,6 +161,7 @@ namespace {
 void AddSweepPoint(EvalResult& result, const EvalRun& run) {
   const RecognitionScore& s = run.recognition;
   result.pr_curve.push_back({run.tau_r, s.precision, s.recall});
+  result.sweep_counts.push_back({run.tau_r, s.recognitions, s.correct, s.should_be_recognized});
   result.view_pr_curve.push_back({run.tau_r, s.precision, s.view_recall});
   result.loop_closure_pr_curve.push_back(
       {run.tau_r, run.loop_closure.precision, run.loop_closure.recall});
@@ -300,6 +301,16 @@ void WriteRecognition(JsonWriter& w, const EvalResult& r) {
   w.Key("precision").Number(s.precision).Key("recall").Number(s.recall);
   w.Key("recall_at_full_precision").Number(r.recall_at_full_precision);
   WriteCurve(w.Key("pr_curve"), r.pr_curve);
+  w.Key("sweep_counts").Begin('[');
+  for (const EvalResult::SweepCount& c : r.sweep_counts) {
+    w.Begin('[')
+        .Number(c.tau_r)
+        .Int(c.recognitions)
+        .Int(c.correct)
+        .Int(c.should_be_recognized)
+        .End(']');
+  }
+  w.End(']');
   if (r.truth.has_poses()) {
     w.Key("view_should_be_recognized").Int(s.view_should_be_recognized);
     w.Key("view_correct").Int(s.view_correct).Key("view_recall").Number(s.view_recall);

@@ -93,6 +93,13 @@ struct EvalResult {
   int good = 0, uninformative = 0, incoherent = 0;
   EvalRun main;                   ///< at options.memory.tau_r
   std::vector<PrPoint> pr_curve;  ///< one point per sweep value, in τ_r order
+  /// The counts behind each point of pr_curve (a precision of 0 hides how many were wrong;
+  /// calibration sums them over worlds: scripts/calibrate).
+  struct SweepCount {
+    double tau_r = 0.0;
+    int recognitions = 0, correct = 0, should_be_recognized = 0;
+  };
+  std::vector<SweepCount> sweep_counts;
   double recall_at_full_precision = 0.0;
   /// The same sweep with the view-overlap recall (meaningful when truth.has_poses()).
   std::vector<PrPoint> view_pr_curve;
@@ -147,6 +154,7 @@ EvalResult Evaluate(const Dataset& dataset, const PipelineOptions& options,
 ///                  "detected_boundaries","tolerance_frames"}   (with labels),
 ///    "recognition": {"tau_r","recognitions","correct","should_be_recognized","precision",
 ///                    "recall","recall_at_full_precision","pr_curve": [[τ_r,P,R],...],
+///                    "sweep_counts": [[τ_r,recognitions,correct,should_be_recognized],...],
 ///                    with poses also "view_should_be_recognized","view_correct",
 ///                    "view_recall","view_recall_at_full_precision",
 ///                    "view_pr_curve": [[τ_r,P,view R],...]},

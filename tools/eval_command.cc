@@ -38,7 +38,8 @@ curve; default 1.5:3.5:0.1, around the default 2.9; STEP 0 = no sweep).
 
 --json FILE gets one JSON object: frames, base_points, detected_places, learned_places,
 detection.{boundary_f1,precision,recall} (with labels), recognition.{precision,recall,
-recall_at_full_precision,pr_curve:[[tau_r,precision,recall],...]} and, with poses,
+recall_at_full_precision,pr_curve:[[tau_r,precision,recall],...],sweep_counts:[[tau_r,
+recognitions,correct,should_be_recognized],...]} and, with poses,
 recognition.{view_recall,view_recall_at_full_precision,view_pr_curve} (only places that
 share a view, within 2 m and 45 degrees, with the place they match), loop_closure.{precision,
 recall,recall_at_full_precision,pr_curve} (frame level: each frame of a recognised place

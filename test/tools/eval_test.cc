@@ -218,6 +218,20 @@ TEST_F(EvalTest, LabelledDatasetScoresBoundariesEdgesAndDrawsFloorPlan) {
   EXPECT_EQ(r.edges->edges, static_cast<int>(r.main.map.edges().size()));
   ASSERT_EQ(r.pr_curve.size(), 4u);
   EXPECT_DOUBLE_EQ(r.pr_curve[3].tau_r, 1.6);
+  // The counts behind each point of the curve, as a precision of 0 would not tell them.
+  ASSERT_EQ(r.sweep_counts.size(), r.pr_curve.size());
+  for (size_t i = 0; i < r.pr_curve.size(); ++i) {
+    const EvalResult::SweepCount& c = r.sweep_counts[i];
+    EXPECT_DOUBLE_EQ(c.tau_r, r.pr_curve[i].tau_r);
+    EXPECT_LE(c.correct, c.recognitions);
+    EXPECT_LE(c.correct, c.should_be_recognized);
+    EXPECT_DOUBLE_EQ(r.pr_curve[i].precision,
+                     c.recognitions > 0 ? static_cast<double>(c.correct) / c.recognitions : 1.0);
+    EXPECT_DOUBLE_EQ(
+        r.pr_curve[i].recall,
+        c.should_be_recognized > 0 ? static_cast<double>(c.correct) / c.should_be_recognized : 0.0);
+  }
+  EXPECT_GT(r.sweep_counts.back().recognitions, 0);
 
   std::ostringstream json;
   WriteEvalJson(json, r);
@@ -233,6 +247,15 @@ TEST_F(EvalTest, LabelledDatasetScoresBoundariesEdgesAndDrawsFloorPlan) {
   }
   ExpectCurve(root, "loop_closure", "pr_curve", 4);
   ExpectCurve(root, "recognition", "view_pr_curve", 4);
+  const JsonValue* counts = root.Find("recognition")->Find("sweep_counts");
+  ASSERT_NE(counts, nullptr);
+  ASSERT_EQ(counts->items.size(), 4u);
+  for (size_t i = 0; i < 4; ++i) {
+    ASSERT_EQ(counts->items[i].items.size(), 4u);
+    EXPECT_EQ(counts->items[i].items[1].number, r.sweep_counts[i].recognitions);
+    EXPECT_EQ(counts->items[i].items[2].number, r.sweep_counts[i].correct);
+    EXPECT_EQ(counts->items[i].items[3].number, r.sweep_counts[i].should_be_recognized);
+  }
   // One decision per detected place, agreeing with the totals.
   const JsonValue* decisions = root.Find("decisions");
   ASSERT_NE(decisions, nullptr);
