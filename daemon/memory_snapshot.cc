@@ -33,7 +33,9 @@ learned_place_v2_t ToMessage(const LearnedPlace& p) {
   m.view_dims = static_cast<int32_t>(p.samples.rows());
   m.view_shift = static_cast<int16_t>(p.samples.shift());
   m.samples.resize(static_cast<size_t>(m.num_samples));
-  const int16_t* values = p.samples.values();
+  std::vector<int16_t> wide(static_cast<size_t>(p.samples.size()));
+  p.samples.WideInto(wide.data());
+  const int16_t* values = wide.data();
   for (int j = 0; j < m.num_samples; ++j) {
     const int16_t* col = values + static_cast<std::ptrdiff_t>(j) * m.view_dims;
     m.samples[static_cast<size_t>(j)].assign(col, col + m.view_dims);
@@ -57,7 +59,9 @@ bool SameBody(const LearnedPlace& p, const learned_place_v2_t& m) {
       !same_floats(m.mean.data(), p.mean.data(), m.mean.size())) {
     return false;
   }
-  const int16_t* values = p.samples.values();
+  std::vector<int16_t> wide(static_cast<size_t>(p.samples.size()));
+  p.samples.WideInto(wide.data());
+  const int16_t* values = wide.data();
   for (int j = 0; j < m.num_samples; ++j) {
     const std::vector<int16_t>& col = m.samples[static_cast<size_t>(j)];
     if (col.size() != static_cast<size_t>(m.view_dims) ||

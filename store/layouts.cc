@@ -91,7 +91,9 @@ Bytes EncodeSamples(const CompactViews& v) {
       .PutOne(static_cast<int32_t>(v.rows()))
       .PutOne(static_cast<int32_t>(v.cols()))
       .PutOne(static_cast<int32_t>(v.shift()));
-  w.Put(std::span<const int16_t>(v.values(), static_cast<size_t>(v.size())));
+  std::vector<int16_t> wide(static_cast<size_t>(v.size()));
+  v.WideInto(wide.data());
+  w.Put(std::span<const int16_t>(wide));
   return w.Finish();
 }
 
@@ -103,7 +105,7 @@ CompactViews DecodeSamples(BlobReader& r) {
       const int32_t shift = r.TakeOne<int32_t>();
       std::vector<int16_t> values = r.Take<int16_t>(CountOf(r, rows, cols, sizeof(int16_t)));
       r.ExpectEnd();
-      return CompactViews(rows, cols, shift, std::move(values));
+      return CompactViews(rows, cols, shift, values);
     }
     const int32_t cols = r.TakeOne<int32_t>();
     const size_t count = CountOf(r, first, cols, sizeof(float));

@@ -15,6 +15,11 @@ namespace {
 // Views of nothing above 2⁻¹²⁵ round to zero; 2^−140 is still a float, so decoding is exact.
 constexpr int kMostShift = 140;
 constexpr int kLeastShift = -15;  // the largest coordinate below 2³⁰
+constexpr int kMostDrop = 8;      // 2^8 · 127 < 2¹⁵: a row's codes on the 16-bit grid
+constexpr double kLargestCode = 127.0;
+// The largest coordinate times 2^shift stays below 127.5 · 2^8, so the top row's codes round
+// to at most 127 (the 16-bit grid's own limit, 32767.5, let them round to 128).
+constexpr double kLargestScaled = 127.5 * 256.0;
 
 // 2^e as a float, built from its bits where it is a normal float (no library call: a training
 // set decodes one column at a time, 10⁴ nodes x 128 columns in a merge).
@@ -23,21 +28,36 @@ float PowerOfTwo(int e) {
   return std::bit_cast<float>(static_cast<uint32_t>(e + 127) << 23);
 }
 
-// The integers of `v` times 2^−shift, on eight lanes where the CPU has AVX2: the same floats
-// either way (an integer below 2¹⁵ times a power of two is exact).
-void DecodeRange(const int16_t* v, Eigen::Index n, int shift, float* out) {
-  const float scale = PowerOfTwo(-shift);
-  if (FastestSimd() == Simd::kAvx2Fma) {
-    avx2::ScaleInt16(v, n, scale, out);
+// x rounded to an integer, ties to even (the default rounding mode), for |x| < 2⁵¹: adding and
+// taking away 1.5·2⁵² rounds it, with no library call per coordinate (std::nearbyint and
+// std::ldexp made a merge's pooled views a tenth of its time).
+double RoundToInteger(double x) {
+  constexpr double kRound = 0x1.8p52;
+  return (x + kRound) - kRound;
+}
+
+// Columns [0, cols) of codes (rows a column) as floats: code · 2^(drop[row] − shift). The
+// same floats on every instruction set (a code below 2⁷ times a power of two is exact).
+void DecodeColumns(const int8_t* codes, const uint8_t* drop, Eigen::Index rows, Eigen::Index cols,
+                   int shift, float* out) {
+  if (FastestSimd() == Simd::kAvx2Fma && shift <= 126) {  // every scale a normal float
+    avx2::ScaleInt8Rows(codes, drop, rows, cols, shift, out);
     return;
   }
-  for (Eigen::Index k = 0; k < n; ++k) out[k] = static_cast<float>(v[k]) * scale;
+  for (Eigen::Index c = 0; c < cols; ++c) {
+    for (Eigen::Index r = 0; r < rows; ++r) {
+      out[r + c * rows] = static_cast<float>(codes[r + c * rows]) * PowerOfTwo(drop[r] - shift);
+    }
+  }
 }
 
 }  // namespace
 
 CompactViews::CompactViews(const Eigen::MatrixXf& views)
-    : rows_(views.rows()), cols_(views.cols()), values_(static_cast<size_t>(views.size())) {
+    : rows_(views.rows()),
+      cols_(views.cols()),
+      codes_(static_cast<size_t>(views.size())),
+      drop_(static_cast<size_t>(views.rows()), 0) {
   float most = 0.0f;
   for (Eigen::Index k = 0; k < views.size(); ++k) {
     const float x = views.data()[k];
@@ -52,18 +72,34 @@ CompactViews::CompactViews(const Eigen::MatrixXf& views)
     int e = 0;
     std::frexp(most, &e);  // most ∈ [2^(e−1), 2^e)
     shift_ = std::min(15 - e, kMostShift);
-    // The largest must not round up to 2¹⁵, which int16 cannot hold (and decoded, it would
-    // choose another shift: encoding decoded views would not give them back).
-    if (shift_ < kMostShift && std::ldexp(most, shift_) >= 32767.5f) --shift_;
+    if (std::ldexp(static_cast<double>(most), shift_) >= kLargestScaled) --shift_;
   }
-  // x · 2^shift is exact in double; adding and taking away 1.5·2⁵² rounds it to an integer,
-  // ties to even (the default rounding mode): no library call per coordinate (std::nearbyint
-  // and std::ldexp made a merge's pooled views a tenth of its time).
+  // x · 2^shift is exact in double; each row then takes the least drop that keeps its largest
+  // code within 127, and its codes are the scaled coordinates rounded at that drop. (Column by
+  // column: the views are column-major.)
   const double scale = std::ldexp(1.0, shift_);
-  constexpr double kRound = 0x1.8p52;
-  for (Eigen::Index k = 0; k < views.size(); ++k) {
-    const double y = static_cast<double>(views.data()[k]) * scale;
-    values_[static_cast<size_t>(k)] = static_cast<int16_t>((y + kRound) - kRound);
+  std::vector<double> row_scale(static_cast<size_t>(rows_), 0.0);
+  for (Eigen::Index c = 0; c < cols_; ++c) {
+    const float* x = views.data() + c * rows_;
+    for (Eigen::Index r = 0; r < rows_; ++r) {
+      double& m = row_scale[static_cast<size_t>(r)];  // the row's largest, scaled, for now
+      m = std::max(m, std::abs(static_cast<double>(x[r]) * scale));
+    }
+  }
+  for (Eigen::Index r = 0; r < rows_; ++r) {
+    double& m = row_scale[static_cast<size_t>(r)];
+    int drop = 0;
+    while (drop < kMostDrop && RoundToInteger(std::ldexp(m, -drop)) > kLargestCode) ++drop;
+    drop_[static_cast<size_t>(r)] = static_cast<uint8_t>(drop);
+    m = std::ldexp(scale, -drop);
+  }
+  for (Eigen::Index c = 0; c < cols_; ++c) {
+    const float* x = views.data() + c * rows_;
+    int8_t* code = codes_.data() + c * rows_;
+    for (Eigen::Index r = 0; r < rows_; ++r) {
+      code[r] = static_cast<int8_t>(
+          RoundToInteger(static_cast<double>(x[r]) * row_scale[static_cast<size_t>(r)]));
+    }
   }
 }
 
@@ -74,24 +110,40 @@ bool CompactViews::IsEncoding(int shift, int largest) {
 }
 
 CompactViews::CompactViews(Eigen::Index rows, Eigen::Index cols, int shift,
-                           std::vector<int16_t> values)
-    : rows_(rows), cols_(cols), shift_(shift), values_(std::move(values)) {
-  if (rows_ < 0 || cols_ < 0 || static_cast<size_t>(rows_ * cols_) != values_.size()) {
-    throw std::invalid_argument("compact views: " + std::to_string(values_.size()) +
-                                " values for " + std::to_string(rows_) + " x " +
-                                std::to_string(cols_));
+                           const std::vector<int16_t>& wide) {
+  if (rows < 0 || cols < 0 || static_cast<size_t>(rows * cols) != wide.size()) {
+    throw std::invalid_argument("compact views: " + std::to_string(wide.size()) + " values for " +
+                                std::to_string(rows) + " x " + std::to_string(cols));
   }
   int most = 0;
-  for (int16_t v : values_) most = std::max(most, std::abs(static_cast<int>(v)));
-  if (!IsEncoding(shift_, most)) {
+  for (int16_t v : wide) most = std::max(most, std::abs(static_cast<int>(v)));
+  if (!IsEncoding(shift, most)) {
     throw std::invalid_argument("compact views: largest value " + std::to_string(most) +
-                                " at shift " + std::to_string(shift_) +
+                                " at shift " + std::to_string(shift) +
                                 " is not what encoding views gives");
+  }
+  // The coordinates exactly (an integer below 2¹⁵ times a power of two), encoded: the codes
+  // Wide gave, or the finer grid's views on this one.
+  Eigen::MatrixXf views(rows, cols);
+  const float scale = PowerOfTwo(-shift);
+  for (Eigen::Index k = 0; k < views.size(); ++k) {
+    views.data()[k] = static_cast<float>(wide[static_cast<size_t>(k)]) * scale;
+  }
+  *this = CompactViews(views);
+}
+
+void CompactViews::WideInto(int16_t* out) const {
+  for (Eigen::Index c = 0; c < cols_; ++c) {
+    for (Eigen::Index r = 0; r < rows_; ++r) {
+      const Eigen::Index k = r + c * rows_;
+      out[k] = static_cast<int16_t>(codes_[static_cast<size_t>(k)] *
+                                    (1 << drop_[static_cast<size_t>(r)]));
+    }
   }
 }
 
 void CompactViews::DecodeInto(float* out) const {
-  DecodeRange(values_.data(), size(), shift_, out);
+  DecodeColumns(codes_.data(), drop_.data(), rows_, cols_, shift_, out);
 }
 
 Eigen::MatrixXf CompactViews::Decoded() const {
@@ -108,7 +160,7 @@ Eigen::VectorXf CompactViews::Col(Eigen::Index j) const {
 
 void CompactViews::DecodeColInto(Eigen::Index j, float* out) const {
   if (j < 0 || j >= cols_) throw std::out_of_range("member view " + std::to_string(j));
-  DecodeRange(values_.data() + j * rows_, rows_, shift_, out);
+  DecodeColumns(codes_.data() + j * rows_, drop_.data(), rows_, 1, shift_, out);
 }
 
 void CompactViews::Append(const CompactViews& more) {
@@ -121,13 +173,13 @@ void CompactViews::Append(const CompactViews& more) {
     throw std::invalid_argument("appending views of dimension " + std::to_string(more.rows_) +
                                 " to views of dimension " + std::to_string(rows_));
   }
-  if (more.shift_ != shift_) {
+  if (more.shift_ != shift_ || more.drop_ != drop_) {
     Eigen::MatrixXf both(rows_, cols_ + more.cols_);
     both << Decoded(), more.Decoded();
     *this = CompactViews(both);
     return;
   }
-  values_.insert(values_.end(), more.values_.begin(), more.values_.end());
+  codes_.insert(codes_.end(), more.codes_.begin(), more.codes_.end());
   cols_ += more.cols_;
 }
 

@@ -1,6 +1,7 @@
 #pragma once
-// A learned place's member views kept in 16 bits a coordinate (issue 23: tscd's RSS ≤ 200 MB
-// at 10⁴ places holding the 32-view cap; docs/decisions.md "Member views in 16 bits").
+// A learned place's member views kept in 8 bits a coordinate, with a power of two per axis
+// (issue 23: tscd's RSS ≤ 200 MB at 10⁴ places holding two visits' views; docs/decisions.md
+// "Member views in 8 bits").
 
 #include <Eigen/Core>
 #include <cstdint>
@@ -8,27 +9,34 @@
 
 namespace tsc {
 
-/// A dim x k matrix of member views stored as 16-bit integers times one power of two chosen
-/// per matrix, so that its largest coordinate is an integer in [2¹⁴, 2¹⁵): every coordinate is
-/// kept to within 2⁻¹⁵ of the largest. Fixed point rather than half floats: the distances
-/// recognition measures are between nearby views, where the large coordinates' rounding is
-/// what counts (a half keeps 2⁻¹¹ of each: a cost moved by 0.4 % where this moves it 0.03 %).
-/// Decoding is exact, and encoding decoded views gives them back bit for bit, so views that
-/// travel (wire, store, merges) lose nothing after their first encoding.
+/// A dim x k matrix of member views stored as 8-bit integers, each row (axis of the view
+/// basis) times its own power of two. A place's views have one power of two, the *shift*
+/// 2^−shift, chosen as before for 16 bits (its largest coordinate an integer in [2¹⁴, 2¹⁵));
+/// a row keeps its coordinates on that 16-bit grid coarsened by 2^drop, drop in [0, 8] the
+/// least that keeps the row's largest within 127. So every coordinate is within 2⁻⁸ of its
+/// row's largest, and no coarser than the 16-bit grid: an axis whose coordinates are small
+/// keeps them as 16 bits did. 8 bits with one power of two for all axes moved the recognition
+/// costs by more than the calibration allows (docs/calibration.md, thirty-second pass).
+/// The views travel and are stored in their 16-bit form (Wide: value · 2^drop at the shift),
+/// which protocol 4 and the store's schema already carry. Decoding is exact, and encoding
+/// decoded views gives them back bit for bit, so views that travel (wire, store, merges) lose
+/// nothing after their first encoding.
 class CompactViews {
  public:
   CompactViews() = default;
   /// Throws std::invalid_argument when a coordinate is not finite or its magnitude is 2³⁰
   /// or more (descriptor coordinates are below 1).
   explicit CompactViews(const Eigen::MatrixXf& views);
-  /// Views as stored (store/): rows x cols `values` column-major, a coordinate value · 2^−shift.
-  /// Throws std::invalid_argument unless they are what encoding some views gives: the sizes
-  /// agree, and the largest |value| lies in [2¹⁴, 2¹⁵) (or every value is 0 with shift 0), with
-  /// shift in [−15, 140] (at 140, of views below 2⁻¹²⁵, any largest value below 2¹⁵).
-  CompactViews(Eigen::Index rows, Eigen::Index cols, int shift, std::vector<int16_t> values);
-  /// Whether integers whose largest |value| is `largest` (≥ 0) at `shift` are what encoding some
-  /// views gives: the rule the constructor from parts checks, for callers that hold the
-  /// integers elsewhere (a message's rows) and need not copy them to ask.
+  /// Views in their 16-bit form (store/, messages): rows x cols `wide` column-major, a
+  /// coordinate value · 2^−shift. Throws std::invalid_argument unless they are what a 16-bit
+  /// encoding of some views gives: the sizes agree, and the largest |value| lies in
+  /// [2¹⁴, 2¹⁵) (or every value is 0 with shift 0), with shift in [−15, 140] (at 140, of
+  /// views below 2⁻¹²⁵, any largest value below 2¹⁵). Views Wide gave come back as they were;
+  /// others (the finer grid of tscd before 8 bits) are encoded again.
+  CompactViews(Eigen::Index rows, Eigen::Index cols, int shift, const std::vector<int16_t>& wide);
+  /// Whether 16-bit integers whose largest |value| is `largest` (≥ 0) at `shift` are what
+  /// encoding some views gives: the rule the constructor from parts checks, for callers that
+  /// hold the integers elsewhere (a message's rows) and need not copy them to ask.
   static bool IsEncoding(int shift, int largest);
 
   Eigen::Index rows() const { return rows_; }
@@ -44,21 +52,25 @@ class CompactViews {
   /// Writes the size() floats of Decoded(), column-major, to `out`.
   void DecodeInto(float* out) const;
 
-  /// The stored integers (for prefetching) and the bytes they take.
-  const int16_t* values() const { return values_.data(); }
+  /// The 16-bit form: the shift, and the size() integers (column-major) written to `out`.
   int shift() const { return shift_; }
-  std::size_t bytes() const { return values_.size() * sizeof(int16_t); }
+  void WideInto(int16_t* out) const;
+  /// The stored integers (for prefetching: size() of them, then rows() drops) and the bytes
+  /// they take.
+  const int8_t* codes() const { return codes_.data(); }
+  std::size_t bytes() const { return codes_.size() + drop_.size(); }
 
   /// Appends the columns of `more` (of the same rows, or to an empty matrix): the integers as
-  /// they are when both matrices share their power of two, else the views encoded again.
+  /// they are when both matrices share their powers of two, else the views encoded again.
   void Append(const CompactViews& more);
 
   bool operator==(const CompactViews&) const = default;
 
  private:
   Eigen::Index rows_ = 0, cols_ = 0;
-  int shift_ = 0;  // a coordinate is value · 2^−shift_
-  std::vector<int16_t> values_;
+  int shift_ = 0;              // a coordinate is code · 2^(drop_[row] − shift_)
+  std::vector<int8_t> codes_;  // column-major, |code| ≤ 127
+  std::vector<uint8_t> drop_;  // per row, in [0, 8]
 };
 
 }  // namespace tsc

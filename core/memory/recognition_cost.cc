@@ -190,12 +190,12 @@ ViewDistances::ViewDistances(const Eigen::MatrixXf& votes, std::vector<const Lea
     auto xs = dots.leftCols(k);
     if (simd == Simd::kAvx2Fma) {
       // The next place's views are fetched from memory while this one's products run (their
-      // 16-bit integers: `next_floats` counts 4-byte words).
+      // 8-bit codes: `next_floats` counts 4-byte words).
       const CompactViews* next = c + 1 < measured.size() ? &samples_of(c + 1) : nullptr;
       avx2::ColumnDots(votes.data(), static_cast<int>(n), s.data(), static_cast<int>(k),
                        static_cast<int>(votes.rows()), xs.data(), view_sq.data(),
-                       next != nullptr ? reinterpret_cast<const float*>(next->values()) : nullptr,
-                       next != nullptr ? static_cast<std::ptrdiff_t>(next->bytes() / 4) : 0);
+                       next != nullptr ? reinterpret_cast<const float*>(next->codes()) : nullptr,
+                       next != nullptr ? static_cast<std::ptrdiff_t>(next->size() / 4) : 0);
     } else {
       view_sq.head(k) = s.colwise().squaredNorm();
       xs.noalias() = votes_t * s;

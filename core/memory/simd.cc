@@ -1,6 +1,8 @@
 #include "core/memory/simd.h"
 
 #include <algorithm>
+#include <bit>
+#include <cstdint>
 #include <stdexcept>
 
 #if defined(__x86_64__) && defined(__GNUC__)
@@ -426,15 +428,27 @@ TSC_AVX2 void RowDots(const float* a, std::ptrdiff_t lda, int rows, int dim, con
   }
 }
 
-TSC_AVX2 void ScaleInt16(const int16_t* v, std::ptrdiff_t n, float scale, float* out) {
-  const __m256 factor = _mm256_set1_ps(scale);
-  std::ptrdiff_t k = 0;
-  for (; k + 8 <= n; k += 8) {
-    const __m256i w =
-        _mm256_cvtepi16_epi32(_mm_loadu_si128(reinterpret_cast<const __m128i*>(v + k)));
-    _mm256_storeu_ps(out + k, _mm256_mul_ps(_mm256_cvtepi32_ps(w), factor));
+TSC_AVX2 void ScaleInt8Rows(const int8_t* codes, const uint8_t* drop, std::ptrdiff_t rows,
+                            std::ptrdiff_t cols, int shift, float* out) {
+  // A row's scale built from its bits, exponent drop − shift + 127, eight rows at a time.
+  const __m256i bias = _mm256_set1_epi32(127 - shift);
+  for (std::ptrdiff_t c = 0; c < cols; ++c) {
+    const int8_t* v = codes + c * rows;
+    float* o = out + c * rows;
+    std::ptrdiff_t r = 0;
+    for (; r + 8 <= rows; r += 8) {
+      const __m256i code =
+          _mm256_cvtepi8_epi32(_mm_loadl_epi64(reinterpret_cast<const __m128i*>(v + r)));
+      const __m256i exponent = _mm256_add_epi32(
+          _mm256_cvtepu8_epi32(_mm_loadl_epi64(reinterpret_cast<const __m128i*>(drop + r))), bias);
+      const __m256 scale = _mm256_castsi256_ps(_mm256_slli_epi32(exponent, 23));
+      _mm256_storeu_ps(o + r, _mm256_mul_ps(_mm256_cvtepi32_ps(code), scale));
+    }
+    for (; r < rows; ++r) {
+      o[r] = static_cast<float>(v[r]) *
+             std::bit_cast<float>(static_cast<uint32_t>(drop[r] - shift + 127) << 23);
+    }
   }
-  for (; k < n; ++k) out[k] = static_cast<float>(v[k]) * scale;
 }
 
 #undef TSC_AVX2
@@ -450,8 +464,8 @@ void RowDots(const float*, std::ptrdiff_t, int, int, const float*, int, float*) 
   throw std::logic_error("avx2::RowDots: not in this build");
 }
 
-void ScaleInt16(const int16_t*, std::ptrdiff_t, float, float*) {
-  throw std::logic_error("avx2::ScaleInt16: not in this build");
+void ScaleInt8Rows(const int8_t*, const uint8_t*, std::ptrdiff_t, std::ptrdiff_t, int, float*) {
+  throw std::logic_error("avx2::ScaleInt8Rows: not in this build");
 }
 
 #endif

@@ -51,8 +51,11 @@ void ColumnDots(const float* a, int na, const float* b, int nb, int dim, float* 
 void RowDots(const float* a, std::ptrdiff_t lda, int rows, int dim, const float* q, int nq,
              float* out);
 
-/// out[k] = v[k] · scale for k < n (core/memory/compact_views.h).
-void ScaleInt16(const int16_t* v, std::ptrdiff_t n, float scale, float* out);
+/// out[r + c·rows] = codes[r + c·rows] · 2^(drop[r] − shift) for r < rows, c < cols: member
+/// views in 8 bits decoded (core/memory/compact_views.h). Precondition: drop[r] − shift in
+/// [−126, 127] for every row (each scale a normal float).
+void ScaleInt8Rows(const int8_t* codes, const uint8_t* drop, std::ptrdiff_t rows,
+                   std::ptrdiff_t cols, int shift, float* out);
 
 }  // namespace avx2
 }  // namespace tsc

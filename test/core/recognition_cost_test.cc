@@ -135,8 +135,9 @@ TEST(RecognitionCostTest, RatioSkipsEveryCopyOfTheNearestPlace) {
   std::mt19937 rng(kSeed);
   const Eigen::MatrixXf votes = Views(rng, 8);
   // Squared norms of the offsets, in units u: N¹ lies 1 u from D's points, its copies 0.01 to
-  // 0.2 u from N¹'s views, the others 3 to 32 u from D's points.
-  const double unit = 1e-6;
+  // 0.2 u from N¹'s views, the others 3 to 32 u from D's points. (At u = 1e-6 the copies'
+  // offsets lay below the grid of 8-bit views in 1200 dimensions, ~2e-8.)
+  const double unit = 1e-4;
   auto offset = [&rng](const Eigen::MatrixXf& from, double squared) {
     std::normal_distribution<float> n(0.0f, static_cast<float>(std::sqrt(squared / kDim)));
     Eigen::MatrixXf m = from;

@@ -189,7 +189,10 @@ TEST(ViewBasis, ARotationChangesNoRecognition) {
       const DetectedPlace d = world.Visit(p, static_cast<uint32_t>(visit), 8);
       const Recognition ra = a.Recognize(d), rb = b.Recognize(d);
       ASSERT_EQ(ra.place, rb.place) << "place " << p << " visit " << visit;
-      EXPECT_NEAR(ra.cost, rb.cost, 1e-3 * std::max(1.0, std::abs(ra.cost)));
+      // Views in 8 bits on each space's own axes round differently: up to 5 % of a cost
+      // here, whose views lie 4 % apart (on the calibration worlds a median 0.27 %; a term
+      // measured in the wrong space is off by its whole size).
+      EXPECT_NEAR(ra.cost, rb.cost, 0.1 * std::max(1.0, std::abs(ra.cost)));
       if (ra.place) {
         ++recognised;
         a.Update(*ra.place, d);
@@ -216,8 +219,8 @@ TEST(ViewBasis, AMemoryKeptBeforeTheBasisIsTakenIntoItOnRestore) {
   ASSERT_EQ(restored.places().size(), 5u);
   for (size_t i = 0; i < 5; ++i) {
     const Eigen::MatrixXf want = options.view_basis->Coordinates(old.places()[i].samples.Decoded());
-    // Kept in 16 bits a coordinate: 2⁻¹² relative at most.
-    EXPECT_TRUE(restored.places()[i].samples.Decoded().isApprox(want, 1e-3f));
+    // Kept in 8 bits a coordinate, a power of two an axis: 2⁻⁷ of the axis' largest at most.
+    EXPECT_TRUE(restored.places()[i].samples.Decoded().isApprox(want, 1e-2f));
     EXPECT_TRUE(restored.ViewCentre(static_cast<int>(i))
                     .isApprox(options.view_basis->Coordinates(old.places()[i].mean)));
   }

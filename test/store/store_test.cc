@@ -558,7 +558,7 @@ std::string Float32SamplesLiteral(const Eigen::MatrixXf& views) {
   return hex + "'";
 }
 
-// A store of schema version 3 holds member views as float32: they are read, and kept in 16 bits
+// A store of schema version 3 holds member views as float32: they are read, and kept in 8 bits
 // they are the views the memory had (decoded views encode to the same bits).
 TEST_F(StoreTest, ReadsMemberViewsOfTheFloat32Layout) {
   const PlaceMemory memory = WriteThreeRoomsAndARevisit(37);
