@@ -64,9 +64,10 @@ CompactViews::CompactViews(const Eigen::MatrixXf& views)
     if (!std::isfinite(x)) throw std::invalid_argument("member view coordinate is not finite");
     most = std::max(most, std::abs(x));
   }
-  if (most >= 0x1p30f) {
+  // Below 127.5 · 2^8 at the least shift, −15: the 16-bit form's range (2^30 · 255/256).
+  if (std::ldexp(static_cast<double>(most), kLeastShift) >= kLargestScaled) {
     throw std::invalid_argument("member view coordinate " + std::to_string(most) +
-                                " is beyond 2^30");
+                                " is beyond 2^30 * 255/256");
   }
   if (most > 0.0f) {
     int e = 0;

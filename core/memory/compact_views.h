@@ -24,8 +24,8 @@ namespace tsc {
 class CompactViews {
  public:
   CompactViews() = default;
-  /// Throws std::invalid_argument when a coordinate is not finite or its magnitude is 2³⁰
-  /// or more (descriptor coordinates are below 1).
+  /// Throws std::invalid_argument when a coordinate is not finite or its magnitude is
+  /// 2³⁰ · 255/256 or more (descriptor coordinates are below 1).
   explicit CompactViews(const Eigen::MatrixXf& views);
   /// Views in their 16-bit form (store/, messages): rows x cols `wide` column-major, a
   /// coordinate value · 2^−shift. Throws std::invalid_argument unless they are what a 16-bit

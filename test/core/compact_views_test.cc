@@ -183,6 +183,12 @@ TEST(CompactViews, RefusesWhatItCannotKeep) {
   EXPECT_THROW(CompactViews{views}, std::invalid_argument);
   views(1, 1) = 0x1p31f;
   EXPECT_THROW(CompactViews{views}, std::invalid_argument);
+  // The largest the 16-bit form holds at its least shift, and just above it.
+  views(1, 1) = 0x1.fdfffep29f;
+  const CompactViews largest(views);
+  EXPECT_EQ(CompactViews(largest.rows(), largest.cols(), largest.shift(), Wide(largest)), largest);
+  views(1, 1) = 0x1.fep29f;
+  EXPECT_THROW(CompactViews{views}, std::invalid_argument);
   EXPECT_EQ(CompactViews(Eigen::MatrixXf::Zero(3, 3)).Decoded(), Eigen::MatrixXf::Zero(3, 3));
   EXPECT_THROW(CompactViews(Eigen::MatrixXf::Ones(4, 2)).Col(2), std::out_of_range);
 }
