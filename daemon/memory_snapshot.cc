@@ -33,12 +33,10 @@ learned_place_v2_t ToMessage(const LearnedPlace& p) {
   m.view_dims = static_cast<int32_t>(p.samples.rows());
   m.view_shift = static_cast<int16_t>(p.samples.shift());
   m.samples.resize(static_cast<size_t>(m.num_samples));
-  std::vector<int16_t> wide(static_cast<size_t>(p.samples.size()));
-  p.samples.WideInto(wide.data());
-  const int16_t* values = wide.data();
   for (int j = 0; j < m.num_samples; ++j) {
-    const int16_t* col = values + static_cast<std::ptrdiff_t>(j) * m.view_dims;
-    m.samples[static_cast<size_t>(j)].assign(col, col + m.view_dims);
+    std::vector<int16_t>& col = m.samples[static_cast<size_t>(j)];
+    col.reserve(static_cast<size_t>(m.view_dims));
+    for (int r = 0; r < m.view_dims; ++r) col.push_back(p.samples.WideAt(r, j));
   }
   for (const PlaceId& s : p.sources) m.sources.push_back(Ref(s));
   m.num_sources = static_cast<int32_t>(m.sources.size());
@@ -59,15 +57,11 @@ bool SameBody(const LearnedPlace& p, const learned_place_v2_t& m) {
       !same_floats(m.mean.data(), p.mean.data(), m.mean.size())) {
     return false;
   }
-  std::vector<int16_t> wide(static_cast<size_t>(p.samples.size()));
-  p.samples.WideInto(wide.data());
-  const int16_t* values = wide.data();
   for (int j = 0; j < m.num_samples; ++j) {
     const std::vector<int16_t>& col = m.samples[static_cast<size_t>(j)];
-    if (col.size() != static_cast<size_t>(m.view_dims) ||
-        !std::equal(col.begin(), col.end(),
-                    values + static_cast<std::ptrdiff_t>(j) * m.view_dims)) {
-      return false;
+    if (col.size() != static_cast<size_t>(m.view_dims)) return false;
+    for (int r = 0; r < m.view_dims; ++r) {
+      if (col[static_cast<size_t>(r)] != p.samples.WideAt(r, j)) return false;
     }
   }
   for (size_t k = 0; k < p.sources.size(); ++k) {

@@ -91,8 +91,7 @@ Bytes EncodeSamples(const CompactViews& v) {
       .PutOne(static_cast<int32_t>(v.rows()))
       .PutOne(static_cast<int32_t>(v.cols()))
       .PutOne(static_cast<int32_t>(v.shift()));
-  std::vector<int16_t> wide(static_cast<size_t>(v.size()));
-  v.WideInto(wide.data());
+  const std::vector<int16_t> wide = v.Wide();
   w.Put(std::span<const int16_t>(wide));
   return w.Finish();
 }

@@ -133,14 +133,13 @@ CompactViews::CompactViews(Eigen::Index rows, Eigen::Index cols, int shift,
   *this = CompactViews(views);
 }
 
-void CompactViews::WideInto(int16_t* out) const {
+std::vector<int16_t> CompactViews::Wide() const {
+  std::vector<int16_t> wide;
+  wide.reserve(codes_.size());
   for (Eigen::Index c = 0; c < cols_; ++c) {
-    for (Eigen::Index r = 0; r < rows_; ++r) {
-      const Eigen::Index k = r + c * rows_;
-      out[k] = static_cast<int16_t>(codes_[static_cast<size_t>(k)] *
-                                    (1 << drop_[static_cast<size_t>(r)]));
-    }
+    for (Eigen::Index r = 0; r < rows_; ++r) wide.push_back(WideAt(r, c));
   }
+  return wide;
 }
 
 void CompactViews::DecodeInto(float* out) const {

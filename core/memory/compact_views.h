@@ -52,9 +52,14 @@ class CompactViews {
   /// Writes the size() floats of Decoded(), column-major, to `out`.
   void DecodeInto(float* out) const;
 
-  /// The 16-bit form: the shift, and the size() integers (column-major) written to `out`.
+  /// The 16-bit form: the shift, and the size() integers (column-major), all of them or one.
   int shift() const { return shift_; }
-  void WideInto(int16_t* out) const;
+  std::vector<int16_t> Wide() const;
+  /// Precondition: 0 ≤ r < rows(), 0 ≤ c < cols().
+  int16_t WideAt(Eigen::Index r, Eigen::Index c) const {
+    const auto k = static_cast<std::size_t>(r + c * rows_);
+    return static_cast<int16_t>(codes_[k] * (1 << drop_[static_cast<std::size_t>(r)]));
+  }
   /// The stored integers (for prefetching: size() of them, then rows() drops) and the bytes
   /// they take.
   const int8_t* codes() const { return codes_.data(); }

@@ -30,12 +30,6 @@ Eigen::MatrixXf RandomViews(std::mt19937& rng, Eigen::Index rows, Eigen::Index c
   return m;
 }
 
-std::vector<int16_t> Wide(const CompactViews& v) {
-  std::vector<int16_t> wide(static_cast<size_t>(v.size()));
-  v.WideInto(wide.data());
-  return wide;
-}
-
 TEST(CompactViews, KeepEveryCoordinateWithinTwoToTheMinusEightOfItsAxis) {
   std::cout << "seed " << kSeed << "\n";
   std::mt19937 rng(kSeed);
@@ -97,7 +91,7 @@ TEST(CompactViews, DecodingIsTheSameOnEveryInstructionSet) {
     }
   }
   // Decoded (on AVX2 where the CPU has it) is the 16-bit form times the shift's power of two.
-  const std::vector<int16_t> wide = Wide(compact);
+  const std::vector<int16_t> wide = compact.Wide();
   const float scale = std::ldexp(1.0f, -compact.shift());
   for (Eigen::Index k = 0; k < compact.size(); ++k) {
     const float want = static_cast<float>(wide[static_cast<size_t>(k)]) * scale;
@@ -150,7 +144,7 @@ TEST(CompactViews, AppendingKeepsEveryView) {
 TEST(CompactViews, FromTheirSixteenBitFormOnlyWhatEncodingGives) {
   std::mt19937 rng(kSeed);
   const CompactViews views(RandomViews(rng, 9, 4, 0.02f));
-  const std::vector<int16_t> wide = Wide(views);
+  const std::vector<int16_t> wide = views.Wide();
   EXPECT_EQ(CompactViews(9, 4, views.shift(), wide), views);
   EXPECT_EQ(CompactViews(2, 1, 0, {0, 0}), CompactViews(Eigen::MatrixXf::Zero(2, 1)));
   EXPECT_THROW(CompactViews(9, 3, views.shift(), wide), std::invalid_argument);  // sizes
@@ -161,9 +155,9 @@ TEST(CompactViews, FromTheirSixteenBitFormOnlyWhatEncodingGives) {
   // 20000 is on the 16-bit grid, not on the 8-bit one: the nearest code, 78 · 2^8.
   const CompactViews finer(1, 1, 0, {20000});
   EXPECT_EQ(finer.Decoded()(0, 0), 19968.0f);
-  EXPECT_EQ(Wide(finer), std::vector<int16_t>{19968});
+  EXPECT_EQ(finer.Wide(), std::vector<int16_t>{19968});
   // A row of small values stays on the 16-bit grid beside a large one.
-  EXPECT_EQ(Wide(CompactViews(2, 1, 0, {20224, 101})), (std::vector<int16_t>{20224, 101}));
+  EXPECT_EQ(CompactViews(2, 1, 0, {20224, 101}).Wide(), (std::vector<int16_t>{20224, 101}));
 }
 
 // Views too small for the grid of the largest shift keep what the grid holds, exactly again.
@@ -186,7 +180,7 @@ TEST(CompactViews, RefusesWhatItCannotKeep) {
   // The largest the 16-bit form holds at its least shift, and just above it.
   views(1, 1) = 0x1.fdfffep29f;
   const CompactViews largest(views);
-  EXPECT_EQ(CompactViews(largest.rows(), largest.cols(), largest.shift(), Wide(largest)), largest);
+  EXPECT_EQ(CompactViews(largest.rows(), largest.cols(), largest.shift(), largest.Wide()), largest);
   views(1, 1) = 0x1.fep29f;
   EXPECT_THROW(CompactViews{views}, std::invalid_argument);
   EXPECT_EQ(CompactViews(Eigen::MatrixXf::Zero(3, 3)).Decoded(), Eigen::MatrixXf::Zero(3, 3));
