@@ -201,19 +201,26 @@ ViewDistances::ViewDistances(const Eigen::MatrixXf& votes, std::vector<const Lea
       xs.noalias() = votes_t * s;
     }
     // ‖s − x‖² = ‖s‖² + ‖x‖² − 2 sᵀx; the first nearest view on ties.
-    for (Eigen::Index j = 0; j < n; ++j) {
-      float nearest = (-2.0f * xs(j, 0) + view_sq[0]) + vote_sq[j];
-      int at = 0;
-      for (Eigen::Index v = 1; v < k; ++v) {
-        const float d = (-2.0f * xs(j, v) + view_sq[v]) + vote_sq[j];
-        if (d < nearest) {
-          nearest = d;
-          at = static_cast<int>(v);
+    float* nearest = distance_.col(static_cast<Eigen::Index>(c)).data();
+    int* at = view_.col(static_cast<Eigen::Index>(c)).data();
+    if (simd == Simd::kAvx2Fma) {
+      // Eight vote points at a time: the scalar loop was a sixth of a 10⁴ + 10⁴ merge.
+      avx2::NearestColumns(xs.data(), static_cast<int>(n), static_cast<int>(k), view_sq.data(),
+                           vote_sq.data(), nearest, at);
+    } else {
+      for (Eigen::Index j = 0; j < n; ++j) {
+        nearest[j] = (-2.0f * xs(j, 0) + view_sq[0]) + vote_sq[j];
+        at[j] = 0;
+        for (Eigen::Index v = 1; v < k; ++v) {
+          const float d = (-2.0f * xs(j, v) + view_sq[v]) + vote_sq[j];
+          if (d < nearest[j]) {
+            nearest[j] = d;
+            at[j] = static_cast<int>(v);
+          }
         }
       }
-      distance_(j, static_cast<Eigen::Index>(c)) = std::max(0.0f, nearest);
-      view_(j, static_cast<Eigen::Index>(c)) = at;
     }
+    for (Eigen::Index j = 0; j < n; ++j) nearest[j] = std::max(0.0f, nearest[j]);
   }
   measured_ = std::move(measured);  // NearestPlace's columns
   // Units for places of one view (docs/decisions.md "Recognition cost").

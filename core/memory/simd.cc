@@ -451,6 +451,36 @@ TSC_AVX2 void ScaleInt8Rows(const int8_t* codes, const uint8_t* drop, std::ptrdi
   }
 }
 
+// The squared distances (−2·x + col_sq[v]) + rows for the masked lanes of column v of `dots`
+// (leading dimension n). −2·x is exact, so a fused −2·x + ‖y‖² rounds as the scalar product then
+// sum do.
+TSC_AVX2 inline __m256 DistancesTo(const float* dots, int n, int v, const float* col_sq,
+                                   __m256 rows, __m256i mask) {
+  const __m256 x = _mm256_maskload_ps(dots + static_cast<std::ptrdiff_t>(v) * n, mask);
+  return _mm256_add_ps(
+      _mm256_add_ps(_mm256_mul_ps(_mm256_set1_ps(-2.0f), x), _mm256_set1_ps(col_sq[v])), rows);
+}
+
+TSC_AVX2 void NearestColumns(const float* dots, int n, int k, const float* col_sq,
+                             const float* row_sq, float* nearest, int* at) {
+  for (int j = 0; j < n; j += 8) {
+    const __m256i mask = FirstLanes(std::min(8, n - j));
+    const __m256 rows = _mm256_maskload_ps(row_sq + j, mask);
+    __m256 best = DistancesTo(dots + j, n, 0, col_sq, rows, mask);
+    __m256i best_at = _mm256_setzero_si256();
+    for (int v = 1; v < k; ++v) {
+      const __m256 d = DistancesTo(dots + j, n, v, col_sq, rows, mask);
+      // Strictly less: the first nearest column on ties, and a NaN neither replaces nor is
+      // replaced, as in the scalar loop.
+      const __m256 nearer = _mm256_cmp_ps(d, best, _CMP_LT_OQ);
+      best = _mm256_blendv_ps(best, d, nearer);
+      best_at = _mm256_blendv_epi8(best_at, _mm256_set1_epi32(v), _mm256_castps_si256(nearer));
+    }
+    _mm256_maskstore_ps(nearest + j, mask, best);
+    _mm256_maskstore_epi32(at + j, mask, best_at);
+  }
+}
+
 #undef TSC_AVX2
 
 #else  // no AVX2 kernels in this build: FastestSimd() never names them
@@ -466,6 +496,10 @@ void RowDots(const float*, std::ptrdiff_t, int, int, const float*, int, float*) 
 
 void ScaleInt8Rows(const int8_t*, const uint8_t*, std::ptrdiff_t, std::ptrdiff_t, int, float*) {
   throw std::logic_error("avx2::ScaleInt8Rows: not in this build");
+}
+
+void NearestColumns(const float*, int, int, const float*, const float*, float*, int*) {
+  throw std::logic_error("avx2::NearestColumns: not in this build");
 }
 
 #endif

@@ -57,5 +57,12 @@ void RowDots(const float* a, std::ptrdiff_t lda, int rows, int dim, const float*
 void ScaleInt8Rows(const int8_t* codes, const uint8_t* drop, std::ptrdiff_t rows,
                    std::ptrdiff_t cols, int shift, float* out);
 
+/// For each row j < n of the n x k products `dots` (column-major, k ≥ 1): nearest[j] = the
+/// least of (−2·dots[j + v·n] + col_sq[v]) + row_sq[j] over v < k, and at[j] = the first v
+/// giving it: the nearest column by ‖x‖² + ‖y‖² − 2xᵀy, computed as the scalar loop of
+/// ViewDistances does, so the same floats come out.
+void NearestColumns(const float* dots, int n, int k, const float* col_sq, const float* row_sq,
+                    float* nearest, int* at);
+
 }  // namespace avx2
 }  // namespace tsc

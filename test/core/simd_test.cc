@@ -145,5 +145,47 @@ TEST_F(AvxKernels, RowDotsEqualTheEigenProductOnRandomData) {
   }
 }
 
+// The nearest column by ‖x‖² + ‖y‖² − 2xᵀy: the same floats and columns as the scalar loop of
+// ViewDistances, for every tail of the 8 lanes, with ties (the first column wins) and a NaN
+// (it neither replaces nor is replaced).
+TEST_F(AvxKernels, NearestColumnsAreTheScalarLoopsBitForBit) {
+  for (int n : {1, 7, 8, 9, 32, 33}) {
+    for (int k : {1, 2, 5, 64}) {
+      Eigen::MatrixXf dots = Random(rng_, n, k);
+      Eigen::VectorXf col_sq = Random(rng_, k, 1);
+      const Eigen::VectorXf row_sq = Random(rng_, n, 1);
+      if (k > 2) {  // a tie: column 1 stays the nearer of the two
+        dots.col(2) = dots.col(1);
+        col_sq[2] = col_sq[1];
+        dots(0, 1) = dots(0, 2) = 1.0f;  // and, in row 0, the nearest of all
+      }
+      if (k > 4) dots(0, 3) = std::numeric_limits<float>::quiet_NaN();
+      if (k > 1 && n > 1) dots(1, 0) = std::numeric_limits<float>::quiet_NaN();
+      std::vector<float> nearest(static_cast<size_t>(n));
+      std::vector<int> at(static_cast<size_t>(n));
+      avx2::NearestColumns(dots.data(), n, k, col_sq.data(), row_sq.data(), nearest.data(),
+                           at.data());
+      for (int j = 0; j < n; ++j) {
+        float want = (-2.0f * dots(j, 0) + col_sq[0]) + row_sq[j];
+        int want_at = 0;
+        for (int v = 1; v < k; ++v) {
+          const float d = (-2.0f * dots(j, v) + col_sq[v]) + row_sq[j];
+          if (d < want) {
+            want = d;
+            want_at = v;
+          }
+        }
+        const auto where = ::testing::Message() << n << " x " << k << " at row " << j;
+        if (std::isnan(want)) {
+          EXPECT_TRUE(std::isnan(nearest[static_cast<size_t>(j)])) << where;
+        } else {
+          EXPECT_EQ(nearest[static_cast<size_t>(j)], want) << where;
+        }
+        EXPECT_EQ(at[static_cast<size_t>(j)], want_at) << where;
+      }
+    }
+  }
+}
+
 }  // namespace
 }  // namespace tsc
