@@ -112,6 +112,7 @@ void BM_MergeMemories(benchmark::State& state) {
   const int sites = places_per_site > 0 ? n / places_per_site : kSites;
   const bool near = state.range(5) != 0;
   const int caps = state.range(6) > 0 ? static_cast<int>(state.range(6)) : 0;
+  const int threads = state.range(7) > 0 ? static_cast<int>(state.range(7)) : 1;
   const auto& [ours, peer] = Pair(n, shared, basis, sites, near, caps);
   double merge_s = 0.0;
   MergeCase merge_case = MergeCase::kNothingNew;
@@ -130,9 +131,9 @@ void BM_MergeMemories(benchmark::State& state) {
   for (auto _ : state) {
     const auto t0 = std::chrono::steady_clock::now();
     if (copying) {
-      m.emplace(MergeMemories(ours, peer));
+      m.emplace(MergeMemories(ours, peer, threads));
     } else {
-      m.emplace(MergeMemories(std::move(*ours_copy), std::move(*peer_copy)));
+      m.emplace(MergeMemories(std::move(*ours_copy), std::move(*peer_copy), threads));
     }
     merge_s += std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
     merge_case = m->merge_case;
@@ -149,6 +150,7 @@ void BM_MergeMemories(benchmark::State& state) {
   state.counters["retrained"] = retrained;
   state.counters["sites"] = sites;
   state.counters["views_per_place"] = static_cast<double>(ours.places().front().samples.cols());
+  state.counters["threads"] = threads;
   state.SetLabel(std::string(ToString(merge_case)) + (copying ? " copying" : " moving") +
                  (basis ? ", views in the builtin basis" : ", views as descriptors"));
   // Reference: recognise-then-update-or-learn the peer's places one by one into a copy of
@@ -184,26 +186,33 @@ void BM_MergeMemories(benchmark::State& state) {
 // times; 2: the ≤ 2 places per room issue 23 asks of a long-lived memory, a flat tree whose
 // root has thousands of hyper-terminals below it), 1 = places as near the basis as real
 // descriptors (see World), the views a place keeps (PlaceCaps: 0 the first fixtures' 12, 1 the
-// 32 of a place seen once, 2 the 64 of a place seen twice).
+// 32 of a place seen once, 2 the 64 of a place seen twice), the threads recognition runs on
+// (absent: 1; tscd uses every core, daemon.merge_threads).
 BENCHMARK(BM_MergeMemories)
-    ->Args({1000, 0, 0, 0, 0, 0, 0})
-    ->Args({1000, 50, 0, 0, 0, 0, 0})
-    ->Args({10000, 0, 0, 0, 0, 0, 0})
-    ->Args({10000, 50, 0, 0, 0, 0, 0})
-    ->Args({10000, 50, 1, 0, 0, 0, 0})
-    ->Args({1000, 50, 0, 1, 0, 0, 0})
-    ->Args({10000, 0, 0, 1, 0, 0, 0})
-    ->Args({10000, 50, 0, 1, 0, 0, 0})
-    ->Args({10000, 0, 0, 1, 2, 0, 0})
-    ->Args({10000, 50, 0, 1, 2, 0, 0})
-    ->Args({10000, 0, 0, 1, 2, 1, 0})
-    ->Args({10000, 50, 0, 1, 2, 1, 0})
-    ->Args({10000, 0, 0, 1, 0, 0, 1})
-    ->Args({10000, 50, 0, 1, 0, 0, 1})
-    ->Args({10000, 0, 0, 1, 0, 0, 2})
-    ->Args({10000, 50, 0, 1, 0, 0, 2})
-    ->Args({kLarge, 0, 0, 1, 0, 0, 0})
-    ->Args({kLarge, 50, 0, 1, 0, 0, 0})
+    ->Args({1000, 0, 0, 0, 0, 0, 0, 0})
+    ->Args({1000, 50, 0, 0, 0, 0, 0, 0})
+    ->Args({10000, 0, 0, 0, 0, 0, 0, 0})
+    ->Args({10000, 50, 0, 0, 0, 0, 0, 0})
+    ->Args({10000, 50, 1, 0, 0, 0, 0, 0})
+    ->Args({1000, 50, 0, 1, 0, 0, 0, 0})
+    ->Args({10000, 0, 0, 1, 0, 0, 0, 0})
+    ->Args({10000, 50, 0, 1, 0, 0, 0, 0})
+    ->Args({10000, 0, 0, 1, 2, 0, 0, 0})
+    ->Args({10000, 50, 0, 1, 2, 0, 0, 0})
+    ->Args({10000, 0, 0, 1, 2, 1, 0, 0})
+    ->Args({10000, 50, 0, 1, 2, 1, 0, 0})
+    ->Args({10000, 0, 0, 1, 0, 0, 1, 0})
+    ->Args({10000, 50, 0, 1, 0, 0, 1, 0})
+    ->Args({10000, 0, 0, 1, 0, 0, 1, 2})
+    ->Args({10000, 50, 0, 1, 0, 0, 1, 2})
+    ->Args({10000, 0, 0, 1, 0, 0, 2, 0})
+    ->Args({10000, 50, 0, 1, 0, 0, 2, 0})
+    ->Args({kLarge, 0, 0, 1, 0, 0, 0, 0})
+    ->Args({kLarge, 50, 0, 1, 0, 0, 0, 0})
+    ->Args({kLarge, 0, 0, 1, 0, 0, 0, 2})
+    ->Args({kLarge, 50, 0, 1, 0, 0, 0, 2})
+    // CPU: every thread's (recognition runs on `threads`); merge_s is the wall-clock time.
+    ->MeasureProcessCPUTime()
     ->Unit(benchmark::kMillisecond)
     ->Iterations(1);  // the giving-up form consumes its inputs
 

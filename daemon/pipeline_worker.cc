@@ -452,7 +452,7 @@ void PipelineWorker::MergePeer(const PeerSnapshot& snapshot) {
   bool changed = false;
   {
     places_before = pipeline_->memory().places().size();
-    MemoryMerge merged = MergeMemories(pipeline_->memory(), peer);
+    MemoryMerge merged = MergeMemories(pipeline_->memory(), peer, settings_.daemon.MergeThreads());
     merge_case = merged.merge_case;
     peer_into_ours = merged.peer_into_ours;
     added = merged.added.size();

@@ -1,16 +1,24 @@
 #include "settings/daemon_options.h"
 
+#include <algorithm>
 #include <cstdint>
 #include <stdexcept>
 #include <string>
+#include <thread>
 #include <utility>
 
 namespace tsc {
+
+int DaemonOptions::MergeThreads() const {
+  if (merge_threads > 0) return merge_threads;
+  return static_cast<int>(std::max(1u, std::thread::hardware_concurrency()));
+}
 
 void DaemonOptions::Validate() const {
   if (state_dir.empty()) throw std::invalid_argument("daemon.state_dir: a folder is required");
   kQueueFramesRange.Check("daemon.queue_frames", queue_frames);
   kMaxPendingResultsRange.Check("daemon.max_pending_results", max_pending_results);
+  kMergeThreadsRange.Check("daemon.merge_threads", merge_threads);
   store.Validate();
   if (camera.source == "none") {
     throw std::invalid_argument(

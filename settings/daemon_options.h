@@ -34,9 +34,14 @@ struct DaemonOptions {
   /// Results kept in memory while the store cannot be written (full disk, read-only); beyond
   /// it the oldest results' base point records are dropped (learned places and edges never).
   int max_pending_results = 10000;
+  /// Threads a merge of a peer's memory recognises on (the pipeline waits for the merge, so
+  /// the robot's other cores shorten the pause); 0 = one per core. The merge is the same for
+  /// any number.
+  int merge_threads = 0;
   // Valid ranges (also the configuration's, daemon.*).
   static constexpr Range kQueueFramesRange{1, 1000};
   static constexpr Range kMaxPendingResultsRange{1, 10000000};
+  static constexpr Range kMergeThreadsRange{0, 64};
   /// At stop, how long tscd keeps trying a failing store before it spills what it holds
   /// (seconds; below the unit's TimeoutStopSec).
   double stop_store_wait_s = 10.0;
@@ -46,6 +51,8 @@ struct DaemonOptions {
   SimOptions sim;
   BusOptions bus;
   MotorOptions motor;
+  /// merge_threads with 0 resolved: the cores the machine reports (1 where unknown).
+  int MergeThreads() const;
   /// Throws std::invalid_argument naming the bad field.
   void Validate() const;
 };

@@ -487,6 +487,12 @@ std::vector<ConfigKey> BuildTable() {
       "results", DaemonOptions::kMaxPendingResultsRange,
       [](auto& o) -> auto& { return o.daemon.max_pending_results; }));
   t.push_back(Number(
+      "daemon.merge_threads",
+      "threads a merge of a peer's memory recognises on (the pipeline waits for the merge); "
+      "0 = one per core. The merge is the same for any number",
+      "threads", DaemonOptions::kMergeThreadsRange,
+      [](auto& o) -> auto& { return o.daemon.merge_threads; }));
+  t.push_back(Number(
       "daemon.stop_store_wait_s",
       "at stop, how long a failing store is tried before what is not in it is spilled to a "
       "file the next start takes in (memory.db.spill.*, beside memory.db or in "

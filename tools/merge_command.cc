@@ -67,7 +67,8 @@ int Merge(const std::vector<std::string>& args) {
   if (!vm.count("out")) throw UsageError("--out C.db is required");
   const fs::path a_path = stores[0], b_path = stores[1], out = vm["out"].as<std::string>();
 
-  const PipelineOptions options = SettingsFromCommandLine(vm).pipeline;  // ConfigError → 78
+  const Settings settings = SettingsFromCommandLine(vm);  // ConfigError → 78
+  const PipelineOptions& options = settings.pipeline;
 
   if (fs::exists(out)) {
     if (!vm.count("force")) {
@@ -86,7 +87,7 @@ int Merge(const std::vector<std::string>& args) {
     throw std::runtime_error(b_path.string() + ": belongs to robot " + std::to_string(b_robot) +
                              " like " + a_path.string() + "; merging needs two robots");
   }
-  const MemoryMerge merged = MergeMemories(a.memory, b.memory);
+  const MemoryMerge merged = MergeMemories(a.memory, b.memory, settings.daemon.MergeThreads());
   const TopologicalMap map = MergeMaps(a.map, b.map, merged.memory);
 
   if (vm.count("force")) {

@@ -38,11 +38,11 @@ void CheckSameDimension(const PlaceMemory& ours, const PlaceMemory& peer) {
 // new, even if fresh base places were recognised.
 MergeCase CaseAndRecognition(const PlaceMemory& base, const PlaceMemory& incoming,
                              const KnownIds& known, const FreshPlaces& fresh, double tau_r,
-                             IdJoin& join, Recognitions& found, RootSpheres& spheres) {
+                             int threads, IdJoin& join, Recognitions& found, RootSpheres& spheres) {
   if ((known.anything_new || !fresh.places.empty()) && !base.empty() && !incoming.empty()) {
     spheres = CaseOfRootSpheres(base, incoming, tau_r);
     if (RecognitionDecides(spheres.merge_case)) {
-      Recognise(base, incoming, known, fresh.places, tau_r, join, found);
+      Recognise(base, incoming, known, fresh.places, tau_r, threads, join, found);
     }
     return known.anything_new ? spheres.merge_case : MergeCase::kNothingNew;
   }
@@ -53,7 +53,7 @@ MergeCase CaseAndRecognition(const PlaceMemory& base, const PlaceMemory& incomin
 // MergeMemories. `ours_owned` / `peer_owned` point at `ours` / `peer` when the caller gave
 // them up: their places are then moved into the result instead of copied.
 MemoryMerge Merge(const PlaceMemory& ours, const PlaceMemory& peer, PlaceMemory* ours_owned,
-                  PlaceMemory* peer_owned) {
+                  PlaceMemory* peer_owned, int threads) {
   CheckSameDimension(ours, peer);
   // Both robots compute the same place set whichever of them merges.
   const bool peer_into_ours = PeerGoesIntoOurs(ours, peer);
@@ -74,8 +74,8 @@ MemoryMerge Merge(const PlaceMemory& ours, const PlaceMemory& peer, PlaceMemory*
   const FreshPlaces fresh = FreshBasePlaces(base, incoming);
   Recognitions found(join.linked, base.places().size());
   RootSpheres spheres;
-  result.merge_case =
-      CaseAndRecognition(base, incoming, known, fresh, options.tau_r, join, found, spheres);
+  result.merge_case = CaseAndRecognition(base, incoming, known, fresh, options.tau_r,
+                                         std::max(threads, 1), join, found, spheres);
   const std::vector<int> holder = ResolveHolders(join, found.target);
   // A memory from before canonical ids (a store written earlier) is renamed by any merge.
   const bool renames = !std::all_of(ours.places().begin(), ours.places().end(), CarriesSmallestId);
@@ -116,13 +116,13 @@ MemoryMerge Merge(const PlaceMemory& ours, const PlaceMemory& peer, PlaceMemory*
 
 }  // namespace
 
-MemoryMerge MergeMemories(const PlaceMemory& ours, const PlaceMemory& peer) {
-  return Merge(ours, peer, nullptr, nullptr);
+MemoryMerge MergeMemories(const PlaceMemory& ours, const PlaceMemory& peer, int threads) {
+  return Merge(ours, peer, nullptr, nullptr, threads);
 }
 
-MemoryMerge MergeMemories(PlaceMemory&& ours, PlaceMemory&& peer) {
-  if (&ours == &peer) return Merge(ours, peer, nullptr, nullptr);
-  return Merge(ours, peer, &ours, &peer);
+MemoryMerge MergeMemories(PlaceMemory&& ours, PlaceMemory&& peer, int threads) {
+  if (&ours == &peer) return Merge(ours, peer, nullptr, nullptr, threads);
+  return Merge(ours, peer, &ours, &peer, threads);
 }
 
 }  // namespace tsc

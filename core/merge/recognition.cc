@@ -1,9 +1,12 @@
 #include "core/merge/recognition.h"
 
 #include <algorithm>
+#include <atomic>
+#include <exception>
 #include <limits>
 #include <numeric>
 #include <span>
+#include <thread>
 #include <utility>
 
 #include "core/memory/member_views.h"
@@ -71,6 +74,44 @@ std::vector<size_t> ByStar(const std::vector<size_t>& match_of) {
   return order;
 }
 
+// `order` (ByStar's) cut into its runs [first, last) of one N* each.
+std::vector<std::pair<size_t, size_t>> StarGroups(const std::vector<size_t>& order,
+                                                  const std::vector<size_t>& match_of) {
+  std::vector<std::pair<size_t, size_t>> groups;
+  for (size_t k = 0; k < order.size(); ++k) {
+    if (k == 0 || match_of[order[k]] != match_of[order[k - 1]]) groups.emplace_back(k, k);
+    groups.back().second = k + 1;
+  }
+  return groups;
+}
+
+// Runs `work(g)` for every g < count on up to `threads` threads (the calling one among them),
+// each taking the next g left, so a thread that drew small groups takes more of them. Rethrows
+// the exception of the lowest g that failed once all are done. Each work writes only what
+// belongs to its own places.
+template <typename Work>
+void OnThreads(size_t count, int threads, const Work& work) {
+  std::vector<std::exception_ptr> failed(count);
+  std::atomic<size_t> next{0};
+  const auto run = [&] {
+    for (size_t g = next++; g < count; g = next++) {
+      try {
+        work(g);
+      } catch (...) {
+        failed[g] = std::current_exception();
+      }
+    }
+  };
+  std::vector<std::thread> helpers;
+  const size_t workers = std::min(count, static_cast<size_t>(std::max(threads, 1)));
+  for (size_t t = 1; t < workers; ++t) helpers.emplace_back(run);
+  run();
+  for (std::thread& t : helpers) t.join();
+  for (const std::exception_ptr& e : failed) {
+    if (e) std::rethrow_exception(e);
+  }
+}
+
 // g of (4.1) for the place `p` against the candidates `star` of a hyper-terminal N* of
 // `base`: the g_N of recognition (core/memory/recognition_cost.h) with p's member views as the
 // vote points, at most memory.max_vote_points of them evenly spaced, as recognition takes D's
@@ -124,31 +165,49 @@ void RecogniseFreshBasePlaces(const PlaceMemory& base, const PlaceMemory& incomi
                               const std::vector<HyperTerminal>& hi, const std::vector<int>& fresh,
                               const std::vector<char>& is_new,
                               const std::unordered_map<PlaceId, int, PlaceIdHash>& known,
-                              double tau_r, IdJoin& join, std::vector<double>& fold_cost) {
+                              double tau_r, int threads, IdJoin& join,
+                              std::vector<double>& fold_cost) {
   const std::vector<size_t> match_of = MatchHyperTerminals(incoming, hi, hb);
   std::vector<char> is_fresh(base.places().size(), 0);
   for (int b : fresh) is_fresh[static_cast<size_t>(b)] = 1;
-  StarCandidates star;
-  size_t made = hi.size();  // the hyper-terminal `star` holds the candidates of (none yet)
-  for (size_t a : ByStar(match_of)) {
-    for (int b : hb[a].places) {
-      if (!is_fresh[static_cast<size_t>(b)]) continue;
-      if (made != match_of[a]) star = CandidatesOf(incoming, hi[made = match_of[a]]);
-      int match = -1;
-      double gamma = 0.0;
-      const double g =
-          RecognitionCost(incoming, star, base.places()[static_cast<size_t>(b)], &match, &gamma);
-      if (match < 0 || g > tau_r || is_new[static_cast<size_t>(match)]) continue;
-      const PlaceId match_id = incoming.places()[static_cast<size_t>(match)].id;
-      if (match_id.robot == base.places()[static_cast<size_t>(b)].id.robot) continue;
-      const int holder = known.at(match_id);
-      // A robot's own places stay apart: the holder may be a place of b's robot that
-      // absorbed the match in an earlier merge.
-      if (holder != b && base.places()[static_cast<size_t>(holder)].id.robot !=
-                             base.places()[static_cast<size_t>(b)].id.robot) {
-        join.places.Unite(b, holder);
-        fold_cost[static_cast<size_t>(b)] = g;
+  const std::vector<size_t> order = ByStar(match_of);
+  const std::vector<std::pair<size_t, size_t>> groups = StarGroups(order, match_of);
+  // Each N*'s joins, applied below in the order one thread would find them.
+  struct Join {
+    int place, holder;
+    double cost;
+  };
+  std::vector<std::vector<Join>> joins(groups.size());
+  OnThreads(groups.size(), threads, [&](size_t group) {
+    std::vector<Join>& found = joins[group];
+    StarCandidates star;
+    size_t made = hi.size();  // the hyper-terminal `star` holds the candidates of (none yet)
+    for (size_t k = groups[group].first; k < groups[group].second; ++k) {
+      const size_t a = order[k];
+      for (int b : hb[a].places) {
+        if (!is_fresh[static_cast<size_t>(b)]) continue;
+        if (made != match_of[a]) star = CandidatesOf(incoming, hi[made = match_of[a]]);
+        int match = -1;
+        double gamma = 0.0;
+        const double g =
+            RecognitionCost(incoming, star, base.places()[static_cast<size_t>(b)], &match, &gamma);
+        if (match < 0 || g > tau_r || is_new[static_cast<size_t>(match)]) continue;
+        const PlaceId match_id = incoming.places()[static_cast<size_t>(match)].id;
+        if (match_id.robot == base.places()[static_cast<size_t>(b)].id.robot) continue;
+        const int holder = known.at(match_id);
+        // A robot's own places stay apart: the holder may be a place of b's robot that
+        // absorbed the match in an earlier merge.
+        if (holder != b && base.places()[static_cast<size_t>(holder)].id.robot !=
+                               base.places()[static_cast<size_t>(b)].id.robot) {
+          found.push_back({b, holder, g});
+        }
       }
+    }
+  });
+  for (const std::vector<Join>& of_star : joins) {
+    for (const Join& j : of_star) {
+      join.places.Unite(j.place, j.holder);
+      fold_cost[static_cast<size_t>(j.place)] = j.cost;
     }
   }
 }
@@ -161,28 +220,34 @@ void RecogniseFreshBasePlaces(const PlaceMemory& base, const PlaceMemory& incomi
 void RecogniseNewIncomingPlaces(const PlaceMemory& base, const PlaceMemory& incoming,
                                 const std::vector<HyperTerminal>& hb,
                                 const std::vector<HyperTerminal>& hi,
-                                const std::vector<char>& is_new, double tau_r,
+                                const std::vector<char>& is_new, double tau_r, int threads,
                                 Recognitions& found) {
   const std::vector<size_t> match_of = MatchHyperTerminals(base, hb, hi);
-  StarCandidates star;
-  size_t made = hb.size();  // the hyper-terminal `star` holds the candidates of (none yet)
-  for (size_t a : ByStar(match_of)) {
-    for (int p : hi[a].places) {
-      const auto i = static_cast<size_t>(p);
-      if (!is_new[i] || found.target[i] >= 0) continue;
-      if (made != match_of[a]) star = CandidatesOf(base, hb[made = match_of[a]]);
-      int match = -1;
-      const double g =
-          RecognitionCost(base, star, incoming.places()[i], &match, &found.nearest_gamma[i]);
-      found.nearest[i] = match;
-      // A robot's own places stay apart: its pipeline already judged them different.
-      if (match >= 0 && g <= tau_r &&
-          base.places()[static_cast<size_t>(match)].id.robot != incoming.places()[i].id.robot) {
-        found.target[i] = match;
-        found.cost[i] = g;
+  const std::vector<size_t> order = ByStar(match_of);
+  const std::vector<std::pair<size_t, size_t>> groups = StarGroups(order, match_of);
+  // Every incoming place is under one hyper-terminal, so each N* writes its own entries.
+  OnThreads(groups.size(), threads, [&](size_t group) {
+    StarCandidates star;
+    size_t made = hb.size();  // the hyper-terminal `star` holds the candidates of (none yet)
+    for (size_t k = groups[group].first; k < groups[group].second; ++k) {
+      const size_t a = order[k];
+      for (int p : hi[a].places) {
+        const auto i = static_cast<size_t>(p);
+        if (!is_new[i] || found.target[i] >= 0) continue;
+        if (made != match_of[a]) star = CandidatesOf(base, hb[made = match_of[a]]);
+        int match = -1;
+        const double g =
+            RecognitionCost(base, star, incoming.places()[i], &match, &found.nearest_gamma[i]);
+        found.nearest[i] = match;
+        // A robot's own places stay apart: its pipeline already judged them different.
+        if (match >= 0 && g <= tau_r &&
+            base.places()[static_cast<size_t>(match)].id.robot != incoming.places()[i].id.robot) {
+          found.target[i] = match;
+          found.cost[i] = g;
+        }
       }
     }
-  }
+  });
 }
 
 }  // namespace
@@ -195,14 +260,15 @@ Recognitions::Recognitions(std::vector<int> linked, size_t base_count)
       fold_cost(base_count, 0.0) {}
 
 void Recognise(const PlaceMemory& base, const PlaceMemory& incoming, const KnownIds& known,
-               const std::vector<int>& fresh, double tau_r, IdJoin& join, Recognitions& found) {
+               const std::vector<int>& fresh, double tau_r, int threads, IdJoin& join,
+               Recognitions& found) {
   const std::vector<HyperTerminal> hb = HyperTerminals(base), hi = HyperTerminals(incoming);
   // (Only a place the base knows can be matched: none known, nothing to do.)
   if (!fresh.empty() && !known.known.empty()) {
-    RecogniseFreshBasePlaces(base, incoming, hb, hi, fresh, known.is_new, known.holder, tau_r, join,
-                             found.fold_cost);
+    RecogniseFreshBasePlaces(base, incoming, hb, hi, fresh, known.is_new, known.holder, tau_r,
+                             threads, join, found.fold_cost);
   }
-  RecogniseNewIncomingPlaces(base, incoming, hb, hi, known.is_new, tau_r, found);
+  RecogniseNewIncomingPlaces(base, incoming, hb, hi, known.is_new, tau_r, threads, found);
 }
 
 }  // namespace tsc

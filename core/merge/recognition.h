@@ -29,8 +29,11 @@ struct Recognitions {
 
 /// Recognises the new incoming places (KnownIds::is_new) against `base` and the `fresh` base
 /// places (FreshBasePlaces) against `incoming`, with threshold `tau_r` on g. A fresh base place
-/// recognised joins the base place holding its match in `join`.
+/// recognised joins the base place holding its match in `join`. Up to `threads` threads share
+/// the places (each place's recognition depends only on it and its N*): what is found is the
+/// same for any number.
 void Recognise(const PlaceMemory& base, const PlaceMemory& incoming, const KnownIds& known,
-               const std::vector<int>& fresh, double tau_r, IdJoin& join, Recognitions& found);
+               const std::vector<int>& fresh, double tau_r, int threads, IdJoin& join,
+               Recognitions& found);
 
 }  // namespace tsc

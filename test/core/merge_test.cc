@@ -1102,5 +1102,33 @@ TEST(MergeMemories, ShortlistedRecognitionMergesAsTheExhaustiveOne) {
   EXPECT_EQ(fast.added, full.added);
 }
 
+// Recognition shares the places among threads by hyper-terminal (core/merge/recognition.h):
+// any number of threads gives the same merge, exactly, for the incoming places and for a
+// base's fresh places recognised the other way round (the peer merged ours, then learned
+// places of ours again: ours goes into its larger memory, whose new places it never saw).
+TEST(MergeMemories, AnyNumberOfThreadsGivesTheSameMerge) {
+  const testing_support::SyntheticPlaces world(21, 200, 16, 0.03f);
+  auto memory = [&world](uint32_t robot, int first) {
+    PlaceMemoryOptions options;
+    options.distance_unit = 0.0;  // the synthetic places' own view spacing, not a camera's
+    PlaceMemory m(robot, options);
+    for (int p = first; p < first + 200; ++p) m.Learn(world.Visit(p, robot, 10));
+    return m;
+  };
+  const PlaceMemory ours = memory(1, 0), peer = memory(2, 100);
+  PlaceMemory peer_merged = MergeMemories(peer, ours).memory;
+  for (int p = 0; p < 40; ++p) peer_merged.Learn(world.Visit(p, 2, 10));  // fresh to ours
+  ASSERT_GT(HyperTerminals(ours).size(), 4u);  // places for several threads
+  for (const PlaceMemory* other : {&peer, static_cast<const PlaceMemory*>(&peer_merged)}) {
+    const MemoryMerge one = MergeMemories(ours, *other, 1);
+    EXPECT_GT(one.absorbed.size(), 20u);  // recognitions to compare
+    for (int threads : {2, 3, 8}) {
+      SCOPED_TRACE(std::to_string(threads) + " threads, peer of " +
+                   std::to_string(other->places().size()) + " places");
+      ExpectSameMerge(MergeMemories(ours, *other, threads), one);
+    }
+  }
+}
+
 }  // namespace
 }  // namespace tsc
