@@ -101,7 +101,7 @@ MemoryMerge Merge(const PlaceMemory& ours, const PlaceMemory& peer, PlaceMemory*
   std::vector<LearnedPlace> places = PlacesOf(base, base_owned);
   IncomingPlaces in(incoming, incoming_owned);
   if (!peer_into_ours) PreferOurFresherCopies(places, in);
-  AbsorbRecognised(places, in, known.is_new, found, options, result.absorbed);
+  AbsorbRecognised(places, in, known.is_new, found, options, std::max(threads, 1), result.absorbed);
   FoldJoined(places, holder, found.fold_cost, join.learned, options, result.absorbed);
   AddNewPlaces(places, in, placement);
   Slink tree =

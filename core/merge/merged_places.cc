@@ -4,6 +4,8 @@
 #include <unordered_map>
 #include <unordered_set>
 
+#include "core/merge/on_threads.h"
+
 namespace tsc {
 
 Placement PlaceIncoming(const PlaceMemory& base, const PlaceMemory& incoming, const KnownIds& known,
@@ -94,14 +96,26 @@ void PreferOurFresherCopies(std::vector<LearnedPlace>& places, IncomingPlaces& i
 
 void AbsorbRecognised(std::vector<LearnedPlace>& places, const IncomingPlaces& in,
                       const std::vector<char>& is_new, const Recognitions& found,
-                      const PlaceMemoryOptions& options, std::vector<Absorption>& absorbed) {
+                      const PlaceMemoryOptions& options, int threads,
+                      std::vector<Absorption>& absorbed) {
+  // The places each target absorbs, in incoming order: targets are absorbed into side by side
+  // (pooling and thinning views was a third of a 10⁴ + 10⁴ merge of half-shared memories once
+  // recognition ran on two threads), each one's places in order.
+  std::vector<std::vector<size_t>> into;
+  std::vector<int> group_of(places.size(), -1);
   for (size_t i = 0; i < in.size(); ++i) {
     if (!is_new[i] || found.target[i] < 0) continue;
-    const LearnedPlace& p = in[i];
-    LearnedPlace& target = places[static_cast<size_t>(found.target[i])];
-    Absorb(target, p, options);
-    absorbed.push_back({p.id, target.id, found.cost[i]});
+    int& g = group_of[static_cast<size_t>(found.target[i])];
+    if (g < 0) {
+      g = static_cast<int>(into.size());
+      into.emplace_back();
+    }
+    into[static_cast<size_t>(g)].push_back(i);
+    absorbed.push_back({in[i].id, places[static_cast<size_t>(found.target[i])].id, found.cost[i]});
   }
+  OnThreads(into.size(), threads, [&](size_t g) {
+    for (size_t i : into[g]) Absorb(places[static_cast<size_t>(found.target[i])], in[i], options);
+  });
 }
 
 void FoldJoined(std::vector<LearnedPlace>& places, const std::vector<int>& holder,

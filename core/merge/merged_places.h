@@ -72,10 +72,12 @@ class IncomingPlaces {
 void PreferOurFresherCopies(std::vector<LearnedPlace>& places, IncomingPlaces& in);
 
 /// The recognised incoming places go into their base places, recorded in `absorbed` in
-/// incoming order.
+/// incoming order; up to `threads` threads absorb into different base places side by side
+/// (each base place takes its incoming places in order: the same result for any number).
 void AbsorbRecognised(std::vector<LearnedPlace>& places, const IncomingPlaces& in,
                       const std::vector<char>& is_new, const Recognitions& found,
-                      const PlaceMemoryOptions& options, std::vector<Absorption>& absorbed);
+                      const PlaceMemoryOptions& options, int threads,
+                      std::vector<Absorption>& absorbed);
 
 /// What the peer's records join (JoinByIds): base places fold into their holder (they leave
 /// the list with the merged tree), recorded in `absorbed`, and ids a known incoming place

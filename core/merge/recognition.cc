@@ -1,17 +1,15 @@
 #include "core/merge/recognition.h"
 
 #include <algorithm>
-#include <atomic>
-#include <exception>
 #include <limits>
 #include <numeric>
 #include <span>
-#include <thread>
 #include <utility>
 
 #include "core/memory/member_views.h"
 #include "core/memory/recognition_cost.h"
 #include "core/merge/hyper_terminals.h"
+#include "core/merge/on_threads.h"
 
 namespace tsc {
 namespace {
@@ -83,33 +81,6 @@ std::vector<std::pair<size_t, size_t>> StarGroups(const std::vector<size_t>& ord
     groups.back().second = k + 1;
   }
   return groups;
-}
-
-// Runs `work(g)` for every g < count on up to `threads` threads (the calling one among them),
-// each taking the next g left, so a thread that drew small groups takes more of them. Rethrows
-// the exception of the lowest g that failed once all are done. Each work writes only what
-// belongs to its own places.
-template <typename Work>
-void OnThreads(size_t count, int threads, const Work& work) {
-  std::vector<std::exception_ptr> failed(count);
-  std::atomic<size_t> next{0};
-  const auto run = [&] {
-    for (size_t g = next++; g < count; g = next++) {
-      try {
-        work(g);
-      } catch (...) {
-        failed[g] = std::current_exception();
-      }
-    }
-  };
-  std::vector<std::thread> helpers;
-  const size_t workers = std::min(count, static_cast<size_t>(std::max(threads, 1)));
-  for (size_t t = 1; t < workers; ++t) helpers.emplace_back(run);
-  run();
-  for (std::thread& t : helpers) t.join();
-  for (const std::exception_ptr& e : failed) {
-    if (e) std::rethrow_exception(e);
-  }
 }
 
 // g of (4.1) for the place `p` against the candidates `star` of a hyper-terminal N* of
