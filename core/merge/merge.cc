@@ -74,8 +74,8 @@ MemoryMerge Merge(const PlaceMemory& ours, const PlaceMemory& peer, PlaceMemory*
   const FreshPlaces fresh = FreshBasePlaces(base, incoming);
   Recognitions found(join.linked, base.places().size());
   RootSpheres spheres;
-  result.merge_case = CaseAndRecognition(base, incoming, known, fresh, options.tau_r,
-                                         std::max(threads, 1), join, found, spheres);
+  result.merge_case = CaseAndRecognition(base, incoming, known, fresh, options.tau_r, threads, join,
+                                         found, spheres);
   const std::vector<int> holder = ResolveHolders(join, found.target);
   // A memory from before canonical ids (a store written earlier) is renamed by any merge.
   const bool renames = !std::all_of(ours.places().begin(), ours.places().end(), CarriesSmallestId);
@@ -101,7 +101,7 @@ MemoryMerge Merge(const PlaceMemory& ours, const PlaceMemory& peer, PlaceMemory*
   std::vector<LearnedPlace> places = PlacesOf(base, base_owned);
   IncomingPlaces in(incoming, incoming_owned);
   if (!peer_into_ours) PreferOurFresherCopies(places, in);
-  AbsorbRecognised(places, in, known.is_new, found, options, std::max(threads, 1), result.absorbed);
+  AbsorbRecognised(places, in, known.is_new, found, options, threads, result.absorbed);
   FoldJoined(places, holder, found.fold_cost, join.learned, options, result.absorbed);
   AddNewPlaces(places, in, placement);
   Slink tree =

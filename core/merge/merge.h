@@ -48,8 +48,9 @@ struct MemoryMerge {
 /// smallest id of its group (its id and its sources), whichever memory was the base, and
 /// Absorption records name the places by those ids. Deterministic; merging the same peer
 /// state again changes nothing. Both memories must have the same descriptor dimension
-/// (std::invalid_argument). Recognition, most of a merge's work, runs on up to `threads`
-/// threads (values below 1 count as 1); the merge is the same for any number.
+/// (std::invalid_argument). Recognition and absorption, most of a merge's work, run on up to
+/// `threads` threads (values below 1 count as 1: core/merge/on_threads.h); the merge is the
+/// same for any number.
 MemoryMerge MergeMemories(const PlaceMemory& ours, const PlaceMemory& peer, int threads = 1);
 /// The same merge for a caller that gives up both memories (a daemon replacing its memory by
 /// the merge, a peer's snapshot): their places are moved into the result instead of copied

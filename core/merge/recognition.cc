@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <limits>
 #include <numeric>
+#include <optional>
 #include <span>
 #include <utility>
 
@@ -83,6 +84,30 @@ std::vector<std::pair<size_t, size_t>> StarGroups(const std::vector<size_t>& ord
   return groups;
 }
 
+// Runs `visit(star_index, p, star)` for every place p of the hyper-terminals `own` with
+// `wanted(p)`, `star` being the candidates in `against` of the hyper-terminal `stars[star_index]`
+// that p's hyper-terminal matched (`match_of`): made once per N*, and only when one of its
+// places is wanted. The N*s are shared among up to `threads` threads, one at a time; each
+// visit writes only what belongs to its place or its N*.
+template <typename Wanted, typename Visit>
+void ForEachPlaceByStar(const PlaceMemory& against, const std::vector<HyperTerminal>& stars,
+                        const std::vector<HyperTerminal>& own, const std::vector<size_t>& match_of,
+                        int threads, const Wanted& wanted, const Visit& visit) {
+  const std::vector<size_t> order = ByStar(match_of);
+  const std::vector<std::pair<size_t, size_t>> groups = StarGroups(order, match_of);
+  OnThreads(groups.size(), threads, [&](size_t group) {
+    const size_t s = match_of[order[groups[group].first]];  // the group's N*
+    std::optional<StarCandidates> star;
+    for (size_t k = groups[group].first; k < groups[group].second; ++k) {
+      for (int p : own[order[k]].places) {
+        if (!wanted(p)) continue;
+        if (!star) star.emplace(CandidatesOf(against, stars[s]));
+        visit(s, p, *star);
+      }
+    }
+  });
+}
+
 // g of (4.1) for the place `p` against the candidates `star` of a hyper-terminal N* of
 // `base`: the g_N of recognition (core/memory/recognition_cost.h) with p's member views as the
 // vote points, at most memory.max_vote_points of them evenly spaced, as recognition takes D's
@@ -141,40 +166,30 @@ void RecogniseFreshBasePlaces(const PlaceMemory& base, const PlaceMemory& incomi
   const std::vector<size_t> match_of = MatchHyperTerminals(incoming, hi, hb);
   std::vector<char> is_fresh(base.places().size(), 0);
   for (int b : fresh) is_fresh[static_cast<size_t>(b)] = 1;
-  const std::vector<size_t> order = ByStar(match_of);
-  const std::vector<std::pair<size_t, size_t>> groups = StarGroups(order, match_of);
-  // Each N*'s joins, applied below in the order one thread would find them.
+  // Each N*'s joins, applied below in the order one thread would find them (ByStar's: by N*).
   struct Join {
     int place, holder;
     double cost;
   };
-  std::vector<std::vector<Join>> joins(groups.size());
-  OnThreads(groups.size(), threads, [&](size_t group) {
-    std::vector<Join>& found = joins[group];
-    StarCandidates star;
-    size_t made = hi.size();  // the hyper-terminal `star` holds the candidates of (none yet)
-    for (size_t k = groups[group].first; k < groups[group].second; ++k) {
-      const size_t a = order[k];
-      for (int b : hb[a].places) {
-        if (!is_fresh[static_cast<size_t>(b)]) continue;
-        if (made != match_of[a]) star = CandidatesOf(incoming, hi[made = match_of[a]]);
+  std::vector<std::vector<Join>> joins(hi.size());
+  ForEachPlaceByStar(
+      incoming, hi, hb, match_of, threads, [&](int b) { return is_fresh[static_cast<size_t>(b)]; },
+      [&](size_t s, int b, const StarCandidates& star) {
         int match = -1;
         double gamma = 0.0;
         const double g =
             RecognitionCost(incoming, star, base.places()[static_cast<size_t>(b)], &match, &gamma);
-        if (match < 0 || g > tau_r || is_new[static_cast<size_t>(match)]) continue;
+        if (match < 0 || g > tau_r || is_new[static_cast<size_t>(match)]) return;
         const PlaceId match_id = incoming.places()[static_cast<size_t>(match)].id;
-        if (match_id.robot == base.places()[static_cast<size_t>(b)].id.robot) continue;
+        if (match_id.robot == base.places()[static_cast<size_t>(b)].id.robot) return;
         const int holder = known.at(match_id);
         // A robot's own places stay apart: the holder may be a place of b's robot that
         // absorbed the match in an earlier merge.
         if (holder != b && base.places()[static_cast<size_t>(holder)].id.robot !=
                                base.places()[static_cast<size_t>(b)].id.robot) {
-          found.push_back({b, holder, g});
+          joins[s].push_back({b, holder, g});
         }
-      }
-    }
-  });
+      });
   for (const std::vector<Join>& of_star : joins) {
     for (const Join& j : of_star) {
       join.places.Unite(j.place, j.holder);
@@ -194,18 +209,15 @@ void RecogniseNewIncomingPlaces(const PlaceMemory& base, const PlaceMemory& inco
                                 const std::vector<char>& is_new, double tau_r, int threads,
                                 Recognitions& found) {
   const std::vector<size_t> match_of = MatchHyperTerminals(base, hb, hi);
-  const std::vector<size_t> order = ByStar(match_of);
-  const std::vector<std::pair<size_t, size_t>> groups = StarGroups(order, match_of);
-  // Every incoming place is under one hyper-terminal, so each N* writes its own entries.
-  OnThreads(groups.size(), threads, [&](size_t group) {
-    StarCandidates star;
-    size_t made = hb.size();  // the hyper-terminal `star` holds the candidates of (none yet)
-    for (size_t k = groups[group].first; k < groups[group].second; ++k) {
-      const size_t a = order[k];
-      for (int p : hi[a].places) {
+  // Every incoming place is under one hyper-terminal, so each writes its own entries.
+  ForEachPlaceByStar(
+      base, hb, hi, match_of, threads,
+      [&](int p) {
         const auto i = static_cast<size_t>(p);
-        if (!is_new[i] || found.target[i] >= 0) continue;
-        if (made != match_of[a]) star = CandidatesOf(base, hb[made = match_of[a]]);
+        return is_new[i] && found.target[i] < 0;
+      },
+      [&](size_t, int p, const StarCandidates& star) {
+        const auto i = static_cast<size_t>(p);
         int match = -1;
         const double g =
             RecognitionCost(base, star, incoming.places()[i], &match, &found.nearest_gamma[i]);
@@ -216,9 +228,7 @@ void RecogniseNewIncomingPlaces(const PlaceMemory& base, const PlaceMemory& inco
           found.target[i] = match;
           found.cost[i] = g;
         }
-      }
-    }
-  });
+      });
 }
 
 }  // namespace
