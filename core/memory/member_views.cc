@@ -59,25 +59,33 @@ Eigen::MatrixXf Thinned(const Eigen::MatrixXf& pool, int cap, const Eigen::Matri
     }
     return at;
   };
-  for (Eigen::Index j = 1; j < n; ++j) earlier[static_cast<size_t>(j)] = nearest_earlier(j);
+  // Each kept view's distance to its nearest earlier kept view (infinite when it has none or
+  // is dropped), side by side: a round scans one row of floats instead of looking each pair up
+  // in `d` (the lookups were a tenth of a 10⁴ + 10⁴ merge, which thins 64 views to 2).
+  std::vector<float> to_earlier(static_cast<size_t>(n), std::numeric_limits<float>::infinity());
+  auto link = [&](Eigen::Index j) {
+    const Eigen::Index i = nearest_earlier(j);
+    earlier[static_cast<size_t>(j)] = i;
+    to_earlier[static_cast<size_t>(j)] = i >= 0 ? d(i, j) : std::numeric_limits<float>::infinity();
+  };
+  for (Eigen::Index j = 1; j < n; ++j) link(j);
   for (Eigen::Index left = n; left > cap; --left) {
     // The closest pair among the kept views; ties go to the earlier pair in column order
     // (the later view of the lowest-ordered pair (j, i) is dropped).
     float best = std::numeric_limits<float>::infinity();
     Eigen::Index drop = -1;
     for (Eigen::Index j = 1; j < n; ++j) {
-      const Eigen::Index i = earlier[static_cast<size_t>(j)];
-      if (kept[static_cast<size_t>(j)] && i >= 0 && d(i, j) < best) {
-        best = d(i, j);
+      if (to_earlier[static_cast<size_t>(j)] < best) {
+        best = to_earlier[static_cast<size_t>(j)];
         drop = j;
       }
     }
     TSC_ASSERT(drop >= 0, "at least two finite views are kept while more than cap are");
     if (drop < 0) break;
     kept[static_cast<size_t>(drop)] = 0;
+    to_earlier[static_cast<size_t>(drop)] = std::numeric_limits<float>::infinity();
     for (Eigen::Index j = drop + 1; j < n; ++j) {
-      if (kept[static_cast<size_t>(j)] && earlier[static_cast<size_t>(j)] == drop)
-        earlier[static_cast<size_t>(j)] = nearest_earlier(j);
+      if (kept[static_cast<size_t>(j)] && earlier[static_cast<size_t>(j)] == drop) link(j);
     }
   }
   Eigen::MatrixXf out(pool.rows(), std::count(kept.begin(), kept.end(), 1));

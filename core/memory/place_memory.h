@@ -242,11 +242,12 @@ class PlaceMemory {
   /// present (moved, so pass it as an rvalue to avoid a copy) and retrained otherwise.
   /// `derived` (empty, or one per place): DerivedOf of a memory of the same options, taken
   /// where the place's mean and member views were the very same, used instead of computing
-  /// them. Throws std::invalid_argument on inconsistent input.
+  /// them. The places' view summaries are computed on up to `threads` threads; the memory is
+  /// the same for any number. Throws std::invalid_argument on inconsistent input.
   static PlaceMemory Restore(uint32_t robot, PlaceMemoryOptions options,
                              std::vector<LearnedPlace> places, Slink slink, uint32_t next_local,
                              std::unordered_map<uint64_t, OneClassDiscriminant> saved,
-                             std::vector<std::optional<Derived>> derived = {});
+                             std::vector<std::optional<Derived>> derived = {}, int threads = 1);
 
  private:
   // An old node's index by set key: the first inner node (its centroid sum) and the first
@@ -277,9 +278,10 @@ class PlaceMemory {
   /// With a view basis, takes the means of places [first, end) into it (view_centres_,
   /// mean_norms_); without one, copies them into their columns of `means_` (growing it as
   /// needed). Then measures their view spacings and re-keys them in the view index. With
-  /// `derived` (one per place), a place that has one takes it instead.
+  /// `derived` (one per place), a place that has one takes it instead. The spacings on up to
+  /// `threads` threads.
   void StoreDerived(int first, int end,
-                    const std::vector<std::optional<Derived>>* derived = nullptr);
+                    const std::vector<std::optional<Derived>>* derived = nullptr, int threads = 1);
 
   uint32_t robot_;
   PlaceMemoryOptions options_;

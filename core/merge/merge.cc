@@ -109,7 +109,7 @@ MemoryMerge Merge(const PlaceMemory& ours, const PlaceMemory& peer, PlaceMemory*
   TakeSmallestIds(places, result.absorbed);
   const uint32_t next = NextLocalId(places, robot, next_local);
   result.memory = PlaceMemory::Restore(robot, options, std::move(places), std::move(tree), next,
-                                       std::move(reusable.by_key), std::move(derived));
+                                       std::move(reusable.by_key), std::move(derived), threads);
   result.retrained = Retrained(result.memory, reusable.keys);
   return result;
 }

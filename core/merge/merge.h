@@ -49,7 +49,7 @@ struct MemoryMerge {
 /// Absorption records name the places by those ids. Deterministic; merging the same peer
 /// state again changes nothing. Both memories must have the same descriptor dimension
 /// (std::invalid_argument). Recognition and absorption, most of a merge's work, run on up to
-/// `threads` threads (values below 1 count as 1: core/merge/on_threads.h); the merge is the
+/// `threads` threads (values below 1 count as 1: core/on_threads.h); the merge is the
 /// same for any number.
 MemoryMerge MergeMemories(const PlaceMemory& ours, const PlaceMemory& peer, int threads = 1);
 /// The same merge for a caller that gives up both memories (a daemon replacing its memory by

@@ -4,7 +4,7 @@
 #include <unordered_map>
 #include <unordered_set>
 
-#include "core/merge/on_threads.h"
+#include "core/on_threads.h"
 
 namespace tsc {
 

@@ -10,7 +10,7 @@
 #include "core/memory/member_views.h"
 #include "core/memory/recognition_cost.h"
 #include "core/merge/hyper_terminals.h"
-#include "core/merge/on_threads.h"
+#include "core/on_threads.h"
 
 namespace tsc {
 namespace {

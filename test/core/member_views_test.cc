@@ -45,7 +45,7 @@ TEST(ThinViews, KeepsWhatDroppingTheCloserPairOneAtATimeKeeps) {
   std::mt19937 rng(3);  // fixed seed: the same pools every run
   std::uniform_int_distribution<int> coordinate(0, 3);
   int pools = 0;
-  for (int n : {2, 5, 12, 24, 40}) {
+  for (int n : {2, 5, 12, 24, 40, 64}) {
     for (int cap : {1, 2, 8, 12}) {
       for (int trial = 0; trial < 5; ++trial) {
         Eigen::MatrixXf pool(6, n);
@@ -60,7 +60,7 @@ TEST(ThinViews, KeepsWhatDroppingTheCloserPairOneAtATimeKeeps) {
       }
     }
   }
-  EXPECT_EQ(pools, 100);
+  EXPECT_EQ(pools, 120);
 }
 
 }  // namespace

@@ -1,7 +1,8 @@
 #pragma once
-// Work of a merge shared among threads (daemon.merge_threads): recognition one N* at a time,
-// absorption one target place at a time. Each piece of work writes only what belongs to it,
-// so the merge is the same for any number of threads.
+// Work shared among threads (daemon.merge_threads): a merge's recognition one N* at a time,
+// its absorption one target place at a time, a restore's view summaries one place at a time.
+// Each piece of work writes only what belongs to it, so the result is the same for any number
+// of threads.
 
 #include <algorithm>
 #include <atomic>
