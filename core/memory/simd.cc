@@ -2,7 +2,10 @@
 
 #include <algorithm>
 #include <bit>
+#include <cmath>
 #include <cstdint>
+#include <cstring>
+#include <limits>
 #include <stdexcept>
 
 #if defined(__x86_64__) && defined(__GNUC__)
@@ -451,6 +454,56 @@ TSC_AVX2 void ScaleInt8Rows(const int8_t* codes, const uint8_t* drop, std::ptrdi
   }
 }
 
+TSC_AVX2 bool RowMagnitudes(const float* x, std::ptrdiff_t rows, std::ptrdiff_t cols,
+                            float* row_most) {
+  const __m256 magnitude = _mm256_castsi256_ps(_mm256_set1_epi32(0x7fffffff));
+  const __m256 largest = _mm256_set1_ps(std::numeric_limits<float>::max());
+  __m256 beyond = _mm256_setzero_ps();  // lanes that met a |x| not ≤ the largest float
+  bool finite = true;
+  std::ptrdiff_t r = 0;
+  for (; r + 8 <= rows; r += 8) {
+    __m256 most = _mm256_setzero_ps();
+    for (std::ptrdiff_t c = 0; c < cols; ++c) {
+      const __m256 a = _mm256_and_ps(_mm256_loadu_ps(x + r + c * rows), magnitude);
+      beyond = _mm256_or_ps(beyond, _mm256_cmp_ps(a, largest, _CMP_NLE_UQ));
+      most = _mm256_max_ps(most, a);
+    }
+    _mm256_storeu_ps(row_most + r, most);
+  }
+  for (; r < rows; ++r) {
+    float most = 0.0f;
+    for (std::ptrdiff_t c = 0; c < cols; ++c) {
+      const float a = std::abs(x[r + c * rows]);
+      finite = finite && a <= std::numeric_limits<float>::max();
+      most = std::max(most, a);
+    }
+    row_most[r] = most;
+  }
+  return finite && _mm256_movemask_ps(beyond) == 0;
+}
+
+TSC_AVX2 void RoundInt8Rows(const float* x, std::ptrdiff_t rows, std::ptrdiff_t cols,
+                            const double* row_scale, int8_t* codes) {
+  for (std::ptrdiff_t c = 0; c < cols; ++c) {
+    const float* v = x + c * rows;
+    int8_t* code = codes + c * rows;
+    std::ptrdiff_t r = 0;
+    for (; r + 4 <= rows; r += 4) {
+      // Exact products rounded as RoundToInteger does (nearest, ties to even), packed to bytes.
+      const __m256d scaled =
+          _mm256_mul_pd(_mm256_cvtps_pd(_mm_loadu_ps(v + r)), _mm256_loadu_pd(row_scale + r));
+      const __m128i whole = _mm256_cvtpd_epi32(
+          _mm256_round_pd(scaled, _MM_FROUND_TO_NEAREST_INT | _MM_FROUND_NO_EXC));
+      const __m128i bytes = _mm_packs_epi16(_mm_packs_epi32(whole, whole), whole);
+      const int32_t four = _mm_cvtsi128_si32(bytes);
+      std::memcpy(code + r, &four, 4);
+    }
+    for (; r < rows; ++r) {
+      code[r] = static_cast<int8_t>(std::nearbyint(static_cast<double>(v[r]) * row_scale[r]));
+    }
+  }
+}
+
 // The squared distances (−2·x + col_sq[v]) + rows for the masked lanes of column v of `dots`
 // (leading dimension n). −2·x is exact, so a fused −2·x + ‖y‖² rounds as the scalar product then
 // sum do.
@@ -496,6 +549,14 @@ void RowDots(const float*, std::ptrdiff_t, int, int, const float*, int, float*) 
 
 void ScaleInt8Rows(const int8_t*, const uint8_t*, std::ptrdiff_t, std::ptrdiff_t, int, float*) {
   throw std::logic_error("avx2::ScaleInt8Rows: not in this build");
+}
+
+bool RowMagnitudes(const float*, std::ptrdiff_t, std::ptrdiff_t, float*) {
+  throw std::logic_error("avx2::RowMagnitudes: not in this build");
+}
+
+void RoundInt8Rows(const float*, std::ptrdiff_t, std::ptrdiff_t, const double*, int8_t*) {
+  throw std::logic_error("avx2::RoundInt8Rows: not in this build");
 }
 
 void NearestColumns(const float*, int, int, const float*, const float*, float*, int*) {

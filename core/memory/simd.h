@@ -57,6 +57,14 @@ void RowDots(const float* a, std::ptrdiff_t lda, int rows, int dim, const float*
 void ScaleInt8Rows(const int8_t* codes, const uint8_t* drop, std::ptrdiff_t rows,
                    std::ptrdiff_t cols, int shift, float* out);
 
+/// row_most[r] = the largest |x[r + c·rows]| over c < cols; false (row_most unspecified) when
+/// a coordinate is infinite or NaN. The encoding's first pass (CompactViews).
+bool RowMagnitudes(const float* x, std::ptrdiff_t rows, std::ptrdiff_t cols, float* row_most);
+/// codes[r + c·rows] = x[r + c·rows] · row_scale[r] rounded to the nearest integer, ties to
+/// even, for r < rows, c < cols: the encoding's codes. Precondition: every product is exact in
+/// double (row_scale[r] a power of two) and rounds into [−127, 127].
+void RoundInt8Rows(const float* x, std::ptrdiff_t rows, std::ptrdiff_t cols,
+                   const double* row_scale, int8_t* codes);
 /// For each row j < n of the n x k products `dots` (column-major, k ≥ 1): nearest[j] = the
 /// least of (−2·dots[j + v·n] + col_sq[v]) + row_sq[j] over v < k, and at[j] = the first v
 /// giving it: the nearest column by ‖x‖² + ‖y‖² − 2xᵀy, computed as the scalar loop of

@@ -187,5 +187,62 @@ TEST_F(AvxKernels, NearestColumnsAreTheScalarLoopsBitForBit) {
   }
 }
 
+// The encoding's passes (CompactViews) against their scalar definitions: every 8-lane and
+// 4-lane tail, negative coordinates, and codes exactly halfway between integers (ties go to
+// even, as the default rounding mode does).
+TEST_F(AvxKernels, RowMagnitudesAreTheLargestAndSeeEveryNonFiniteCoordinate) {
+  for (int rows : {1, 3, 8, 9, 17, 64}) {
+    for (int cols : {1, 2, 33}) {
+      Eigen::MatrixXf x = Random(rng_, rows, cols) - Random(rng_, rows, cols);
+      std::vector<float> most(static_cast<size_t>(rows));
+      ASSERT_TRUE(avx2::RowMagnitudes(x.data(), rows, cols, most.data()));
+      for (int r = 0; r < rows; ++r) {
+        EXPECT_EQ(most[static_cast<size_t>(r)], x.row(r).cwiseAbs().maxCoeff()) << rows << " " << r;
+      }
+      for (float bad :
+           {std::numeric_limits<float>::infinity(), -std::numeric_limits<float>::infinity(),
+            std::numeric_limits<float>::quiet_NaN()}) {
+        for (int r : {0, rows - 1}) {  // in the 8-lane part and in the tail
+          Eigen::MatrixXf y = x;
+          y(r, cols - 1) = bad;
+          EXPECT_FALSE(avx2::RowMagnitudes(y.data(), rows, cols, most.data()))
+              << rows << " x " << cols << ", row " << r << ": " << bad;
+        }
+      }
+    }
+  }
+}
+
+TEST_F(AvxKernels, RoundInt8RowsRoundsTheExactProductsToNearestEven) {
+  std::uniform_int_distribution<int> half_steps(-254, 254);  // codes in [−127, 127], halves too
+  std::uniform_int_distribution<int> exponent(-20, 20);
+  for (int rows : {1, 3, 4, 5, 8, 64, 67}) {
+    for (int cols : {1, 2, 9}) {
+      std::vector<double> scale(static_cast<size_t>(rows));
+      for (double& s : scale) s = std::ldexp(1.0, exponent(rng_));
+      Eigen::MatrixXf x(rows, cols);
+      for (int c = 0; c < cols; ++c) {
+        for (int r = 0; r < rows; ++r) {
+          // Half of them exact halves (k/2 / scale), the rest anywhere between.
+          const double code = (r + c) % 2 == 0
+                                  ? half_steps(rng_) / 2.0
+                                  : std::uniform_real_distribution<double>(-127.4, 127.4)(rng_);
+          x(r, c) = static_cast<float>(code / scale[static_cast<size_t>(r)]);
+        }
+      }
+      std::vector<int8_t> codes(static_cast<size_t>(rows * cols));
+      avx2::RoundInt8Rows(x.data(), rows, cols, scale.data(), codes.data());
+      for (int c = 0; c < cols; ++c) {
+        for (int r = 0; r < rows; ++r) {
+          const double want =
+              std::nearbyint(static_cast<double>(x(r, c)) * scale[static_cast<size_t>(r)]);
+          EXPECT_EQ(codes[static_cast<size_t>(r + c * rows)], static_cast<int8_t>(want))
+              << rows << " x " << cols << " at " << r << ", " << c << ": " << x(r, c);
+        }
+      }
+    }
+  }
+}
+
 }  // namespace
 }  // namespace tsc
