@@ -242,8 +242,9 @@ class PlaceMemory {
   /// present (moved, so pass it as an rvalue to avoid a copy) and retrained otherwise.
   /// `derived` (empty, or one per place): DerivedOf of a memory of the same options, taken
   /// where the place's mean and member views were the very same, used instead of computing
-  /// them. The places' view summaries are computed on up to `threads` threads; the memory is
-  /// the same for any number. Throws std::invalid_argument on inconsistent input.
+  /// them. The places' coordinates in the view basis and view summaries are computed on up to
+  /// `threads` threads; the memory is the same for any number. Throws std::invalid_argument on
+  /// inconsistent input.
   static PlaceMemory Restore(uint32_t robot, PlaceMemoryOptions options,
                              std::vector<LearnedPlace> places, Slink slink, uint32_t next_local,
                              std::unordered_map<uint64_t, OneClassDiscriminant> saved,
@@ -278,8 +279,8 @@ class PlaceMemory {
   /// With a view basis, takes the means of places [first, end) into it (view_centres_,
   /// mean_norms_); without one, copies them into their columns of `means_` (growing it as
   /// needed). Then measures their view spacings and re-keys them in the view index. With
-  /// `derived` (one per place), a place that has one takes it instead. The spacings on up to
-  /// `threads` threads.
+  /// `derived` (one per place), a place that has one takes it instead. On up to `threads`
+  /// threads.
   void StoreDerived(int first, int end,
                     const std::vector<std::optional<Derived>>* derived = nullptr, int threads = 1);
 

@@ -674,6 +674,41 @@ TEST(PlaceMemory, LearningWithAViewBasisBuildsTheSameTree) {
   }
 }
 
+// A restore takes the places' means into the view basis and summarises their views on the
+// threads it is given (a merge's restore, core/merge/merge.h), in blocks of 512 means: any
+// number of threads gives every place the same derived values, to the bit.
+TEST(PlaceMemory, RestoreOnAnyNumberOfThreadsDerivesTheSameValues) {
+  constexpr uint32_t kSeed = 78;
+  SCOPED_TRACE("seed " + std::to_string(kSeed));
+  testing_support::SyntheticPlaces world(kSeed, BuiltinViewBasis()->input_dimension(), 16, 0.02f);
+  world.LieIn(BuiltinViewBasis(), 0.033f);
+  PlaceMemoryOptions options;
+  options.view_basis = BuiltinViewBasis();
+  PlaceMemory learned(1, options);
+  for (int p = 0; p < 1100; ++p) {  // three blocks of means, the last one short
+    learned.Learn(world.Visit(p, static_cast<uint32_t>(p % 2), 4, 4));
+  }
+  auto restore = [&](int threads) {
+    return PlaceMemory::Restore(1, options, learned.places(), learned.slink(),
+                                learned.next_local_id(), {}, {}, threads);
+  };
+  auto expect_same = [](const PlaceMemory& x, const PlaceMemory& y, const std::string& what) {
+    ASSERT_EQ(x.places().size(), y.places().size()) << what;
+    for (int p = 0; p < static_cast<int>(x.places().size()); ++p) {
+      const PlaceMemory::Derived a = x.DerivedOf(p), b = y.DerivedOf(p);
+      ASSERT_EQ(a.view_centre, b.view_centre) << what << ", place " << p;
+      ASSERT_EQ(a.mean_norm, b.mean_norm) << what << ", place " << p;
+      ASSERT_EQ(a.spacing, b.spacing) << what << ", place " << p;
+      ASSERT_EQ(a.keys.keys, b.keys.keys) << what << ", place " << p;
+      ASSERT_EQ(a.keys.norms, b.keys.norms) << what << ", place " << p;
+    }
+  };
+  // The learned memory derived its values place by place, as it learned them.
+  expect_same(restore(1), learned, "1 thread against learning");
+  expect_same(restore(2), learned, "2 threads against learning");
+  expect_same(restore(3), learned, "3 threads against learning");
+}
+
 // A recognition names the copies of its room that its siblings hold (CostTerms::held_again,
 // the consolidation's evidence), and folding them leaves one place holding the room: its
 // smallest id, the copy's id as a source, both visits' members, and the other rooms as they
