@@ -7,10 +7,12 @@
 // the process), and once it has loaded the memory, announced and built its first snapshot
 // the report gives its resident set (VmRSS, and the peak VmHWM) and the database size, in
 // total and per place, and the CPU tscd spent over the settling time (idle but for the sim
-// camera's frame a second: announces, snapshots for peers).
+// camera's frame a second: announces, snapshots for peers). "Ready after" is the start-up time
+// of a robot with that memory: tscd restores it on `--threads` threads (daemon.merge_threads,
+// 0 = one per core, tscd's default).
 //
 //   build/bin/tscd_footprint [--places N] [--dim D] [--members M] [--settle-s S] [--out FILE]
-//                            [--keep DIR]
+//                            [--keep DIR | --reuse DIR] [--threads T]
 
 #include <unistd.h>
 
@@ -77,9 +79,10 @@ uint64_t FileBytes(const fs::path& p) {
 }
 
 int Main(int argc, char** argv) {
-  const auto args =
-      KeyValueArgs(argc, argv, {"places", "dim", "members", "settle-s", "out", "keep"},
-                   "[--places N] [--dim D] [--members M] [--settle-s S] [--out FILE] [--keep DIR]");
+  const auto args = KeyValueArgs(
+      argc, argv, {"places", "dim", "members", "settle-s", "out", "keep", "reuse", "threads"},
+      "[--places N] [--dim D] [--members M] [--settle-s S] [--out FILE] "
+      "[--keep DIR | --reuse DIR] [--threads T]");
   if (!args) return 2;
   const int places = static_cast<int>(NumberArg(*args, "places", 10000));
   const int dim = static_cast<int>(NumberArg(*args, "dim", 1200));
@@ -92,25 +95,36 @@ int Main(int argc, char** argv) {
   const int visits =
       std::max(1, (members + defaults.max_samples_per_place - 1) / defaults.max_samples_per_place);
   const double settle_s = NumberArg(*args, "settle-s", 15);
+  const int threads = static_cast<int>(NumberArg(*args, "threads", 0));
   const std::string out = args->count("out") ? args->at("out") : "";
-  if (places < 1 || dim < 1 || members < 1) {
-    std::fprintf(stderr, "%s: places, dim and members must be positive\n", argv[0]);
+  if (places < 1 || dim < 1 || members < 1 || threads < 0) {
+    std::fprintf(stderr, "%s: places, dim and members must be positive, threads not negative\n",
+                 argv[0]);
     return 2;
   }
   // --keep: the state directory is written there and left for inspection (tsc inspect, a heap
-  // profiler on tscd); else a temporary one is removed at the end.
-  const bool keep = args->count("keep") > 0;
+  // profiler on tscd); else a temporary one is removed at the end. --reuse: the store an
+  // earlier --keep left there is measured again as it is (writing 10⁵ places takes minutes);
+  // --places and --members must then say what it holds, as tscd's log line below does.
+  const bool reuse = args->count("reuse") > 0;
+  if (reuse && args->count("keep")) {
+    std::fprintf(stderr, "%s: --keep and --reuse exclude each other\n", argv[0]);
+    return 2;
+  }
+  const bool keep = reuse || args->count("keep") > 0;
   const fs::path dir =
-      keep ? fs::path(args->at("keep"))
-           : fs::temp_directory_path() / ("tscd_footprint." + std::to_string(getpid()));
-  if (keep && fs::exists(dir / "memory.db")) {
-    std::fprintf(stderr, "%s: %s already holds a store\n", argv[0], dir.c_str());
+      reuse  ? fs::path(args->at("reuse"))
+      : keep ? fs::path(args->at("keep"))
+             : fs::temp_directory_path() / ("tscd_footprint." + std::to_string(getpid()));
+  if (fs::exists(dir / "memory.db") != reuse) {
+    std::fprintf(stderr, reuse ? "%s: %s holds no store\n" : "%s: %s already holds a store\n",
+                 argv[0], dir.c_str());
     return 2;
   }
   fs::create_directories(dir);
 
   const auto t_build = Clock::now();
-  {
+  if (!reuse) {
     const testing_support::SyntheticPlaces world(1, dim, 64, 0.02f, 1);
     Store store = Store::Open(dir / "memory.db");
     // The memory as tscd keeps it with its default options: member views in the builtin basis
@@ -129,13 +143,17 @@ int Main(int argc, char** argv) {
     store.CommitPending({}, pipeline, true, std::nullopt);
   }
   const uint64_t db_bytes = FileBytes(dir / "memory.db") + FileBytes(dir / "memory.db-wal");
-  std::printf("a store of %d places (dim %d, %d member views) written in %.1f s\n", places, dim,
-              members, Seconds(Clock::now() - t_build));
+  if (!reuse) {
+    std::printf("a store of %d places (dim %d, %d member views) written in %.1f s\n", places, dim,
+                members, Seconds(Clock::now() - t_build));
+  }
 
   const fs::path log = dir / "tscd.log";
+  fs::remove(log);  // an earlier run's, when reused: "ready" is looked for in this one's
   testing_support::ChildProcess tscd(
       {std::string(TSCD_BIN_DIR) + "/tscd", "--robot", "1", "--state-dir", dir.string(), "--set",
-       "camera.source=sim", "--set", "camera.fps=1", "--set", "lcm.url=memq://"},
+       "camera.source=sim", "--set", "camera.fps=1", "--set", "lcm.url=memq://", "--set",
+       "daemon.merge_threads=" + std::to_string(threads)},
       log);
   // Loaded, announcing and serving: "ready" is logged after the memory is loaded; the first
   // announce asks the worker for a snapshot, which the settling time leaves room for.
@@ -145,6 +163,12 @@ int Main(int argc, char** argv) {
     std::this_thread::sleep_for(std::chrono::milliseconds(100));
   }
   const double ready_s = Seconds(Clock::now() - t_start);
+  // What tscd says it loaded, and in what time (the rest of "ready" is the process starting).
+  const std::string started = tscd.Log();
+  const size_t loaded = started.find("memory loaded from");
+  if (loaded != std::string::npos) {
+    std::printf("tscd: %s\n", started.substr(loaded, started.find('\n', loaded) - loaded).c_str());
+  }
   // What tscd spends while idle with this memory (announces, snapshots for peers).
   const double cpu_before = CpuSeconds(tscd.pid());
   std::this_thread::sleep_for(std::chrono::duration<double>(settle_s));
@@ -162,11 +186,12 @@ int Main(int argc, char** argv) {
 
   char report[768];
   std::snprintf(report, sizeof report,
-                "places %d (dim %d, %d member views): tscd ready after %.1f s; after %.0f s "
+                "places %d (dim %d, %d member views): tscd ready after %.1f s (%d restore threads, "
+                "0 = one per core); after %.0f s "
                 "more: RSS %.1f MB (%.1f KB per place), peak %.1f MB (%.1f KB per place); "
                 "database %.1f MB (%.1f KB per place); CPU over those %.0f s %.2f s (%.1f %% of "
                 "a core)\n",
-                places, dim, members, ready_s, settle_s, rss, 1024.0 * rss / places, hwm,
+                places, dim, members, ready_s, threads, settle_s, rss, 1024.0 * rss / places, hwm,
                 1024.0 * hwm / places, static_cast<double>(db_bytes) / (1 << 20),
                 static_cast<double>(db_bytes) / 1024.0 / places, settle_s, cpu_s,
                 100.0 * cpu_s / settle_s);

@@ -617,7 +617,7 @@ int Store::schema_version() const {
   return static_cast<int>(ReadSchemaVersion(db));
 }
 
-StoredState Store::Load(uint32_t robot, const PlaceMemoryOptions& options) {
+StoredState Store::Load(uint32_t robot, const PlaceMemoryOptions& options, int threads) {
   options.Validate();  // a configuration error, not a store error: std::invalid_argument
   const Db db{db_, path_};
   try {
@@ -631,7 +631,7 @@ StoredState Store::Load(uint32_t robot, const PlaceMemoryOptions& options) {
     std::optional<PlaceMemory> memory;
     try {
       memory = PlaceMemory::Restore(robot, options, std::move(places), std::move(slink), next_local,
-                                    saved);
+                                    saved, {}, threads);
     } catch (const std::invalid_argument& e) {
       Fail(db, std::string("tables learned_places/discriminants, meta slink: ") + e.what());
     }

@@ -83,8 +83,10 @@ class Store {
   ~Store();
 
   /// Loads the saved state (an empty memory for a new database). `robot` must match the
-  /// database's robot id when one is recorded (throws StoreError otherwise).
-  StoredState Load(uint32_t robot, const PlaceMemoryOptions& options);
+  /// database's robot id when one is recorded (throws StoreError otherwise). The places'
+  /// derived values are computed on up to `threads` threads (PlaceMemory::Restore): the same
+  /// memory for any number.
+  StoredState Load(uint32_t robot, const PlaceMemoryOptions& options, int threads = 1);
   /// Writes one pipeline result in one transaction: base point, closed detected places,
   /// transitions, changed learned places, the tree and discriminants when they changed, map
   /// edges of mapped events, and the pipeline position. Throws StoreError (rolled back).
