@@ -154,6 +154,7 @@ class Daemon {
   bool broadcast_wanted_ = false;  // loop thread only
   // The bodies the last broadcast carried or named: the next one sends only bodies beyond them.
   std::unordered_set<int64_t> broadcast_bodies_;    // loop thread only
+  bool broadcast_once_ = false;                     // loop thread only: this life broadcast
   std::vector<memory_request_t> waiting_requests_;  // loop thread only: for a fresh snapshot
   std::chrono::steady_clock::time_point last_memory_broadcast_{};
   int64_t announces_sent_ = 0;

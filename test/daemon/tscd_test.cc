@@ -425,6 +425,77 @@ TEST_F(TscdTest, ARestartMapsNoEdgeFromThePlaceBeforeIt) {
   });
 }
 
+// A restarted robot's first broadcast names the bodies of the memory it loaded without sending
+// them: peers that merged it before hold them (issue 23: a robot of 10⁵ places sent 2 GB at
+// every start that nobody had asked for). A peer that holds nothing asks, and gets them all.
+TEST_F(TscdTest, ARestartedRobotBroadcastsItsStructureAndSendsItsBodiesWhenAsked) {
+  TSCD_REQUIRE_PRIVATE_NETNS();
+  const fs::path state = dir_ / "state";
+  {
+    BusListener bus("TSC_ANNOUNCE");
+    ChildProcess dut(FastSimRobot(state), dir_ / "first.log");
+    ASSERT_TRUE(bus.WaitFor(
+        [](const BusListener& b) {
+          return b.announces.count("TSC_ANNOUNCE") &&
+                 b.announces.at("TSC_ANNOUNCE").back().places >= 2;
+        },
+        seconds(60)))
+        << dut.Log();
+    dut.Signal(SIGTERM);
+    ASSERT_EQ(dut.Wait(seconds(20)), 0) << dut.Log();
+  }
+  // Later lives take a frame every 10 s: no place closes, so their memory stays the loaded one.
+  const std::vector<std::string> still = {"--set", "camera.fps=0.1"};
+  // Each portion received, by whether it is a body (a place of its own, after the structure).
+  auto bodies_and_structure = [](const BusListener& b) {
+    std::pair<int, int> n{0, 0};
+    if (!b.portions.count("TSC_MEMORY_1")) return n;
+    for (const memory_portion_v2_t& p : b.portions.at("TSC_MEMORY_1")) {
+      (p.index >= p.structure_portions ? n.first : n.second) += 1;
+    }
+    return n;
+  };
+  int places = 0;
+  {
+    BusListener bus("TSC_MEMORY_1");
+    ChildProcess dut(FastSimRobot(state, still), dir_ / "second.log");
+    ASSERT_TRUE(bus.WaitFor(
+        [&](const BusListener& b) {
+          if (!b.portions.count("TSC_MEMORY_1")) return false;
+          const memory_portion_v2_t& first = b.portions.at("TSC_MEMORY_1").front();
+          return bodies_and_structure(b).second >= first.structure_portions;
+        },
+        seconds(60)))
+        << dut.Log();
+    // Stopping publishes what is left to broadcast before "stopped": nothing of it is a body.
+    dut.Signal(SIGTERM);
+    ASSERT_EQ(dut.Wait(seconds(20)), 0) << dut.Log();
+    bus.Inspect([&](const BusListener& b) {
+      places = b.portions.at("TSC_MEMORY_1").front().total_places;
+      EXPECT_EQ(bodies_and_structure(b).first, 0) << "bodies broadcast at a restart";
+    });
+    EXPECT_GE(places, 2);
+  }
+  BusListener bus("TSC_MEMORY_1");
+  ChildProcess dut(FastSimRobot(state, still), dir_ / "third.log");
+  ASSERT_TRUE(bus.WaitFor([](const BusListener& b) { return b.portions.count("TSC_MEMORY_1"); },
+                          seconds(60)))
+      << dut.Log();
+  memory_request_t req{};  // a peer that holds nothing asks for everything
+  req.utime = 1;
+  req.requester = 9;
+  req.robot = 1;
+  req.version = 0;
+  req.num_missing = 0;
+  req.hmac_size = 0;
+  bus.lcm().publish("TSC_REQUEST_1", &req);
+  EXPECT_TRUE(bus.WaitFor(
+      [&](const BusListener& b) { return bodies_and_structure(b).first >= places; }, seconds(30)))
+      << dut.Log();
+  dut.Signal(SIGTERM);
+  EXPECT_EQ(dut.Wait(seconds(20)), 0) << dut.Log();
+}
+
 // A folder camera with a truncated JPEG, then the folder disappears mid-run.
 TEST_F(TscdTest, TruncatedFrameAndVanishingCameraAreLoggedAndSurvived) {
   TSCD_REQUIRE_PRIVATE_NETNS();
