@@ -474,7 +474,7 @@ void PlaceMemory::StoreDerived(int first, int end,
       }
     }
   }
-  view_index_.FileAppended();
+  view_index_.FileAppended(threads);
 }
 
 void PlaceMemory::RetrainDiscriminant(int node) {

@@ -7,6 +7,8 @@
 #include <numeric>
 #include <stdexcept>
 
+#include "core/on_threads.h"
+
 namespace tsc {
 namespace {
 
@@ -36,9 +38,28 @@ void NearestPerRow(const Eigen::MatrixXf& dots, const Eigen::VectorXf& centroid_
   }
 }
 
+// The nearest centroid (NearestPerRow) of each of rows first..end−1 of `keys`, a product per
+// block of kBlock rows from `first`, the blocks on up to `threads` threads: each block is
+// computed as on one thread, so the cells are the same for any number.
+std::vector<int> NearestRows(const Eigen::MatrixXf& keys, Eigen::Index first, Eigen::Index end,
+                             const Eigen::MatrixXf& centroids,
+                             const Eigen::VectorXf& centroid_norms, int threads) {
+  std::vector<int> out(static_cast<size_t>(std::max<Eigen::Index>(0, end - first)));
+  const auto blocks = static_cast<size_t>((end - first + kBlock - 1) / kBlock);
+  OnThreads(blocks, threads, [&](size_t b) {
+    const Eigen::Index at = first + static_cast<Eigen::Index>(b) * kBlock;
+    const Eigen::Index len = std::min(kBlock, end - at);
+    const Eigen::MatrixXf dots = keys.middleRows(at, len) * centroids;
+    std::vector<int> nearest;
+    NearestPerRow(dots, centroid_norms, nearest);
+    std::copy(nearest.begin(), nearest.end(), out.begin() + (at - first));
+  });
+  return out;
+}
+
 }  // namespace
 
-void ViewCells::Train(const Eigen::MatrixXf& keys, Eigen::Index rows, Simd simd) {
+void ViewCells::Train(const Eigen::MatrixXf& keys, Eigen::Index rows, Simd simd, int threads) {
   if (rows <= 0 || rows > keys.rows()) throw std::invalid_argument("view cells: no keys to train");
   simd_ = simd;
   const Eigen::Index dim = keys.cols();
@@ -82,17 +103,13 @@ void ViewCells::Train(const Eigen::MatrixXf& keys, Eigen::Index rows, Simd simd)
   for (size_t c = 0; c < spread_.size(); ++c) {
     if (counts[c] > 0) spread_[c] /= static_cast<float>(counts[c]);
   }
-  // File every key, a block of keys per product.
+  // File every key: the nearest cells on the threads, then filed in row order.
   cells_.assign(static_cast<size_t>(cells), Cell{});
   slot_.assign(static_cast<size_t>(rows), {-1, -1});
-  for (Eigen::Index first = 0; first < rows; first += kBlock) {
-    const Eigen::Index len = std::min(kBlock, rows - first);
-    dots.noalias() = keys.middleRows(first, len) * centroids_;
-    NearestPerRow(dots, centroid_norms_, nearest);
-    for (Eigen::Index i = 0; i < len; ++i) {
-      const Eigen::RowVectorXf key = keys.row(first + i);
-      Append(nearest[static_cast<size_t>(i)], key, key.squaredNorm(), first + i);
-    }
+  nearest = NearestRows(keys, 0, rows, centroids_, centroid_norms_, threads);
+  for (Eigen::Index r = 0; r < rows; ++r) {
+    const Eigen::RowVectorXf key = keys.row(r);
+    Append(nearest[static_cast<size_t>(r)], key, key.squaredNorm(), r);
   }
   trained_rows_ = rows;
 }
@@ -142,19 +159,13 @@ void ViewCells::File(const Eigen::MatrixXf& keys, Eigen::Index row, float norm) 
 }
 
 void ViewCells::FileRows(const Eigen::MatrixXf& keys, Eigen::Index first, Eigen::Index end,
-                         const std::vector<float>& norms) {
+                         const std::vector<float>& norms, int threads) {
   if (!trained()) throw std::logic_error("view cells: filing before training");
-  std::vector<int> nearest;
-  Eigen::MatrixXf dots;
-  for (Eigen::Index b = first; b < end; b += kBlock) {
-    const Eigen::Index len = std::min(kBlock, end - b);
-    dots.noalias() = keys.middleRows(b, len) * centroids_;
-    NearestPerRow(dots, centroid_norms_, nearest);
-    for (Eigen::Index i = 0; i < len; ++i) {
-      Remove(b + i);
-      Append(nearest[static_cast<size_t>(i)], keys.row(b + i), norms[static_cast<size_t>(b + i)],
-             b + i);
-    }
+  const std::vector<int> nearest =
+      NearestRows(keys, first, end, centroids_, centroid_norms_, threads);
+  for (Eigen::Index r = first; r < end; ++r) {
+    Remove(r);
+    Append(nearest[static_cast<size_t>(r - first)], keys.row(r), norms[static_cast<size_t>(r)], r);
   }
 }
 

@@ -27,15 +27,16 @@ class ViewCells {
 
   /// Finds the centroids by k-means over an even sample of the first `rows` rows of `keys`
   /// (key table, rows x dim, a key per row) and files every one of those rows. Deterministic:
-  /// the same rows give the same cells.
-  void Train(const Eigen::MatrixXf& keys, Eigen::Index rows, Simd simd);
+  /// the same rows give the same cells. The rows' nearest cells are found on up to `threads`
+  /// threads: the same cells for any number.
+  void Train(const Eigen::MatrixXf& keys, Eigen::Index rows, Simd simd, int threads = 1);
   /// Files row `row` of `keys` (its norm `norm`) under its nearest centroid, moving it when it
   /// is filed already. Precondition: trained().
   void File(const Eigen::MatrixXf& keys, Eigen::Index row, float norm);
   /// File for rows first.. end−1 of `keys` (norms `norms`, per key row), a block of rows per
-  /// product. Precondition: trained().
+  /// product, the blocks on up to `threads` threads. Precondition: trained().
   void FileRows(const Eigen::MatrixXf& keys, Eigen::Index first, Eigen::Index end,
-                const std::vector<float>& norms);
+                const std::vector<float>& norms, int threads = 1);
 
   /// For each of `groups` groups of `group_size` consecutive key rows (a place's keys), the
   /// smallest ‖k − q‖² over its keys k and the columns q of `queries` (dim x m, norms

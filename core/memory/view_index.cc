@@ -76,7 +76,7 @@ void ViewIndex::Append(const Eigen::VectorXf& centre, const Eigen::MatrixXf& vie
   Key(size(), centre, views);
 }
 
-void ViewIndex::FileAppended() {
+void ViewIndex::FileAppended(int threads) {
   const auto rows = static_cast<Eigen::Index>(key_norms_.size());
   if (!use_cells_ || size() < kCellsFrom) {
     filed_rows_ = rows;
@@ -91,10 +91,10 @@ void ViewIndex::FileAppended() {
     train_at = next;
   }
   if (train_at > 0) {
-    cells_.Train(keys_, train_at, simd_);
+    cells_.Train(keys_, train_at, simd_, threads);
     filed_rows_ = std::max(filed_rows_, train_at);
   }
-  cells_.FileRows(keys_, filed_rows_, rows, key_norms_);
+  cells_.FileRows(keys_, filed_rows_, rows, key_norms_, threads);
   filed_rows_ = rows;
 }
 

@@ -61,7 +61,9 @@ class ViewIndex {
   /// would key the views they came from. Throws std::invalid_argument on keys of another shape
   /// or dimension.
   void AppendKeys(const PlaceKeys& keys);
-  void FileAppended();
+  /// Files the appended places' keys in the cells, finding their cells on up to `threads`
+  /// threads (the same cells for any number).
+  void FileAppended(int threads = 1);
   int size() const { return static_cast<int>(key_norms_.size() / kKeysPerPlace); }
 
   /// What D asks the index with, from its vote points (dim x n, n ≥ 1): the index keys each

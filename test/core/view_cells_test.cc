@@ -148,30 +148,40 @@ TEST(ViewIndexCells, AFreshVisitsPlaceIsShortlistedPastTheCellsThreshold) {
 
 // A restore appends every place and files them once (ViewIndex::FileAppended): the cells then
 // give the estimates that Set, one place at a time, gives, past the threshold and a doubling
-// of it (trained at kCellsFrom and 2·kCellsFrom places, the later keys filed). And an index
-// refuses to estimate with places appended but not filed.
+// of it (trained at kCellsFrom and 2·kCellsFrom places, the later keys filed), whether the cells
+// are found on one thread or three. And an index refuses to estimate with places appended but
+// not filed.
 TEST(ViewIndexCells, AppendingThenFilingOnceEqualsSettingEachPlace) {
   SCOPED_TRACE("seed " + std::to_string(kSeed));
   testing_support::SyntheticPlaces places(kSeed, 64, 256, 0.03f);
-  ViewIndex one_by_one, appended;
+  ViewIndex one_by_one, appended, on_threads;
   const int n = 2 * ViewIndex::kCellsFrom + 300;
   for (int p = 0; p < n; ++p) {
     const DetectedPlace d = places.Visit(p, 0, 4);
     one_by_one.Set(p, d.Mean(), d.descriptors);
     appended.Append(d.Mean(), d.descriptors);
+    on_threads.Append(d.Mean(), d.descriptors);
     if (p == 10) {
       EXPECT_THROW(appended.Estimate(ViewIndex::Queries(d.descriptors)), std::logic_error);
       appended.FileAppended();  // a first run, below the threshold
+      on_threads.FileAppended(3);
     }
   }
   appended.FileAppended();
+  on_threads.FileAppended(3);
   for (int p = 0; p < n; p += n / 25) {
     const Eigen::MatrixXf queries = ViewIndex::Queries(places.Visit(p, 1, 4).descriptors);
-    const std::vector<float> a = one_by_one.Estimate(queries), b = appended.Estimate(queries);
+    const std::vector<float> a = one_by_one.Estimate(queries), b = appended.Estimate(queries),
+                             c = on_threads.Estimate(queries);
     ASSERT_EQ(a.size(), b.size());
-    int same = 0;
-    for (size_t i = 0; i < a.size(); ++i) same += a[i] == b[i];
+    ASSERT_EQ(a.size(), c.size());
+    int same = 0, same_on_threads = 0;
+    for (size_t i = 0; i < a.size(); ++i) {
+      same += a[i] == b[i];
+      same_on_threads += a[i] == c[i];
+    }
     EXPECT_EQ(same, static_cast<int>(a.size())) << "query of place " << p;
+    EXPECT_EQ(same_on_threads, static_cast<int>(a.size())) << "query of place " << p;
   }
 }
 
