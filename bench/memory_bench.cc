@@ -14,6 +14,7 @@
 #include <vector>
 
 #include "core/memory/builtin_view_basis.h"
+#include "core/memory/compact_views.h"
 #include "core/memory/place_memory.h"
 #include "core/memory/simd.h"
 #include "test/support/synthetic_places.h"
@@ -230,6 +231,27 @@ void BM_ViewProducts(benchmark::State& state) {
 BENCHMARK(BM_ViewProducts)
     ->ArgsProduct({{32, 2048, 10000}, {8, 16}})
     ->Unit(benchmark::kMicrosecond);
+
+// A place's member views read back from their 16-bit form (the store, messages): tscd
+// loading a 10⁵-place store does this 10⁵ times, once a place. 128 axes x 64 views, the cap of a
+// place seen twice, of falling magnitude as a principal basis' axes are.
+void BM_ViewsFromSixteenBits(benchmark::State& state) {
+  constexpr int kAxes = 128, kViews = 64;
+  std::mt19937 rng(64);  // fixed: the same views on every run
+  std::normal_distribution<float> normal;
+  Eigen::MatrixXf views(kAxes, kViews);
+  for (Eigen::Index c = 0; c < kViews; ++c) {
+    for (Eigen::Index r = 0; r < kAxes; ++r)
+      views(r, c) = normal(rng) * 0.05f / static_cast<float>(1 + r);
+  }
+  const CompactViews encoded(views);
+  const std::vector<int16_t> wide = encoded.Wide();
+  for (auto _ : state) {
+    const CompactViews back(kAxes, kViews, encoded.shift(), wide);
+    benchmark::DoNotOptimize(back.codes());
+  }
+}
+BENCHMARK(BM_ViewsFromSixteenBits)->Unit(benchmark::kMicrosecond);
 
 // Args: places; 0 views as descriptors, 1 in the builtin basis, 2 in the basis with places of
 // WorldInBasis(). Counter `gamma_measured`: the share of the distances γ learning measured

@@ -33,13 +33,14 @@ max_samples_per_place, discriminant) apply.
 
 Options)";
 
-StoredState LoadStore(const fs::path& path, const PlaceMemoryOptions& options, uint32_t* robot) {
+StoredState LoadStore(const fs::path& path, const PlaceMemoryOptions& options, int threads,
+                      uint32_t* robot) {
   if (!fs::is_regular_file(path)) throw std::runtime_error(path.string() + ": no such store");
   Store store = Store::Open(path);
   const std::optional<uint32_t> id = store.robot();
   if (!id) throw std::runtime_error(path.string() + ": the store records no robot id (empty)");
   *robot = *id;
-  return store.Load(*id, options);
+  return store.Load(*id, options, threads);
 }
 
 int Merge(const std::vector<std::string>& args) {
@@ -81,13 +82,15 @@ int Merge(const std::vector<std::string>& args) {
     }
   }
   uint32_t a_robot = 0, b_robot = 0;
-  const StoredState a = LoadStore(a_path, options.memory, &a_robot);
-  const StoredState b = LoadStore(b_path, options.memory, &b_robot);
+  // Loaded and merged on daemon.merge_threads, as tscd does.
+  const int threads = settings.daemon.MergeThreads();
+  const StoredState a = LoadStore(a_path, options.memory, threads, &a_robot);
+  const StoredState b = LoadStore(b_path, options.memory, threads, &b_robot);
   if (a_robot == b_robot) {
     throw std::runtime_error(b_path.string() + ": belongs to robot " + std::to_string(b_robot) +
                              " like " + a_path.string() + "; merging needs two robots");
   }
-  const MemoryMerge merged = MergeMemories(a.memory, b.memory, settings.daemon.MergeThreads());
+  const MemoryMerge merged = MergeMemories(a.memory, b.memory, threads);
   const TopologicalMap map = MergeMaps(a.map, b.map, merged.memory);
 
   if (vm.count("force")) {

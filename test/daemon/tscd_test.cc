@@ -69,6 +69,35 @@ class TscdTest : public ::testing::Test {
     return images;
   }
 
+  // Asks robot 1 for its whole memory, as peer 9 holding nothing of it.
+  static void AskForTheWholeMemory(BusListener& bus) {
+    memory_request_t req{};
+    req.utime = 1;
+    req.requester = 9;
+    req.robot = 1;
+    req.version = 0;
+    req.num_missing = 0;
+    req.hmac_size = 0;
+    bus.lcm().publish("TSC_REQUEST_1", &req);
+  }
+
+  // Runs the fast simulated robot on `state` until `bus` hears it announce at least `places`
+  // places, then stops it; it must exit cleanly (fatal failures otherwise: check
+  // HasFatalFailure()).
+  static void RunUntilPlaces(BusListener& bus, const fs::path& state, int32_t places,
+                             const fs::path& log) {
+    ChildProcess dut(FastSimRobot(state), log);
+    ASSERT_TRUE(bus.WaitFor(
+        [places](const BusListener& b) {
+          return b.announces.count("TSC_ANNOUNCE") &&
+                 b.announces.at("TSC_ANNOUNCE").back().places >= places;
+        },
+        seconds(60)))
+        << dut.Log();
+    dut.Signal(SIGTERM);
+    ASSERT_EQ(dut.Wait(seconds(20)), 0) << dut.Log();
+  }
+
   // Runs tscd on a simulated camera of `fps` frames a second on the simulated base, drives
   // the base at 0.5 m/s in a wide circle (inside the room it starts in) with a motor command
   // every 100 ms until tscd's log matches `wanted` (at most 60 s), stops tscd and returns its
@@ -197,14 +226,7 @@ TEST_F(TscdTest, ServesEveryChannelRejectsGarbageReloadsAndStopsCleanly) {
   // A request for the memory is answered with every portion of the current version.
   size_t before = 0;
   bus.Inspect([&](const BusListener& b) { before = b.portions.at("TSC_MEMORY_1").size(); });
-  memory_request_t req{};
-  req.utime = 1;
-  req.requester = 9;
-  req.robot = 1;
-  req.version = 0;
-  req.num_missing = 0;
-  req.hmac_size = 0;
-  bus.lcm().publish("TSC_REQUEST_1", &req);
+  AskForTheWholeMemory(bus);
   ASSERT_TRUE(bus.WaitFor(
       [&](const BusListener& b) { return b.portions.at("TSC_MEMORY_1").size() > before; },
       seconds(10)));
@@ -373,16 +395,8 @@ TEST_F(TscdTest, ARestartMapsNoEdgeFromThePlaceBeforeIt) {
   const fs::path state = dir_ / "state";
   size_t first_run_events = 0;
   {
-    ChildProcess dut(FastSimRobot(state), dir_ / "first.log");
-    ASSERT_TRUE(bus.WaitFor(
-        [](const BusListener& b) {
-          return b.announces.count("TSC_ANNOUNCE") &&
-                 b.announces.at("TSC_ANNOUNCE").back().places >= 3;
-        },
-        seconds(60)))
-        << dut.Log();
-    dut.Signal(SIGTERM);
-    ASSERT_EQ(dut.Wait(seconds(20)), 0) << dut.Log();
+    RunUntilPlaces(bus, state, 3, dir_ / "first.log");
+    ASSERT_FALSE(HasFatalFailure());
     std::this_thread::sleep_for(milliseconds(300));
     bus.Inspect(
         [&](const BusListener& b) { first_run_events = b.events.at("TSC_EVENT_1").size(); });
@@ -433,16 +447,8 @@ TEST_F(TscdTest, ARestartedRobotBroadcastsItsStructureAndSendsItsBodiesWhenAsked
   const fs::path state = dir_ / "state";
   {
     BusListener bus("TSC_ANNOUNCE");
-    ChildProcess dut(FastSimRobot(state), dir_ / "first.log");
-    ASSERT_TRUE(bus.WaitFor(
-        [](const BusListener& b) {
-          return b.announces.count("TSC_ANNOUNCE") &&
-                 b.announces.at("TSC_ANNOUNCE").back().places >= 2;
-        },
-        seconds(60)))
-        << dut.Log();
-    dut.Signal(SIGTERM);
-    ASSERT_EQ(dut.Wait(seconds(20)), 0) << dut.Log();
+    RunUntilPlaces(bus, state, 2, dir_ / "first.log");
+    ASSERT_FALSE(HasFatalFailure());
   }
   // Later lives take a frame every 10 s: no place closes, so their memory stays the loaded one.
   const std::vector<std::string> still = {"--set", "camera.fps=0.1"};
@@ -481,14 +487,7 @@ TEST_F(TscdTest, ARestartedRobotBroadcastsItsStructureAndSendsItsBodiesWhenAsked
   ASSERT_TRUE(bus.WaitFor([](const BusListener& b) { return b.portions.count("TSC_MEMORY_1"); },
                           seconds(60)))
       << dut.Log();
-  memory_request_t req{};  // a peer that holds nothing asks for everything
-  req.utime = 1;
-  req.requester = 9;
-  req.robot = 1;
-  req.version = 0;
-  req.num_missing = 0;
-  req.hmac_size = 0;
-  bus.lcm().publish("TSC_REQUEST_1", &req);
+  AskForTheWholeMemory(bus);  // as a peer that holds nothing does
   EXPECT_TRUE(bus.WaitFor(
       [&](const BusListener& b) { return bodies_and_structure(b).first >= places; }, seconds(30)))
       << dut.Log();
