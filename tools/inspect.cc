@@ -97,7 +97,7 @@ std::optional<fs::path> FindOnPath(const std::string& program) {
 }  // namespace
 
 InspectedStore InspectStore(const fs::path& db, const PlaceMemoryOptions& options,
-                            std::optional<uint32_t> robot) {
+                            std::optional<uint32_t> robot, int threads) {
   std::error_code ec;
   if (!fs::exists(db, ec)) throw InspectError(db.string() + ": no such database");
   if (!fs::is_regular_file(db, ec)) throw InspectError(db.string() + ": not a database file");
@@ -141,7 +141,7 @@ InspectedStore InspectStore(const fs::path& db, const PlaceMemoryOptions& option
   // Load() records the robot in a store that has none yet; inspection must not write, so a
   // store nothing was committed to reads as empty.
   StoredState state = robot_recorded
-                          ? store.Load(s.robot, options)
+                          ? store.Load(s.robot, options, threads)
                           : StoredState{PlaceMemory(s.robot, options), TopologicalMap{}, {}};
   for (const LearnedPlace& p : state.memory.places()) {
     s.learned_places.push_back({p.id, p.member_count, static_cast<int64_t>(p.detected.size())});

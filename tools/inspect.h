@@ -56,9 +56,10 @@ struct InspectedStore {
 
 /// Reads an existing store (never creates one). `robot`: the robot whose memory to load;
 /// by default the one recorded in the database. Throws InspectError (missing file) or
-/// StoreError.
+/// StoreError. The memory is restored on `threads` threads (tsc inspect: daemon.merge_threads,
+/// as tscd loads it).
 InspectedStore InspectStore(const std::filesystem::path& db, const PlaceMemoryOptions& options,
-                            std::optional<uint32_t> robot = std::nullopt);
+                            std::optional<uint32_t> robot = std::nullopt, int threads = 1);
 
 /// Human-readable summary.
 void PrintSummary(std::ostream& out, const StoreSummary& s);

@@ -139,7 +139,8 @@ int RunPipelineCommand(const std::vector<std::string>& args) {
   }
 
   Store store = Store::Open(db_path);
-  StoredState stored = store.Load(options.robot, options.memory);
+  // Restored on daemon.merge_threads, as tscd loads the same store.
+  StoredState stored = store.Load(options.robot, options.memory, settings.daemon.MergeThreads());
   const int64_t learned_before = static_cast<int64_t>(stored.memory.places().size());
   Pipeline pipeline(dataset.camera(), options, std::move(stored.memory), std::move(stored.map),
                     stored.pipeline);

@@ -93,10 +93,13 @@ int Inspect(const std::vector<std::string>& args) {
     std::cout << desc << "\n";
     return kExitOk;
   }
-  const PipelineOptions options = SettingsWithRobotOption(vm).pipeline;
+  const Settings settings = SettingsWithRobotOption(vm);
+  const PipelineOptions& options = settings.pipeline;
   std::optional<uint32_t> robot;
   if (vm.count("robot")) robot = options.robot;
-  const InspectedStore st = InspectStore(vm["db"].as<std::string>(), options.memory, robot);
+  // Restored on daemon.merge_threads, as tscd loads the same store.
+  const InspectedStore st = InspectStore(vm["db"].as<std::string>(), options.memory, robot,
+                                         settings.daemon.MergeThreads());
   if (vm.count("json")) {
     PrintSummaryJson(std::cout, st.summary);
   } else {

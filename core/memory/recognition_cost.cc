@@ -60,8 +60,15 @@ class NearestTable {
   std::vector<int> place_;
 };
 
+// Up to this many values, a median counts ranks (avx2::UpperMedian, O(n²)): g_N takes one
+// over D's vote points (at most memory.max_vote_points, 32 by default) for every measured child,
+// and std::nth_element's were a twentieth of a merge.
+constexpr size_t kRankedMedian = 64;
+
 // The median of `v` (the element at size / 2 once sorted), through `scratch`.
 double MedianOf(std::span<const double> v, std::vector<double>& scratch) {
+  if (v.size() <= kRankedMedian && FastestSimd() == Simd::kAvx2Fma)
+    return avx2::UpperMedian(v.data(), static_cast<int>(v.size()));
   scratch.assign(v.begin(), v.end());
   return UpperMedianInPlace(scratch);
 }
@@ -144,7 +151,8 @@ std::vector<size_t> OrderOfSecond(size_t candidates, const std::vector<double>& 
 }  // namespace
 
 ViewDistances::ViewDistances(const Eigen::MatrixXf& votes, std::vector<const LearnedPlace*> places,
-                             std::vector<double> units, std::vector<float> estimates, Simd simd)
+                             std::vector<double> units, std::vector<float> estimates, Simd simd,
+                             std::span<const DecodedViews* const> decoded)
     : places_(std::move(places)),
       column_(places_.size(), -1),
       units_(std::move(units)),
@@ -153,6 +161,8 @@ ViewDistances::ViewDistances(const Eigen::MatrixXf& votes, std::vector<const Lea
   if (units_.size() != places_.size()) throw std::invalid_argument("one unit per place needed");
   if (!estimates_.empty() && estimates_.size() != places_.size())
     throw std::invalid_argument("one estimate per place needed");
+  if (!decoded.empty() && decoded.size() != places_.size())
+    throw std::invalid_argument("one decoded view set (or none) per place needed");
   std::vector<int> measured;  // the measured places, in increasing order: their columns
   for (size_t p = 0; p < places_.size(); ++p) {
     if (places_[p] == nullptr) continue;
@@ -162,6 +172,12 @@ ViewDistances::ViewDistances(const Eigen::MatrixXf& votes, std::vector<const Lea
                                   std::to_string(s.cols()) + " views of dimension " +
                                   std::to_string(s.rows()) + " for vote points of dimension " +
                                   std::to_string(votes.rows()));
+    }
+    if (!decoded.empty() && decoded[p] != nullptr &&
+        (decoded[p]->simd() != simd || decoded[p]->views().rows() != s.rows() ||
+         decoded[p]->views().cols() != s.cols())) {
+      throw std::invalid_argument("the decoded views of place " + places_[p]->id.ToString() +
+                                  " are not its views on this instruction set");
     }
     column_[p] = static_cast<int>(measured.size());
     measured.push_back(static_cast<int>(p));
@@ -177,6 +193,9 @@ ViewDistances::ViewDistances(const Eigen::MatrixXf& votes, std::vector<const Lea
   auto samples_of = [this, &measured](size_t c) -> const CompactViews& {
     return places_[static_cast<size_t>(measured[c])]->samples;
   };
+  auto decoded_of = [&decoded, &measured](size_t c) -> const DecodedViews* {
+    return decoded.empty() ? nullptr : decoded[static_cast<size_t>(measured[c])];
+  };
   Eigen::Index most = 0;
   for (size_t c = 0; c < measured.size(); ++c) most = std::max(most, samples_of(c).cols());
   Eigen::MatrixXf dots(n, most);  // votes x views of one place, reused for every place
@@ -185,20 +204,32 @@ ViewDistances::ViewDistances(const Eigen::MatrixXf& votes, std::vector<const Lea
   for (size_t c = 0; c < measured.size(); ++c) {
     const CompactViews& compact = samples_of(c);
     const Eigen::Index k = compact.cols();
-    compact.DecodeInto(views.data());
-    const auto s = views.leftCols(k);
+    const DecodedViews* given = decoded_of(c);
+    if (given == nullptr) compact.DecodeInto(views.data());
+    const float* s = given != nullptr ? given->views().data() : views.data();
+    if (given != nullptr) view_sq.head(k) = given->squared_norms();
     auto xs = dots.leftCols(k);
     if (simd == Simd::kAvx2Fma) {
-      // The next place's views are fetched from memory while this one's products run (their
-      // 8-bit codes: `next_floats` counts 4-byte words).
-      const CompactViews* next = c + 1 < measured.size() ? &samples_of(c + 1) : nullptr;
-      avx2::ColumnDots(votes.data(), static_cast<int>(n), s.data(), static_cast<int>(k),
-                       static_cast<int>(votes.rows()), xs.data(), view_sq.data(),
-                       next != nullptr ? reinterpret_cast<const float*>(next->codes()) : nullptr,
-                       next != nullptr ? static_cast<std::ptrdiff_t>(next->size() / 4) : 0);
+      // The next place's views are fetched from memory while this one's products run: its
+      // floats where they are given, else its 8-bit codes (`next_floats` counts 4-byte words).
+      const float* next = nullptr;
+      std::ptrdiff_t next_floats = 0;
+      if (c + 1 < measured.size()) {
+        if (const DecodedViews* d = decoded_of(c + 1); d != nullptr) {
+          next = d->views().data();
+          next_floats = d->views().size();
+        } else {
+          next = reinterpret_cast<const float*>(samples_of(c + 1).codes());
+          next_floats = static_cast<std::ptrdiff_t>(samples_of(c + 1).size() / 4);
+        }
+      }
+      avx2::ColumnDots(votes.data(), static_cast<int>(n), s, static_cast<int>(k),
+                       static_cast<int>(votes.rows()), xs.data(),
+                       given != nullptr ? nullptr : view_sq.data(), next, next_floats);
     } else {
-      view_sq.head(k) = s.colwise().squaredNorm();
-      xs.noalias() = votes_t * s;
+      const Eigen::Map<const Eigen::MatrixXf> place_views(s, votes.rows(), k);
+      if (given == nullptr) view_sq.head(k) = place_views.colwise().squaredNorm();
+      xs.noalias() = votes_t * place_views;
     }
     // ‖s − x‖² = ‖s‖² + ‖x‖² − 2 sᵀx; the first nearest view on ties.
     float* nearest = distance_.col(static_cast<Eigen::Index>(c)).data();
@@ -300,8 +331,8 @@ CostTerms RecognitionCost(const ViewDistances& vd, const Eigen::VectorXf& mean,
   }
   const Nearest best = nearest[static_cast<size_t>(nearest_of[static_cast<size_t>(t.best)])];
   t.gamma = gamma[static_cast<size_t>(t.best)];
-  std::vector<double>& scaled = scratch;
-  scaled.clear();
+  std::vector<double> scaled, scratch_of_scaled;
+  scaled.reserve(static_cast<size_t>(vd.num_votes()));
   int accepted = 0;
   for (int j = 0; j < vd.num_votes(); ++j) {
     const double u = vd.unit(best.place[static_cast<size_t>(j)]);
@@ -309,7 +340,7 @@ CostTerms RecognitionCost(const ViewDistances& vd, const Eigen::VectorXf& mean,
     scaled.push_back(d / u);
     if (d <= options.vote_radius * u) ++accepted;
   }
-  t.distance = UpperMedianInPlace(scaled);
+  t.distance = MedianOf(scaled, scratch_of_scaled);
   t.vote = static_cast<double>(accepted) / vd.num_votes();
   // The distance term from the means too, where a camera kind sets their unit: a pan sweep's
   // base points see the whole room, and a revisit along another path through it is far from

@@ -23,6 +23,7 @@
 #include <span>
 #include <vector>
 
+#include "core/memory/decoded_views.h"
 #include "core/memory/learned_place.h"
 #include "core/memory/simd.h"
 #include "core/range.h"
@@ -42,9 +43,12 @@ class ViewDistances {
   /// only a rough distance is needed: the ratio's N² (RecognitionCost). `simd`: the
   /// instructions the products run on (the same distances up to rounding; tests compare them).
   /// Per-place inputs are taken over, not copied: at 10⁵ places each is a megabyte.
+  /// `decoded` (empty, or one per place, null where none is kept): a place's views already
+  /// decoded on `simd` (core/memory/decoded_views.h), used instead of decoding its samples;
+  /// the distances are the same floats either way.
   ViewDistances(const Eigen::MatrixXf& votes, std::vector<const LearnedPlace*> places,
                 std::vector<double> units, std::vector<float> estimates = {},
-                Simd simd = FastestSimd());
+                Simd simd = FastestSimd(), std::span<const DecodedViews* const> decoded = {});
   int num_votes() const { return static_cast<int>(distance_.rows()); }
   int num_places() const { return static_cast<int>(places_.size()); }
   /// Infinite for a place that is not measured.

@@ -412,6 +412,36 @@ void ColumnDots(const float* a, int na, const float* b, int nb, int dim, float* 
   }
 }
 
+TSC_AVX2 double UpperMedian(const double* values, int n) {
+  // The element whose rank brackets n/2: fewer than n/2 + 1 values lie below it, more than n/2
+  // at or below it. Counting ranks has no branch to mispredict, where std::nth_element's
+  // partitions of a few dozen values mispredict about every other comparison.
+  const int half = n / 2;
+  for (int i = 0; i < n; ++i) {
+    const __m256d x = _mm256_set1_pd(values[i]);
+    int below = 0, at_most = 0;
+    int j = 0;
+    for (; j + 4 <= n; j += 4) {
+      const __m256d y = _mm256_loadu_pd(values + j);
+      below += __builtin_popcount(
+          static_cast<unsigned>(_mm256_movemask_pd(_mm256_cmp_pd(y, x, _CMP_LT_OQ))));
+      at_most += __builtin_popcount(
+          static_cast<unsigned>(_mm256_movemask_pd(_mm256_cmp_pd(y, x, _CMP_LE_OQ))));
+    }
+    for (; j < n; ++j) {
+      below += values[j] < values[i];
+      at_most += values[j] <= values[i];
+    }
+    if (below <= half && half < at_most) return values[i];
+  }
+  throw std::invalid_argument("avx2::UpperMedian: no median (empty, or not ordered: NaN)");
+}
+
+TSC_AVX2 void ColumnSquaredNorms(const float* b, int nb, int dim, float* out) {
+  const std::ptrdiff_t stride = dim;
+  for (int j = 0; j < nb; j += 3) SquaredNormsOf(b + j * stride, std::min(3, nb - j), dim, out + j);
+}
+
 TSC_AVX2 void RowDots(const float* a, std::ptrdiff_t lda, int rows, int dim, const float* q, int nq,
                       float* out) {
   const std::ptrdiff_t ldo = rows;
@@ -545,6 +575,14 @@ void ColumnDots(const float*, int, const float*, int, int, float*, float*, const
 
 void RowDots(const float*, std::ptrdiff_t, int, int, const float*, int, float*) {
   throw std::logic_error("avx2::RowDots: not in this build");
+}
+
+double UpperMedian(const double*, int) {
+  throw std::logic_error("avx2::UpperMedian: not in this build");
+}
+
+void ColumnSquaredNorms(const float*, int, int, float*) {
+  throw std::logic_error("avx2::ColumnSquaredNorms: not in this build");
 }
 
 void ScaleInt8Rows(const int8_t*, const uint8_t*, std::ptrdiff_t, std::ptrdiff_t, int, float*) {

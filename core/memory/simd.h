@@ -46,6 +46,16 @@ void ColumnDots(const float* a, int na, const float* b, int nb, int dim, float* 
                 const float* next = nullptr, std::ptrdiff_t next_floats = 0,
                 Lanes lanes = WidestLanes());
 
+/// The element at n/2 of `values` once ordered (UpperMedianInPlace of core/median.h, the same
+/// value), without reordering them. For the few dozen values of g_N's medians: it compares
+/// every pair, O(n²). Preconditions: n ≥ 1, no value NaN (std::invalid_argument when no value
+/// is found at n/2).
+double UpperMedian(const double* values, int n);
+
+/// out[j] = ‖b_j‖² for the columns b_j (j < nb) of `b`, of length `dim`: the b_norms ColumnDots
+/// gives, bit for bit (each sum runs over the dimensions in the same order).
+void ColumnSquaredNorms(const float* b, int nb, int dim, float* out);
+
 /// out[r + j·rows] = Σ_k a[r + k·lda] · q[k + j·dim]: the rows x dim block `a` (leading
 /// dimension lda ≥ rows) times the dim x nq matrix `q`; out is rows x nq.
 void RowDots(const float* a, std::ptrdiff_t lda, int rows, int dim, const float* q, int nq,

@@ -2,11 +2,13 @@
 
 #include <algorithm>
 #include <limits>
+#include <memory>
 #include <numeric>
 #include <optional>
 #include <span>
 #include <utility>
 
+#include "core/memory/decoded_views.h"
 #include "core/memory/member_views.h"
 #include "core/memory/recognition_cost.h"
 #include "core/merge/hyper_terminals.h"
@@ -26,6 +28,10 @@ struct StarCandidates {
   std::vector<int> columns;               // 0, 1, ...: each candidate's places are a range of it
   std::vector<CostCandidate> candidates;  // views into `columns`: moved, never copied
   ViewIndex keys;                         // the view index of those places, gathered once per N*
+  // The views of the places measured so far, decoded once (`Decoded`): a place is measured
+  // for many of the places recognised against N*.
+  std::vector<std::unique_ptr<const DecodedViews>> decoded;  // per column, null until measured
+  std::size_t decoded_bytes = 0;
 
   StarCandidates() = default;
   StarCandidates(StarCandidates&&) = default;  // a moved vector keeps its buffer: views hold
@@ -58,6 +64,29 @@ StarCandidates CandidatesOf(const PlaceMemory& base, const HyperTerminal& h) {
   }
   if (base.options().Shortlists(out.places.size())) {  // only where RecognitionCost shortlists
     out.keys = base.view_index().Subset(out.index);
+  }
+  return out;
+}
+
+// A star's decoded views stop growing past this many bytes (each thread holds one star's):
+// places measured after that are decoded for each use, as before. A 10⁴ + 10⁴ merge's N*
+// holds a few MB of them; a crowded N* of a 10⁵-place memory at 64 views could hold 50 MB.
+constexpr std::size_t kDecodedBudget = std::size_t{32} << 20;
+
+// The decoded views of each of `places` (columns of `star`; null where not measured), made on
+// first use while the budget lasts: null for the others, which ViewDistances decodes itself.
+std::vector<const DecodedViews*> Decoded(StarCandidates& star,
+                                         const std::vector<const LearnedPlace*>& places) {
+  if (star.decoded.empty()) star.decoded.resize(star.places.size());
+  std::vector<const DecodedViews*> out(places.size(), nullptr);
+  for (size_t column = 0; column < places.size(); ++column) {
+    if (places[column] == nullptr) continue;
+    std::unique_ptr<const DecodedViews>& d = star.decoded[column];
+    if (d == nullptr && star.decoded_bytes < kDecodedBudget) {
+      d = std::make_unique<const DecodedViews>(places[column]->samples);
+      star.decoded_bytes += d->bytes();
+    }
+    out[column] = d.get();
   }
   return out;
 }
@@ -115,7 +144,7 @@ void ForEachPlaceByStar(const PlaceMemory& against, const std::vector<HyperTermi
 // 10⁴ merge of such places 4x the products of one with 32). Sets `best` to the nearest terminal
 // place P¹ and `best_gamma` to γ(p, P¹) between the means (the distance of the merged SLINK tree);
 // −1, with an infinite cost, when no terminal child of N* can take p.
-double RecognitionCost(const PlaceMemory& base, const StarCandidates& star, const LearnedPlace& p,
+double RecognitionCost(const PlaceMemory& base, StarCandidates& star, const LearnedPlace& p,
                        int* best, double* best_gamma) {
   // Past `shortlist` places under N*'s children, only the nearest by the view index are
   // measured, as recognition does (core/memory/view_index.h): the others enter the ratio's N²
@@ -133,7 +162,9 @@ double RecognitionCost(const PlaceMemory& base, const StarCandidates& star, cons
       if (!measured[column]) places[column] = nullptr;
     }
   }
-  const ViewDistances vd(views, std::move(places), star.units, std::move(estimates));
+  const std::vector<const DecodedViews*> decoded = Decoded(star, places);
+  const ViewDistances vd(views, std::move(places), star.units, std::move(estimates), FastestSimd(),
+                         decoded);
   const CostTerms t = RecognitionCost(vd, p.mean, star.candidates, base.options().cost);
   if (t.best < 0) {  // no terminal child of N* can absorb p (RecognitionCost)
     *best = -1;
@@ -174,7 +205,7 @@ void RecogniseFreshBasePlaces(const PlaceMemory& base, const PlaceMemory& incomi
   std::vector<std::vector<Join>> joins(hi.size());
   ForEachPlaceByStar(
       incoming, hi, hb, match_of, threads, [&](int b) { return is_fresh[static_cast<size_t>(b)]; },
-      [&](size_t s, int b, const StarCandidates& star) {
+      [&](size_t s, int b, StarCandidates& star) {
         int match = -1;
         double gamma = 0.0;
         const double g =
@@ -216,7 +247,7 @@ void RecogniseNewIncomingPlaces(const PlaceMemory& base, const PlaceMemory& inco
         const auto i = static_cast<size_t>(p);
         return is_new[i] && found.target[i] < 0;
       },
-      [&](size_t, int p, const StarCandidates& star) {
+      [&](size_t, int p, StarCandidates& star) {
         const auto i = static_cast<size_t>(p);
         int match = -1;
         const double g =

@@ -12,6 +12,7 @@
 #include <stdexcept>
 #include <vector>
 
+#include "core/memory/decoded_views.h"
 #include "core/memory/simd.h"
 
 namespace tsc {
@@ -117,6 +118,52 @@ TEST_F(ViewDistancesTest, NearestViewsEqualBruteForceWithEitherSimd) {
     }
   }
   EXPECT_GE(near, 7);  // the votes made from views are measured where precision matters
+}
+
+// A caller that keeps places' views decoded (a merge's N*) gets the floats decoding gives, bit
+// for bit, on either instruction set, for places given decoded and places left to decode alike.
+TEST_F(ViewDistancesTest, ViewsGivenDecodedMeasureTheSameFloats) {
+  for (Simd simd : {Simd::kPortable, FastestSimd()}) {
+    std::vector<DecodedViews> kept;
+    for (const LearnedPlace& p : places_) kept.emplace_back(p.samples, simd);
+    std::vector<const DecodedViews*> given;
+    for (size_t p = 0; p < places_.size(); ++p) given.push_back(p % 3 == 1 ? nullptr : &kept[p]);
+    std::vector<const LearnedPlace*> some = pointers_;
+    some[2] = nullptr;  // not measured, though given
+    const std::vector<float> estimates = {1, 2, 3, 4, 5, 6};
+    const ViewDistances decoding(votes_, some, units_, estimates, simd);
+    const ViewDistances dut(votes_, some, units_, estimates, simd, given);
+    for (int p = 0; p < dut.num_places(); ++p) {
+      ASSERT_EQ(dut.measured(p), decoding.measured(p)) << p;
+      for (int j = 0; j < dut.num_votes(); ++j) {
+        EXPECT_EQ(dut.distance(j, p), decoding.distance(j, p)) << "vote " << j << ", place " << p;
+        EXPECT_EQ(dut.view(j, p), decoding.view(j, p)) << "vote " << j << ", place " << p;
+      }
+    }
+    for (int j = 0; j < dut.num_votes(); ++j)
+      EXPECT_EQ(dut.NearestPlace(j), decoding.NearestPlace(j));
+  }
+}
+
+TEST_F(ViewDistancesTest, RejectsDecodedViewsThatAreNotThePlaces) {
+  std::vector<DecodedViews> kept;
+  for (const LearnedPlace& p : places_) kept.emplace_back(p.samples, FastestSimd());
+  std::vector<const DecodedViews*> given;
+  for (const DecodedViews& d : kept) given.push_back(&d);
+  std::swap(given[3], given[4]);  // another place's views: 12 and 32 of them
+  EXPECT_THROW(ViewDistances(votes_, pointers_, units_, {}, FastestSimd(), given),
+               std::invalid_argument);
+  std::swap(given[3], given[4]);
+  given.pop_back();  // one short
+  EXPECT_THROW(ViewDistances(votes_, pointers_, units_, {}, FastestSimd(), given),
+               std::invalid_argument);
+  if (FastestSimd() != Simd::kPortable) {  // decoded for the other instruction set
+    const std::vector<const DecodedViews*> all(given.begin(), given.end());
+    std::vector<const DecodedViews*> full = all;
+    full.push_back(&kept.back());
+    EXPECT_THROW(ViewDistances(votes_, pointers_, units_, {}, Simd::kPortable, full),
+                 std::invalid_argument);
+  }
 }
 
 TEST_F(ViewDistancesTest, RejectsViewsOfAnotherDimension) {

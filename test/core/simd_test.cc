@@ -3,10 +3,12 @@
 #include <gtest/gtest.h>
 
 #include <Eigen/Core>
+#include <algorithm>
 #include <cmath>
 #include <iostream>
 #include <limits>
 #include <random>
+#include <stdexcept>
 #include <vector>
 
 namespace tsc {
@@ -242,6 +244,29 @@ TEST_F(AvxKernels, RoundInt8RowsRoundsTheExactProductsToNearestEven) {
       }
     }
   }
+}
+
+// The median by ranks is std::nth_element's element at n/2 for every count around the 4 lanes
+// and their tail, with ties (values drawn from a few levels) and infinities, and leaves the
+// values in their order.
+TEST_F(AvxKernels, UpperMedianIsTheElementNthElementPutsInTheMiddle) {
+  for (int n = 1; n <= 70; ++n) {
+    for (int levels : {3, 1000}) {
+      std::vector<double> values(static_cast<size_t>(n));
+      std::uniform_int_distribution<int> level(0, levels - 1);
+      for (double& v : values) {
+        const int l = level(rng_);
+        v = l == 0 && levels == 3 ? std::numeric_limits<double>::infinity() : l * 0.25;
+      }
+      const std::vector<double> before = values;
+      std::vector<double> sorted = values;
+      std::nth_element(sorted.begin(), sorted.begin() + n / 2, sorted.end());
+      EXPECT_EQ(avx2::UpperMedian(values.data(), n), sorted[static_cast<size_t>(n / 2)])
+          << n << " values of " << levels << " levels";
+      EXPECT_EQ(values, before);
+    }
+  }
+  EXPECT_THROW(avx2::UpperMedian(nullptr, 0), std::invalid_argument);
 }
 
 }  // namespace
