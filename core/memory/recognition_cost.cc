@@ -65,12 +65,17 @@ class NearestTable {
 // and std::nth_element's were a twentieth of a merge.
 constexpr size_t kRankedMedian = 64;
 
-// The median of `v` (the element at size / 2 once sorted), through `scratch`.
+// The median of `values` (the element at size / 2 once sorted); may reorder them.
+double MedianInPlace(std::vector<double>& values) {
+  if (values.size() <= kRankedMedian && FastestSimd() == Simd::kAvx2Fma)
+    return avx2::UpperMedian(values.data(), static_cast<int>(values.size()));
+  return UpperMedianInPlace(values);
+}
+
+// The median of `v`, through `scratch`.
 double MedianOf(std::span<const double> v, std::vector<double>& scratch) {
-  if (v.size() <= kRankedMedian && FastestSimd() == Simd::kAvx2Fma)
-    return avx2::UpperMedian(v.data(), static_cast<int>(v.size()));
   scratch.assign(v.begin(), v.end());
-  return UpperMedianInPlace(scratch);
+  return MedianInPlace(scratch);
 }
 
 // Whether candidate `other` coincides with N¹ for D: the views of `other` nearest to D's
@@ -331,8 +336,8 @@ CostTerms RecognitionCost(const ViewDistances& vd, const Eigen::VectorXf& mean,
   }
   const Nearest best = nearest[static_cast<size_t>(nearest_of[static_cast<size_t>(t.best)])];
   t.gamma = gamma[static_cast<size_t>(t.best)];
-  std::vector<double> scaled, scratch_of_scaled;
-  scaled.reserve(static_cast<size_t>(vd.num_votes()));
+  std::vector<double>& scaled = scratch;
+  scaled.clear();
   int accepted = 0;
   for (int j = 0; j < vd.num_votes(); ++j) {
     const double u = vd.unit(best.place[static_cast<size_t>(j)]);
@@ -340,7 +345,7 @@ CostTerms RecognitionCost(const ViewDistances& vd, const Eigen::VectorXf& mean,
     scaled.push_back(d / u);
     if (d <= options.vote_radius * u) ++accepted;
   }
-  t.distance = MedianOf(scaled, scratch_of_scaled);
+  t.distance = MedianInPlace(scaled);
   t.vote = static_cast<double>(accepted) / vd.num_votes();
   // The distance term from the means too, where a camera kind sets their unit: a pan sweep's
   // base points see the whole room, and a revisit along another path through it is far from

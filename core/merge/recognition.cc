@@ -57,6 +57,7 @@ StarCandidates CandidatesOf(const PlaceMemory& base, const HyperTerminal& h) {
     out.candidates.push_back(std::move(candidate));
   }
   out.columns.resize(out.places.size());
+  out.decoded.resize(out.places.size());
   std::iota(out.columns.begin(), out.columns.end(), 0);
   for (size_t c = 0; c < out.candidates.size(); ++c) {
     const size_t end = c + 1 < first.size() ? first[c + 1] : out.columns.size();
@@ -77,7 +78,6 @@ constexpr std::size_t kDecodedBudget = std::size_t{32} << 20;
 // first use while the budget lasts: null for the others, which ViewDistances decodes itself.
 std::vector<const DecodedViews*> Decoded(StarCandidates& star,
                                          const std::vector<const LearnedPlace*>& places) {
-  if (star.decoded.empty()) star.decoded.resize(star.places.size());
   std::vector<const DecodedViews*> out(places.size(), nullptr);
   for (size_t column = 0; column < places.size(); ++column) {
     if (places[column] == nullptr) continue;
