@@ -15,6 +15,7 @@
 
 #include "core/memory/builtin_view_basis.h"
 #include "core/memory/compact_views.h"
+#include "core/memory/member_views.h"
 #include "core/memory/place_memory.h"
 #include "core/memory/simd.h"
 #include "test/support/synthetic_places.h"
@@ -252,6 +253,28 @@ void BM_ViewsFromSixteenBits(benchmark::State& state) {
   }
 }
 BENCHMARK(BM_ViewsFromSixteenBits)->Unit(benchmark::kMicrosecond);
+
+// A place's member views thinned: 64 views (the cap of a place seen twice, 128 axes of the
+// builtin basis) to 2, the spread keys the view index files every place under (a 10⁴ + 10⁴
+// merge thins 2·10⁴ places so), to 32, a merged place's own cap, and to 63, which is nearly
+// all the pairwise distances' time. The views walk, as a robot's consecutive base points do,
+// so each lies nearest its neighbours in time.
+void BM_ThinViews(benchmark::State& state) {
+  constexpr int kAxes = 128, kViews = 64;
+  std::mt19937 rng(65);  // fixed: the same views on every run
+  std::normal_distribution<float> normal;
+  Eigen::MatrixXf views(kAxes, kViews);
+  views.col(0).setZero();
+  for (Eigen::Index c = 1; c < kViews; ++c) {
+    for (Eigen::Index r = 0; r < kAxes; ++r) views(r, c) = views(r, c - 1) + normal(rng) * 0.01f;
+  }
+  const int cap = static_cast<int>(state.range(0));
+  for (auto _ : state) {
+    const Eigen::MatrixXf thinned = ThinViews(views, cap);
+    benchmark::DoNotOptimize(thinned.data());
+  }
+}
+BENCHMARK(BM_ThinViews)->Arg(63)->Arg(2)->Arg(32)->Unit(benchmark::kMicrosecond);
 
 // Args: places; 0 views as descriptors, 1 in the builtin basis, 2 in the basis with places of
 // WorldInBasis(). Counter `gamma_measured`: the share of the distances γ learning measured

@@ -82,5 +82,13 @@ void RoundInt8Rows(const float* x, std::ptrdiff_t rows, std::ptrdiff_t cols,
 void NearestColumns(const float* dots, int n, int k, const float* col_sq, const float* row_sq,
                     float* nearest, int* at);
 
+/// The least of values[0..n) below +∞ (+∞ when there is none: n = 0, or every value +∞ or
+/// NaN; a NaN is never the least), as a loop keeping `v < least` would give.
+float Least(const float* values, int n);
+
+/// The first index holding Least(values, n), or −1 when that is +∞: the index a loop keeping
+/// the first `v < least` gives. For the nearest-view searches of ThinViews.
+int FirstLeast(const float* values, int n);
+
 }  // namespace avx2
 }  // namespace tsc

@@ -152,7 +152,7 @@ double RecognitionCost(const PlaceMemory& base, StarCandidates& star, const Lear
   // 10⁴ synthetic places: N* of ~156 terminals, 1.6·10⁶ place measurements, 19 s).
   std::vector<const LearnedPlace*> places = star.places;
   std::vector<float> estimates;
-  const Eigen::MatrixXf views = EvenlySpaced(p.samples.Decoded(), base.options().max_vote_points);
+  const Eigen::MatrixXf views = EvenlySpaced(p.samples, base.options().max_vote_points);
   if (base.options().Shortlists(places.size())) {
     estimates = star.keys.Estimate(ViewIndex::Queries(views));
     std::vector<char> measured(places.size(), 0);

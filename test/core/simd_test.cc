@@ -104,7 +104,7 @@ TEST_F(AvxKernels, ColumnDotsOnSixteenLanesAreTheEightLanesBitForBit) {
   if (WidestLanes() != Lanes::k16) GTEST_SKIP() << "the CPU has no AVX-512F and VL";
   for (int dim : {1, 7, 8, 9, 17, 128, 1200}) {
     for (int na : {1, 2, 3, 4, 5, 9, 12, 53}) {  // 53: bands of long columns
-      for (int nb : {1, 2, 3, 4, 5, 6, 7, 11, 12, 32}) {
+      for (int nb : {1, 2, 3, 4, 5, 6, 7, 8, 9, 11, 12, 16, 17, 32}) {
         const Eigen::MatrixXf a = Random(rng_, dim, na), b = Random(rng_, dim, nb);
         Eigen::MatrixXf out8(na, nb), out16(na, nb);
         Eigen::VectorXf norms8(nb), norms16(nb);
@@ -267,6 +267,36 @@ TEST_F(AvxKernels, UpperMedianIsTheElementNthElementPutsInTheMiddle) {
     }
   }
   EXPECT_THROW(avx2::UpperMedian(nullptr, 0), std::invalid_argument);
+}
+
+// The least value and its first index are a scalar loop's `v < least` for every count around
+// the 8 lanes and their tail, with ties (few levels), infinities and NaNs (never the least).
+TEST_F(AvxKernels, LeastAndFirstLeastAreTheScalarLoops) {
+  const float inf = std::numeric_limits<float>::infinity();
+  const float nan = std::numeric_limits<float>::quiet_NaN();
+  for (int n = 0; n <= 40; ++n) {
+    for (int levels : {2, 4, 1000}) {
+      std::vector<float> values(static_cast<size_t>(n));
+      std::uniform_int_distribution<int> level(0, levels - 1);
+      for (float& v : values) {
+        const int l = level(rng_);
+        v = levels == 4 && l == 0 ? nan : levels == 2 && l == 1 ? inf : static_cast<float>(l);
+      }
+      float least = inf;
+      int at = -1;
+      for (int i = 0; i < n; ++i) {
+        if (values[static_cast<size_t>(i)] < least) {
+          least = values[static_cast<size_t>(i)];
+          at = i;
+        }
+      }
+      EXPECT_EQ(avx2::Least(values.data(), n), least) << n << " values of " << levels;
+      EXPECT_EQ(avx2::FirstLeast(values.data(), n), at) << n << " values of " << levels;
+    }
+  }
+  const std::vector<float> none = {inf, nan, inf};
+  EXPECT_EQ(avx2::Least(none.data(), 3), inf);
+  EXPECT_EQ(avx2::FirstLeast(none.data(), 3), -1);
 }
 
 }  // namespace
