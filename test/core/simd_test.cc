@@ -79,21 +79,32 @@ TEST_F(AvxKernels, ColumnDotsEqualTheEigenProductOnRandomData) {
 
 // A product does not depend on where its columns fall in the blocks or in the bands of long
 // columns of a (53 columns of 1200 floats are taken 24 at a time), and the memory to prefetch
-// does not change it.
+// does not change it: a full block's sums, taken together, are a lone column's sum bit for bit,
+// on either width.
 TEST_F(AvxKernels, ColumnDotsOfAColumnAreTheSameInEveryBlock) {
-  const int dim = 1200, na = 53, nb = 10;
-  const Eigen::MatrixXf a = Random(rng_, dim, na), b = Random(rng_, dim, nb);
-  Eigen::MatrixXf all(na, nb);
-  Eigen::VectorXf norms(nb);
-  avx2::ColumnDots(a.data(), na, b.data(), nb, dim, all.data(), norms.data(), b.data(), b.size());
-  for (int j = 0; j < nb; ++j) {
-    float norm = 0.0f, dot = 0.0f;
-    avx2::ColumnDots(b.col(j).data(), 1, b.col(j).data(), 1, dim, &dot, &norm);
-    EXPECT_EQ(norm, norms[j]) << "norm of " << j;
-    for (int i = 0; i < na; ++i) {
-      float one = 0.0f;
-      avx2::ColumnDots(a.col(i).data(), 1, b.col(j).data(), 1, dim, &one, nullptr);
-      EXPECT_EQ(one, all(i, j)) << i << ", " << j;
+  std::vector<Lanes> widths = {Lanes::k8};
+  if (WidestLanes() == Lanes::k16) widths.push_back(Lanes::k16);
+  for (Lanes lanes : widths) {
+    for (int dim : {9, 128, 1200}) {
+      const int na = 53, nb = 10;
+      const Eigen::MatrixXf a = Random(rng_, dim, na), b = Random(rng_, dim, nb);
+      Eigen::MatrixXf all(na, nb);
+      Eigen::VectorXf norms(nb);
+      avx2::ColumnDots(a.data(), na, b.data(), nb, dim, all.data(), norms.data(), b.data(),
+                       b.size(), lanes);
+      for (int j = 0; j < nb; ++j) {
+        float norm = 0.0f, dot = 0.0f;
+        avx2::ColumnDots(b.col(j).data(), 1, b.col(j).data(), 1, dim, &dot, &norm, nullptr, 0,
+                         lanes);
+        EXPECT_EQ(norm, norms[j]) << "norm of " << j;
+        for (int i = 0; i < na; ++i) {
+          float one = 0.0f;
+          avx2::ColumnDots(a.col(i).data(), 1, b.col(j).data(), 1, dim, &one, nullptr, nullptr, 0,
+                           lanes);
+          ASSERT_EQ(one, all(i, j))
+              << (lanes == Lanes::k16 ? 16 : 8) << " lanes, dim " << dim << ", " << i << ", " << j;
+        }
+      }
     }
   }
 }
