@@ -18,6 +18,7 @@
 #include "core/memory/member_views.h"
 #include "core/memory/place_memory.h"
 #include "core/memory/simd.h"
+#include "core/memory/view_index.h"
 #include "test/support/synthetic_places.h"
 
 namespace tsc {
@@ -185,6 +186,19 @@ void BM_ViewIndexEstimate(benchmark::State& state) {
   for (auto _ : state) benchmark::DoNotOptimize(index.Estimate(queries));
 }
 BENCHMARK(BM_ViewIndexEstimate)->Arg(1000)->Arg(10000)->Unit(benchmark::kMicrosecond);
+
+// The shortlist of a merge's crowded N* (1500 places, 32 kept): estimates in random order
+// (few enter after the first), and descending, each nearer than every one before (all enter).
+void BM_Shortlist(benchmark::State& state) {
+  const size_t n = 1500;
+  std::vector<float> estimates(n);
+  std::mt19937 rng(5);  // fixed: the same estimates every run
+  std::uniform_real_distribution<float> spread(0.0f, 1.0f);
+  for (size_t i = 0; i < n; ++i)
+    estimates[i] = state.range(0) == 0 ? spread(rng) : static_cast<float>(n - i);
+  for (auto _ : state) benchmark::DoNotOptimize(Shortlist(estimates, 32));
+}
+BENCHMARK(BM_Shortlist)->Arg(0)->Arg(1)->Unit(benchmark::kMicrosecond);
 
 // What the products of a recognition at the default caps cost with the places' views in cache
 // and out of it: 32 vote points against the 32 views of each of 32 places (the shortlist), on

@@ -94,11 +94,19 @@ CompactViews::CompactViews(const Eigen::MatrixXf& views)
   const double scale = std::ldexp(1.0, shift_);
   std::vector<double> row_scale(static_cast<size_t>(rows_), 0.0);
   for (Eigen::Index r = 0; r < rows_; ++r) {
-    const double m = static_cast<double>(row_most[static_cast<size_t>(r)]) * scale;
+    // Halving a double is exact here (2^shift · a float's magnitude, at most 8 times), so it
+    // is std::ldexp(m, −drop) without a library call per step (a merge encodes every pooled
+    // place's 128 rows: std::ldexp was 3 % of a 10⁵ + 10⁵ merge).
+    double m = static_cast<double>(row_most[static_cast<size_t>(r)]) * scale;
+    double row = scale;
     int drop = 0;
-    while (drop < kMostDrop && RoundToInteger(std::ldexp(m, -drop)) > kLargestCode) ++drop;
+    while (drop < kMostDrop && RoundToInteger(m) > kLargestCode) {
+      ++drop;
+      m *= 0.5;
+      row *= 0.5;
+    }
     drop_[static_cast<size_t>(r)] = static_cast<uint8_t>(drop);
-    row_scale[static_cast<size_t>(r)] = std::ldexp(scale, -drop);
+    row_scale[static_cast<size_t>(r)] = row;
   }
   if (avx2) {
     avx2::RoundInt8Rows(views.data(), rows_, cols_, row_scale.data(), codes_.data());

@@ -299,6 +299,9 @@ CostTerms RecognitionCost(const ViewDistances& vd, const Eigen::VectorXf& mean,
   std::vector<double> gamma(candidates.size(), std::numeric_limits<double>::infinity());
   std::vector<size_t> measured;           // the children with a measured place, in order
   size_t unmeasured = candidates.size();  // the first of the nearest other children with places
+  // Its γ̃, in a register: read back through gamma[unmeasured] it was most of this loop, which
+  // runs over every child of a crowded N* (1500 in a 10⁵ + 10⁵ merge) for each place.
+  double unmeasured_gamma = std::numeric_limits<double>::infinity();
   for (size_t c = 0; c < candidates.size(); ++c) {
     const std::span<const int> places = candidates[c].places;
     // A child with no place in the shortlist: no nearest view, so it never coincides with N¹,
@@ -321,8 +324,9 @@ CostTerms RecognitionCost(const ViewDistances& vd, const Eigen::VectorXf& mean,
       continue;
     }
     gamma[c] = estimate;
-    if (!places.empty() && (unmeasured == candidates.size() || gamma[c] < gamma[unmeasured])) {
+    if (!places.empty() && (unmeasured == candidates.size() || estimate < unmeasured_gamma)) {
       unmeasured = c;
+      unmeasured_gamma = estimate;
     }
   }
   CostTerms t;

@@ -57,9 +57,11 @@ double UpperMedian(const double* values, int n);
 void ColumnSquaredNorms(const float* b, int nb, int dim, float* out);
 
 /// out[r + j·rows] = Σ_k a[r + k·lda] · q[k + j·dim]: the rows x dim block `a` (leading
-/// dimension lda ≥ rows) times the dim x nq matrix `q`; out is rows x nq.
+/// dimension lda ≥ rows) times the dim x nq matrix `q`; out is rows x nq. Each sum runs over
+/// k in order, one FMA per term, at either width (`lanes`: k16 only where WidestLanes() names
+/// it), so both give the same floats.
 void RowDots(const float* a, std::ptrdiff_t lda, int rows, int dim, const float* q, int nq,
-             float* out);
+             float* out, Lanes lanes = WidestLanes());
 
 /// out[r + c·rows] = codes[r + c·rows] · 2^(drop[r] − shift) for r < rows, c < cols: member
 /// views in 8 bits decoded (core/memory/compact_views.h). Precondition: drop[r] − shift in
@@ -89,6 +91,11 @@ float Least(const float* values, int n);
 /// The first index holding Least(values, n), or −1 when that is +∞: the index a loop keeping
 /// the first `v < least` gives. For the nearest-view searches of ThinViews.
 int FirstLeast(const float* values, int n);
+
+/// nearest[r] = the least of q_norms[j] − 2·dots[r + j·rows] over j < nq (+∞ when nq = 0), for
+/// r < rows: a key's least ‖q‖² − 2kᵀq over the queries from RowDots' products, the same
+/// floats as a loop of std::min (values never NaN).
+void LeastDistances(const float* dots, int rows, int nq, const float* q_norms, float* nearest);
 
 }  // namespace avx2
 }  // namespace tsc

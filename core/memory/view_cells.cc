@@ -6,6 +6,7 @@
 #include <limits>
 #include <numeric>
 #include <stdexcept>
+#include <vector>
 
 #include "core/on_threads.h"
 
@@ -192,6 +193,7 @@ std::vector<float> ViewCells::Estimate(const Eigen::MatrixXf& queries,
   std::vector<float> out(static_cast<size_t>(groups), std::numeric_limits<float>::infinity());
   std::vector<uint8_t> read(static_cast<size_t>(groups), 0);  // keys of each group read
   Eigen::MatrixXf dots;
+  std::vector<float> least;  // per key of a cell: its least ‖q‖² − 2kᵀq over the queries
   size_t next = 0;
   for (long long done = 0; next < order.size() && done < min_keys; ++next) {
     const Cell& c = cells_[static_cast<size_t>(order[next])];
@@ -205,9 +207,19 @@ std::vector<float> ViewCells::Estimate(const Eigen::MatrixXf& queries,
     } else {
       dots.noalias() = c.keys.topRows(n) * queries;
     }
+    least.resize(static_cast<size_t>(n));
+    if (simd_ == Simd::kAvx2Fma) {
+      avx2::LeastDistances(dots.data(), static_cast<int>(n), static_cast<int>(m),
+                           query_norms.data(), least.data());
+    } else {
+      for (Eigen::Index i = 0; i < n; ++i) {
+        float d = std::numeric_limits<float>::infinity();
+        for (Eigen::Index j = 0; j < m; ++j) d = std::min(d, query_norms[j] - 2.0f * dots(i, j));
+        least[static_cast<size_t>(i)] = d;
+      }
+    }
     for (Eigen::Index i = 0; i < n; ++i) {
-      float d = std::numeric_limits<float>::infinity();
-      for (Eigen::Index j = 0; j < m; ++j) d = std::min(d, query_norms[j] - 2.0f * dots(i, j));
+      const float d = least[static_cast<size_t>(i)];
       const auto g = static_cast<size_t>(c.rows[static_cast<size_t>(i)] / group_size);
       out[g] = std::min(out[g], c.norms[static_cast<size_t>(i)] + d);
       ++read[g];

@@ -158,6 +158,49 @@ TEST_F(AvxKernels, RowDotsEqualTheEigenProductOnRandomData) {
   }
 }
 
+// Each row's sum is one lane's FMAs over the dimensions in order at either width: 16 lanes give
+// the 8-lane floats bit for bit, for blocks of 64 rows, every masked tail and 1-7 queries.
+TEST_F(AvxKernels, RowDotsOnSixteenLanesAreTheEightLanesBitForBit) {
+  if (WidestLanes() != Lanes::k16) GTEST_SKIP() << "the CPU has no AVX-512F and VL";
+  for (int dim : {1, 5, 128}) {
+    for (int rows : {1, 15, 16, 17, 63, 64, 65, 100, 1024}) {
+      for (int nq : {1, 2, 3, 4, 5, 7}) {
+        const Eigen::MatrixXf tall = Random(rng_, rows + 13, dim);
+        const Eigen::MatrixXf q = Random(rng_, dim, nq);
+        Eigen::MatrixXf out8(rows, nq), out16(rows, nq);
+        avx2::RowDots(tall.data() + 5, tall.rows(), rows, dim, q.data(), nq, out8.data(),
+                      Lanes::k8);
+        avx2::RowDots(tall.data() + 5, tall.rows(), rows, dim, q.data(), nq, out16.data(),
+                      Lanes::k16);
+        for (int j = 0; j < nq; ++j) {
+          for (int r = 0; r < rows; ++r) {
+            ASSERT_EQ(out8(r, j), out16(r, j))
+                << "dim " << dim << ", " << rows << " rows x " << nq << " at " << r << ", " << j;
+          }
+        }
+      }
+    }
+  }
+}
+
+// A key's least distance over the queries: the scalar loop's floats, for every tail of the 8
+// lanes and 0-5 queries.
+TEST_F(AvxKernels, LeastDistancesAreTheScalarLoopsBitForBit) {
+  for (int rows : {1, 7, 8, 9, 33, 1024}) {
+    for (int nq : {0, 1, 2, 3, 5}) {
+      const Eigen::MatrixXf dots = Random(rng_, rows, std::max(nq, 1));
+      const Eigen::VectorXf q_norms = Random(rng_, std::max(nq, 1), 1).cwiseAbs();
+      std::vector<float> got(static_cast<size_t>(rows));
+      avx2::LeastDistances(dots.data(), rows, nq, q_norms.data(), got.data());
+      for (int r = 0; r < rows; ++r) {
+        float want = std::numeric_limits<float>::infinity();
+        for (int j = 0; j < nq; ++j) want = std::min(want, q_norms[j] - 2.0f * dots(r, j));
+        ASSERT_EQ(got[static_cast<size_t>(r)], want) << rows << " rows, " << nq << " at " << r;
+      }
+    }
+  }
+}
+
 // The nearest column by ‖x‖² + ‖y‖² − 2xᵀy: the same floats and columns as the scalar loop of
 // ViewDistances, for every tail of the 8 lanes, with ties (the first column wins) and a NaN
 // (it neither replaces nor is replaced).
