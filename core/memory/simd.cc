@@ -48,6 +48,27 @@ Lanes WidestLanes() {
 #endif
 }
 
+namespace {
+
+// LeastDistances' rows [from, rows), one at a time: the portable loop, and the 8-lane kernel's
+// tail (q − 2·d is exact but for its one rounding, so an FMA cannot change it).
+void LeastDistancesFrom(int from, const float* dots, int rows, int nq, const float* q_norms,
+                        float* nearest) {
+  for (int r = from; r < rows; ++r) {
+    float least = std::numeric_limits<float>::infinity();
+    for (int j = 0; j < nq; ++j) least = std::min(least, q_norms[j] - 2.0f * dots[r + j * rows]);
+    nearest[r] = least;
+  }
+}
+
+}  // namespace
+
+void LeastDistances(Simd simd, const float* dots, int rows, int nq, const float* q_norms,
+                    float* nearest) {
+  if (simd == Simd::kAvx2Fma) return avx2::LeastDistances(dots, rows, nq, q_norms, nearest);
+  LeastDistancesFrom(0, dots, rows, nq, q_norms, nearest);
+}
+
 namespace avx2 {
 
 #ifdef TSC_AVX2_KERNELS
@@ -763,11 +784,7 @@ TSC_AVX2 void LeastDistances(const float* dots, int rows, int nq, const float* q
     }
     _mm256_storeu_ps(nearest + r, least);
   }
-  for (; r < rows; ++r) {
-    float least = none;
-    for (int j = 0; j < nq; ++j) least = std::min(least, q_norms[j] - 2.0f * dots[r + j * rows]);
-    nearest[r] = least;
-  }
+  LeastDistancesFrom(r, dots, rows, nq, q_norms, nearest);
 }
 
 #undef TSC_AVX2

@@ -19,6 +19,13 @@ enum class Simd {
 /// kAvx2Fma where the CPU (and the OS) supports AVX2 and FMA, else kPortable.
 Simd FastestSimd();
 
+/// nearest[r] = the least of q_norms[j] − 2·dots[r + j·rows] over j < nq (+∞ when nq = 0), for
+/// r < rows: each key's least ‖q‖² − 2kᵀq over the queries, from the products of the keys and
+/// the queries (rows x nq, column-major). On `simd`'s kernel or the portable loop, the same
+/// floats (values never NaN).
+void LeastDistances(Simd simd, const float* dots, int rows, int nq, const float* q_norms,
+                    float* nearest);
+
 /// The width ColumnDots runs at. Each of its outputs is a sum over an 8-lane accumulator, each
 /// lane a fixed sequence of FMAs; 16 lanes run two such accumulators side by side, so both
 /// widths give the same results bit for bit and the width changes only the speed.
@@ -92,9 +99,7 @@ float Least(const float* values, int n);
 /// the first `v < least` gives. For the nearest-view searches of ThinViews.
 int FirstLeast(const float* values, int n);
 
-/// nearest[r] = the least of q_norms[j] − 2·dots[r + j·rows] over j < nq (+∞ when nq = 0), for
-/// r < rows: a key's least ‖q‖² − 2kᵀq over the queries from RowDots' products, the same
-/// floats as a loop of std::min (values never NaN).
+/// tsc::LeastDistances on 8 lanes.
 void LeastDistances(const float* dots, int rows, int nq, const float* q_norms, float* nearest);
 
 }  // namespace avx2

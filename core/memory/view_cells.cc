@@ -208,16 +208,8 @@ std::vector<float> ViewCells::Estimate(const Eigen::MatrixXf& queries,
       dots.noalias() = c.keys.topRows(n) * queries;
     }
     least.resize(static_cast<size_t>(n));
-    if (simd_ == Simd::kAvx2Fma) {
-      avx2::LeastDistances(dots.data(), static_cast<int>(n), static_cast<int>(m),
-                           query_norms.data(), least.data());
-    } else {
-      for (Eigen::Index i = 0; i < n; ++i) {
-        float d = std::numeric_limits<float>::infinity();
-        for (Eigen::Index j = 0; j < m; ++j) d = std::min(d, query_norms[j] - 2.0f * dots(i, j));
-        least[static_cast<size_t>(i)] = d;
-      }
-    }
+    LeastDistances(simd_, dots.data(), static_cast<int>(n), static_cast<int>(m), query_norms.data(),
+                   least.data());
     for (Eigen::Index i = 0; i < n; ++i) {
       const float d = least[static_cast<size_t>(i)];
       const auto g = static_cast<size_t>(c.rows[static_cast<size_t>(i)] / group_size);

@@ -183,19 +183,22 @@ TEST_F(AvxKernels, RowDotsOnSixteenLanesAreTheEightLanesBitForBit) {
   }
 }
 
-// A key's least distance over the queries: the scalar loop's floats, for every tail of the 8
-// lanes and 0-5 queries.
+// A key's least distance over the queries: the scalar loop's floats on 8 lanes and portably, for
+// every tail of the 8 lanes and 0-5 queries.
 TEST_F(AvxKernels, LeastDistancesAreTheScalarLoopsBitForBit) {
   for (int rows : {1, 7, 8, 9, 33, 1024}) {
     for (int nq : {0, 1, 2, 3, 5}) {
       const Eigen::MatrixXf dots = Random(rng_, rows, std::max(nq, 1));
       const Eigen::VectorXf q_norms = Random(rng_, std::max(nq, 1), 1).cwiseAbs();
       std::vector<float> got(static_cast<size_t>(rows));
+      std::vector<float> portable(static_cast<size_t>(rows));
       avx2::LeastDistances(dots.data(), rows, nq, q_norms.data(), got.data());
+      LeastDistances(Simd::kPortable, dots.data(), rows, nq, q_norms.data(), portable.data());
       for (int r = 0; r < rows; ++r) {
         float want = std::numeric_limits<float>::infinity();
         for (int j = 0; j < nq; ++j) want = std::min(want, q_norms[j] - 2.0f * dots(r, j));
         ASSERT_EQ(got[static_cast<size_t>(r)], want) << rows << " rows, " << nq << " at " << r;
+        ASSERT_EQ(portable[static_cast<size_t>(r)], want) << "portable, " << rows << " rows";
       }
     }
   }
