@@ -11,8 +11,16 @@
 // of a robot with that memory: tscd restores it on `--threads` threads (daemon.merge_threads,
 // 0 = one per core, tscd's default).
 //
+// With --peer-places P the report goes on past the idle figures: a teammate (robot 2) appears
+// serving P places of the same kind, half of them robot 1's, and once tscd logs that it merged
+// them and has settled again its RSS is read a second time, with the peak the merge reached. A
+// merge frees what it built; what the allocator keeps of that (GLIBC_TUNABLES set for this
+// program reaches tscd) shows here. The peer speaks the real exchange protocol over udpm://,
+// so this mode runs in a private network namespace only (test/support/in_netns).
+//
 //   build/bin/tscd_footprint [--places N] [--dim D] [--members M] [--settle-s S] [--out FILE]
 //                            [--keep DIR | --reuse DIR] [--threads T]
+//   test/support/in_netns build/bin/tscd_footprint --peer-places P [the options above]
 
 #include <unistd.h>
 
@@ -30,8 +38,11 @@
 
 #include "bench/key_value_args.h"
 #include "core/pipeline/pipeline.h"
+#include "daemon/memory_snapshot.h"
+#include "settings/daemon_options.h"
 #include "store/store.h"
 #include "test/support/child_process.h"
+#include "test/support/serving_peer.h"
 #include "test/support/synthetic_places.h"
 
 namespace tsc {
@@ -39,6 +50,9 @@ namespace {
 
 namespace fs = std::filesystem;
 using Clock = std::chrono::steady_clock;
+
+// The bus of --peer-places: multicast that stays on the namespace's lo (ttl 0).
+constexpr const char* kPeerUrl = "udpm://239.255.76.67:7667?ttl=0";
 
 double Seconds(Clock::duration d) { return std::chrono::duration<double>(d).count(); }
 
@@ -80,9 +94,10 @@ uint64_t FileBytes(const fs::path& p) {
 
 int Main(int argc, char** argv) {
   const auto args = KeyValueArgs(
-      argc, argv, {"places", "dim", "members", "settle-s", "out", "keep", "reuse", "threads"},
+      argc, argv,
+      {"places", "dim", "members", "settle-s", "out", "keep", "reuse", "threads", "peer-places"},
       "[--places N] [--dim D] [--members M] [--settle-s S] [--out FILE] "
-      "[--keep DIR | --reuse DIR] [--threads T]");
+      "[--keep DIR | --reuse DIR] [--threads T] [--peer-places P]");
   if (!args) return 2;
   const int places = static_cast<int>(NumberArg(*args, "places", 10000));
   const int dim = static_cast<int>(NumberArg(*args, "dim", 1200));
@@ -97,9 +112,19 @@ int Main(int argc, char** argv) {
   const double settle_s = NumberArg(*args, "settle-s", 15);
   const int threads = static_cast<int>(NumberArg(*args, "threads", 0));
   const std::string out = args->count("out") ? args->at("out") : "";
-  if (places < 1 || dim < 1 || members < 1 || threads < 0) {
-    std::fprintf(stderr, "%s: places, dim and members must be positive, threads not negative\n",
+  const int peer_places = static_cast<int>(NumberArg(*args, "peer-places", 0));
+  if (places < 1 || dim < 1 || members < 1 || threads < 0 || peer_places < 0) {
+    std::fprintf(stderr,
+                 "%s: places, dim and members must be positive, threads and peer-places not "
+                 "negative\n",
                  argv[0]);
+    return 2;
+  }
+  if (peer_places > 0 && std::getenv("TSCD_IN_NETNS") == nullptr) {
+    std::fprintf(stderr,
+                 "%s: --peer-places needs a private network namespace: "
+                 "test/support/in_netns %s ...\n",
+                 argv[0], argv[0]);
     return 2;
   }
   // --keep: the state directory is written there and left for inspection (tsc inspect, a heap
@@ -124,35 +149,62 @@ int Main(int argc, char** argv) {
   fs::create_directories(dir);
 
   const auto t_build = Clock::now();
+  const testing_support::SyntheticPlaces world(1, dim, 64, 0.02f, 1);
+  // The memory as tscd keeps it with its default options: member views in the builtin basis
+  // when the dimension is the default features' (core/memory/builtin_view_basis.h).
+  PipelineOptions options;
+  if (dim != options.memory.view_basis->input_dimension()) options.memory.view_basis = nullptr;
+  // From 10⁵ places the SLINK tree over the means' coordinates in the basis, as the
+  // benchmarks' fixtures (every γ in 1200 dimensions would take the writer hours).
+  const auto synthetic = [&](uint32_t robot, int first, int n) {
+    return n >= testing_support::kLargeMemory && options.memory.view_basis
+               ? testing_support::LargeSyntheticMemory(robot, world, first, n, members,
+                                                       options.memory, visits)
+               : testing_support::SyntheticMemory(robot, world, first, n, members, options.memory,
+                                                  visits);
+  };
   if (!reuse) {
-    const testing_support::SyntheticPlaces world(1, dim, 64, 0.02f, 1);
     Store store = Store::Open(dir / "memory.db");
-    // The memory as tscd keeps it with its default options: member views in the builtin basis
-    // when the dimension is the default features' (core/memory/builtin_view_basis.h).
-    PipelineOptions options;
-    if (dim != options.memory.view_basis->input_dimension()) options.memory.view_basis = nullptr;
-    // From 10⁵ places the SLINK tree over the means' coordinates in the basis, as the
-    // benchmarks' fixtures (every γ in 1200 dimensions would take the writer hours).
-    const bool large = places >= testing_support::kLargeMemory && options.memory.view_basis;
     const Pipeline pipeline(CameraIntrinsics::FromHorizontalFov(160, 120, 60), options,
-                            large ? testing_support::LargeSyntheticMemory(
-                                        1, world, 0, places, members, options.memory, visits)
-                                  : testing_support::SyntheticMemory(1, world, 0, places, members,
-                                                                     options.memory, visits),
-                            TopologicalMap{}, PipelineState{});
+                            synthetic(1, 0, places), TopologicalMap{}, PipelineState{});
     store.CommitPending({}, pipeline, true, std::nullopt);
   }
   const uint64_t db_bytes = FileBytes(dir / "memory.db") + FileBytes(dir / "memory.db-wal");
+  // A merge commits to the store tscd runs on: a reused store is merged in a copy, so it stays
+  // the memory it was written as (and robot 2's version, once merged, is not skipped next time).
+  const bool on_copy = reuse && peer_places > 0;
+  const fs::path run_dir =
+      on_copy ? fs::temp_directory_path() / ("tscd_footprint." + std::to_string(getpid())) : dir;
+  if (on_copy) {
+    fs::create_directories(run_dir);
+    for (const char* f : {"memory.db", "memory.db-wal"}) {
+      if (fs::exists(dir / f)) fs::copy_file(dir / f, run_dir / f);
+    }
+  }
   if (!reuse) {
     std::printf("a store of %d places (dim %d, %d member views) written in %.1f s\n", places, dim,
                 members, Seconds(Clock::now() - t_build));
   }
 
-  const fs::path log = dir / "tscd.log";
+  // Robot 2, silent until tscd has been measured idle: its places start half-way through
+  // robot 1's, so where P = N half of each memory is the other's.
+  std::optional<testing_support::ServingPeer> peer;
+  if (peer_places > 0) {
+    const auto t_peer = Clock::now();
+    peer.emplace(2,
+                 BuildSnapshot(synthetic(2, places / 2, peer_places), TopologicalMap{},
+                               SnapshotHeader{2, 4242, 1, 1}, BusOptions{}.portion_bytes),
+                 kPeerUrl, /*announcing=*/false);
+    std::printf("a peer of %d places built in %.1f s\n", peer_places,
+                Seconds(Clock::now() - t_peer));
+  }
+
+  const fs::path log = run_dir / "tscd.log";
   fs::remove(log);  // an earlier run's, when reused: "ready" is looked for in this one's
   testing_support::ChildProcess tscd(
-      {std::string(TSCD_BIN_DIR) + "/tscd", "--robot", "1", "--state-dir", dir.string(), "--set",
-       "camera.source=sim", "--set", "camera.fps=1", "--set", "lcm.url=memq://", "--set",
+      {std::string(TSCD_BIN_DIR) + "/tscd", "--robot", "1", "--state-dir", run_dir.string(),
+       "--set", "camera.source=sim", "--set", "camera.fps=1", "--set",
+       std::string("lcm.url=") + (peer ? kPeerUrl : "memq://"), "--set",
        "daemon.merge_threads=" + std::to_string(threads)},
       log);
   // Loaded, announcing and serving: "ready" is logged after the memory is loaded; the first
@@ -174,15 +226,44 @@ int Main(int argc, char** argv) {
   std::this_thread::sleep_for(std::chrono::duration<double>(settle_s));
   const double cpu_s = CpuSeconds(tscd.pid()) - cpu_before;
   const double rss = StatusMb(tscd.pid(), "VmRSS"), hwm = StatusMb(tscd.pid(), "VmHWM");
+  // With a peer: its memory arrives, is merged and committed; then tscd settles again.
+  std::string merged_report;
+  if (peer) {
+    const auto t_peer = Clock::now();
+    peer->StartAnnouncing();
+    const std::string merged = "merged the memory of robot 2";
+    while (tscd.running() && tscd.Log().find(merged) == std::string::npos &&
+           Clock::now() - t_peer < std::chrono::minutes(10)) {
+      std::this_thread::sleep_for(std::chrono::milliseconds(100));
+    }
+    const double merged_s = Seconds(Clock::now() - t_peer);
+    const bool did_merge = tscd.Log().find(merged) != std::string::npos;
+    std::this_thread::sleep_for(std::chrono::duration<double>(settle_s));
+    const double rss_after = StatusMb(tscd.pid(), "VmRSS");
+    const double hwm_after = StatusMb(tscd.pid(), "VmHWM");
+    char line[384];
+    if (did_merge) {
+      std::snprintf(line, sizeof line,
+                    "peer of %d places (half of them robot 1's) merged %.1f s after it appeared; "
+                    "%.0f s later: RSS %.1f MB, peak %.1f MB\n",
+                    peer_places, merged_s, settle_s, rss_after, hwm_after);
+    } else {
+      std::snprintf(line, sizeof line, "peer of %d places: no merge logged within %.0f s\n",
+                    peer_places, merged_s);
+    }
+    merged_report = line;
+  }
   tscd.Signal(SIGTERM);
   const std::optional<int> status = tscd.Wait(std::chrono::seconds(60));
   if (rss < 0 || !status || *status != 0) {
     std::fprintf(stderr, "tscd did not run through (exit %d); its log:\n%s\n",
                  status ? *status : -1, tscd.Log().c_str());
     if (!keep) fs::remove_all(dir);
+    if (on_copy) fs::remove_all(run_dir);
     return 1;
   }
   if (!keep) fs::remove_all(dir);
+  if (on_copy) fs::remove_all(run_dir);
 
   char report[768];
   std::snprintf(report, sizeof report,
@@ -196,7 +277,8 @@ int Main(int argc, char** argv) {
                 static_cast<double>(db_bytes) / 1024.0 / places, settle_s, cpu_s,
                 100.0 * cpu_s / settle_s);
   std::fputs(report, stdout);
-  if (!out.empty()) std::ofstream(out, std::ios::app) << report;
+  std::fputs(merged_report.c_str(), stdout);
+  if (!out.empty()) std::ofstream(out, std::ios::app) << report << merged_report;
   return 0;
 }
 
