@@ -51,9 +51,6 @@ namespace {
 namespace fs = std::filesystem;
 using Clock = std::chrono::steady_clock;
 
-// The bus of --peer-places: multicast that stays on the namespace's lo (ttl 0).
-constexpr const char* kPeerUrl = "udpm://239.255.76.67:7667?ttl=0";
-
 double Seconds(Clock::duration d) { return std::chrono::duration<double>(d).count(); }
 
 // A field of /proc/<pid>/status in MB ("VmRSS", "VmHWM"); -1 when the process is gone.
@@ -84,6 +81,17 @@ double CpuSeconds(pid_t pid) {
     if (i >= 14) ticks += std::stod(field);
   }
   return ticks / static_cast<double>(sysconf(_SC_CLK_TCK));
+}
+
+// Waits until tscd's log holds `line`, tscd exits or `limit` passes; true when it holds it.
+bool AwaitLogLine(testing_support::ChildProcess& tscd, const std::string& line,
+                  Clock::duration limit) {
+  const auto start = Clock::now();
+  while (tscd.running() && tscd.Log().find(line) == std::string::npos &&
+         Clock::now() - start < limit) {
+    std::this_thread::sleep_for(std::chrono::milliseconds(100));
+  }
+  return tscd.Log().find(line) != std::string::npos;
 }
 
 uint64_t FileBytes(const fs::path& p) {
@@ -194,7 +202,7 @@ int Main(int argc, char** argv) {
     peer.emplace(2,
                  BuildSnapshot(synthetic(2, places / 2, peer_places), TopologicalMap{},
                                SnapshotHeader{2, 4242, 1, 1}, BusOptions{}.portion_bytes),
-                 kPeerUrl, /*announcing=*/false);
+                 testing_support::kNamespaceBusUrl, /*announcing=*/false);
     std::printf("a peer of %d places built in %.1f s\n", peer_places,
                 Seconds(Clock::now() - t_peer));
   }
@@ -204,16 +212,13 @@ int Main(int argc, char** argv) {
   testing_support::ChildProcess tscd(
       {std::string(TSCD_BIN_DIR) + "/tscd", "--robot", "1", "--state-dir", run_dir.string(),
        "--set", "camera.source=sim", "--set", "camera.fps=1", "--set",
-       std::string("lcm.url=") + (peer ? kPeerUrl : "memq://"), "--set",
+       std::string("lcm.url=") + (peer ? testing_support::kNamespaceBusUrl : "memq://"), "--set",
        "daemon.merge_threads=" + std::to_string(threads)},
       log);
   // Loaded, announcing and serving: "ready" is logged after the memory is loaded; the first
   // announce asks the worker for a snapshot, which the settling time leaves room for.
   const auto t_start = Clock::now();
-  while (tscd.running() && tscd.Log().find("ready:") == std::string::npos &&
-         Clock::now() - t_start < std::chrono::minutes(10)) {
-    std::this_thread::sleep_for(std::chrono::milliseconds(100));
-  }
+  AwaitLogLine(tscd, "ready:", std::chrono::minutes(10));
   const double ready_s = Seconds(Clock::now() - t_start);
   // What tscd says it loaded, and in what time (the rest of "ready" is the process starting).
   const std::string started = tscd.Log();
@@ -228,36 +233,27 @@ int Main(int argc, char** argv) {
   const double rss = StatusMb(tscd.pid(), "VmRSS"), hwm = StatusMb(tscd.pid(), "VmHWM");
   // With a peer: its memory arrives, is merged and committed; then tscd settles again.
   std::string merged_report;
+  bool merged = true;
   if (peer) {
     const auto t_peer = Clock::now();
     peer->StartAnnouncing();
-    const std::string merged = "merged the memory of robot 2";
-    while (tscd.running() && tscd.Log().find(merged) == std::string::npos &&
-           Clock::now() - t_peer < std::chrono::minutes(10)) {
-      std::this_thread::sleep_for(std::chrono::milliseconds(100));
-    }
+    merged = AwaitLogLine(tscd, "merged the memory of robot 2", std::chrono::minutes(10));
     const double merged_s = Seconds(Clock::now() - t_peer);
-    const bool did_merge = tscd.Log().find(merged) != std::string::npos;
     std::this_thread::sleep_for(std::chrono::duration<double>(settle_s));
-    const double rss_after = StatusMb(tscd.pid(), "VmRSS");
-    const double hwm_after = StatusMb(tscd.pid(), "VmHWM");
     char line[384];
-    if (did_merge) {
-      std::snprintf(line, sizeof line,
-                    "peer of %d places (half of them robot 1's) merged %.1f s after it appeared; "
-                    "%.0f s later: RSS %.1f MB, peak %.1f MB\n",
-                    peer_places, merged_s, settle_s, rss_after, hwm_after);
-    } else {
-      std::snprintf(line, sizeof line, "peer of %d places: no merge logged within %.0f s\n",
-                    peer_places, merged_s);
-    }
+    std::snprintf(line, sizeof line,
+                  "peer of %d places (half of them robot 1's) merged %.1f s after it appeared; "
+                  "%.0f s later: RSS %.1f MB, peak %.1f MB\n",
+                  peer_places, merged_s, settle_s, StatusMb(tscd.pid(), "VmRSS"),
+                  StatusMb(tscd.pid(), "VmHWM"));
     merged_report = line;
   }
   tscd.Signal(SIGTERM);
   const std::optional<int> status = tscd.Wait(std::chrono::seconds(60));
-  if (rss < 0 || !status || *status != 0) {
-    std::fprintf(stderr, "tscd did not run through (exit %d); its log:\n%s\n",
-                 status ? *status : -1, tscd.Log().c_str());
+  if (rss < 0 || !merged || !status || *status != 0) {
+    std::fprintf(stderr, "tscd did not run through (exit %d%s); its log:\n%s\n",
+                 status ? *status : -1, merged ? "" : ", no merge of the peer logged",
+                 tscd.Log().c_str());
     if (!keep) fs::remove_all(dir);
     if (on_copy) fs::remove_all(run_dir);
     return 1;

@@ -46,7 +46,7 @@ namespace {
 namespace fs = std::filesystem;
 using Clock = std::chrono::steady_clock;
 
-constexpr const char* kUrl = "udpm://239.255.76.67:7667?ttl=0";
+constexpr const char* kUrl = testing_support::kNamespaceBusUrl;
 constexpr int kMembers = 12;
 constexpr double kAnnouncePeriodS = 0.1;
 
