@@ -647,6 +647,13 @@ void Daemon::PublishPortions(std::shared_ptr<const MemorySnapshot> snapshot,
   // between base points and hands them back (at once when it has ended, as when stopping).
   auto publish = [this, snapshot, indices = std::move(indices),
                   end](PipelineWorker::Bodies bodies) mutable {
+    if (bodies.empty()) {
+      // The memory was replaced whole since: the peer moves on to the version it is broadcast
+      // as (the merge or consolidation changed it), keeping the bodies it has that are unchanged.
+      spdlog::debug("memory snapshot {}: its bodies were withdrawn when the memory was replaced",
+                    snapshot->version);
+      return;
+    }
     memory_portion_v2_t scratch;
     for (size_t k = 0, first = end - bodies.size(); k < bodies.size(); ++k) {
       if (!bodies[k]) {  // the place changed under the snapshot: peers would refuse it

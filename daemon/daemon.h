@@ -149,7 +149,9 @@ class Daemon {
   PeerExchange exchange_;                           // loop thread only
   std::shared_ptr<const MemorySnapshot> snapshot_;  // loop thread only; the worker's, shared
   // The snapshot snapshot_ replaced: a peer still assembling it gets its missing portions from
-  // it, so an exchange completes while the memory keeps changing (loop thread only).
+  // it, so an exchange completes while the memory keeps learning (loop thread only). Not after
+  // a merge or consolidation replaced the memory: its bodies are withdrawn then, and the peer
+  // moves on to the snapshot broadcast next.
   std::shared_ptr<const MemorySnapshot> previous_snapshot_;
   bool broadcast_wanted_ = false;  // loop thread only
   // The bodies the last broadcast carried or named: the next one sends only bodies beyond them.

@@ -379,12 +379,9 @@ void SnapshotBodies::BeforeUpdate(const PlaceMemory& memory, int place) {
   }
 }
 
-void SnapshotBodies::BeforeReplace(const PlaceMemory& memory) {
-  Prune();
-  int most = 0;
-  for (const Tracked& t : tracked_) most = std::max(most, t.places);
-  for (int place = 0; place < most; ++place) BeforeUpdate(memory, place);
-}
+void SnapshotBodies::BeforeReplace() { tracked_.clear(); }
+
+bool SnapshotBodies::Serves(const MemorySnapshot& snapshot) { return Find(snapshot) != nullptr; }
 
 std::optional<std::unordered_set<int>> SnapshotBodies::ChangedSince(
     const MemorySnapshot& snapshot) {

@@ -86,19 +86,27 @@ learned_place_v2_t BodyOf(const LearnedPlace& place);
 /// kept, encoded just before the place changes, for as long as a snapshot naming it is alive.
 /// So a snapshot serves the portions it named whatever the memory learned since, and the
 /// bodies cost one copy (the memory's) plus the places changed since a live snapshot.
+/// A memory replaced whole (a merge, a consolidation) withdraws the bodies of every snapshot
+/// built before: keeping them was a second copy of the memory (164 MB after a 10⁴-place merge,
+/// issue 23), and a peer still assembling such a snapshot moves on to the one the replaced
+/// memory is broadcast as, keeping the bodies it received that are unchanged there.
 class SnapshotBodies {
  public:
   /// `snapshot` was just built (BuildSnapshotWithoutBodies) of the memory as it is.
   void Track(const std::shared_ptr<const MemorySnapshot>& snapshot);
   /// Place `place` of `memory` is about to change.
   void BeforeUpdate(const PlaceMemory& memory, int place);
-  /// `memory` is about to be replaced (a merge): every body the live snapshots read is kept.
-  void BeforeReplace(const PlaceMemory& memory);
+  /// The memory is about to be replaced (a merge, a consolidation): the snapshots built so far
+  /// no longer serve bodies (Serves is false) nor say what changed since them.
+  void BeforeReplace();
+  /// Whether `snapshot`'s bodies are still served: it is tracked and the memory it was built of
+  /// has not been replaced since.
+  bool Serves(const MemorySnapshot& snapshot);
   /// The places of the memory changed since `snapshot` was built (BuildSnapshotWithoutBodies's
   /// `changed`); nullopt when it is not tracked.
   std::optional<std::unordered_set<int>> ChangedSince(const MemorySnapshot& snapshot);
   /// Body `place` of `snapshot` (tracked, alive) as it was built, `memory` being the memory now.
-  /// Null when `snapshot` is not tracked, or when the place changed without BeforeUpdate (its
+  /// Null when `snapshot` is not served, or when the place changed without BeforeUpdate (its
   /// body no longer has the digest the snapshot named). Precondition: 0 ≤ place < snapshot.places.
   std::shared_ptr<const learned_place_v2_t> Body(const MemorySnapshot& snapshot, int place,
                                                  const PlaceMemory& memory);

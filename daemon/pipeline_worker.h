@@ -106,7 +106,9 @@ class PipelineWorker {
   /// Thread-safe: asks for the bodies of places `places` of `snapshot` (one this worker built,
   /// which holds none) as it named them; the worker, which owns the memory they are read from,
   /// reads them between base points and merges and calls `done` on its thread with them in
-  /// order. Before Start() and once the thread has ended, at once on the calling thread.
+  /// order, or with none when the memory was replaced since `snapshot` was built (its bodies
+  /// are withdrawn: SnapshotBodies::BeforeReplace). Before Start() and once the thread has
+  /// ended, at once on the calling thread.
   void RequestBodies(std::shared_ptr<const MemorySnapshot> snapshot, std::vector<int32_t> places,
                      std::function<void(Bodies)> done);
 
@@ -131,6 +133,7 @@ class PipelineWorker {
   void Handle(BasePoint views);
   void CommitOrKeep(FrameResult result);
   void MergePeers();
+  void MergeInbox(std::vector<SnapshotAssembler> inbox);
   void MergePeer(const PeerSnapshot& snapshot);
   /// Builds and hands over a snapshot when one was asked for (or `stale`: when the memory
   /// changed since the latest).
