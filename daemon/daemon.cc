@@ -169,10 +169,17 @@ Daemon::Daemon(Settings settings, SettingsSource source, std::unique_ptr<CameraS
               [this](int32_t robot) {
                 asio::post(*io_, [this, robot] { exchange_.Forget(robot); });
               },
+          .bodies_not_kept =
+              [this](int32_t robot) {
+                asio::post(*io_, [this, robot] { exchange_.Know(robot, {}); });
+              },
           .snapshot_ready = [this] { asio::post(*io_, [this] { ServeSnapshot(); }); },
       });
   for (const auto& [robot, peer] : worker_->TakeSavedPeers()) {
     exchange_.MarkMerged(static_cast<int32_t>(robot), {peer.version, peer.digest});
+  }
+  for (const auto& [robot, digests] : worker_->TakeKeptPeerBodies()) {
+    exchange_.Know(static_cast<int32_t>(robot), {digests.begin(), digests.end()});
   }
   const bool fresh = worker_->started_empty() && settings_.daemon.bus.join_wait_s > 0.0;
   const auto wait = std::chrono::duration_cast<JoinGate::Clock::duration>(

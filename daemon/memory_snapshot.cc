@@ -6,6 +6,7 @@
 #include <bit>
 #include <cmath>
 #include <cstring>
+#include <limits>
 #include <numeric>
 #include <stdexcept>
 #include <string>
@@ -325,15 +326,37 @@ int64_t SnapshotDigest(const std::vector<memory_portion_v2_t>& portions) {
   return digest;
 }
 
-int64_t BodyDigest(const learned_place_v2_t& body) {
-  std::vector<uint8_t> bytes(static_cast<size_t>(body._getEncodedSizeNoHash()));
-  body._encodeNoHash(bytes.data(), 0, static_cast<int>(bytes.size()));
+namespace {
+
+int64_t DigestOf(std::span<const uint8_t> bytes) {
   EVP_MD_CTX* sha = EVP_MD_CTX_new();
   EVP_DigestInit_ex(sha, EVP_sha256(), nullptr);
   EVP_DigestUpdate(sha, bytes.data(), bytes.size());
   const int64_t digest = Prefix(sha);
   EVP_MD_CTX_free(sha);
   return digest;
+}
+
+}  // namespace
+
+std::vector<uint8_t> EncodeBody(const learned_place_v2_t& body) {
+  std::vector<uint8_t> bytes(static_cast<size_t>(body._getEncodedSizeNoHash()));
+  body._encodeNoHash(bytes.data(), 0, static_cast<int>(bytes.size()));
+  return bytes;
+}
+
+int64_t BodyDigest(const learned_place_v2_t& body) { return DigestOf(EncodeBody(body)); }
+
+std::optional<learned_place_v2_t> DecodeBody(std::span<const uint8_t> bytes, int64_t digest) {
+  // Hashed first: bytes that are not what EncodeBody wrote are never decoded.
+  if (bytes.size() > static_cast<size_t>(std::numeric_limits<int>::max()) ||
+      DigestOf(bytes) != digest) {
+    return std::nullopt;
+  }
+  learned_place_v2_t body;
+  const int size = static_cast<int>(bytes.size());
+  if (body._decodeNoHash(bytes.data(), 0, size) != size) return std::nullopt;
+  return body;
 }
 
 std::vector<int32_t> PortionsBelow(int32_t n) {

@@ -7,6 +7,7 @@
 #include <cstdint>
 #include <memory>
 #include <optional>
+#include <span>
 #include <unordered_map>
 #include <unordered_set>
 #include <vector>
@@ -132,6 +133,10 @@ int64_t SnapshotDigest(const std::vector<memory_portion_v2_t>& portions);
 
 /// First 8 bytes (big endian) of SHA-256 over the body's LCM encoding (without fingerprint).
 int64_t BodyDigest(const learned_place_v2_t& body);
+/// The body's LCM encoding (without fingerprint): what BodyDigest hashes.
+std::vector<uint8_t> EncodeBody(const learned_place_v2_t& body);
+/// The body `bytes` encode (EncodeBody), when they hash to `digest`; nullopt otherwise.
+std::optional<learned_place_v2_t> DecodeBody(std::span<const uint8_t> bytes, int64_t digest);
 
 /// Portion indices 0 .. n−1: a whole snapshot (n = its portions) or its structure.
 std::vector<int32_t> PortionsBelow(int32_t n);

@@ -130,8 +130,9 @@ std::optional<SnapshotAssembler> PeerExchange::OnPortion(const memory_portion_v2
     }
   }
   if (!assembler_->complete()) return std::nullopt;
-  // Kept before the caller checks them; a check that fails makes the caller Forget them.
-  known_[p.robot] = std::make_shared<const PlaceBodies>(assembler_->Bodies());
+  // Known before the caller has checked and kept them (it merges in the order completed, so
+  // before a next fetch completes); a check, merge or keeping that fails makes it Forget them.
+  known_[p.robot] = std::make_shared<const KnownDigests>(assembler_->Named());
   std::optional<SnapshotAssembler> complete = std::move(assembler_);
   fetching_.reset();
   assembler_.reset();
@@ -139,5 +140,9 @@ std::optional<SnapshotAssembler> PeerExchange::OnPortion(const memory_portion_v2
 }
 
 void PeerExchange::MarkMerged(int32_t robot, MergedVersion v) { merged_[robot] = v; }
+
+void PeerExchange::Know(int32_t robot, KnownDigests digests) {
+  known_[robot] = std::make_shared<const KnownDigests>(std::move(digests));
+}
 
 }  // namespace tsc

@@ -3,9 +3,10 @@
 // discovered from their announces; the robot fetches one peer's memory at a time, only when
 // that peer announces a memory it has not merged yet; lost portions are asked for again until
 // the snapshot completes or the attempt is given up. The place bodies of each peer's last
-// complete memory are kept, so the next fetch asks for the structure first and then only for
-// the bodies it names that are new (issue 23). Pure logic with the time passed in, so
-// loss and timeouts are tested without sockets; the daemon does the sending.
+// complete memory are kept (by the merge, in the store; here their digests), so the next fetch
+// asks for the structure first and then only for the bodies it names that are new (issue 23). Pure
+// logic with the time passed in, so loss and timeouts are tested without sockets; the daemon does
+// the sending.
 
 #include <chrono>
 #include <cstdint>
@@ -56,6 +57,10 @@ class PeerExchange {
   std::vector<memory_request_t> Tick(Clock::time_point now);
   /// The caller merged (or deliberately skipped) this snapshot: it will not be fetched again.
   void MarkMerged(int32_t robot, MergedVersion v);
+  /// The caller keeps the bodies of `robot` with these digests (its store, at start): they are
+  /// not fetched again. A completed memory replaces them by the digests it names, which the
+  /// caller keeps when it merges it (or Forgets).
+  void Know(int32_t robot, KnownDigests digests);
   /// The merge of `robot`'s memory failed: fetch it again, whole, when it is next announced.
   void Forget(int32_t robot) {
     merged_.erase(robot);
@@ -75,7 +80,7 @@ class PeerExchange {
   size_t merged_peers() const { return merged_.size(); }
   /// Portions of the memory being fetched held until it completes.
   size_t buffered_portions() const { return assembler_ ? assembler_->buffered() : 0; }
-  /// Place bodies kept from the peers' last complete memories (shared with the merges).
+  /// Place bodies kept from the peers' last complete memories (their digests).
   size_t known_bodies() const;
 
  private:
@@ -97,7 +102,7 @@ class PeerExchange {
   PeerExchangeOptions options_;
   std::map<int32_t, MergedVersion> merged_;
   std::map<int32_t, Peer> peers_;
-  std::map<int32_t, std::shared_ptr<const PlaceBodies>> known_;  // by peer
+  std::map<int32_t, std::shared_ptr<const KnownDigests>> known_;  // by peer
   std::optional<int32_t> fetching_;
   std::optional<SnapshotAssembler> assembler_;
   int64_t fetching_version_ = 0;

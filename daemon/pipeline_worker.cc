@@ -123,6 +123,7 @@ PipelineWorker::PipelineWorker(const Settings& settings, const CameraSource& cam
     map = std::move(saved.map);
     state = saved.pipeline;
     saved_peers_ = store.LoadPeers();
+    kept_peer_bodies_ = store.LoadPeerBodyDigests();
     if (!store.EnableIncrementalVacuum() && settings_.daemon.store.budget_mb > 0) {
       spdlog::warn(
           "{} predates incremental vacuum and is too large to convert at start: base point "
@@ -424,7 +425,9 @@ void PipelineWorker::MergeInbox(std::vector<SnapshotAssembler> inbox) {
   for (SnapshotAssembler& complete : inbox) {
     // The check the loop leaves to us: joining the portions and their digest over all of them.
     std::string reason;
-    const std::optional<PeerSnapshot> checked = complete.Take(&reason);
+    const int32_t robot = complete.robot();
+    const std::optional<PeerSnapshot> checked = complete.Take(
+        &reason, [&](const KnownDigests& digests) { return LoadPeerBodies(robot, digests); });
     if (!checked) {
       const int64_t n = ++counters_.messages_rejected;
       if (ShouldLog(n)) {
@@ -440,6 +443,7 @@ void PipelineWorker::MergeInbox(std::vector<SnapshotAssembler> inbox) {
     try {
       MergePeer(s);
       ++counters_.merges_completed;
+      KeepPeerBodies(s);
     } catch (const std::exception& e) {
       ++counters_.messages_rejected;
       ++counters_.merges_failed;
@@ -447,6 +451,61 @@ void PipelineWorker::MergeInbox(std::vector<SnapshotAssembler> inbox) {
                     e.what());
       hooks_.merge_failed(s.robot);
     }
+  }
+}
+
+PlaceBodies PipelineWorker::LoadPeerBodies(int32_t robot, const KnownDigests& digests) {
+  PlaceBodies bodies;
+  if (!store_ || degraded_store_) return bodies;
+  try {
+    store_->ForEachPeerBody(
+        static_cast<uint32_t>(robot), [&](int64_t digest, std::span<const unsigned char> bytes) {
+          if (!digests.count(digest)) return;
+          // Damaged on disk: left out, so the memory is fetched again whole.
+          if (auto body = DecodeBody(bytes, digest)) {
+            bodies.emplace(digest, std::make_shared<const learned_place_v2_t>(std::move(*body)));
+          }
+        });
+  } catch (const StoreError& e) {
+    spdlog::warn("the kept bodies of robot {}'s places cannot be read: {}", robot, e.what());
+  }
+  return bodies;
+}
+
+void PipelineWorker::KeepPeerBodies(const PeerSnapshot& snapshot) {
+  const int32_t robot = snapshot.robot;
+  if (!store_ || degraded_store_) {
+    hooks_.bodies_not_kept(robot);
+    return;
+  }
+  try {
+    const auto kept = store_->LoadPeerBodyDigests();
+    std::unordered_set<int64_t> have;
+    if (const auto it = kept.find(static_cast<uint32_t>(robot)); it != kept.end()) {
+      have.insert(it->second.begin(), it->second.end());
+    }
+    // In batches, so a memory of 10⁵ places is not encoded at once beside itself.
+    constexpr size_t kBatch = 256;
+    std::vector<std::pair<int64_t, std::vector<unsigned char>>> batch;
+    std::unordered_set<int64_t> named;
+    for (size_t i = 0; i < snapshot.entries.size(); ++i) {
+      const int64_t digest = snapshot.entries[i].body_digest;
+      named.insert(digest);
+      if (!have.insert(digest).second) continue;
+      batch.emplace_back(digest, EncodeBody(*snapshot.places[i]));
+      if (batch.size() == kBatch) {
+        store_->AddPeerBodies(static_cast<uint32_t>(robot), batch);
+        batch.clear();
+      }
+    }
+    if (!batch.empty()) store_->AddPeerBodies(static_cast<uint32_t>(robot), batch);
+    store_->KeepOnlyPeerBodies(static_cast<uint32_t>(robot), named);
+  } catch (const StoreError& e) {
+    spdlog::warn(
+        "the bodies of robot {}'s places were not kept ({}): its next exchange fetches them "
+        "again",
+        robot, e.what());
+    hooks_.bodies_not_kept(robot);
   }
 }
 

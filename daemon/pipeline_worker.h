@@ -45,6 +45,9 @@ struct PipelineWorkerHooks {
   std::function<void(std::vector<std::pair<PlaceId, PlaceId>> absorbed)> merged;
   /// Merging `robot`'s memory failed: fetch it again.
   std::function<void(int32_t robot)> merge_failed;
+  /// The bodies of `robot`'s memory just merged could not be kept (the store failed): the next
+  /// exchange with it fetches them.
+  std::function<void(int32_t robot)> bodies_not_kept;
   /// A snapshot asked for by RequestSnapshot() is ready in snapshot().
   std::function<void()> snapshot_ready;
 };
@@ -67,6 +70,11 @@ class PipelineWorker {
   /// The peers the loaded store had merged (robot → version and digest); empty after the first
   /// call.
   std::map<uint32_t, PeerMerge> TakeSavedPeers() { return std::exchange(saved_peers_, {}); }
+  /// The digests of the peer bodies the store keeps, by robot (the exchange need not fetch
+  /// them again), once.
+  std::map<uint32_t, std::vector<int64_t>> TakeKeptPeerBodies() {
+    return std::exchange(kept_peer_bodies_, {});
+  }
   /// Whether the memory was empty at start (a robot that may be rejoining its team).
   bool started_empty() const { return started_empty_; }
   /// Every how many of the camera's base points the pipeline takes one (StrideFor: 1 but for
@@ -135,6 +143,10 @@ class PipelineWorker {
   void MergePeers();
   void MergeInbox(std::vector<SnapshotAssembler> inbox);
   void MergePeer(const PeerSnapshot& snapshot);
+  /// The bodies of `robot` the store keeps among `digests` (SnapshotAssembler::Take's loader).
+  PlaceBodies LoadPeerBodies(int32_t robot, const KnownDigests& digests);
+  /// Keeps the bodies of `snapshot`, just merged, in the store for the next exchange.
+  void KeepPeerBodies(const PeerSnapshot& snapshot);
   /// Builds and hands over a snapshot when one was asked for (or `stale`: when the memory
   /// changed since the latest).
   void ServeSnapshot(bool stale);
@@ -175,6 +187,7 @@ class PipelineWorker {
   std::chrono::steady_clock::time_point next_maintenance_{};  // Maintain at most once a second
   int64_t base_points_thinned_ = 0;                           // by Maintain since the start
   std::map<uint32_t, PeerMerge> saved_peers_;
+  std::map<uint32_t, std::vector<int64_t>> kept_peer_bodies_;
   bool started_empty_ = false;
   int base_point_stride_ = 1;
   bool spacing_assumed_ = true;

@@ -121,12 +121,10 @@ void SnapshotAssembler::ForEachEntry(F f) const {
   }
 }
 
-PlaceBodies SnapshotAssembler::Bodies() const {
-  PlaceBodies bodies;
-  ForEachEntry([&](size_t i, const place_entry_t& e) {
-    if (bodies_[i]) bodies.emplace(e.body_digest, bodies_[i]);
-  });
-  return bodies;
+KnownDigests SnapshotAssembler::Named() const {
+  KnownDigests digests;
+  ForEachEntry([&](size_t, const place_entry_t& e) { digests.insert(e.body_digest); });
+  return digests;
 }
 
 void SnapshotAssembler::Reset() {
@@ -141,6 +139,7 @@ void SnapshotAssembler::Restart() {
   structure_.clear();
   bodies_.clear();
   received_.clear();
+  kept_.clear();
   digests_.clear();
   bodies_present_ = 0;
   received_bodies_ = 0;
@@ -203,6 +202,7 @@ SnapshotAssembler::Result SnapshotAssembler::Accept(const memory_portion_v2_t& p
     total_edges_ = p.total_edges;
     bodies_.assign(static_cast<size_t>(total_places_), nullptr);
     received_.assign(static_cast<size_t>(total_places_), false);
+    kept_.assign(static_cast<size_t>(total_places_), false);
     digests_.assign(static_cast<size_t>(total_places_), 0);
   }
   if (p.count != count_ || p.structure_portions != structure_portions_ || p.digest != digest_ ||
@@ -218,7 +218,8 @@ SnapshotAssembler::Result SnapshotAssembler::Keep(const memory_portion_v2_t& p) 
     const auto i = static_cast<size_t>(p.first_place);
     if (received_[i]) return {Verdict::kDuplicate, ""};
     // A body that came anyway replaces a known one: its digest is checked against the entry.
-    if (!bodies_[i]) ++bodies_present_;
+    if (!bodies_[i] && !kept_[i]) ++bodies_present_;
+    kept_[i] = false;
     bodies_[i] = std::make_shared<const learned_place_v2_t>(p.places.front());
     received_[i] = true;
     ++received_bodies_;
@@ -239,17 +240,16 @@ bool SnapshotAssembler::knows_bodies() const {
 
 void SnapshotAssembler::FillKnownBodies() {
   if (!knows_bodies()) return;
-  auto find = [&](int64_t digest) -> std::shared_ptr<const learned_place_v2_t> {
-    if (known_) {
-      if (const auto it = known_->find(digest); it != known_->end()) return it->second;
-    }
-    const auto it = carried_.find(digest);
-    return it == carried_.end() ? nullptr : it->second;
-  };
   ForEachEntry([&](size_t i, const place_entry_t& e) {
     if (bodies_[i]) return;
-    bodies_[i] = find(e.body_digest);
-    if (!bodies_[i]) return;
+    // One carried is at hand; a known one is loaded by Take.
+    if (const auto it = carried_.find(e.body_digest); it != carried_.end()) {
+      bodies_[i] = it->second;
+    } else if (known_ && known_->count(e.body_digest)) {
+      kept_[i] = true;
+    } else {
+      return;
+    }
     digests_[i] = e.body_digest;
     ++bodies_present_;
   });
@@ -277,18 +277,34 @@ std::vector<int32_t> SnapshotAssembler::Missing() const {
   // Known bodies are matched only once the structure names the digests.
   if (!structure_complete() && knows_bodies()) return missing;
   for (int32_t i = 0; i < total_places_; ++i) {
-    if (!bodies_[static_cast<size_t>(i)]) missing.push_back(structure_portions_ + i);
+    const auto k = static_cast<size_t>(i);
+    if (!bodies_[k] && !kept_[k]) missing.push_back(structure_portions_ + i);
   }
   return missing;
 }
 
-std::optional<PeerSnapshot> SnapshotAssembler::Take(std::string* reason) {
+std::optional<PeerSnapshot> SnapshotAssembler::Take(std::string* reason, const BodyLoader& load) {
   auto fail = [&](const std::string& why) -> std::optional<PeerSnapshot> {
     if (reason != nullptr) *reason = why;
     Reset();
     return std::nullopt;
   };
   if (!complete()) return fail("incomplete");
+  KnownDigests wanted;
+  for (size_t i = 0; i < kept_.size(); ++i) {
+    if (kept_[i]) wanted.insert(digests_[i]);
+  }
+  if (!wanted.empty()) {
+    const PlaceBodies loaded = load ? load(wanted) : PlaceBodies{};
+    for (size_t i = 0; i < kept_.size(); ++i) {
+      if (!kept_[i]) continue;
+      const auto it = loaded.find(digests_[i]);
+      if (it == loaded.end() || !it->second) {
+        return fail("a place body kept from an earlier version is no longer kept");
+      }
+      bodies_[i] = it->second;
+    }
+  }
   std::vector<memory_portion_v2_t> ordered;
   ordered.reserve(structure_.size());
   for (const auto& [index, portion] : structure_) ordered.push_back(portion);

@@ -4,17 +4,20 @@
 // and hands over the snapshot only once it is complete and consistent. Every portion is
 // checked before it is kept (DESIGN §4): wrong robot, impossible sizes, non-finite numbers,
 // totals that disagree between portions; a finished snapshot must match its digest, and each
-// body received must match the digest the structure gives it. Bodies the receiver kept from
-// an earlier version of the same peer (`known`), and those of a version whose assembly a newer
-// one replaced, fill in for their portions once the structure names them, so only what
-// changed is asked for (issue 23).
+// body received must match the digest the structure gives it. Bodies the receiver keeps from
+// an earlier version of the same peer (`known`: their digests; tscd keeps the bodies in its
+// store and Take loads them), and those of a version whose assembly a newer one replaced, fill
+// in for their portions once the structure names them, so only what changed is asked for
+// (issue 23).
 
 #include <cstdint>
+#include <functional>
 #include <map>
 #include <memory>
 #include <optional>
 #include <string>
 #include <unordered_map>
+#include <unordered_set>
 #include <vector>
 
 #include "daemon/memory_snapshot.h"
@@ -23,6 +26,12 @@ namespace tsc {
 
 /// Place bodies by their digest (BodyDigest), shared between the snapshots that hold them.
 using PlaceBodies = std::unordered_map<int64_t, std::shared_ptr<const learned_place_v2_t>>;
+/// Digests of the place bodies a receiver keeps of a peer (held outside the assembler).
+using KnownDigests = std::unordered_set<int64_t>;
+/// The kept bodies of `digests` (SnapshotAssembler::Take), each as it was received (checked
+/// against its digest by the loader: what it keeps them in can be damaged); those it cannot
+/// give are left out.
+using BodyLoader = std::function<PlaceBodies(const KnownDigests& digests)>;
 
 /// A peer's memory as it was published, checked for consistency.
 struct PeerSnapshot {
@@ -53,8 +62,9 @@ class SnapshotAssembler {
     std::string reason;  ///< why a portion was rejected or stale
   };
 
-  /// Collects the memory of `robot`; bodies in `known` need not be sent again.
-  explicit SnapshotAssembler(int32_t robot, std::shared_ptr<const PlaceBodies> known = nullptr)
+  /// Collects the memory of `robot`; bodies whose digest is in `known` need not be sent again
+  /// (Take loads them).
+  explicit SnapshotAssembler(int32_t robot, std::shared_ptr<const KnownDigests> known = nullptr)
       : robot_(robot), known_(std::move(known)) {}
 
   /// Checks and keeps one portion. A portion of a newer version starts the assembly afresh;
@@ -77,13 +87,15 @@ class SnapshotAssembler {
     return started() && structure_.size() == static_cast<size_t>(structure_portions_);
   }
   bool complete() const { return structure_complete() && bodies_present_ == total_places_; }
-  /// Once complete: the bodies by the digests the structure gives them (checked by Take), what
-  /// the receiver keeps to ask only for changes next time.
-  PlaceBodies Bodies() const;
+  /// Once the structure is complete: the digests it gives the bodies, what the receiver keeps
+  /// to ask only for changes next time.
+  KnownDigests Named() const;
   /// The snapshot, once complete: the portions joined in order and checked as a whole (digest,
-  /// place ranges, node indices, edge places). nullopt with `reason` set when inconsistent;
-  /// the assembler then starts over.
-  std::optional<PeerSnapshot> Take(std::string* reason);
+  /// place ranges, node indices, edge places), the known bodies it names loaded by `load`.
+  /// nullopt with `reason` set when inconsistent or when a known
+  /// body cannot be loaded (the receiver then fetches the memory whole); the assembler then
+  /// starts over.
+  std::optional<PeerSnapshot> Take(std::string* reason, const BodyLoader& load = {});
 
   /// Limits on what a portion may claim, so a forged one cannot make us allocate without bound.
   static constexpr int32_t kMaxPortions = 100000;
@@ -106,7 +118,7 @@ class SnapshotAssembler {
   void Carry();
 
   int32_t robot_;
-  std::shared_ptr<const PlaceBodies> known_;
+  std::shared_ptr<const KnownDigests> known_;
   int64_t version_ = -1;
   int64_t boot_id_ = 0;
   int64_t digest_ = 0;
@@ -119,6 +131,7 @@ class SnapshotAssembler {
   std::map<int32_t, memory_portion_v2_t> structure_;
   std::vector<std::shared_ptr<const learned_place_v2_t>> bodies_;  ///< by place index
   std::vector<bool> received_;    ///< body i came in a portion (its digest is still to check)
+  std::vector<bool> kept_;        ///< body i is a known one, loaded by Take
   std::vector<int64_t> digests_;  ///< of body i when it was filled in (known or carried)
   PlaceBodies carried_;           ///< bodies of the version this assembly replaced
   int32_t bodies_present_ = 0;

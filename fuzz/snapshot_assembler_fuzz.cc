@@ -39,16 +39,23 @@ extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
     digests[version] = tsc::SnapshotDigest(of_version);
   }
   std::optional<tsc::SnapshotAssembler> dut(std::in_place, portions.front().robot);
+  tsc::PlaceBodies kept;
   for (tsc::memory_portion_v2_t& p : portions) {
     p.digest = digests[p.version];
     dut->Accept(p);
     (void)dut->Missing();
     if (!dut->complete()) continue;
-    auto known = std::make_shared<const tsc::PlaceBodies>(dut->Bodies());
+    auto known = std::make_shared<const tsc::KnownDigests>(dut->Named());
     std::string reason;
-    const std::optional<tsc::PeerSnapshot> snapshot = dut->Take(&reason);
+    const std::optional<tsc::PeerSnapshot> snapshot =
+        dut->Take(&reason, [&](const tsc::KnownDigests&) { return kept; });
     dut.emplace(portions.front().robot, std::move(known));
     if (!snapshot) continue;
+    // What a receiver keeps of it for the next (tscd: in its store).
+    kept.clear();
+    for (size_t i = 0; i < snapshot->places.size(); ++i) {
+      kept.emplace(snapshot->entries[i].body_digest, snapshot->places[i]);
+    }
     try {
       (void)tsc::ToPlaceMemory(*snapshot, tsc::PlaceMemoryOptions{});
       (void)tsc::ToTopologicalMap(*snapshot);

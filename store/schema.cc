@@ -10,7 +10,7 @@ namespace {
 // Schema. kMigrations[v] takes a database from version v to v + 1; a step that has shipped is
 // never edited, a change is a new step appended here.
 
-constexpr std::array<const char*, 5> kMigrations = {
+constexpr std::array<const char*, 6> kMigrations = {
     // Version 1: the initial schema, after appendix D.2.
     R"sql(
 CREATE TABLE meta(key TEXT PRIMARY KEY, value) WITHOUT ROWID;
@@ -99,6 +99,16 @@ CREATE TABLE copy_evidence(
   count INTEGER NOT NULL,           -- revisits that showed the pair
   last INTEGER NOT NULL,            -- detected place index of the latest
   PRIMARY KEY(a_robot, a_local, b_robot, b_local)) WITHOUT ROWID;
+)sql",
+    // Version 6: the place bodies of the peer memories merged last (issue 23), so the next
+    // exchange with a peer, after a restart too, fetches only what changed; tscd kept them in
+    // memory before, a second copy of each peer's memory.
+    R"sql(
+CREATE TABLE peer_bodies(
+  robot INTEGER NOT NULL,
+  digest INTEGER NOT NULL,          -- BodyDigest: SHA-256 prefix of `body`
+  body BLOB NOT NULL,               -- learned_place_v2_t, LCM encoding without fingerprint
+  PRIMARY KEY(robot, digest));
 )sql",
 };
 static_assert(static_cast<int>(kMigrations.size()) == Store::kSchemaVersion);

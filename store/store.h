@@ -5,12 +5,16 @@
 
 #include <cstdint>
 #include <filesystem>
+#include <functional>
 #include <map>
 #include <memory>
 #include <optional>
 #include <span>
 #include <stdexcept>
 #include <string>
+#include <unordered_set>
+#include <utility>
+#include <vector>
 
 #include "core/pipeline/pipeline.h"
 #include "store/store_options.h"
@@ -69,7 +73,7 @@ class Store {
  public:
   /// Schema version this code writes; Open() migrates older databases up to it and refuses
   /// newer ones.
-  static constexpr int kSchemaVersion = 5;
+  static constexpr int kSchemaVersion = 6;
 
   /// Opens or creates the database; creates or migrates the schema. Throws StoreError.
   static Store Open(const std::filesystem::path& path);
@@ -157,6 +161,22 @@ class Store {
   std::vector<std::pair<PlaceId, std::vector<BaseIndex>>> LoadAssignments() const;
   /// The peers merged so far, by robot id. Throws StoreError.
   std::map<uint32_t, PeerMerge> LoadPeers() const;
+
+  /// The place bodies of peer memories (store/peer_bodies.cc): what the exchange received, kept
+  /// so that the next exchange with that peer fetches only the bodies it does not name. A
+  /// cache: a body missing or damaged is fetched again, so each call is its own transaction.
+  /// Digests of the bodies kept, by robot. Throws StoreError.
+  std::map<uint32_t, std::vector<int64_t>> LoadPeerBodyDigests() const;
+  /// f(digest, encoded body) for every body of `robot` kept. Throws StoreError.
+  void ForEachPeerBody(uint32_t robot,
+                       const std::function<void(int64_t, std::span<const unsigned char>)>& f) const;
+  /// Keeps `bodies` (digest, encoded body) of `robot`, replacing one of the same digest. Throws
+  /// StoreError (rolled back).
+  void AddPeerBodies(uint32_t robot,
+                     std::span<const std::pair<int64_t, std::vector<unsigned char>>> bodies);
+  /// Drops the bodies of `robot` whose digest is not among `named`. Throws StoreError (rolled
+  /// back).
+  void KeepOnlyPeerBodies(uint32_t robot, const std::unordered_set<int64_t>& named);
 
   const std::filesystem::path& path() const { return path_; }
   int schema_version() const;

@@ -88,6 +88,7 @@ class PipelineWorkerTest : public ::testing::Test {
               failed_robot_ = robot;
               merge_failed_.Set();
             },
+        .bodies_not_kept = [this](int32_t robot) { not_kept_robot_ = robot; },
         .snapshot_ready = [this] { snapshot_ready_.Set(); },
     };
   }
@@ -100,6 +101,7 @@ class PipelineWorkerTest : public ::testing::Test {
   JoinGate join_{false, {}, {}, JoinGate::Clock::now()};
   Signal inside_merge_, release_merge_, snapshot_ready_, merge_failed_;
   std::atomic<int32_t> failed_robot_{0};
+  std::atomic<int32_t> not_kept_robot_{0};
 };
 
 TEST_F(PipelineWorkerTest, AnIdleWorkerAnswersARequestWithItsCurrentSnapshot) {

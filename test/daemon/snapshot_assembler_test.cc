@@ -150,8 +150,16 @@ TEST(SnapshotAssembler, KnownBodiesLeaveOnlyTheChangedPlaceToAskFor) {
   SnapshotAssembler first(2);
   for (const memory_portion_v2_t& p : AllPortions(v1)) first.Accept(p);
   ASSERT_TRUE(first.complete());
-  const auto known = std::make_shared<const PlaceBodies>(first.Bodies());
-  EXPECT_EQ(known->size(), 80u);
+  const auto known = std::make_shared<const KnownDigests>(first.Named());
+  EXPECT_EQ(*known, KnownDigests(v1.body_digests.begin(), v1.body_digests.end()));
+  // What the receiver keeps them in (tscd: its store).
+  PlaceBodies kept;
+  for (size_t i = 0; i < v1.bodies.size(); ++i) kept.emplace(v1.body_digests[i], v1.bodies[i]);
+  KnownDigests asked;
+  const BodyLoader load = [&](const KnownDigests& digests) {
+    asked = digests;
+    return kept;
+  };
 
   DetectedPlace revisit;  // place 12 seen again: its mean and samples change
   revisit.index = 81;
@@ -177,15 +185,38 @@ TEST(SnapshotAssembler, KnownBodiesLeaveOnlyTheChangedPlaceToAskFor) {
   ASSERT_TRUE(dut.complete());
   EXPECT_EQ(dut.buffered(), static_cast<size_t>(v2.structure_portions) + 1);
   std::string reason;
-  const auto got = dut.Take(&reason);
+  const auto got = dut.Take(&reason, load);
   ASSERT_TRUE(got.has_value()) << reason;
+  EXPECT_EQ(asked.size(), 79u);  // every body but the one that came
+  EXPECT_FALSE(asked.count(v2.body_digests[12]));
   ASSERT_EQ(got->places.size(), 80u);
   for (size_t i = 0; i < 80; ++i) {
     const learned_place_v2_t& want = *v2.bodies[i];
     EXPECT_EQ(got->places[i]->mean, want.mean) << i;
     EXPECT_EQ(got->places[i]->samples, want.samples) << i;
   }
-  EXPECT_EQ(got->places[0], known->at(v1.body_digests[0]));  // shared, not copied
+  EXPECT_EQ(got->places[0], v1.bodies[0]);  // as loaded, not copied
+}
+
+// A known body the receiver no longer keeps (its store lost or damaged it): the snapshot is
+// refused with the reason, and the assembler starts over (tscd then fetches the memory whole).
+TEST(SnapshotAssembler, AKnownBodyNoLongerKeptRefusesTheSnapshot) {
+  auto m = testing_support::MakeRandomMemory(2, 30, kDim, 30);
+  const MemorySnapshot v1 = BuildSnapshot(m.memory, m.map, {2, 77, 1, 1}, 4096);
+  const auto known =
+      std::make_shared<const KnownDigests>(v1.body_digests.begin(), v1.body_digests.end());
+  PlaceBodies kept;
+  for (size_t i = 0; i + 1 < v1.bodies.size(); ++i) kept.emplace(v1.body_digests[i], v1.bodies[i]);
+  for (const BodyLoader& load :
+       {BodyLoader{}, BodyLoader([&](const KnownDigests&) { return kept; })}) {
+    SnapshotAssembler dut(2, known);
+    for (int32_t i = 0; i < v1.structure_portions; ++i) dut.Accept(v1.Portion(i));
+    ASSERT_TRUE(dut.complete());  // every body known
+    std::string reason;
+    EXPECT_FALSE(dut.Take(&reason, load).has_value());
+    EXPECT_EQ(reason, "a place body kept from an earlier version is no longer kept");
+    EXPECT_FALSE(dut.started());
+  }
 }
 
 // A peer whose memory changes while we assemble it: the bodies received of the version given
@@ -226,15 +257,18 @@ TEST(SnapshotAssembler, AReceivedBodyMustMatchItsEntry) {
   SnapshotAssembler first(2);
   for (const memory_portion_v2_t& p : AllPortions(snap)) first.Accept(p);
   ASSERT_TRUE(first.complete());
-  SnapshotAssembler dut(2, std::make_shared<const PlaceBodies>(first.Bodies()));
+  SnapshotAssembler dut(2, std::make_shared<const KnownDigests>(first.Named()));
   memory_portion_v2_t swapped = snap.Portion(snap.structure_portions + 1);
   swapped.places[0] = snap.Portion(snap.structure_portions).places[0];
   swapped.first_place = 1;
   for (int32_t i = 0; i < snap.structure_portions; ++i) dut.Accept(snap.Portion(i));
   ASSERT_TRUE(dut.complete());  // every body known
   ASSERT_EQ(dut.Accept(swapped).verdict, SnapshotAssembler::Verdict::kAccepted);
+  PlaceBodies kept;
+  for (size_t i = 0; i < snap.bodies.size(); ++i)
+    kept.emplace(snap.body_digests[i], snap.bodies[i]);
   std::string reason;
-  EXPECT_FALSE(dut.Take(&reason).has_value());
+  EXPECT_FALSE(dut.Take(&reason, [&](const KnownDigests&) { return kept; }).has_value());
   EXPECT_EQ(reason, "a place body does not match its digest");
 }
 

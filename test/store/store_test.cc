@@ -456,8 +456,8 @@ TEST_F(StoreTest, RecommittingAResultIsHarmless) {
 
 TEST_F(StoreTest, NewDatabaseHasTheCurrentSchemaVersionAndAnEmptyMemory) {
   Store dut = Store::Open(path_);
-  EXPECT_EQ(dut.schema_version(), 5);
-  EXPECT_EQ(Store::kSchemaVersion, 5);
+  EXPECT_EQ(dut.schema_version(), 6);
+  EXPECT_EQ(Store::kSchemaVersion, 6);
   EXPECT_EQ(dut.path(), path_);
   const StoredState loaded = dut.Load(kRobot, Options().memory);
   EXPECT_TRUE(loaded.memory.empty());
@@ -466,7 +466,7 @@ TEST_F(StoreTest, NewDatabaseHasTheCurrentSchemaVersionAndAnEmptyMemory) {
   ExpectSameState(PipelineState{}, loaded.pipeline);
   // Reopening an up-to-date database changes nothing.
   Store again = Store::Open(path_);
-  EXPECT_EQ(again.schema_version(), 5);
+  EXPECT_EQ(again.schema_version(), 6);
   EXPECT_EQ(Sql(path_, "SELECT COUNT(*) FROM schema_version"), 1);
 }
 
@@ -488,15 +488,15 @@ TEST_F(StoreTest, OpenExistingRefusesAMissingDatabaseAndCreatesNothing) {
 
 TEST_F(StoreTest, OpenRefusesANewerSchemaVersion) {
   { Store::Open(path_); }
-  Sql(path_, "UPDATE schema_version SET version = 6");
+  Sql(path_, "UPDATE schema_version SET version = 7");
   try {
     Store::Open(path_);
-    FAIL() << "a database of schema version 6 was opened";
+    FAIL() << "a database of schema version 7 was opened";
   } catch (const StoreError& e) {
     const std::string what = e.what();
     EXPECT_NE(what.find(path_.string()), std::string::npos) << what;
+    EXPECT_NE(what.find("version 7"), std::string::npos) << what;
     EXPECT_NE(what.find("version 6"), std::string::npos) << what;
-    EXPECT_NE(what.find("version 5"), std::string::npos) << what;
   }
 }
 
@@ -528,9 +528,10 @@ TEST_F(StoreTest, MigratesAVersionOneDatabaseKeepingItsKnowledge) {
   Sql(path_, "ALTER TABLE learned_places DROP COLUMN sources");
   Sql(path_, "ALTER TABLE peers DROP COLUMN digest");
   Sql(path_, "DROP TABLE copy_evidence");
+  Sql(path_, "DROP TABLE peer_bodies");
   Sql(path_, "UPDATE schema_version SET version = 1");
   Store dut = Store::Open(path_);
-  EXPECT_EQ(dut.schema_version(), 5);
+  EXPECT_EQ(dut.schema_version(), 6);
   EXPECT_TRUE(dut.LoadPeers().empty());
   const StoredState loaded = dut.Load(kRobot, Options().memory);
   ExpectSameMemory(memory, loaded.memory);
@@ -569,13 +570,14 @@ TEST_F(StoreTest, ReadsMemberViewsOfTheFloat32Layout) {
                    " WHERE position = " + std::to_string(i));
   }
   Sql(path_, "DROP TABLE copy_evidence");
+  Sql(path_, "DROP TABLE peer_bodies");
   Sql(path_, "UPDATE schema_version SET version = 3");
   EXPECT_EQ(Sql(path_,
                 "SELECT COUNT(*) FROM learned_places WHERE substr(samples, 1, 4) = "
                 "X'ffffffff'"),
             0);
   Store dut = Store::Open(path_);
-  EXPECT_EQ(dut.schema_version(), 5);
+  EXPECT_EQ(dut.schema_version(), 6);
   ExpectSameMemory(memory, dut.Load(kRobot, Options().memory).memory);
 }
 
@@ -639,6 +641,40 @@ TEST_F(StoreTest, ReplaceKnowledgeRoundTripsMergedPlacesAndMap) {
   const StoredState loaded = other.Load(kRobot, Options().memory);
   ExpectSameMemory(merged, loaded.memory);
   ExpectSameMap(map, loaded.map);
+}
+
+// The peer bodies the exchange keeps (issue 23): added, replaced by digest, dropped when the
+// peer's next memory no longer names them, per robot, and there after a reopen.
+TEST_F(StoreTest, PeerBodiesAreKeptByRobotAndDigestUntilNoLongerNamed) {
+  using Body = std::pair<int64_t, std::vector<unsigned char>>;
+  const auto bodies_of = [](const Store& store, uint32_t robot) {
+    std::map<int64_t, std::vector<unsigned char>> got;
+    store.ForEachPeerBody(robot, [&](int64_t digest, std::span<const unsigned char> bytes) {
+      got.emplace(digest, std::vector<unsigned char>(bytes.begin(), bytes.end()));
+    });
+    return got;
+  };
+  {
+    Store dut = Store::Open(path_);
+    EXPECT_TRUE(dut.LoadPeerBodyDigests().empty());
+    const std::vector<Body> seven{
+        {-5, {1, 2, 3}}, {11, {4}}, {12, std::vector<unsigned char>(20000, 9)}};
+    dut.AddPeerBodies(7, seven);
+    dut.AddPeerBodies(8, std::vector<Body>{{11, {8, 8}}});
+    dut.AddPeerBodies(7, std::vector<Body>{{11, {5, 6}}});  // the same digest: replaced
+    dut.KeepOnlyPeerBodies(7, {-5, 11, 99});
+  }
+  const Store dut = Store::Open(path_);
+  const auto digests = dut.LoadPeerBodyDigests();
+  ASSERT_EQ(digests.size(), 2u);
+  EXPECT_EQ(digests.at(7), (std::vector<int64_t>{-5, 11}));
+  EXPECT_EQ(digests.at(8), (std::vector<int64_t>{11}));
+  const auto seven = bodies_of(dut, 7);
+  ASSERT_EQ(seven.size(), 2u);
+  EXPECT_EQ(seven.at(-5), (std::vector<unsigned char>{1, 2, 3}));
+  EXPECT_EQ(seven.at(11), (std::vector<unsigned char>{5, 6}));
+  EXPECT_EQ(bodies_of(dut, 8).at(11), (std::vector<unsigned char>{8, 8}));
+  EXPECT_TRUE(bodies_of(dut, 9).empty());
 }
 
 /// A memory with learned places, recognitions, map edges and a peer's version, and base point

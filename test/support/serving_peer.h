@@ -59,6 +59,11 @@ class ServingPeer {
   void StartAnnouncing() { announcing_ = true; }
   /// Requests received so far.
   int64_t requests() const { return requests_; }
+  /// The portions sent so far, by index (each once, however often asked for).
+  std::set<int32_t> served() const {
+    std::lock_guard lock(mutex_);
+    return served_;
+  }
   std::vector<HeardAnnounce> announces() const {
     std::lock_guard lock(mutex_);
     return announces_;
@@ -97,6 +102,10 @@ class ServingPeer {
       for (int32_t i : batch) {
         const memory_portion_v2_t portion = snapshot_.Portion(i);
         lcm_.publish("TSC_MEMORY_" + std::to_string(robot_), &portion);
+        {
+          std::lock_guard lock(mutex_);
+          served_.insert(i);
+        }
         std::this_thread::sleep_for(std::chrono::microseconds(300));
         lcm_.handleTimeout(0);
       }
@@ -130,6 +139,7 @@ class ServingPeer {
   std::atomic<bool> stop_{false}, announcing_;
   mutable std::mutex mutex_;
   std::vector<HeardAnnounce> announces_;
+  std::set<int32_t> served_;
   std::thread thread_;
 };
 
