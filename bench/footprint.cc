@@ -258,6 +258,14 @@ int Main(int argc, char** argv) {
     if (on_copy) fs::remove_all(run_dir);
     return 1;
   }
+  if (peer) {
+    // The merged memory, the peer's version and its place bodies (kept for its next exchange).
+    const uint64_t bytes = FileBytes(run_dir / "memory.db") + FileBytes(run_dir / "memory.db-wal");
+    char line[160];
+    std::snprintf(line, sizeof line, "database after the merge %.1f MB\n",
+                  static_cast<double>(bytes) / (1 << 20));
+    merged_report += line;
+  }
   if (!keep) fs::remove_all(dir);
   if (on_copy) fs::remove_all(run_dir);
 

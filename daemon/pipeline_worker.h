@@ -142,10 +142,10 @@ class PipelineWorker {
   void CommitOrKeep(FrameResult result);
   void MergePeers();
   void MergeInbox(std::vector<SnapshotAssembler> inbox);
-  void MergePeer(const PeerSnapshot& snapshot);
+  void MergePeer(PeerSnapshot snapshot);
   /// The bodies of `robot` the store keeps among `digests` (SnapshotAssembler::Take's loader).
   PlaceBodies LoadPeerBodies(int32_t robot, const KnownDigests& digests);
-  /// Keeps the bodies of `snapshot`, just merged, in the store for the next exchange.
+  /// Keeps the bodies of `snapshot`, about to be merged, in the store for the next exchange.
   void KeepPeerBodies(const PeerSnapshot& snapshot);
   /// Builds and hands over a snapshot when one was asked for (or `stale`: when the memory
   /// changed since the latest).

@@ -65,7 +65,7 @@ std::string CheckEntry(const place_entry_t& e) {
 
 }  // namespace
 
-PlaceMemory ToPlaceMemory(const PeerSnapshot& snapshot, const PlaceMemoryOptions& options) {
+PlaceMemory ToPlaceMemory(PeerSnapshot snapshot, const PlaceMemoryOptions& options) {
   if (snapshot.view_basis != ViewBasisId(options.view_basis.get())) {
     throw std::invalid_argument("robot " + std::to_string(snapshot.robot) +
                                 " keeps member views in another view basis (memory.view_basis)");
@@ -86,6 +86,7 @@ PlaceMemory ToPlaceMemory(const PeerSnapshot& snapshot, const PlaceMemoryOptions
     }
     std::sort(p.sources.begin(), p.sources.end());
     places.push_back(std::move(p));
+    snapshot.places[i].reset();
     const place_entry_t& e = snapshot.entries[i];
     pi.push_back(e.slink_pi);
     lambda.push_back(e.slink_lambda < 0 ? Slink::kInfinity : e.slink_lambda);

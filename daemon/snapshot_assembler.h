@@ -48,8 +48,10 @@ struct PeerSnapshot {
 };
 
 /// The peer's place memory rebuilt from a snapshot (SLINK state as published, discriminants
-/// retrained). Throws std::invalid_argument when the places do not make a valid memory.
-PlaceMemory ToPlaceMemory(const PeerSnapshot& snapshot, const PlaceMemoryOptions& options);
+/// retrained). Each body is let go once its place is built, so a snapshot moved in is not held
+/// beside the memory it becomes (a peer's bodies take twice its compact places). Throws
+/// std::invalid_argument when the places do not make a valid memory.
+PlaceMemory ToPlaceMemory(PeerSnapshot snapshot, const PlaceMemoryOptions& options);
 /// The peer's topological map (edges with traversal counts; no transition regions, which
 /// index the peer's own frames).
 TopologicalMap ToTopologicalMap(const PeerSnapshot& snapshot);
