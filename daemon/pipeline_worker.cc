@@ -277,6 +277,7 @@ void PipelineWorker::ServeBodies(bool last) {
     if (last) serving_bodies_ = false;  // later requests are served by their caller
   }
   for (BodyRequest& r : requests) r.done(ReadBodies(*r.snapshot, r.places));
+  if (!requests.empty()) freed_at_ = Clock::now();
 }
 
 PipelineWorker::Bodies PipelineWorker::ReadBodies(const MemorySnapshot& snapshot,
@@ -322,6 +323,7 @@ void PipelineWorker::Loop() {
     MergePeers();
     ServeSnapshot(false);
     ServeBodies();
+    TrimAfterBursts();
     if (!item) {
       if (queue_.closed()) {
         ServeSnapshot(true);  // the memory as it ends, for the last broadcast at stop
@@ -415,9 +417,16 @@ void PipelineWorker::MergePeers() {
   }
   if (inbox.empty()) return;
   MergeInbox(std::move(inbox));
+  freed_at_ = Clock::now();
+}
+
+void PipelineWorker::TrimAfterBursts() {
   // A merge frees about as much as the memory weighs (the peer's memory, the one replaced, the
-  // peer's bodies), in small blocks glibc keeps resident: ~260 MB after a 10⁴-place merge
-  // (issue 23). Handed back here, after every merge, where a few ms do not matter.
+  // peer's bodies), and sending a memory a body per place; glibc keeps what they freed resident
+  // (~260 MB after a 10⁴-place merge, issue 23). Handed back once such a burst has been over a
+  // second, the broadcast that follows a merge included: a few ms, seldom.
+  if (!freed_at_ || Clock::now() - *freed_at_ < std::chrono::seconds(1)) return;
+  freed_at_.reset();
   malloc_trim(0);
 }
 

@@ -142,6 +142,8 @@ class PipelineWorker {
   void CommitOrKeep(FrameResult result);
   void MergePeers();
   void MergeInbox(std::vector<SnapshotAssembler> inbox);
+  /// Returns the heap freed by merges and bodies served to the system, once they are over.
+  void TrimAfterBursts();
   void MergePeer(PeerSnapshot snapshot);
   /// The bodies of `robot` the store keeps among `digests` (SnapshotAssembler::Take's loader).
   PlaceBodies LoadPeerBodies(int32_t robot, const KnownDigests& digests);
@@ -188,6 +190,8 @@ class PipelineWorker {
   int64_t base_points_thinned_ = 0;                           // by Maintain since the start
   std::map<uint32_t, PeerMerge> saved_peers_;
   std::map<uint32_t, std::vector<int64_t>> kept_peer_bodies_;
+  // The last merge or bodies served, not trimmed since (TrimAfterBursts).
+  std::optional<std::chrono::steady_clock::time_point> freed_at_;
   bool started_empty_ = false;
   int base_point_stride_ = 1;
   bool spacing_assumed_ = true;
