@@ -14,6 +14,7 @@
 #include <thread>
 #include <vector>
 
+#include "store/store.h"
 #include "test/support/random_memory.h"
 #include "test/support/temp_dir.h"
 
@@ -206,6 +207,12 @@ TEST_F(PipelineWorkerTest, ASnapshotServesTheBodiesItNamedUntilAMergeReplacesThe
   dut.Join();
   EXPECT_TRUE(AllBodies(dut, two).empty());
   ExpectNamedBodies(*three, AllBodies(dut, three));
+  // The bodies of the peer's last memory are in the store for its next exchange (issue 23).
+  EXPECT_EQ(not_kept_robot_, 0);
+  const auto kept = Store::Open(temp_.path() / "memory.db").LoadPeerBodyDigests();
+  ASSERT_EQ(kept.size(), 2u);
+  EXPECT_EQ(kept.at(2).size(), 20u);
+  EXPECT_EQ(kept.at(3).size(), 12u);
 }
 
 }  // namespace
