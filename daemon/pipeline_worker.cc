@@ -491,18 +491,16 @@ void PipelineWorker::KeepPeerBodies(const PeerSnapshot& snapshot) {
     return;
   }
   try {
-    const auto kept = store_->LoadPeerBodyDigests();
-    std::unordered_set<int64_t> have;
-    if (const auto it = kept.find(static_cast<uint32_t>(robot)); it != kept.end()) {
-      have.insert(it->second.begin(), it->second.end());
-    }
+    std::unordered_set<int64_t> named;
+    for (const place_entry_t& e : snapshot.entries) named.insert(e.body_digest);
+    // What the peer's earlier memory left that this one still names; the rest is added.
+    std::unordered_set<int64_t> have =
+        store_->KeepOnlyPeerBodies(static_cast<uint32_t>(robot), named);
     // In batches, so a memory of 10⁵ places is not encoded at once beside itself.
     constexpr size_t kBatch = 256;
     std::vector<std::pair<int64_t, std::vector<unsigned char>>> batch;
-    std::unordered_set<int64_t> named;
     for (size_t i = 0; i < snapshot.entries.size(); ++i) {
       const int64_t digest = snapshot.entries[i].body_digest;
-      named.insert(digest);
       if (!have.insert(digest).second) continue;
       batch.emplace_back(digest, EncodeBody(*snapshot.places[i]));
       if (batch.size() == kBatch) {
@@ -511,7 +509,6 @@ void PipelineWorker::KeepPeerBodies(const PeerSnapshot& snapshot) {
       }
     }
     if (!batch.empty()) store_->AddPeerBodies(static_cast<uint32_t>(robot), batch);
-    store_->KeepOnlyPeerBodies(static_cast<uint32_t>(robot), named);
   } catch (const StoreError& e) {
     spdlog::warn(
         "the bodies of robot {}'s places were not kept ({}): its next exchange fetches them "

@@ -4,6 +4,7 @@
 
 #include <limits>
 #include <string>
+#include <unordered_set>
 #include <vector>
 
 #include "store/sqlite_db.h"
@@ -57,21 +58,28 @@ void Store::AddPeerBodies(uint32_t robot,
   tx.Commit();
 }
 
-void Store::KeepOnlyPeerBodies(uint32_t robot, const std::unordered_set<int64_t>& named) {
+std::unordered_set<int64_t> Store::KeepOnlyPeerBodies(uint32_t robot,
+                                                      const std::unordered_set<int64_t>& named) {
   const Db db{db_, path_};
   Transaction tx(db);
+  std::unordered_set<int64_t> kept;
   std::vector<int64_t> gone;
   {
     Statement s(db, "SELECT digest FROM peer_bodies WHERE robot = ?1");
     s.Int(1, robot);
     while (s.Step()) {
       const int64_t digest = Row(db, s, "peer_bodies", "?").Int(0, "digest");
-      if (!named.count(digest)) gone.push_back(digest);
+      if (named.count(digest)) {
+        kept.insert(digest);
+      } else {
+        gone.push_back(digest);
+      }
     }
   }
   Statement drop(db, "DELETE FROM peer_bodies WHERE robot = ?1 AND digest = ?2");
   for (const int64_t digest : gone) drop.Int(1, robot).Int(2, digest).Run();
   tx.Commit();
+  return kept;
 }
 
 }  // namespace tsc

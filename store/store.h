@@ -174,9 +174,10 @@ class Store {
   /// StoreError (rolled back).
   void AddPeerBodies(uint32_t robot,
                      std::span<const std::pair<int64_t, std::vector<unsigned char>>> bodies);
-  /// Drops the bodies of `robot` whose digest is not among `named`. Throws StoreError (rolled
-  /// back).
-  void KeepOnlyPeerBodies(uint32_t robot, const std::unordered_set<int64_t>& named);
+  /// Drops the bodies of `robot` whose digest is not among `named`; returns the digests of
+  /// those kept. Throws StoreError (rolled back).
+  std::unordered_set<int64_t> KeepOnlyPeerBodies(uint32_t robot,
+                                                 const std::unordered_set<int64_t>& named);
 
   const std::filesystem::path& path() const { return path_; }
   int schema_version() const;

@@ -14,6 +14,7 @@
 #include <random>
 #include <set>
 #include <string>
+#include <unordered_set>
 #include <vector>
 
 #include "core/merge/consolidate.h"
@@ -662,7 +663,7 @@ TEST_F(StoreTest, PeerBodiesAreKeptByRobotAndDigestUntilNoLongerNamed) {
     dut.AddPeerBodies(7, seven);
     dut.AddPeerBodies(8, std::vector<Body>{{11, {8, 8}}});
     dut.AddPeerBodies(7, std::vector<Body>{{11, {5, 6}}});  // the same digest: replaced
-    dut.KeepOnlyPeerBodies(7, {-5, 11, 99});
+    EXPECT_EQ(dut.KeepOnlyPeerBodies(7, {-5, 11, 99}), (std::unordered_set<int64_t>{-5, 11}));
   }
   const Store dut = Store::Open(path_);
   const auto digests = dut.LoadPeerBodyDigests();
