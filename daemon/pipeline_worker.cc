@@ -46,6 +46,9 @@ std::vector<fs::path> SpillFolders(const fs::path& db_path) {
 
 constexpr const char* kSpillPrefix = "memory.db.spill.";
 
+// Absorptions a merge's log line names before it counts the rest.
+constexpr size_t kLoggedAbsorptions = 20;
+
 // The spills waiting in `folders`, oldest first (their names end in the writer's wall time).
 std::vector<fs::path> FindSpills(const std::vector<fs::path>& folders) {
   std::vector<std::pair<std::string, fs::path>> found;
@@ -539,15 +542,23 @@ void PipelineWorker::MergePeer(PeerSnapshot snapshot) {
   bool changed = false;
   {
     places_before = pipeline_->memory().places().size();
-    MemoryMerge merged = MergeMemories(pipeline_->memory(), peer, settings_.daemon.MergeThreads());
+    MemoryMerge merged =
+        MergeMemories(pipeline_->memory(), std::move(peer), settings_.daemon.MergeThreads());
     merge_case = merged.merge_case;
     peer_into_ours = merged.peer_into_ours;
     added = merged.added.size();
     for (const Absorption& a : merged.absorbed) {
       absorbed.emplace_back(a.source, a.target);
+      // The first ones only: a merge of two large memories absorbs thousands (a 10⁴-place
+      // peer made one log line of 260 KB). The place events published after the merge and the
+      // merged places' sources keep every one.
+      if (absorbed.size() > kLoggedAbsorptions) continue;
       absorptions += fmt::format("{}{} into {} ({})", absorptions.empty() ? "" : ", ",
                                  a.source.ToString(), a.target.ToString(),
                                  a.cost > 0.0 ? fmt::format("g {:.2f}", a.cost) : "joined by ids");
+    }
+    if (absorbed.size() > kLoggedAbsorptions) {
+      absorptions += fmt::format(" and {} more", absorbed.size() - kLoggedAbsorptions);
     }
     TopologicalMap map = MergeMaps(pipeline_->map(), peer_map, merged.memory);
     changed = MergeChangesAnything(merged, map, pipeline_->map());

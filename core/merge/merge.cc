@@ -125,4 +125,9 @@ MemoryMerge MergeMemories(PlaceMemory&& ours, PlaceMemory&& peer, int threads) {
   return Merge(ours, peer, &ours, &peer, threads);
 }
 
+MemoryMerge MergeMemories(const PlaceMemory& ours, PlaceMemory&& peer, int threads) {
+  if (&ours == &peer) return Merge(ours, peer, nullptr, nullptr, threads);
+  return Merge(ours, peer, nullptr, &peer, threads);
+}
+
 }  // namespace tsc

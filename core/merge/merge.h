@@ -57,5 +57,8 @@ MemoryMerge MergeMemories(const PlaceMemory& ours, const PlaceMemory& peer, int 
 /// (at 10⁴ + 10⁴ places the copies were about a third of the merge). Same result as the
 /// copying form; the inputs are left valid but unspecified (their places moved out).
 MemoryMerge MergeMemories(PlaceMemory&& ours, PlaceMemory&& peer, int threads = 1);
+/// The same merge giving up only the peer's memory (a daemon merging a received snapshot keeps
+/// its own memory until the merge has succeeded): the peer's places are moved, ours copied.
+MemoryMerge MergeMemories(const PlaceMemory& ours, PlaceMemory&& peer, int threads = 1);
 
 }  // namespace tsc

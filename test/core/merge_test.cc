@@ -555,8 +555,9 @@ TEST(MergeMemories, ARobotWithAWipedStoreTakesItsPlacesBackAndNumbersOnAfterThem
   EXPECT_EQ(from_sources.memory.next_local_id(), 2u);
 }
 
-// The form that takes its inputs' places instead of copying them gives the same merge in every
-// case (peer into ours and ours into the larger peer, absorbed, added, known, fresher copy).
+// The forms that take their inputs' places instead of copying them (both memories, or the
+// peer's alone as the daemon does) give the same merge in every case (peer into ours and ours
+// into the larger peer, absorbed, added, known, fresher copy).
 TEST(MergeMemories, GivingUpTheInputsGivesTheSameMerge) {
   const PlaceMemory a = MakeMemory(1, {At(0), At(1.5f), At(3), At(4.5f), At(3, 1.5f)}, 10);
   PlaceMemory b(2, UnitScale());
@@ -571,39 +572,44 @@ TEST(MergeMemories, GivingUpTheInputsGivesTheSameMerge) {
       {&a, &b}, {&b, &a}, {&a, &far}, {&far, &a}, {&ab, &b}, {&b, &ab}, {&late, &ab}};
   for (const auto& [ours, peer] : pairs) {
     const MemoryMerge copied = MergeMemories(*ours, *peer);
-    PlaceMemory ours_copy = *ours, peer_copy = *peer;
-    const MemoryMerge dut = MergeMemories(std::move(ours_copy), std::move(peer_copy));
-    SCOPED_TRACE(std::string(ToString(copied.merge_case)) + " robot " +
-                 std::to_string(ours->robot()) + " + robot " + std::to_string(peer->robot()));
-    EXPECT_EQ(dut.merge_case, copied.merge_case);
-    EXPECT_EQ(dut.peer_into_ours, copied.peer_into_ours);
-    ASSERT_EQ(dut.absorbed.size(), copied.absorbed.size());
-    for (size_t i = 0; i < dut.absorbed.size(); ++i) {
-      EXPECT_EQ(dut.absorbed[i].source, copied.absorbed[i].source);
-      EXPECT_EQ(dut.absorbed[i].target, copied.absorbed[i].target);
-      EXPECT_EQ(dut.absorbed[i].cost, copied.absorbed[i].cost);
-    }
-    EXPECT_EQ(dut.added, copied.added);
-    EXPECT_EQ(dut.known, copied.known);
-    EXPECT_EQ(dut.retrained, copied.retrained);
-    ExpectSameMemory(dut.memory, copied.memory);
-    ASSERT_EQ(dut.memory.places().size(), copied.memory.places().size());
-    for (size_t i = 0; i < dut.memory.places().size(); ++i) {
-      EXPECT_EQ(dut.memory.places()[i].members, copied.memory.places()[i].members);
-      EXPECT_EQ(dut.memory.places()[i].detected, copied.memory.places()[i].detected);
-    }
-    EXPECT_EQ(dut.memory.slink().pi(), copied.memory.slink().pi());
-    EXPECT_EQ(dut.memory.slink().lambda(), copied.memory.slink().lambda());
-    for (size_t n = 0; n < dut.memory.nodes().size(); ++n) {
-      EXPECT_EQ(dut.memory.discriminants()[n].trained(),
-                copied.memory.discriminants()[n].trained());
-      if (dut.memory.discriminants()[n].trained()) {
-        EXPECT_EQ(dut.memory.discriminants()[n].rho(), copied.memory.discriminants()[n].rho());
-        EXPECT_EQ(dut.memory.discriminants()[n].support(),
-                  copied.memory.discriminants()[n].support());
+    for (const bool give_up_ours : {true, false}) {
+      PlaceMemory ours_copy = *ours, peer_copy = *peer;
+      const MemoryMerge dut = give_up_ours
+                                  ? MergeMemories(std::move(ours_copy), std::move(peer_copy))
+                                  : MergeMemories(*ours, std::move(peer_copy));
+      SCOPED_TRACE(std::string(ToString(copied.merge_case)) + " robot " +
+                   std::to_string(ours->robot()) + " + robot " + std::to_string(peer->robot()) +
+                   (give_up_ours ? ", both given up" : ", the peer given up"));
+      EXPECT_EQ(dut.merge_case, copied.merge_case);
+      EXPECT_EQ(dut.peer_into_ours, copied.peer_into_ours);
+      ASSERT_EQ(dut.absorbed.size(), copied.absorbed.size());
+      for (size_t i = 0; i < dut.absorbed.size(); ++i) {
+        EXPECT_EQ(dut.absorbed[i].source, copied.absorbed[i].source);
+        EXPECT_EQ(dut.absorbed[i].target, copied.absorbed[i].target);
+        EXPECT_EQ(dut.absorbed[i].cost, copied.absorbed[i].cost);
       }
+      EXPECT_EQ(dut.added, copied.added);
+      EXPECT_EQ(dut.known, copied.known);
+      EXPECT_EQ(dut.retrained, copied.retrained);
+      ExpectSameMemory(dut.memory, copied.memory);
+      ASSERT_EQ(dut.memory.places().size(), copied.memory.places().size());
+      for (size_t i = 0; i < dut.memory.places().size(); ++i) {
+        EXPECT_EQ(dut.memory.places()[i].members, copied.memory.places()[i].members);
+        EXPECT_EQ(dut.memory.places()[i].detected, copied.memory.places()[i].detected);
+      }
+      EXPECT_EQ(dut.memory.slink().pi(), copied.memory.slink().pi());
+      EXPECT_EQ(dut.memory.slink().lambda(), copied.memory.slink().lambda());
+      for (size_t n = 0; n < dut.memory.nodes().size(); ++n) {
+        EXPECT_EQ(dut.memory.discriminants()[n].trained(),
+                  copied.memory.discriminants()[n].trained());
+        if (dut.memory.discriminants()[n].trained()) {
+          EXPECT_EQ(dut.memory.discriminants()[n].rho(), copied.memory.discriminants()[n].rho());
+          EXPECT_EQ(dut.memory.discriminants()[n].support(),
+                    copied.memory.discriminants()[n].support());
+        }
+      }
+      EXPECT_EQ(dut.memory.next_local_id(), copied.memory.next_local_id());
     }
-    EXPECT_EQ(dut.memory.next_local_id(), copied.memory.next_local_id());
   }
 }
 
@@ -655,6 +661,8 @@ TEST(MergeMemories, PlacesTakenOverUnchangedKeepWhatTheirMemoryDerived) {
     ExpectDerivedAsComputed(copied.memory);
     PlaceMemory ours_copy = *ours, peer_copy = *peer;
     ExpectDerivedAsComputed(MergeMemories(std::move(ours_copy), std::move(peer_copy)).memory);
+    PlaceMemory peer_given = *peer;
+    ExpectDerivedAsComputed(MergeMemories(*ours, std::move(peer_given)).memory);
   }
   EXPECT_GT(absorbed, 10);  // places did change: what they carried would be stale
 }
