@@ -533,6 +533,11 @@ void PipelineWorker::MergePeer(PeerSnapshot snapshot) {
   const int32_t robot = snapshot.robot;
   const int64_t version = snapshot.version, digest = snapshot.digest;
   PlaceMemory peer = ToPlaceMemory(std::move(snapshot), pipeline_->memory().options());
+  // The bodies decoded and let go while the places were built go back to the system before
+  // the merge allocates: glibc keeps them in holes between the built places, which the merge's
+  // larger blocks and other threads do not reuse. A 10⁴-place merge peaked at 720 MB RSS
+  // without, 559 MB with, for 0.26 s of trimming (tscd_footprint --peer-places 10000).
+  malloc_trim(0);
   std::vector<std::pair<PlaceId, PlaceId>> absorbed;
   std::string absorptions;  // for the log: which place went into which, and at what cost
   size_t places_before = 0, places_after = 0;
