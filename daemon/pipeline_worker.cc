@@ -532,7 +532,8 @@ void PipelineWorker::MergePeer(PeerSnapshot snapshot) {
   // the peak of a 10⁴-place merge; the bodies are in the store, KeepPeerBodies).
   const int32_t robot = snapshot.robot;
   const int64_t version = snapshot.version, digest = snapshot.digest;
-  PlaceMemory peer = ToPlaceMemory(std::move(snapshot), pipeline_->memory().options());
+  PlaceMemory peer = ToPlaceMemory(std::move(snapshot), pipeline_->memory().options(),
+                                   settings_.daemon.MergeThreads());
   // The bodies decoded and let go while the places were built go back to the system before
   // the merge allocates: glibc keeps them in holes between the built places, which the merge's
   // larger blocks and other threads do not reuse. A 10⁴-place merge peaked at 720 MB RSS

@@ -65,7 +65,7 @@ std::string CheckEntry(const place_entry_t& e) {
 
 }  // namespace
 
-PlaceMemory ToPlaceMemory(PeerSnapshot snapshot, const PlaceMemoryOptions& options) {
+PlaceMemory ToPlaceMemory(PeerSnapshot snapshot, const PlaceMemoryOptions& options, int threads) {
   if (snapshot.view_basis != ViewBasisId(options.view_basis.get())) {
     throw std::invalid_argument("robot " + std::to_string(snapshot.robot) +
                                 " keeps member views in another view basis (memory.view_basis)");
@@ -93,7 +93,7 @@ PlaceMemory ToPlaceMemory(PeerSnapshot snapshot, const PlaceMemoryOptions& optio
   }
   return PlaceMemory::Restore(static_cast<uint32_t>(snapshot.robot), options, std::move(places),
                               Slink(std::move(pi), std::move(lambda)),
-                              static_cast<uint32_t>(snapshot.next_local), {});
+                              static_cast<uint32_t>(snapshot.next_local), {}, {}, threads);
 }
 
 TopologicalMap ToTopologicalMap(const PeerSnapshot& snapshot) {

@@ -53,6 +53,37 @@ TEST(SnapshotAssembler, CompletesFromShuffledDuplicatedPortionsAfterAskingForThe
   for (const auto& p : got->places) EXPECT_EQ(p->id.local, expected_local++);
 }
 
+// The worker builds a peer's memory on its merge threads: the same memory on any number.
+TEST(ToPlaceMemory, BuildsTheSameMemoryOnAnyNumberOfThreads) {
+  const MemorySnapshot snap = MakeSnapshot(40, 1);
+  SnapshotAssembler assembler(2);
+  for (const memory_portion_v2_t& p : AllPortions(snap)) {
+    ASSERT_EQ(assembler.Accept(p).verdict, SnapshotAssembler::Verdict::kAccepted);
+  }
+  std::string reason;
+  const auto peer = assembler.Take(&reason);
+  ASSERT_TRUE(peer.has_value()) << reason;
+  const PlaceMemory one = ToPlaceMemory(*peer, PlaceMemoryOptions{}, 1);
+  const PlaceMemory three = ToPlaceMemory(*peer, PlaceMemoryOptions{}, 3);
+  ASSERT_EQ(one.places().size(), 40u);
+  ASSERT_EQ(three.places().size(), one.places().size());
+  EXPECT_EQ(three.slink().pi(), one.slink().pi());
+  EXPECT_EQ(three.slink().lambda(), one.slink().lambda());
+  for (int p = 0; p < static_cast<int>(one.places().size()); ++p) {
+    const LearnedPlace &a = one.places()[static_cast<size_t>(p)],
+                       &b = three.places()[static_cast<size_t>(p)];
+    EXPECT_EQ(b.id, a.id);
+    EXPECT_TRUE(b.mean == a.mean);
+    EXPECT_TRUE(b.samples.Decoded() == a.samples.Decoded());
+    const PlaceMemory::Derived da = one.DerivedOf(p), db = three.DerivedOf(p);
+    EXPECT_TRUE(db.view_centre == da.view_centre);
+    EXPECT_EQ(db.mean_norm, da.mean_norm);
+    EXPECT_EQ(db.spacing, da.spacing);
+    EXPECT_TRUE(db.keys.keys == da.keys.keys);
+    EXPECT_EQ(db.keys.norms, da.keys.norms);
+  }
+}
+
 TEST(SnapshotAssembler, RejectsForeignNonFiniteAndInconsistentPortions) {
   const MemorySnapshot snap = MakeSnapshot(12, 1);
   SnapshotAssembler dut(2);
