@@ -247,6 +247,13 @@ int Main(int argc, char** argv) {
                   peer_places, merged_s, settle_s, StatusMb(tscd.pid(), "VmRSS"),
                   StatusMb(tscd.pid(), "VmHWM"));
     merged_report = line;
+    // tscd's own account: the merge's case, places and time (building the peer's memory,
+    // merging and storing the result; not the transfer).
+    const std::string after = tscd.Log();
+    const size_t at = after.find("merged the memory of robot 2");
+    if (at != std::string::npos) {
+      merged_report += "tscd: " + after.substr(at, after.find('\n', at) - at) + "\n";
+    }
   }
   tscd.Signal(SIGTERM);
   const std::optional<int> status = tscd.Wait(std::chrono::seconds(60));

@@ -539,6 +539,7 @@ void PipelineWorker::MergePeer(PeerSnapshot snapshot) {
   // larger blocks and other threads do not reuse. A 10⁴-place merge peaked at 720 MB RSS
   // without, 559 MB with, for 0.26 s of trimming (tscd_footprint --peer-places 10000).
   malloc_trim(0);
+  const auto built = Clock::now();
   std::vector<std::pair<PlaceId, PlaceId>> absorbed;
   std::string absorptions;  // for the log: which place went into which, and at what cost
   size_t places_before = 0, places_after = 0;
@@ -576,18 +577,24 @@ void PipelineWorker::MergePeer(PeerSnapshot snapshot) {
     counters_.places = static_cast<int32_t>(places_after);
     counters_.edges = static_cast<int32_t>(pipeline_->map().edges().size());
   }
+  const auto merged_at = Clock::now();
   unsaved_merge_ = PeerMerge{static_cast<uint32_t>(robot), version, digest, NowUtime()};
   RetryStore(true);
   if (changed) {
     ++counters_.memory_version;
     ++counters_.merges_changed;
   }
-  const double ms = std::chrono::duration<double, std::milli>(Clock::now() - start).count();
+  const auto ms = [](Clock::time_point from, Clock::time_point to) {
+    return std::chrono::duration<double, std::milli>(to - from).count();
+  };
+  const auto end = Clock::now();
   spdlog::log(changed ? spdlog::level::info : spdlog::level::debug,
               "merged the memory of robot {} (version {}, {}): case {}, {} places absorbed, {} "
-              "added; {} -> {} places in {:.0f} ms",
+              "added; {} -> {} places in {:.0f} ms (its places built {:.0f}, merged {:.0f}, "
+              "stored {:.0f})",
               robot, version, peer_into_ours ? "into ours" : "ours into the larger peer memory",
-              ToString(merge_case), absorbed.size(), added, places_before, places_after, ms);
+              ToString(merge_case), absorbed.size(), added, places_before, places_after,
+              ms(start, end), ms(start, built), ms(built, merged_at), ms(merged_at, end));
   if (changed && !absorptions.empty()) spdlog::info("  absorbed: {}", absorptions);
   if (!join_->open()) {
     join_->PeerMerged();
