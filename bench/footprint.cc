@@ -15,7 +15,9 @@
 // serving P places of the same kind, half of them robot 1's, and once tscd logs that it merged
 // them and has settled again its RSS is read a second time, with the peak the merge reached. A
 // merge frees what it built; what the allocator keeps of that (GLIBC_TUNABLES set for this
-// program reaches tscd) shows here. The peer speaks the real exchange protocol over udpm://,
+// program reaches tscd) shows here. Then the teammate's version 2, one place changed, is
+// merged too, and tscd's account of both merges (its "merged the memory" lines, with the time
+// of each phase) is printed. The peer speaks the real exchange protocol over udpm://,
 // so this mode runs in a private network namespace only (test/support/in_netns).
 //
 //   build/bin/tscd_footprint [--places N] [--dim D] [--members M] [--settle-s S] [--out FILE]
@@ -196,12 +198,23 @@ int Main(int argc, char** argv) {
 
   // Robot 2, silent until tscd has been measured idle: its places start half-way through
   // robot 1's, so where P = N half of each memory is the other's.
+  // Then its version 2, which changes one place: what a merge costs in a team that has merged
+  // before (one body fetched, one place changed).
   std::optional<testing_support::ServingPeer> peer;
+  std::optional<MemorySnapshot> peer_v2;
   if (peer_places > 0) {
     const auto t_peer = Clock::now();
+    PlaceMemory v1 = synthetic(2, places / 2, peer_places);
+    std::vector<LearnedPlace> changed = v1.places();
+    changed.front().member_count += 1;
+    changed.front().mean *= 1.001f;
+    const PlaceMemory v2 = PlaceMemory::Restore(2, v1.options(), std::move(changed), v1.slink(),
+                                                v1.next_local_id(), {});
+    peer_v2 = BuildSnapshot(v2, TopologicalMap{}, SnapshotHeader{2, 4242, 2, 2},
+                            BusOptions{}.portion_bytes);
     peer.emplace(2,
-                 BuildSnapshot(synthetic(2, places / 2, peer_places), TopologicalMap{},
-                               SnapshotHeader{2, 4242, 1, 1}, BusOptions{}.portion_bytes),
+                 BuildSnapshot(v1, TopologicalMap{}, SnapshotHeader{2, 4242, 1, 1},
+                               BusOptions{}.portion_bytes),
                  testing_support::kNamespaceBusUrl, /*announcing=*/false);
     std::printf("a peer of %d places built in %.1f s\n", peer_places,
                 Seconds(Clock::now() - t_peer));
@@ -249,11 +262,19 @@ int Main(int argc, char** argv) {
     merged_report = line;
     // tscd's own account: the merge's case, places and time (building the peer's memory,
     // merging and storing the result; not the transfer).
-    const std::string after = tscd.Log();
-    const size_t at = after.find("merged the memory of robot 2");
-    if (at != std::string::npos) {
-      merged_report += "tscd: " + after.substr(at, after.find('\n', at) - at) + "\n";
-    }
+    const auto report_merge = [&](const std::string& logged) {
+      const std::string after = tscd.Log();
+      const size_t at = after.find(logged);
+      if (at != std::string::npos) {
+        merged_report += "tscd: " + after.substr(at, after.find('\n', at) - at) + "\n";
+      }
+    };
+    report_merge("merged the memory of robot 2 (version 1");
+    // Version 2, one place changed, merged into the memory that holds version 1.
+    peer.reset();
+    peer.emplace(2, std::move(*peer_v2), testing_support::kNamespaceBusUrl, /*announcing=*/true);
+    merged = AwaitLogLine(tscd, "merged the memory of robot 2 (version 2", std::chrono::minutes(5));
+    report_merge("merged the memory of robot 2 (version 2");
   }
   tscd.Signal(SIGTERM);
   const std::optional<int> status = tscd.Wait(std::chrono::seconds(60));

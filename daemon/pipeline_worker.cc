@@ -12,7 +12,9 @@
 #include <set>
 #include <string_view>
 #include <system_error>
+#include <utility>
 
+#include "core/memory/unchanged_places.h"
 #include "core/merge/merge.h"
 #include "core/merge/merge_maps.h"
 #include "daemon/log_throttle.h"
@@ -526,6 +528,9 @@ void PipelineWorker::KeepPeerBodies(const PeerSnapshot& snapshot) {
 void PipelineWorker::MergePeer(PeerSnapshot snapshot) {
   const auto start = Clock::now();
   RetryStore(true);  // results from before the merge go in first
+  // Then the database holds our memory as it is, unless the store is failing.
+  const bool stored_as_ours =
+      store_ && pending_.empty() && !unsaved_merge_ && !replace_knowledge_ && !degraded_store_;
   // The peer's places are measured in our units (our camera's spacing and lens): one g_N.
   const TopologicalMap peer_map = ToTopologicalMap(snapshot);
   // The bodies go as the places are built: the peer's memory is not held twice (164 MB more at
@@ -570,6 +575,10 @@ void PipelineWorker::MergePeer(PeerSnapshot snapshot) {
     TopologicalMap map = MergeMaps(pipeline_->map(), peer_map, merged.memory);
     changed = MergeChangesAnything(merged, map, pipeline_->map());
     if (changed) {
+      if (stored_as_ours) {
+        stored_unchanged_ =
+            UnchangedPositions(pipeline_->memory().places(), merged.memory.places());
+      }
       bodies_.BeforeReplace();
       pipeline_->AdoptMerged(std::move(merged.memory), std::move(map));
     }
@@ -635,13 +644,17 @@ void PipelineWorker::CommitOrKeep(FrameResult result) {
 
 void PipelineWorker::RetryStore(bool now) {
   if (pending_.empty() && !unsaved_merge_ && !replace_knowledge_) return;
+  // Taken once, and only from the store the merge saw: a reopened one may have lost commits.
+  std::optional<std::vector<char>> unchanged = std::exchange(stored_unchanged_, {});
+  if (!store_) unchanged.reset();
   // While the store fails, a retry per frame would rewrite every kept result each time.
   if (!now && degraded_store_ && Clock::now() < next_store_retry_) return;
   if (!store_ && !ReopenStore()) return;
   try {
     // One transaction for everything kept: the database goes from its last committed state
     // straight to the current one, whatever instant the process dies at.
-    store_->CommitPending(pending_, *pipeline_, replace_knowledge_, unsaved_merge_);
+    store_->CommitPending(pending_, *pipeline_, replace_knowledge_, unsaved_merge_,
+                          unchanged ? &*unchanged : nullptr);
     if (degraded_store_) {
       spdlog::info("store {} writable again: {} kept results committed{}", db_path_.string(),
                    pending_.size(), unsaved_merge_ ? " with the merged memory" : "");

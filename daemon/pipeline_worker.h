@@ -181,7 +181,11 @@ class PipelineWorker {
   std::optional<Store> store_;
   std::vector<FrameResult> pending_;        // results not yet committed (store missing or failing)
   std::optional<PeerMerge> unsaved_merge_;  // a merged memory the store has not taken yet
-  bool replace_knowledge_ = false;          // results were dropped: write the whole memory
+  // With unsaved_merge_, when the store held exactly the memory the merge replaced: which
+  // places of the merged memory it holds already (UnchangedPositions), so that the commit
+  // writes only the others. Dropped after the first attempt: a retry writes everything.
+  std::optional<std::vector<char>> stored_unchanged_;
+  bool replace_knowledge_ = false;  // results were dropped: write the whole memory
   // Base point the store's last commit reached; nullopt while it never opened.
   std::optional<int64_t> committed_next_base_;
   std::string store_problem_;  // "" when the store works

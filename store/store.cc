@@ -315,8 +315,35 @@ void WritePipelineState(const Db& db, const PipelineState& state, bool copies) {
 /// Replaces the learned places, the tree, its discriminants and the map by `memory` and `map`
 /// (inside the caller's transaction); records `peer` when given. The pipeline's previous place
 /// may have been absorbed: it continues from the place that holds it.
+// The learned places of `memory`, all of them or, given `unchanged` (one flag per place), those
+// not held already at their position: rows past the memory's end and at changed positions go,
+// changed places are written (no row of an unchanged position holds a changed place's id,
+// since ids are unique in the memory).
+// Returns the positions written.
+std::vector<int> WriteLearnedPlaces(const Db& db, const PlaceMemory& memory,
+                                    const std::vector<char>* unchanged) {
+  const int n = static_cast<int>(memory.places().size());
+  std::vector<int> write;
+  if (unchanged == nullptr || unchanged->size() != memory.places().size()) {
+    Exec(db, "DELETE FROM learned_places");
+    write.resize(static_cast<size_t>(n));
+    for (int i = 0; i < n; ++i) write[static_cast<size_t>(i)] = i;
+  } else {
+    Statement(db, "DELETE FROM learned_places WHERE position >= ?1").Int(1, n).Run();
+    Statement drop(db, "DELETE FROM learned_places WHERE position = ?1");
+    for (int i = 0; i < n; ++i) {
+      if ((*unchanged)[static_cast<size_t>(i)] != 0) continue;
+      drop.Int(1, i).Run();
+      write.push_back(i);
+    }
+  }
+  UpsertLearnedPlaces(db, memory, write);
+  return write;
+}
+
 void WriteKnowledge(const Db& db, const PlaceMemory& memory, const TopologicalMap& map,
-                    const std::optional<PeerMerge>& peer) {
+                    const std::optional<PeerMerge>& peer,
+                    const std::vector<char>* unchanged = nullptr) {
   if (peer) {
     Statement(db,
               "INSERT OR REPLACE INTO peers(robot, last_merged_version, merged_at_utime, digest) "
@@ -327,11 +354,8 @@ void WriteKnowledge(const Db& db, const PlaceMemory& memory, const TopologicalMa
         .Int(4, peer->digest)
         .Run();
   }
-  Exec(db, "DELETE FROM learned_places");
-  std::vector<int> all(memory.places().size());
-  for (size_t i = 0; i < all.size(); ++i) all[i] = static_cast<int>(i);
-  UpsertLearnedPlaces(db, memory, all);
-  WriteTree(db, memory, all);
+  // The discriminants of the nodes above the places written are refreshed with the tree.
+  WriteTree(db, memory, WriteLearnedPlaces(db, memory, unchanged));
   Exec(db, "DELETE FROM map_edges; DELETE FROM map_places;");
   Statement place(db, "INSERT INTO map_places(robot, local) VALUES(?1, ?2)");
   for (const PlaceId& p : map.places()) place.Place(1, p).Run();
@@ -783,7 +807,8 @@ void Store::Commit(const FrameResult& result, const Pipeline& pipeline) {
 }
 
 void Store::CommitPending(std::span<const FrameResult> results, const Pipeline& pipeline,
-                          bool replace_knowledge, const std::optional<PeerMerge>& peer) {
+                          bool replace_knowledge, const std::optional<PeerMerge>& peer,
+                          const std::vector<char>* unchanged) {
   const Db db{db_, path_};
   try {
     Transaction tx(db);
@@ -806,7 +831,7 @@ void Store::CommitPending(std::span<const FrameResult> results, const Pipeline& 
     if (replace_knowledge || peer) {
       // Positions and map edges of older results may not exist any more (a merge renumbers
       // places and collapses edges): the whole current knowledge replaces the stored one.
-      WriteKnowledge(db, memory, pipeline.map(), peer);
+      WriteKnowledge(db, memory, pipeline.map(), peer, unchanged);
     } else {
       std::sort(changed.begin(), changed.end());
       changed.erase(std::unique(changed.begin(), changed.end()), changed.end());

@@ -100,10 +100,14 @@ class Store {
   /// exists, so committing them one by one would store a tree ahead of its places if the
   /// process died in between). With `replace_knowledge` or a `peer` merge, the whole memory and
   /// map are written as ReplaceKnowledge does (needed after a merge, or when results were
-  /// dropped and their changes are known only from the memory). Throws StoreError (rolled
+  /// dropped and their changes are known only from the memory). `unchanged` (with those only;
+  /// one flag per place of the memory, core/memory/unchanged_places.h) names the places the
+  /// database holds already at their position, which are then not written again: for a caller
+  /// whose database held exactly the memory that was replaced. Throws StoreError (rolled
   /// back).
   void CommitPending(std::span<const FrameResult> results, const Pipeline& pipeline,
-                     bool replace_knowledge, const std::optional<PeerMerge>& peer);
+                     bool replace_knowledge, const std::optional<PeerMerge>& peer,
+                     const std::vector<char>* unchanged = nullptr);
 
   /// Writes what a stopping tscd holds and could not commit to `spill`, a new database of its
   /// own: the whole memory and map of `pipeline`, the records of `results`, the pipeline

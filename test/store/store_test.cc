@@ -10,6 +10,7 @@
 #include <bit>
 #include <chrono>
 #include <filesystem>
+#include <initializer_list>
 #include <optional>
 #include <random>
 #include <set>
@@ -17,6 +18,7 @@
 #include <unordered_set>
 #include <vector>
 
+#include "core/memory/unchanged_places.h"
 #include "core/merge/consolidate.h"
 #include "core/merge/merge_maps.h"
 #include "test/support/memory_compare.h"
@@ -218,6 +220,18 @@ class StoreTest : public ::testing::Test {
     return Pipeline(Camera(), Options(), std::move(s.memory), std::move(s.map), s.pipeline);
   }
 
+  /// A pipeline that saw `rooms` synthetic rooms in the order of `visits` (12 base points a
+  /// visit), every result committed to `store`.
+  static Pipeline LearnedRooms(Store& store, int rooms, std::initializer_list<int> visits) {
+    Stream stream(5);
+    for (int c = 0; c < rooms; ++c) stream.AddCluster();
+    Pipeline pipeline = Continue(store);
+    Committed committed;
+    for (int c : visits) Feed(pipeline, store, stream.Visit(c, 12), committed);
+    Finish(pipeline, store, committed);
+    return pipeline;
+  }
+
   /// Writes a store at path_ whose robot went through three rooms and the first again (rooms
   /// of `seed`), and returns the memory it learned.
   PlaceMemory WriteThreeRoomsAndARevisit(uint32_t seed) {
@@ -373,13 +387,8 @@ TEST_F(StoreTest, ReopenedDatabaseContinuesLearning) {
 // commit then writes the whole memory and map, as after a merge, and the folded place's row
 // is gone; a commit that wrote only the changed places would keep it.
 TEST_F(StoreTest, AReplacedMemoryIsWrittenWhole) {
-  Stream stream(5);
-  for (int c = 0; c < 3; ++c) stream.AddCluster();
   Store dut = Store::Open(path_);
-  Pipeline pipeline = Continue(dut);
-  Committed committed;
-  for (int c : {0, 1, 2, 0}) Feed(pipeline, dut, stream.Visit(c, 12), committed);
-  Finish(pipeline, dut, committed);
+  Pipeline pipeline = LearnedRooms(dut, 3, {0, 1, 2, 0});
   const size_t before = pipeline.memory().places().size();
   ASSERT_GE(before, 3u);
   Consolidation c = Consolidate(pipeline.memory(), {0, 1});
@@ -393,6 +402,46 @@ TEST_F(StoreTest, AReplacedMemoryIsWrittenWhole) {
   ASSERT_EQ(loaded.memory.places().size(), before - 1);
   ExpectSameMemory(pipeline.memory(), loaded.memory);
   ExpectSameMap(pipeline.map(), loaded.map);
+}
+
+// A replaced memory whose database held the memory before (a merge committed at once) writes
+// only the places that changed: the rows of the others stay as they were (a row altered behind
+// the store's back proves it), the folded place's row and the rows past the end go, and the
+// memory loads back whole.
+TEST_F(StoreTest, AReplacedMemoryWritesOnlyThePlacesItChanged) {
+  Store dut = Store::Open(path_);
+  Pipeline pipeline = LearnedRooms(dut, 4, {0, 1, 2, 3, 0});
+  const std::vector<LearnedPlace> before = pipeline.memory().places();
+  ASSERT_GE(before.size(), 4u);
+  // The last two fold: every place before them keeps its position and row.
+  const int last = static_cast<int>(before.size()) - 1;
+  Consolidation c = Consolidate(pipeline.memory(), {last - 1, last});
+  TopologicalMap map = MergeMaps(pipeline.map(), TopologicalMap{}, c.memory);
+  const std::vector<char> unchanged = UnchangedPositions(before, c.memory.places());
+  ASSERT_EQ(unchanged.size(), before.size() - 1);
+  ASSERT_EQ(unchanged[0], 1) << "the first place is untouched by the fold";
+  ASSERT_EQ(std::count(unchanged.begin(), unchanged.end(), 0), 1) << "the holder changed";
+  pipeline.AdoptMerged(std::move(c.memory), std::move(map));
+  Sql(path_, "UPDATE learned_places SET member_count = 999 WHERE position = 0");
+  FrameResult replaced;
+  replaced.has_base = false;
+  replaced.memory_replaced = true;
+  dut.CommitPending(std::span<const FrameResult>(&replaced, 1), pipeline, false, std::nullopt,
+                    &unchanged);
+  EXPECT_EQ(Sql(path_, "SELECT member_count FROM learned_places WHERE position = 0"), 999)
+      << "an unchanged place was written again";
+  EXPECT_EQ(Sql(path_, "SELECT COUNT(*) FROM learned_places"),
+            static_cast<int64_t>(before.size() - 1));
+  Sql(path_, "UPDATE learned_places SET member_count = " + std::to_string(before[0].member_count) +
+                 " WHERE position = 0");
+  const StoredState loaded = dut.Load(kRobot, Options().memory);
+  ExpectSameMemory(pipeline.memory(), loaded.memory);
+  ExpectSameMap(pipeline.map(), loaded.map);
+  // Without the flags every place is written, the altered row included.
+  Sql(path_, "UPDATE learned_places SET member_count = 999 WHERE position = 0");
+  dut.Commit(replaced, pipeline);
+  EXPECT_EQ(Sql(path_, "SELECT member_count FROM learned_places WHERE position = 0"),
+            before[0].member_count);
 }
 
 // Copy evidence takes several laps to gather (core/pipeline/copy_evidence.h): a robot that
