@@ -575,12 +575,14 @@ void PipelineWorker::MergePeer(PeerSnapshot snapshot) {
     TopologicalMap map = MergeMaps(pipeline_->map(), peer_map, merged.memory);
     changed = MergeChangesAnything(merged, map, pipeline_->map());
     if (changed) {
+      std::vector<char> unchanged;
       if (stored_as_ours) {
-        stored_unchanged_ =
-            UnchangedPositions(pipeline_->memory().places(), merged.memory.places());
+        unchanged = UnchangedPositions(pipeline_->memory().places(), merged.memory.places());
       }
       bodies_.BeforeReplace();
       pipeline_->AdoptMerged(std::move(merged.memory), std::move(map));
+      // Only once the memory they describe is the pipeline's.
+      if (stored_as_ours) stored_unchanged_ = std::move(unchanged);
     }
     places_after = pipeline_->memory().places().size();
     counters_.places = static_cast<int32_t>(places_after);
