@@ -529,8 +529,7 @@ void PipelineWorker::MergePeer(PeerSnapshot snapshot) {
   const auto start = Clock::now();
   RetryStore(true);  // results from before the merge go in first
   // Then the database holds our memory as it is, unless the store is failing.
-  const bool stored_as_ours =
-      store_ && pending_.empty() && !unsaved_merge_ && !replace_knowledge_ && !degraded_store_;
+  const bool stored_as_ours = store_ && AllCommitted() && !degraded_store_;
   // The peer's places are measured in our units (our camera's spacing and lens): one g_N.
   const TopologicalMap peer_map = ToTopologicalMap(snapshot);
   // The bodies go as the places are built: the peer's memory is not held twice (164 MB more at
@@ -645,7 +644,7 @@ void PipelineWorker::CommitOrKeep(FrameResult result) {
 }
 
 void PipelineWorker::RetryStore(bool now) {
-  if (pending_.empty() && !unsaved_merge_ && !replace_knowledge_) return;
+  if (AllCommitted()) return;
   // Taken once, and only from the store the merge saw: a reopened one may have lost commits.
   std::optional<std::vector<char>> unchanged = std::exchange(stored_unchanged_, {});
   if (!store_) unchanged.reset();
@@ -749,8 +748,7 @@ bool PipelineWorker::ReopenStore() {
 // time for it, then spill what tscd holds to a file the next start takes in, and say loudly
 // what is not in the store. Worker stopped: called on the loop thread with everything ours.
 int PipelineWorker::SaveBeforeExit(SystemNotifier& notifier) {
-  const auto unsaved = [&] { return !pending_.empty() || unsaved_merge_ || replace_knowledge_; };
-  if (!unsaved()) return 0;
+  if (AllCommitted()) return 0;
   const double wait_s = settings_.daemon.stop_store_wait_s;
   spdlog::warn("stopping with {} results not in the store {} ({}); trying it for up to {} s",
                pending_.size(), db_path_.string(), store_problem_, wait_s);
@@ -762,7 +760,7 @@ int PipelineWorker::SaveBeforeExit(SystemNotifier& notifier) {
     notifier.Watchdog();  // alive meanwhile, should systemd still watch
     next_store_retry_ = {};
     RetryStore(true);
-    if (!unsaved()) {
+    if (AllCommitted()) {
       spdlog::info("store {} took every kept result before stopping", db_path_.string());
       return 0;
     }

@@ -159,6 +159,8 @@ class PipelineWorker {
   /// Commits what is kept (results, a merge) when the store works; while it fails, at most
   /// once a second unless `now`.
   void RetryStore(bool now = false);
+  /// Whether everything learned and merged is in the store's last commit (none kept back).
+  bool AllCommitted() const { return pending_.empty() && !unsaved_merge_ && !replace_knowledge_; }
   /// Opens the store again (after it failed to open, or was closed after a file system
   /// failure); true when it is open.
   bool ReopenStore();

@@ -312,9 +312,6 @@ void WritePipelineState(const Db& db, const PipelineState& state, bool copies) {
       state.previous_place ? std::optional<int64_t>(state.previous_place->local) : std::nullopt);
 }
 
-/// Replaces the learned places, the tree, its discriminants and the map by `memory` and `map`
-/// (inside the caller's transaction); records `peer` when given. The pipeline's previous place
-/// may have been absorbed: it continues from the place that holds it.
 // The learned places of `memory`, all of them or, given `unchanged` (one flag per place), those
 // not held already at their position: rows past the memory's end and at changed positions go,
 // changed places are written (no row of an unchanged position holds a changed place's id,
@@ -341,6 +338,10 @@ std::vector<int> WriteLearnedPlaces(const Db& db, const PlaceMemory& memory,
   return write;
 }
 
+/// Replaces the learned places, the tree, its discriminants and the map by `memory` and `map`
+/// (inside the caller's transaction); records `peer` when given. The pipeline's previous place
+/// may have been absorbed: it continues from the place that holds it. `unchanged`: as
+/// WriteLearnedPlaces.
 void WriteKnowledge(const Db& db, const PlaceMemory& memory, const TopologicalMap& map,
                     const std::optional<PeerMerge>& peer,
                     const std::vector<char>* unchanged = nullptr) {
