@@ -40,7 +40,7 @@ MergeCase CaseAndRecognition(const PlaceMemory& base, const PlaceMemory& incomin
                              const KnownIds& known, const FreshPlaces& fresh, double tau_r,
                              int threads, IdJoin& join, Recognitions& found, RootSpheres& spheres) {
   if ((known.anything_new || !fresh.places.empty()) && !base.empty() && !incoming.empty()) {
-    spheres = CaseOfRootSpheres(base, incoming, tau_r);
+    spheres = CaseOfRootSpheres(base, incoming, tau_r, threads);
     if (RecognitionDecides(spheres.merge_case)) {
       Recognise(base, incoming, known, fresh.places, tau_r, threads, join, found);
     }
@@ -98,7 +98,7 @@ MemoryMerge Merge(const PlaceMemory& ours, const PlaceMemory& peer, PlaceMemory*
 
   // From here on `base` and `incoming` may be empty (given up): their places are in `places`
   // and `in`.
-  std::vector<LearnedPlace> places = PlacesOf(base, base_owned);
+  std::vector<LearnedPlace> places = PlacesOf(base, base_owned, threads);
   IncomingPlaces in(incoming, incoming_owned);
   if (!peer_into_ours) PreferOurFresherCopies(places, in);
   AbsorbRecognised(places, in, known.is_new, found, options, threads, result.absorbed);

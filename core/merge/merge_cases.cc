@@ -4,6 +4,8 @@
 #include <cmath>
 #include <vector>
 
+#include "core/on_threads.h"
+
 namespace tsc {
 namespace {
 
@@ -35,9 +37,25 @@ std::vector<int> AllPlaces(const PlaceMemory& memory) {
   return all;
 }
 
-// Figure 4.4's case for the root spheres `sb` of the base and `si` of the incoming memory.
-MergeCase RootSphereCase(const PlaceMemory& base, const PlaceMemory& incoming,
-                         const NodeStatistics& sb, const NodeStatistics& si, double tau_r) {
+// A memory's root sphere and the radius around its centre of the ball that holds every
+// member view.
+struct RootBall {
+  NodeStatistics sphere;
+  double view_bound = 0.0;
+};
+
+RootBall RootBallOf(const PlaceMemory& memory) {
+  RootBall b;
+  b.sphere = StatisticsOf(memory, AllPlaces(memory));
+  b.view_bound = ViewBound(memory, b.sphere.centroid);
+  return b;
+}
+
+// Figure 4.4's case for the root balls `b` of the base and `i` of the incoming memory.
+MergeCase RootSphereCase(const PlaceMemory& base, const PlaceMemory& incoming, const RootBall& b,
+                         const RootBall& i, double tau_r) {
+  const NodeStatistics& sb = b.sphere;
+  const NodeStatistics& si = i.sphere;
   const double d = (sb.centroid - si.centroid).norm();
   // The spheres reach a recognition radius further: views nearer than sqrt(τ_r·u) may be
   // one place's (term 1 of g is δ/u), so spheres closer than that must not count as apart.
@@ -47,8 +65,7 @@ MergeCase RootSphereCase(const PlaceMemory& base, const PlaceMemory& incoming,
   const double reach = std::sqrt(tau_r * std::max(base.DistanceUnit(), incoming.DistanceUnit()));
   // (4.5), decided on the spheres that hold every member view: ρ of (4.4) is a root mean
   // square, and a place outside it may coincide with one of the other memory.
-  if (ViewSpaceDistance(base, sb.centroid, si.centroid) >
-      ViewBound(base, sb.centroid) + ViewBound(incoming, si.centroid) + reach) {
+  if (ViewSpaceDistance(base, sb.centroid, si.centroid) > b.view_bound + i.view_bound + reach) {
     return MergeCase::kDisjoint;
   }
   const bool base_large = sb.radius >= si.radius;
@@ -86,11 +103,16 @@ bool PeerGoesIntoOurs(const PlaceMemory& ours, const PlaceMemory& peer) {
          (peer.places().size() == ours.places().size() && ours.robot() <= peer.robot());
 }
 
-RootSpheres CaseOfRootSpheres(const PlaceMemory& base, const PlaceMemory& incoming, double tau_r) {
+RootSpheres CaseOfRootSpheres(const PlaceMemory& base, const PlaceMemory& incoming, double tau_r,
+                              int threads) {
+  // Each memory's ball reads every one of its views (~65 ms for two memories of 10⁴ places):
+  // the two are measured side by side, each as one thread would.
+  RootBall balls[2];
+  OnThreads(2, threads, [&](size_t m) { balls[m] = RootBallOf(m == 0 ? base : incoming); });
   RootSpheres s;
-  s.base = StatisticsOf(base, AllPlaces(base));
-  s.incoming = StatisticsOf(incoming, AllPlaces(incoming));
-  s.merge_case = RootSphereCase(base, incoming, s.base, s.incoming, tau_r);
+  s.base = balls[0].sphere;
+  s.incoming = balls[1].sphere;
+  s.merge_case = RootSphereCase(base, incoming, balls[0], balls[1], tau_r);
   return s;
 }
 

@@ -33,8 +33,9 @@ struct RootSpheres {
 };
 /// The root spheres of two non-empty memories and their case, each sphere reaching a
 /// recognition radius (from `tau_r`) further so that places close enough to be recognised as
-/// one never count as apart.
-RootSpheres CaseOfRootSpheres(const PlaceMemory& base, const PlaceMemory& incoming, double tau_r);
+/// one never count as apart. Measured on up to `threads` threads (the same for any number).
+RootSpheres CaseOfRootSpheres(const PlaceMemory& base, const PlaceMemory& incoming, double tau_r,
+                              int threads = 1);
 /// Whether places of both memories may coincide in case `c` (4.4c, 4.4d), so that recognition
 /// decides; in the other cases every incoming place is added.
 bool RecognitionDecides(MergeCase c);

@@ -61,9 +61,19 @@ std::vector<std::optional<PlaceMemory::Derived>> UnchangedDerived(const PlaceMem
   return out;
 }
 
-std::vector<LearnedPlace> PlacesOf(const PlaceMemory& memory, PlaceMemory* owned) {
+std::vector<LearnedPlace> PlacesOf(const PlaceMemory& memory, PlaceMemory* owned, int threads) {
   if (owned != nullptr) return std::move(*owned).TakePlaces();
-  return memory.places();
+  // The copy of a robot's own memory in tscd's merge: 10⁴ places are ~100 MB, and on pages
+  // the system has not handed over yet each fault is paid (0.26 s on one thread of the CI
+  // machine, a quarter of the merge; 0.16-0.18 s on two). Shared among the merge's threads.
+  const std::vector<LearnedPlace>& from = memory.places();
+  std::vector<LearnedPlace> out(from.size());
+  constexpr size_t kPlacesAPiece = 256;
+  OnThreads((from.size() + kPlacesAPiece - 1) / kPlacesAPiece, threads, [&](size_t g) {
+    const size_t end = std::min(from.size(), (g + 1) * kPlacesAPiece);
+    for (size_t i = g * kPlacesAPiece; i < end; ++i) out[i] = from[i];
+  });
+  return out;
 }
 
 IncomingPlaces::IncomingPlaces(const PlaceMemory& memory, PlaceMemory* owned)

@@ -39,8 +39,8 @@ std::vector<std::optional<PlaceMemory::Derived>> UnchangedDerived(const PlaceMem
                                                                   bool fresher_copies);
 
 /// The places of `memory`: moved out of `owned` (the same memory, given up by the caller) when
-/// there is one, copied otherwise.
-std::vector<LearnedPlace> PlacesOf(const PlaceMemory& memory, PlaceMemory* owned);
+/// there is one, copied otherwise, on up to `threads` threads.
+std::vector<LearnedPlace> PlacesOf(const PlaceMemory& memory, PlaceMemory* owned, int threads);
 
 /// The incoming memory's places, read where they are or, when the caller gave the memory up
 /// (`owned`), moved out of it at construction; Take copies or moves a place out. A merge copies
