@@ -16,6 +16,7 @@
 
 #include "jaguar/motor_command_t.hpp"
 #include "jaguar/motor_state_t.hpp"
+#include "test/support/namespace_bus.h"
 #include "tsc/announce_t.hpp"
 #include "tsc/memory_portion_v2_t.hpp"
 #include "tsc/memory_request_t.hpp"
@@ -24,14 +25,13 @@
 
 namespace tsc::testing_support {
 
-inline constexpr const char* kTestLcmUrl = "udpm://239.255.76.67:7667?ttl=0";
-
 class BusListener {
  public:
   /// Listens on the channels matching `channels` (an LCM regular expression): a test that
   /// moves large memories can leave TSC_MEMORY_* out rather than keep every portion.
-  explicit BusListener(const std::string& channels = ".*") : lcm_(kTestLcmUrl) {
-    if (!lcm_.good()) throw std::runtime_error("LCM cannot start on " + std::string(kTestLcmUrl));
+  explicit BusListener(const std::string& channels = ".*") : lcm_(kNamespaceBusUrl) {
+    if (!lcm_.good())
+      throw std::runtime_error("LCM cannot start on " + std::string(kNamespaceBusUrl));
     // The function form: with Debian's LCM 1.3.1 the handler-method form hands its callback
     // another object than its subscription (UBSan: "invalid vptr" at lcm-cpp-impl.hpp:108).
     lcm_.subscribeFunction(channels, &BusListener::Dispatch, this);
@@ -127,8 +127,9 @@ class BusListener {
 /// odometry), decoded on its own LCM thread.
 class MotorStateSink {
  public:
-  explicit MotorStateSink(const std::string& channel) : lcm_(kTestLcmUrl) {
-    if (!lcm_.good()) throw std::runtime_error("LCM cannot start on " + std::string(kTestLcmUrl));
+  explicit MotorStateSink(const std::string& channel) : lcm_(kNamespaceBusUrl) {
+    if (!lcm_.good())
+      throw std::runtime_error("LCM cannot start on " + std::string(kNamespaceBusUrl));
     // The function form, as in BusListener (LCM 1.3.1's handler-method form is broken).
     lcm_.subscribeFunction(channel, &MotorStateSink::On, this);
     thread_ = std::thread([this] {

@@ -425,7 +425,7 @@ TEST_F(CrashDuringMergeTest,
   const auto memory = PeerMemory(pre_->state.memory, 2, peer_places, 7);
   testing_support::ServingPeer peer(
       2, BuildSnapshot(memory.memory, memory.map, SnapshotHeader{2, 4242, 1, 1}, 60000),
-      testing_support::kTestLcmUrl);
+      testing_support::kNamespaceBusUrl);
   ASSERT_NO_FATAL_FAILURE(RunReferenceMerge());
 
   // Instants: every other one uniform over [0, 1.2 x the reference's time to the merged log
@@ -478,7 +478,7 @@ TEST_F(CrashDuringMergeTest, ARestartedRobotFetchesOnlyWhatChangedOfAPeerItMerge
       BuildSnapshot(memory.memory, memory.map, SnapshotHeader{2, 4242, 1, 1}, 60000);
   CopyPreMergeStore(state_);
   {
-    testing_support::ServingPeer peer(2, v1, testing_support::kTestLcmUrl);
+    testing_support::ServingPeer peer(2, v1, testing_support::kNamespaceBusUrl);
     ChildProcess dut(IdleRobot(1, state_, frames_), dir_ / "first.log");
     ASSERT_TRUE(WaitLog(dut, "merged the memory of robot 2", seconds(60))) << dut.Log();
     dut.Signal(SIGTERM);
@@ -495,11 +495,10 @@ TEST_F(CrashDuringMergeTest, ARestartedRobotFetchesOnlyWhatChangedOfAPeerItMerge
       BuildSnapshot(memory.memory, memory.map, SnapshotHeader{2, 4242, 2, 2}, 60000);
   ASSERT_EQ(v2.places, v1.places);
   ASSERT_NE(v2.body_digests[17], v1.body_digests[17]);
-  testing_support::ServingPeer peer(2, v2, testing_support::kTestLcmUrl);
+  testing_support::ServingPeer peer(2, v2, testing_support::kNamespaceBusUrl);
   ChildProcess dut(IdleRobot(1, state_, frames_), dir_ / "second.log");
   // Received whole and checked (the merge may then find nothing new: logged at debug level).
-  ASSERT_TRUE(WaitLog(dut, "received the memory of robot 2 (version 2", seconds(60)))
-      << dut.Log();
+  ASSERT_TRUE(WaitLog(dut, "received the memory of robot 2 (version 2", seconds(60))) << dut.Log();
   dut.Signal(SIGTERM);
   ASSERT_EQ(dut.Wait(seconds(30)), 0) << dut.Log();
   std::set<int32_t> wanted;

@@ -303,7 +303,7 @@ TEST(TeleopTest, ReadsKeysRawFromATerminal) {
       commands.push_back(*c);
     }
   } sink;
-  lcm::LCM own(testing_support::kTestLcmUrl);
+  lcm::LCM own(testing_support::kNamespaceBusUrl);
   own.subscribe("JAGUAR_CMD_7", &CommandSink::On, &sink);
   const std::string teleop = Quote(kBin + "/tsc") + " teleop --robot 7 --hold-s 0.4";
   // Keys for 1 s, then 1.5 s of nothing, then q; `script` runs teleop on a pty.

@@ -178,7 +178,7 @@ TEST(RejoinTest, AWipedRobotTakesItsPlacesBackFromTheTeamAndNumbersOnAfterThem) 
   // the portions of it still missing. What they broadcast on their own is not enough on a
   // loaded machine: a memory is a burst of portions, and the listener may miss any of them
   // (CI, once: robot 1's ids seen were 1:6 alone, so the check could not hold).
-  lcm::LCM asker(testing_support::kTestLcmUrl);
+  lcm::LCM asker(testing_support::kNamespaceBusUrl);
   ASSERT_TRUE(asker.good());
   auto ask = [&](int robot) {
     const std::string channel = "TSC_MEMORY_" + std::to_string(robot);

@@ -74,7 +74,7 @@ TEST_F(TeamTest, ThreeRobotsLearnAndEveryMessageDecodes) {
   BusListener bus;
   const fs::path log = dir_ / "team.lcm";
   ChildProcess logger({TSCD_LCM_LOGGER, "-q", "-f", "--flush-interval=20",
-                       std::string("--lcm-url=") + testing_support::kTestLcmUrl, log.string()},
+                       std::string("--lcm-url=") + testing_support::kNamespaceBusUrl, log.string()},
                       dir_ / "logger.out");
   std::this_thread::sleep_for(milliseconds(300));
   ChildProcess team({kBin + "/tsc", "team",
@@ -351,7 +351,7 @@ TEST_F(TeamTest, SimulatedBaseFollowsCommandsAndItsWatchdogStopsIt) {
       self->states.push_back(*s);
     }
   } sink;
-  lcm::LCM own(testing_support::kTestLcmUrl);
+  lcm::LCM own(testing_support::kNamespaceBusUrl);
   own.subscribeFunction("JAGUAR_STATE_4", &StateSink::On, &sink);
   auto pump = [&](milliseconds d) {
     const auto end = std::chrono::steady_clock::now() + d;

@@ -108,7 +108,7 @@ class TscdTest : public ::testing::Test {
          "camera.source=sim", "--set", "sim.drive=commands", "--set",
          "camera.fps=" + std::to_string(fps), "--set", "sim.width=160", "--set", "sim.height=120"},
         dir_ / "tscd.log");
-    lcm::LCM own(testing_support::kTestLcmUrl);
+    lcm::LCM own(testing_support::kNamespaceBusUrl);
     EXPECT_TRUE(own.good());
     jaguar::motor_command_t cmd{};
     cmd.linear_mps = 0.5;

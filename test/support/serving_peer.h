@@ -19,14 +19,11 @@
 #include <vector>
 
 #include "daemon/memory_snapshot.h"
+#include "test/support/namespace_bus.h"
 #include "tsc/announce_t.hpp"
 #include "tsc/memory_request_t.hpp"
 
 namespace tsc::testing_support {
-
-/// The LCM bus of the whole-program benchmarks that serve a peer: multicast that stays on the
-/// private namespace's lo (ttl 0; test/support/in_netns).
-inline constexpr const char* kNamespaceBusUrl = "udpm://239.255.76.67:7667?ttl=0";
 
 class ServingPeer {
  public:
