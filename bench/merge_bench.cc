@@ -5,6 +5,7 @@
 // default features').
 
 #include <benchmark/benchmark.h>
+#include <malloc.h>
 
 #include <algorithm>
 #include <chrono>
@@ -130,6 +131,11 @@ void BM_MergeMemories(benchmark::State& state) {
   if (form != 1) peer_copy.emplace(peer);
   std::optional<MemoryMerge> m;
   for (auto _ : state) {
+    // tscd trims the heap right before it merges (PipelineWorker::MergePeer), so the pages its
+    // merge writes, our places' copy among them, are fresh from the system, ~10 µs a fault on
+    // the CI machine. Without the trim a repetition would reuse the pages the one before freed
+    // and read ~0.15 s faster than tscd at 10⁴ places (docs/results.md, session 73).
+    if (form == 2) malloc_trim(0);
     const auto t0 = std::chrono::steady_clock::now();
     if (copying) {
       m.emplace(MergeMemories(ours, peer, threads));
