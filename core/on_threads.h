@@ -40,4 +40,12 @@ void OnThreads(size_t count, int threads, const Work& work) {
   }
 }
 
+/// Runs `work(first, end)` over [0, count) cut into blocks of `block` (the last may be
+/// shorter), the blocks shared as OnThreads shares its pieces. Precondition: block ≥ 1.
+template <typename Work>
+void OnBlocks(size_t count, size_t block, int threads, const Work& work) {
+  OnThreads((count + block - 1) / block, threads,
+            [&](size_t b) { work(b * block, std::min(count, (b + 1) * block)); });
+}
+
 }  // namespace tsc

@@ -46,10 +46,9 @@ std::vector<int> NearestRows(const Eigen::MatrixXf& keys, Eigen::Index first, Ei
                              const Eigen::MatrixXf& centroids,
                              const Eigen::VectorXf& centroid_norms, int threads) {
   std::vector<int> out(static_cast<size_t>(std::max<Eigen::Index>(0, end - first)));
-  const auto blocks = static_cast<size_t>((end - first + kBlock - 1) / kBlock);
-  OnThreads(blocks, threads, [&](size_t b) {
-    const Eigen::Index at = first + static_cast<Eigen::Index>(b) * kBlock;
-    const Eigen::Index len = std::min(kBlock, end - at);
+  OnBlocks(out.size(), static_cast<size_t>(kBlock), threads, [&](size_t from, size_t to) {
+    const Eigen::Index at = first + static_cast<Eigen::Index>(from);
+    const auto len = static_cast<Eigen::Index>(to - from);
     const Eigen::MatrixXf dots = keys.middleRows(at, len) * centroids;
     std::vector<int> nearest;
     NearestPerRow(dots, centroid_norms, nearest);

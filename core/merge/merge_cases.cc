@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <utility>
 #include <vector>
 
 #include "core/on_threads.h"
@@ -110,9 +111,9 @@ RootSpheres CaseOfRootSpheres(const PlaceMemory& base, const PlaceMemory& incomi
   RootBall balls[2];
   OnThreads(2, threads, [&](size_t m) { balls[m] = RootBallOf(m == 0 ? base : incoming); });
   RootSpheres s;
-  s.base = balls[0].sphere;
-  s.incoming = balls[1].sphere;
   s.merge_case = RootSphereCase(base, incoming, balls[0], balls[1], tau_r);
+  s.base = std::move(balls[0].sphere);
+  s.incoming = std::move(balls[1].sphere);
   return s;
 }
 

@@ -69,9 +69,8 @@ std::vector<LearnedPlace> PlacesOf(const PlaceMemory& memory, PlaceMemory* owned
   const std::vector<LearnedPlace>& from = memory.places();
   std::vector<LearnedPlace> out(from.size());
   constexpr size_t kPlacesAPiece = 256;
-  OnThreads((from.size() + kPlacesAPiece - 1) / kPlacesAPiece, threads, [&](size_t g) {
-    const size_t end = std::min(from.size(), (g + 1) * kPlacesAPiece);
-    for (size_t i = g * kPlacesAPiece; i < end; ++i) out[i] = from[i];
+  OnBlocks(from.size(), kPlacesAPiece, threads, [&](size_t first, size_t end) {
+    std::copy(from.begin() + first, from.begin() + end, out.begin() + first);
   });
   return out;
 }
