@@ -107,7 +107,8 @@ const std::pair<PlaceMemory, PlaceMemory>& Pair(int n, int shared, bool basis, i
 
 void BM_MergeMemories(benchmark::State& state) {
   const int n = static_cast<int>(state.range(0)), shared = static_cast<int>(state.range(1));
-  // 0: both memories given up; 1: both copied; 2: the peer's given up, ours copied (tscd).
+  // 0: both memories given up; 1: both copied; 2: tscd's: the peer's given up, ours handed
+  // over once the merge changes it (MergeMemories' give_up_ours).
   const int form = static_cast<int>(state.range(2));
   const bool copying = form == 1;
   const bool basis = state.range(3) != 0;
@@ -122,25 +123,29 @@ void BM_MergeMemories(benchmark::State& state) {
   size_t absorbed = 0, added = 0;
   int retrained = 0;
   // One iteration (see BENCHMARK below). The giving-up forms take copies made before the
-  // timed loop: tscd's gives up the peer's memory (built from the snapshot) and keeps its own
-  // until the merge has succeeded, so ours is copied inside the merge; the copying form
+  // timed loop: tscd's gives up the peer's memory (built from the snapshot) and hands its own
+  // over once the merge knows it changes it (Pipeline::GiveUpMemory); the copying form
   // (tools, tests) reads the shared pair. The result is freed after the loop, so neither
   // making the inputs nor freeing the result is timed.
   std::optional<PlaceMemory> ours_copy, peer_copy;
-  if (form == 0) ours_copy.emplace(ours);
+  if (form != 1) ours_copy.emplace(ours);
   if (form != 1) peer_copy.emplace(peer);
   std::optional<MemoryMerge> m;
   for (auto _ : state) {
     // tscd trims the heap right before it merges (PipelineWorker::MergePeer), so the pages its
-    // merge writes, our places' copy among them, are fresh from the system, ~10 µs a fault on
-    // the CI machine. Without the trim a repetition would reuse the pages the one before freed
-    // and read ~0.15 s faster than tscd at 10⁴ places (docs/results.md, session 73).
+    // merge writes are fresh from the system, ~10 µs a fault on the CI machine. Without the
+    // trim a repetition would reuse the pages the one before freed and read ~0.15 s faster
+    // than tscd at 10⁴ places (docs/results.md, session 73).
     if (form == 2) malloc_trim(0);
     const auto t0 = std::chrono::steady_clock::now();
     if (copying) {
       m.emplace(MergeMemories(ours, peer, threads));
     } else if (form == 2) {
-      m.emplace(MergeMemories(ours, std::move(*peer_copy), threads));
+      m.emplace(MergeMemories(*ours_copy, std::move(*peer_copy), threads, [&ours_copy] {
+        PlaceMemory given = std::move(*ours_copy);
+        ours_copy.emplace(given.robot(), given.options());
+        return given;
+      }));
     } else {
       m.emplace(MergeMemories(std::move(*ours_copy), std::move(*peer_copy), threads));
     }
@@ -162,7 +167,7 @@ void BM_MergeMemories(benchmark::State& state) {
   state.counters["threads"] = threads;
   state.SetLabel(std::string(ToString(merge_case)) +
                  (copying     ? " copying"
-                  : form == 2 ? " moving the peer's"
+                  : form == 2 ? " tscd's form"
                               : " moving") +
                  (basis ? ", views in the builtin basis" : ", views as descriptors"));
   // Reference: recognise-then-update-or-learn the peer's places one by one into a copy of
@@ -193,7 +198,7 @@ void BM_MergeMemories(benchmark::State& state) {
   state.counters["merge_over_relearn"] = merge_s / relearn_s;
 }
 // Args: places per memory, % of the peer's places shared with ours, the form (0 both memories
-// given up, 1 both copied, 2 the peer's given up as tscd does),
+// given up, 1 both copied, 2 tscd's: the peer's given up, ours handed over once it changes),
 // 1 = member views in the builtin basis (what tscd runs with; session 27), places per site
 // (0: 64 sites whatever the size, so at 10⁵ a site holds ~1560 places, one room learned 1560
 // times; 2: the ≤ 2 places per room issue 23 asks of a long-lived memory, a flat tree whose
@@ -218,7 +223,7 @@ BENCHMARK(BM_MergeMemories)
     ->Args({10000, 50, 0, 1, 0, 0, 1, 0})
     ->Args({10000, 0, 0, 1, 0, 0, 1, 2})
     ->Args({10000, 50, 0, 1, 0, 0, 1, 2})
-    ->Args({10000, 50, 2, 1, 0, 0, 1, 2})  // what tscd runs: ours copied, the peer's moved
+    ->Args({10000, 50, 2, 1, 0, 0, 1, 2})  // what tscd runs (ours handed over, the peer's moved)
     ->Args({10000, 0, 0, 1, 0, 0, 2, 0})
     ->Args({10000, 50, 0, 1, 0, 0, 2, 0})
     ->Args({kLarge, 0, 0, 1, 0, 0, 0, 0})

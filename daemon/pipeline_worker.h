@@ -145,6 +145,9 @@ class PipelineWorker {
   /// Returns the heap freed by merges and bodies served to the system, once they are over.
   void TrimAfterBursts();
   void MergePeer(PeerSnapshot snapshot);
+  // After a merge that failed holding our memory (MergePeer): the store's copy of it becomes the
+  // pipeline's again.
+  void LoadMemoryBack(const std::string& why);
   /// The bodies of `robot` the store keeps among `digests` (SnapshotAssembler::Take's loader).
   PlaceBodies LoadPeerBodies(int32_t robot, const KnownDigests& digests);
   /// Keeps the bodies of `snapshot`, about to be merged, in the store for the next exchange.

@@ -2,6 +2,8 @@
 
 #include <algorithm>
 #include <cstdint>
+#include <functional>
+#include <optional>
 #include <stdexcept>
 #include <string>
 #include <utility>
@@ -51,15 +53,17 @@ MergeCase CaseAndRecognition(const PlaceMemory& base, const PlaceMemory& incomin
 }
 
 // MergeMemories. `ours_owned` / `peer_owned` point at `ours` / `peer` when the caller gave
-// them up: their places are then moved into the result instead of copied.
+// them up: their places are then moved into the result instead of copied. `give_up_ours`, when
+// not null, hands `ours` over where it is the base and the merge changes it (tscd's form).
 MemoryMerge Merge(const PlaceMemory& ours, const PlaceMemory& peer, PlaceMemory* ours_owned,
-                  PlaceMemory* peer_owned, int threads) {
+                  PlaceMemory* peer_owned, int threads,
+                  const std::function<PlaceMemory()>* give_up_ours = nullptr) {
   CheckSameDimension(ours, peer);
   // Both robots compute the same place set whichever of them merges.
   const bool peer_into_ours = PeerGoesIntoOurs(ours, peer);
   const PlaceMemory& base = peer_into_ours ? ours : peer;
   const PlaceMemory& incoming = peer_into_ours ? peer : ours;
-  PlaceMemory* const base_owned = peer_into_ours ? ours_owned : peer_owned;
+  PlaceMemory* base_owned = peer_into_ours ? ours_owned : peer_owned;
   PlaceMemory* const incoming_owned = peer_into_ours ? peer_owned : ours_owned;
   // Copies: `ours` may be given up (emptied) before the merged memory is made.
   const PlaceMemoryOptions options = ours.options();
@@ -81,7 +85,8 @@ MemoryMerge Merge(const PlaceMemory& ours, const PlaceMemory& peer, PlaceMemory*
   const bool renames = !std::all_of(ours.places().begin(), ours.places().end(), CarriesSmallestId);
   result.changed = known.anything_new || join.places.united() || !join.learned.empty() ||
                    (!peer_into_ours && fresh.base_knows_more) || renames;
-  if (!result.changed && peer_into_ours) {  // ours unchanged: no need to rebuild it
+  if (!result.changed && peer_into_ours) {       // ours unchanged: no need to rebuild it
+    if (give_up_ours != nullptr) return result;  // ours stands as the merged memory
     result.memory = ours_owned != nullptr ? std::move(*ours_owned) : ours;
     return result;
   }
@@ -98,6 +103,15 @@ MemoryMerge Merge(const PlaceMemory& ours, const PlaceMemory& peer, PlaceMemory*
 
   // From here on `base` and `incoming` may be empty (given up): their places are in `places`
   // and `in`.
+  std::optional<PlaceMemory> given_up;
+  if (give_up_ours != nullptr && peer_into_ours) {
+    const size_t count = base.places().size();  // `base` is emptied as it is handed over
+    given_up.emplace((*give_up_ours)());
+    if (given_up->places().size() != count || given_up->robot() != robot) {
+      throw std::logic_error("MergeMemories: give_up_ours handed over another memory");
+    }
+    base_owned = &*given_up;
+  }
   std::vector<LearnedPlace> places = PlacesOf(base, base_owned, threads);
   IncomingPlaces in(incoming, incoming_owned);
   if (!peer_into_ours) PreferOurFresherCopies(places, in);
@@ -128,6 +142,12 @@ MemoryMerge MergeMemories(PlaceMemory&& ours, PlaceMemory&& peer, int threads) {
 MemoryMerge MergeMemories(const PlaceMemory& ours, PlaceMemory&& peer, int threads) {
   if (&ours == &peer) return Merge(ours, peer, nullptr, nullptr, threads);
   return Merge(ours, peer, nullptr, &peer, threads);
+}
+
+MemoryMerge MergeMemories(const PlaceMemory& ours, PlaceMemory&& peer, int threads,
+                          const std::function<PlaceMemory()>& give_up_ours) {
+  if (&ours == &peer) return Merge(ours, peer, nullptr, nullptr, threads);
+  return Merge(ours, peer, nullptr, &peer, threads, &give_up_ours);
 }
 
 }  // namespace tsc

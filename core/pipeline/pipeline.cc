@@ -201,6 +201,12 @@ void Pipeline::AdoptMerged(PlaceMemory memory, TopologicalMap map) {
   map_ = std::move(map);
 }
 
+PlaceMemory Pipeline::GiveUpMemory() {
+  PlaceMemory out = std::move(memory_);
+  memory_ = PlaceMemory(out.robot(), out.options());
+  return out;
+}
+
 int Pipeline::Consolidate(int place, const CostTerms& terms, DetectedPlaceIndex m, PlaceEvent& e,
                           FrameResult& out) {
   if (terms.held_again.empty() || options_.consolidate_after == 0) return place;

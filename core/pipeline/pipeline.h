@@ -170,6 +170,10 @@ class Pipeline {
   /// Continues with a merged memory and map (core/merge). The previous place follows the
   /// place that absorbed it. Throws std::invalid_argument when `memory` belongs to another robot.
   void AdoptMerged(PlaceMemory memory, TopologicalMap map);
+  /// Hands the memory over to a merge that replaces it (MergeMemories' tscd form): until
+  /// AdoptMerged gives the pipeline a memory again it holds no place, and it must not process
+  /// frames. Moving it out spares the merge a copy of every place (docs/results.md, session 74).
+  PlaceMemory GiveUpMemory();
 
   /// Base points now lie at another spacing (tscd measures it by the robot's odometry): place
   /// detection continues with `detector` (its spacing, τ_p and τ_w; PlaceDetector::Readapt)

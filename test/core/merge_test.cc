@@ -12,6 +12,7 @@
 #include <vector>
 
 #include "core/memory/builtin_view_basis.h"
+#include "core/memory/unchanged_places.h"
 #include "core/merge/children_distance_bounds.h"
 #include "core/merge/merge_maps.h"
 #include "test/support/synthetic_places.h"
@@ -601,6 +602,84 @@ TEST(MergeMemories, GivingUpTheInputsGivesTheSameMerge) {
       EXPECT_EQ(dut.memory.next_local_id(), copied.memory.next_local_id());
     }
   }
+}
+
+// tscd's form hands our memory over only where it is the base and the merge changes it, and
+// then gives the copying form's merge; elsewhere ours is left as it was. The fingerprints taken
+// before the merge tell the unchanged places as comparing the places themselves does.
+TEST(MergeMemories, TscdsFormGivesUpOursOnlyWhereTheMergeChangesIt) {
+  const PlaceMemory a = MakeMemory(1, {At(0), At(1.5f), At(3), At(4.5f), At(3, 1.5f)}, 10);
+  PlaceMemory b(2, UnitScale());
+  b.Learn(MakePlace(At(4.5f), 13));
+  b.Learn(MakePlace(At(3.75f, 1.5f), 40));
+  b.Learn(MakePlace(At(1, 1.5f), 41));
+  const PlaceMemory far = MakeMemory(3, {At(0, 20), At(0, 20.5f)}, 20);
+  const PlaceMemory ab = MergeMemories(a, b).memory;
+  PlaceMemory late = a;
+  late.Update(0, MakePlace(At(0), 99, 10));
+  PlaceMemoryOptions options;
+  options.view_basis = BuiltinViewBasis();
+  testing_support::SyntheticPlaces world(7, 1200, 60, 0.02f, 1);
+  world.LieIn(options.view_basis, 0.033f);
+  const PlaceMemory c = testing_support::SyntheticMemory(1, world, 0, 80, 12, options);
+  const PlaceMemory d = testing_support::SyntheticMemory(2, world, 40, 80, 12, options);
+  const PlaceMemory cd = MergeMemories(c, d).memory;
+  const std::vector<std::pair<const PlaceMemory*, const PlaceMemory*>> pairs = {
+      {&a, &b},     {&b, &a}, {&a, &far}, {&far, &a}, {&ab, &b}, {&b, &ab},
+      {&late, &ab}, {&c, &d}, {&d, &c},   {&cd, &c},  {&c, &cd}, {&cd, &d}};
+  int given_up = 0, stood = 0, kept_flags = 0, changed_flags = 0;
+  for (const auto& [ours, peer] : pairs) {
+    SCOPED_TRACE("robot " + std::to_string(ours->robot()) + " + robot " +
+                 std::to_string(peer->robot()));
+    const MemoryMerge copied = MergeMemories(*ours, *peer);
+    const std::vector<PlaceFingerprint> fingerprints = FingerprintsOf(ours->places());
+    PlaceMemory held = *ours, peer_copy = *peer;
+    bool called = false;
+    const MemoryMerge dut = MergeMemories(held, std::move(peer_copy), 2, [&] {
+      called = true;
+      PlaceMemory out = std::move(held);
+      held = PlaceMemory(out.robot(), out.options());
+      return out;
+    });
+    EXPECT_EQ(dut.changed, copied.changed);
+    EXPECT_EQ(dut.peer_into_ours, copied.peer_into_ours);
+    EXPECT_EQ(called, copied.peer_into_ours && copied.changed);
+    if (copied.peer_into_ours && !copied.changed) {
+      ++stood;
+      EXPECT_TRUE(dut.memory.empty());  // ours stands as the merged memory
+      ExpectSameMemory(held, *ours);
+      ExpectSameMemory(copied.memory, *ours);
+      continue;
+    }
+    ExpectSameMerge(dut, copied);
+    EXPECT_EQ(dut.memory.next_local_id(), copied.memory.next_local_id());
+    if (!called) {
+      ExpectSameMemory(held, *ours);  // read only
+      continue;
+    }
+    ++given_up;
+    EXPECT_TRUE(held.empty());
+    const std::vector<char> by_fingerprint = UnchangedPositions(fingerprints, dut.memory.places());
+    EXPECT_EQ(by_fingerprint, UnchangedPositions(ours->places(), copied.memory.places()));
+    for (char f : by_fingerprint) ++(f ? kept_flags : changed_flags);
+  }
+  EXPECT_GE(given_up, 4);
+  EXPECT_GE(stood, 1);
+  EXPECT_GT(kept_flags, 10);  // both kinds of place were compared
+  EXPECT_GT(changed_flags, 10);
+
+  // A merge that throws before our memory is handed over leaves it whole.
+  PlaceMemory held = a;
+  bool called = false;
+  PlaceMemory other_kind = d;  // descriptors of another dimension, views in a basis
+  EXPECT_THROW(MergeMemories(held, std::move(other_kind), 1,
+                             [&] {
+                               called = true;
+                               return PlaceMemory(std::move(held));
+                             }),
+               std::invalid_argument);
+  EXPECT_FALSE(called);
+  ExpectSameMemory(held, a);
 }
 
 // What a merged memory takes over from its inputs for unchanged places (PlaceMemory::Derived)

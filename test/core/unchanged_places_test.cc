@@ -47,5 +47,24 @@ TEST(UnchangedPositions, FlagsThePlacesHeldAsTheyWereAtTheirPosition) {
   EXPECT_FALSE(SameStoredPlace(before[0], detected));
 }
 
+// Fingerprints see what a merge changes of a place (its count, its sources, its id) and where
+// places moved; a mean changed alone goes unseen, which a merge never does (PlaceFingerprint;
+// merge_test's TscdsFormGivesUpOursOnlyWhereTheMergeChangesIt compares both on real merges).
+TEST(UnchangedPositions, FingerprintsFlagWhatAMergeChanges) {
+  const std::vector<LearnedPlace> before = {Place(1, 0.1f), Place(2, 0.2f), Place(3, 0.3f),
+                                            Place(4, 0.4f), Place(5, 0.5f), Place(6, 0.6f)};
+  std::vector<LearnedPlace> after = before;
+  after[1].sources = {PlaceId{2, 7}};  // absorbed a peer's place
+  after[2].member_count += 3;          // absorbed a place of its own robot
+  after[3].id = PlaceId{2, 1};         // took the smallest id of its group
+  after[4] = before[5];                // 5 folded away: 6 moved up
+  after.pop_back();
+  after.push_back(Place(7, 0.7f));
+  after[0].mean(0) = 0.11f;
+  EXPECT_EQ(UnchangedPositions(FingerprintsOf(before), after),
+            (std::vector<char>{1, 0, 0, 0, 0, 0}));
+  EXPECT_EQ(UnchangedPositions(before, after), (std::vector<char>{0, 0, 0, 0, 0, 0}));
+}
+
 }  // namespace
 }  // namespace tsc
