@@ -556,22 +556,54 @@ TEST(MergeMemories, ARobotWithAWipedStoreTakesItsPlacesBackAndNumbersOnAfterThem
   EXPECT_EQ(from_sources.memory.next_local_id(), 2u);
 }
 
+// Memories for every case of a merge: peer into ours and ours into the larger peer, absorbed,
+// added, known (nothing new), our fresher copy; small ones, and places of 1200 dimensions kept
+// in the builtin basis, half of them shared.
+struct MergeCaseMemories {
+  static PlaceMemory Peer() {
+    PlaceMemory b(2, UnitScale());
+    b.Learn(MakePlace(At(4.5f), 13));  // identical to a's 1:4: absorbed
+    b.Learn(MakePlace(At(3.75f, 1.5f), 40));
+    b.Learn(MakePlace(At(1, 1.5f), 41));
+    return b;
+  }
+  static PlaceMemory Fresher(PlaceMemory m) {
+    m.Update(0, MakePlace(At(0), 99, 10));  // fresher than ab's copy of 1:1
+    return m;
+  }
+  static PlaceMemoryOptions InBasis() {
+    PlaceMemoryOptions options;
+    options.view_basis = BuiltinViewBasis();
+    return options;
+  }
+  static testing_support::SyntheticPlaces World() {
+    testing_support::SyntheticPlaces world(7, 1200, 60, 0.02f, 1);
+    world.LieIn(InBasis().view_basis, 0.033f);
+    return world;
+  }
+
+  PlaceMemory a = MakeMemory(1, {At(0), At(1.5f), At(3), At(4.5f), At(3, 1.5f)}, 10);
+  PlaceMemory b = Peer();
+  PlaceMemory far = MakeMemory(3, {At(0, 20), At(0, 20.5f)}, 20);
+  PlaceMemory ab = MergeMemories(a, b).memory;
+  PlaceMemory late = Fresher(a);
+  testing_support::SyntheticPlaces world = World();
+  PlaceMemory c = testing_support::SyntheticMemory(1, world, 0, 80, 12, InBasis());
+  PlaceMemory d = testing_support::SyntheticMemory(2, world, 40, 80, 12, InBasis());
+  PlaceMemory cd = MergeMemories(c, d).memory;
+
+  std::vector<std::pair<const PlaceMemory*, const PlaceMemory*>> Pairs() const {
+    return {{&a, &b},     {&b, &a}, {&a, &far}, {&far, &a}, {&ab, &b}, {&b, &ab},
+            {&late, &ab}, {&c, &d}, {&d, &c},   {&cd, &c},  {&c, &cd}, {&cd, &d}};
+  }
+};
+
 // The forms that take their inputs' places instead of copying them (both memories, or the
 // peer's alone as the daemon does) give the same merge in every case (peer into ours and ours
 // into the larger peer, absorbed, added, known, fresher copy).
 TEST(MergeMemories, GivingUpTheInputsGivesTheSameMerge) {
-  const PlaceMemory a = MakeMemory(1, {At(0), At(1.5f), At(3), At(4.5f), At(3, 1.5f)}, 10);
-  PlaceMemory b(2, UnitScale());
-  b.Learn(MakePlace(At(4.5f), 13));  // identical to a's 1:4: absorbed
-  b.Learn(MakePlace(At(3.75f, 1.5f), 40));
-  b.Learn(MakePlace(At(1, 1.5f), 41));
-  const PlaceMemory far = MakeMemory(3, {At(0, 20), At(0, 20.5f)}, 20);
-  const PlaceMemory ab = MergeMemories(a, b).memory;
-  PlaceMemory late = a;
-  late.Update(0, MakePlace(At(0), 99, 10));  // fresher than ab's copy of 1:1
-  const std::vector<std::pair<const PlaceMemory*, const PlaceMemory*>> pairs = {
-      {&a, &b}, {&b, &a}, {&a, &far}, {&far, &a}, {&ab, &b}, {&b, &ab}, {&late, &ab}};
-  for (const auto& [ours, peer] : pairs) {
+  const MergeCaseMemories m;
+  for (const auto& [ours, peer] : m.Pairs()) {
     const MemoryMerge copied = MergeMemories(*ours, *peer);
     for (const bool give_up_ours : {true, false}) {
       PlaceMemory ours_copy = *ours, peer_copy = *peer;
@@ -608,27 +640,9 @@ TEST(MergeMemories, GivingUpTheInputsGivesTheSameMerge) {
 // then gives the copying form's merge; elsewhere ours is left as it was. The fingerprints taken
 // before the merge tell the unchanged places as comparing the places themselves does.
 TEST(MergeMemories, TscdsFormGivesUpOursOnlyWhereTheMergeChangesIt) {
-  const PlaceMemory a = MakeMemory(1, {At(0), At(1.5f), At(3), At(4.5f), At(3, 1.5f)}, 10);
-  PlaceMemory b(2, UnitScale());
-  b.Learn(MakePlace(At(4.5f), 13));
-  b.Learn(MakePlace(At(3.75f, 1.5f), 40));
-  b.Learn(MakePlace(At(1, 1.5f), 41));
-  const PlaceMemory far = MakeMemory(3, {At(0, 20), At(0, 20.5f)}, 20);
-  const PlaceMemory ab = MergeMemories(a, b).memory;
-  PlaceMemory late = a;
-  late.Update(0, MakePlace(At(0), 99, 10));
-  PlaceMemoryOptions options;
-  options.view_basis = BuiltinViewBasis();
-  testing_support::SyntheticPlaces world(7, 1200, 60, 0.02f, 1);
-  world.LieIn(options.view_basis, 0.033f);
-  const PlaceMemory c = testing_support::SyntheticMemory(1, world, 0, 80, 12, options);
-  const PlaceMemory d = testing_support::SyntheticMemory(2, world, 40, 80, 12, options);
-  const PlaceMemory cd = MergeMemories(c, d).memory;
-  const std::vector<std::pair<const PlaceMemory*, const PlaceMemory*>> pairs = {
-      {&a, &b},     {&b, &a}, {&a, &far}, {&far, &a}, {&ab, &b}, {&b, &ab},
-      {&late, &ab}, {&c, &d}, {&d, &c},   {&cd, &c},  {&c, &cd}, {&cd, &d}};
+  const MergeCaseMemories m;
   int given_up = 0, stood = 0, kept_flags = 0, changed_flags = 0;
-  for (const auto& [ours, peer] : pairs) {
+  for (const auto& [ours, peer] : m.Pairs()) {
     SCOPED_TRACE("robot " + std::to_string(ours->robot()) + " + robot " +
                  std::to_string(peer->robot()));
     const MemoryMerge copied = MergeMemories(*ours, *peer);
@@ -669,9 +683,9 @@ TEST(MergeMemories, TscdsFormGivesUpOursOnlyWhereTheMergeChangesIt) {
   EXPECT_GT(changed_flags, 10);
 
   // A merge that throws before our memory is handed over leaves it whole.
-  PlaceMemory held = a;
+  PlaceMemory held = m.a;
   bool called = false;
-  PlaceMemory other_kind = d;  // descriptors of another dimension, views in a basis
+  PlaceMemory other_kind = m.d;  // descriptors of another dimension, views in a basis
   EXPECT_THROW(MergeMemories(held, std::move(other_kind), 1,
                              [&] {
                                called = true;
@@ -679,7 +693,7 @@ TEST(MergeMemories, TscdsFormGivesUpOursOnlyWhereTheMergeChangesIt) {
                              }),
                std::invalid_argument);
   EXPECT_FALSE(called);
-  ExpectSameMemory(held, a);
+  ExpectSameMemory(held, m.a);
 }
 
 // What a merged memory takes over from its inputs for unchanged places (PlaceMemory::Derived)
@@ -701,28 +715,9 @@ void ExpectDerivedAsComputed(const PlaceMemory& m) {
 
 TEST(MergeMemories, PlacesTakenOverUnchangedKeepWhatTheirMemoryDerived) {
   // Every case of GivingUpTheInputsGivesTheSameMerge, in both forms.
-  const PlaceMemory a = MakeMemory(1, {At(0), At(1.5f), At(3), At(4.5f), At(3, 1.5f)}, 10);
-  PlaceMemory b(2, UnitScale());
-  b.Learn(MakePlace(At(4.5f), 13));
-  b.Learn(MakePlace(At(3.75f, 1.5f), 40));
-  b.Learn(MakePlace(At(1, 1.5f), 41));
-  const PlaceMemory far = MakeMemory(3, {At(0, 20), At(0, 20.5f)}, 20);
-  const PlaceMemory ab = MergeMemories(a, b).memory;
-  PlaceMemory late = a;
-  late.Update(0, MakePlace(At(0), 99, 10));
-  // Places of 1200 dimensions kept in the builtin basis, half of them shared.
-  PlaceMemoryOptions options;
-  options.view_basis = BuiltinViewBasis();
-  testing_support::SyntheticPlaces world(7, 1200, 60, 0.02f, 1);
-  world.LieIn(options.view_basis, 0.033f);
-  const PlaceMemory c = testing_support::SyntheticMemory(1, world, 0, 80, 12, options);
-  const PlaceMemory d = testing_support::SyntheticMemory(2, world, 40, 80, 12, options);
-  const PlaceMemory cd = MergeMemories(c, d).memory;
+  const MergeCaseMemories m;
   int absorbed = 0;
-  const std::vector<std::pair<const PlaceMemory*, const PlaceMemory*>> pairs = {
-      {&a, &b},     {&b, &a}, {&a, &far}, {&far, &a}, {&ab, &b}, {&b, &ab},
-      {&late, &ab}, {&c, &d}, {&d, &c},   {&cd, &c},  {&c, &cd}};
-  for (const auto& [ours, peer] : pairs) {
+  for (const auto& [ours, peer] : m.Pairs()) {
     SCOPED_TRACE("robot " + std::to_string(ours->robot()) + " + robot " +
                  std::to_string(peer->robot()));
     const MemoryMerge copied = MergeMemories(*ours, *peer);
