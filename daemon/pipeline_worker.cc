@@ -566,51 +566,56 @@ void PipelineWorker::MergePeer(PeerSnapshot snapshot) {
       given_up = true;
       return pipeline_->GiveUpMemory();
     };
-    std::optional<MemoryMerge> attempt;
-    try {
-      attempt.emplace(stored_as_ours ? MergeMemories(pipeline_->memory(), std::move(peer),
-                                                     settings_.daemon.MergeThreads(), give_up_ours)
-                                     : MergeMemories(pipeline_->memory(), std::move(peer),
-                                                     settings_.daemon.MergeThreads()));
-    } catch (const std::exception& e) {
-      if (given_up) LoadMemoryBack(e.what());
-      throw;
-    }
-    MemoryMerge& merged = *attempt;
-    // Where ours was the base and the merge changed nothing, it left ours where it is.
-    const bool ours_stands = stored_as_ours && !given_up && merged.peer_into_ours;
-    const PlaceMemory& merged_memory = ours_stands ? pipeline_->memory() : merged.memory;
-    merge_case = merged.merge_case;
-    peer_into_ours = merged.peer_into_ours;
-    added = merged.added.size();
-    for (const Absorption& a : merged.absorbed) {
-      absorbed.emplace_back(a.source, a.target);
-      // The first ones only: a merge of two large memories absorbs thousands (a 10⁴-place
-      // peer made one log line of 260 KB). The place events published after the merge and the
-      // merged places' sources keep every one.
-      if (absorbed.size() > kLoggedAbsorptions) continue;
-      absorptions += fmt::format("{}{} into {} ({})", absorptions.empty() ? "" : ", ",
-                                 a.source.ToString(), a.target.ToString(),
-                                 a.cost > 0.0 ? fmt::format("g {:.2f}", a.cost) : "joined by ids");
-    }
-    if (absorbed.size() > kLoggedAbsorptions) {
-      absorptions += fmt::format(" and {} more", absorbed.size() - kLoggedAbsorptions);
-    }
-    TopologicalMap map = MergeMaps(pipeline_->map(), peer_map, merged_memory);
-    changed = MergeChangesAnything(merged, map, pipeline_->map());
-    if (changed) {  // always where ours was given up (the merge changed it)
-      if (ours_stands) merged.memory = pipeline_->GiveUpMemory();  // only the map changed
-      std::vector<char> unchanged;
-      if (stored_as_ours) {
-        // Fingerprints hold for a merge into ours; ours as the smaller memory was only read.
-        unchanged = merged.peer_into_ours
-                        ? UnchangedPositions(fingerprints, merged.memory.places())
-                        : UnchangedPositions(pipeline_->memory().places(), merged.memory.places());
+    bool adopted = false;
+    try {  // until the pipeline holds a memory again (LoadMemoryBack)
+      MemoryMerge merged = stored_as_ours
+                               ? MergeMemories(pipeline_->memory(), std::move(peer),
+                                               settings_.daemon.MergeThreads(), give_up_ours)
+                               : MergeMemories(pipeline_->memory(), std::move(peer),
+                                               settings_.daemon.MergeThreads());
+      // Where ours was the base and the merge changed nothing, it left ours where it is.
+      const bool ours_stands = stored_as_ours && !given_up && merged.peer_into_ours;
+      const PlaceMemory& merged_memory = ours_stands ? pipeline_->memory() : merged.memory;
+      merge_case = merged.merge_case;
+      peer_into_ours = merged.peer_into_ours;
+      added = merged.added.size();
+      for (const Absorption& a : merged.absorbed) {
+        absorbed.emplace_back(a.source, a.target);
+        // The first ones only: a merge of two large memories absorbs thousands (a 10⁴-place
+        // peer made one log line of 260 KB). The place events published after the merge and the
+        // merged places' sources keep every one.
+        if (absorbed.size() > kLoggedAbsorptions) continue;
+        absorptions += fmt::format(
+            "{}{} into {} ({})", absorptions.empty() ? "" : ", ", a.source.ToString(),
+            a.target.ToString(), a.cost > 0.0 ? fmt::format("g {:.2f}", a.cost) : "joined by ids");
       }
-      bodies_.BeforeReplace();
-      pipeline_->AdoptMerged(std::move(merged.memory), std::move(map));
-      // Only once the memory they describe is the pipeline's.
-      if (stored_as_ours) stored_unchanged_ = std::move(unchanged);
+      if (absorbed.size() > kLoggedAbsorptions) {
+        absorptions += fmt::format(" and {} more", absorbed.size() - kLoggedAbsorptions);
+      }
+      TopologicalMap map = MergeMaps(pipeline_->map(), peer_map, merged_memory);
+      changed = MergeChangesAnything(merged, map, pipeline_->map());
+      if (changed) {        // always where ours was given up (the merge changed it)
+        if (ours_stands) {  // only the map changed: ours goes back in with it
+          merged.memory = pipeline_->GiveUpMemory();
+          given_up = true;
+        }
+        std::vector<char> unchanged;
+        if (stored_as_ours) {
+          // Fingerprints hold for a merge into ours; ours as the smaller memory was only read.
+          unchanged =
+              merged.peer_into_ours
+                  ? UnchangedPositions(fingerprints, merged.memory.places())
+                  : UnchangedPositions(pipeline_->memory().places(), merged.memory.places());
+        }
+        bodies_.BeforeReplace();
+        pipeline_->AdoptMerged(std::move(merged.memory), std::move(map));
+        // Only once the memory they describe is the pipeline's.
+        if (stored_as_ours) stored_unchanged_ = std::move(unchanged);
+      }
+      adopted = true;
+    } catch (const std::exception& e) {
+      if (given_up && !adopted) LoadMemoryBack(e.what());
+      throw;
     }
     places_after = pipeline_->memory().places().size();
     counters_.places = static_cast<int32_t>(places_after);
