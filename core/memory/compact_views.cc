@@ -54,35 +54,49 @@ void DecodeColumns(const int8_t* codes, const uint8_t* drop, Eigen::Index rows, 
 
 }  // namespace
 
-CompactViews::CompactViews(const Eigen::MatrixXf& views)
-    : rows_(views.rows()),
-      cols_(views.cols()),
-      codes_(static_cast<size_t>(views.size())),
-      drop_(static_cast<size_t>(views.rows()), 0) {
+CompactViews::CompactViews(const Eigen::MatrixXf& views) { Encode(views); }
+
+void CompactViews::Encode(const Eigen::MatrixXf& views) {
+  const Eigen::Index rows = views.rows(), cols = views.cols();
   // Each row's largest magnitude first (the largest of all sets the shift, each row's its
   // drop), in floats: scaling by 2^shift is exact and keeps their order. A merge encodes the
   // pooled views of every place it absorbs (the scalar passes in double were 6 % of a 10⁴ +
   // 10⁴ merge).
   const bool avx2 = FastestSimd() == Simd::kAvx2Fma;
-  std::vector<float> row_most(static_cast<size_t>(rows_), 0.0f);
+  std::vector<float> row_most(static_cast<size_t>(rows), 0.0f);
   bool finite = true;
   if (avx2) {
-    finite = avx2::RowMagnitudes(views.data(), rows_, cols_, row_most.data());
+    finite = avx2::RowMagnitudes(views.data(), rows, cols, row_most.data());
   } else {
     for (Eigen::Index k = 0; k < views.size(); ++k) {
       const float x = std::abs(views.data()[k]);
       finite = finite && std::isfinite(x);
-      float& m = row_most[static_cast<size_t>(k % rows_)];
+      float& m = row_most[static_cast<size_t>(k % rows)];
       m = std::max(m, x);
     }
   }
   if (!finite) throw std::invalid_argument("member view coordinate is not finite");
-  const float most = rows_ == 0 ? 0.0f : *std::max_element(row_most.begin(), row_most.end());
+  const float most = rows == 0 ? 0.0f : *std::max_element(row_most.begin(), row_most.end());
   // Below 127.5 · 2^8 at the least shift, −15: the 16-bit form's range (2^30 · 255/256).
   if (std::ldexp(static_cast<double>(most), kLeastShift) >= kLargestScaled) {
     throw std::invalid_argument("member view coordinate " + std::to_string(most) +
                                 " is beyond 2^30 * 255/256");
   }
+  std::vector<double> row_scale(static_cast<size_t>(rows), 0.0);
+  // Checked, and the storage reserved (nothing where the views held take as many bytes; a
+  // larger one fresh, since reserving would copy codes about to be overwritten): from here on
+  // nothing throws, and the views held are overwritten.
+  drop_.reserve(static_cast<size_t>(rows));
+  if (codes_.capacity() < static_cast<size_t>(views.size())) {
+    std::vector<int8_t> larger;
+    larger.reserve(static_cast<size_t>(views.size()));
+    codes_.swap(larger);
+  }
+  codes_.resize(static_cast<size_t>(views.size()));
+  drop_.assign(static_cast<size_t>(rows), 0);
+  rows_ = rows;
+  cols_ = cols;
+  shift_ = 0;
   if (most > 0.0f) {
     int e = 0;
     std::frexp(most, &e);  // most ∈ [2^(e−1), 2^e)
@@ -92,7 +106,6 @@ CompactViews::CompactViews(const Eigen::MatrixXf& views)
   // x · 2^shift is exact in double; each row then takes the least drop that keeps its largest
   // code within 127, and its codes are the scaled coordinates rounded at that drop.
   const double scale = std::ldexp(1.0, shift_);
-  std::vector<double> row_scale(static_cast<size_t>(rows_), 0.0);
   for (Eigen::Index r = 0; r < rows_; ++r) {
     // Halving a double is exact here (2^shift · a float's magnitude, at most 8 times), so it
     // is std::ldexp(m, −drop) without a library call per step (a merge encodes every pooled
@@ -148,7 +161,7 @@ CompactViews::CompactViews(Eigen::Index rows, Eigen::Index cols, int shift,
   for (Eigen::Index k = 0; k < views.size(); ++k) {
     views.data()[k] = static_cast<float>(wide[static_cast<size_t>(k)]) * scale;
   }
-  *this = CompactViews(views);
+  Encode(views);
 }
 
 std::vector<int16_t> CompactViews::Wide() const {
@@ -194,7 +207,7 @@ void CompactViews::Append(const CompactViews& more) {
   if (more.shift_ != shift_ || more.drop_ != drop_) {
     Eigen::MatrixXf both(rows_, cols_ + more.cols_);
     both << Decoded(), more.Decoded();
-    *this = CompactViews(both);
+    Encode(both);
     return;
   }
   codes_.insert(codes_.end(), more.codes_.begin(), more.codes_.end());

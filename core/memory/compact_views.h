@@ -38,6 +38,11 @@ class CompactViews {
   /// encoding some views gives: the rule the constructor from parts checks, for callers that
   /// hold the integers elsewhere (a message's rows) and need not copy them to ask.
   static bool IsEncoding(int shift, int largest);
+  /// Encodes `views` in place of the views held, as the constructor does, in their storage
+  /// where it is large enough: a merge re-encodes every place it absorbs into, and a fresh
+  /// 8 KB for each left the old one a hole glibc cannot hand back (issue 23's RSS after a
+  /// merge). Throws as the constructor does, before it changes the views held.
+  void Encode(const Eigen::MatrixXf& views);
 
   Eigen::Index rows() const { return rows_; }
   Eigen::Index cols() const { return cols_; }

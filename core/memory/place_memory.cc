@@ -334,7 +334,7 @@ void PlaceMemory::Update(int place, const DetectedPlace& d) {
   Eigen::MatrixXf pool(p.samples.rows(), p.samples.cols() + visit.cols());
   pool << p.samples.Decoded(), visit;
   p.detected.push_back(d.index);
-  p.samples = CompactViews(ThinViews(pool, options_.SampleCap(p)));
+  p.samples.Encode(ThinViews(pool, options_.SampleCap(p)));
   p.members.insert(p.members.end(), d.members.begin(), d.members.end());
   TrimHistory(p);
   StoreDerived(place, place + 1);

@@ -142,7 +142,7 @@ void Absorb(LearnedPlace& target, const LearnedPlace& p, const PlaceMemoryOption
   } else {
     Eigen::MatrixXf both(target.samples.rows(), pooled);
     both << target.samples.Decoded(), p.samples.Decoded();
-    target.samples = CompactViews(ThinViews(both, max_samples));
+    target.samples.Encode(ThinViews(both, max_samples));
   }
 }
 

@@ -187,5 +187,34 @@ TEST(CompactViews, RefusesWhatItCannotKeep) {
   EXPECT_THROW(CompactViews(Eigen::MatrixXf::Ones(4, 2)).Col(2), std::out_of_range);
 }
 
+// A merge re-encodes the views of every place it absorbs into: in the storage the place held,
+// so it leaves no hole glibc cannot hand back (issue 23's RSS after a merge).
+TEST(CompactViews, EncodingInPlaceIsTheConstructorsEncodingInTheSameStorage) {
+  std::mt19937 rng(kSeed);
+  CompactViews held(RandomViews(rng, 128, 64, 0.01f));
+  const int8_t* storage = held.codes();
+  for (float scale : {1e-9f, 0.01f, 3e4f}) {
+    const Eigen::MatrixXf views = RandomViews(rng, 128, 64, scale);
+    held.Encode(views);
+    EXPECT_EQ(held, CompactViews(views)) << scale;
+    EXPECT_EQ(held.codes(), storage) << "views of the same size took new storage";
+  }
+  // Fewer views fit too; more take new storage, and are still the constructor's.
+  const Eigen::MatrixXf fewer = RandomViews(rng, 128, 20, 1.0f);
+  held.Encode(fewer);
+  EXPECT_EQ(held, CompactViews(fewer));
+  EXPECT_EQ(held.codes(), storage);
+  const Eigen::MatrixXf more = RandomViews(rng, 128, 80, 1.0f);
+  held.Encode(more);
+  EXPECT_EQ(held, CompactViews(more));
+  // What cannot be kept is refused before the views held change.
+  Eigen::MatrixXf bad = RandomViews(rng, 16, 3, 1.0f);
+  bad(5, 2) = NAN;
+  EXPECT_THROW(held.Encode(bad), std::invalid_argument);
+  bad(5, 2) = 0x1p31f;
+  EXPECT_THROW(held.Encode(bad), std::invalid_argument);
+  EXPECT_EQ(held, CompactViews(more));
+}
+
 }  // namespace
 }  // namespace tsc
