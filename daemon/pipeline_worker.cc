@@ -353,8 +353,9 @@ void PipelineWorker::Loop() {
 }
 
 void PipelineWorker::MaintainStore() {
-  if (!store_ || degraded_store_ || !pending_.empty() || unsaved_merge_ ||
-      Clock::now() < next_maintenance_) {
+  // Only over a store that holds every result: retention keeps what the stored places need,
+  // and a memory not yet written in full (AllCommitted) may need records it would thin.
+  if (!store_ || degraded_store_ || !AllCommitted() || Clock::now() < next_maintenance_) {
     return;
   }
   next_maintenance_ = Clock::now() + std::chrono::seconds(1);
