@@ -44,7 +44,8 @@ MergeCase CaseAndRecognition(const PlaceMemory& base, const PlaceMemory& incomin
   if ((known.anything_new || !fresh.places.empty()) && !base.empty() && !incoming.empty()) {
     spheres = CaseOfRootSpheres(base, incoming, tau_r, threads);
     if (RecognitionDecides(spheres.merge_case)) {
-      Recognise(base, incoming, known, fresh.places, tau_r, threads, join, found);
+      Recognise(base, incoming, known, fresh.places, tau_r, threads, join, found,
+                spheres.terminals);
     }
     return known.anything_new ? spheres.merge_case : MergeCase::kNothingNew;
   }

@@ -52,9 +52,12 @@ RootBall RootBallOf(const PlaceMemory& memory) {
   return b;
 }
 
-// Figure 4.4's case for the root balls `b` of the base and `i` of the incoming memory.
+// Figure 4.4's case for the root balls `b` of the base and `i` of the incoming memory. Telling
+// the contained cases apart takes the larger memory's hyper-terminals, which go into
+// `terminals` (base [0], incoming [1]).
 MergeCase RootSphereCase(const PlaceMemory& base, const PlaceMemory& incoming, const RootBall& b,
-                         const RootBall& i, double tau_r) {
+                         const RootBall& i, double tau_r,
+                         std::vector<HyperTerminal> (&terminals)[2]) {
   const NodeStatistics& sb = b.sphere;
   const NodeStatistics& si = i.sphere;
   const double d = (sb.centroid - si.centroid).norm();
@@ -73,7 +76,9 @@ MergeCase RootSphereCase(const PlaceMemory& base, const PlaceMemory& incoming, c
   const NodeStatistics& small = base_large ? si : sb;
   const NodeStatistics& large = base_large ? sb : si;
   if (d + small.radius > large.radius) return MergeCase::kIntersecting;
-  for (const HyperTerminal& h : HyperTerminals(base_large ? base : incoming)) {
+  std::vector<HyperTerminal>& of_large = terminals[base_large ? 0 : 1];
+  of_large = HyperTerminals(base_large ? base : incoming);
+  for (const HyperTerminal& h : of_large) {
     if ((h.sphere.centroid - small.centroid).norm() <= h.sphere.radius + small.radius + reach) {
       return MergeCase::kContainedIntersecting;
     }
@@ -111,7 +116,7 @@ RootSpheres CaseOfRootSpheres(const PlaceMemory& base, const PlaceMemory& incomi
   RootBall balls[2];
   OnThreads(2, threads, [&](size_t m) { balls[m] = RootBallOf(m == 0 ? base : incoming); });
   RootSpheres s;
-  s.merge_case = RootSphereCase(base, incoming, balls[0], balls[1], tau_r);
+  s.merge_case = RootSphereCase(base, incoming, balls[0], balls[1], tau_r, s.terminals);
   s.base = std::move(balls[0].sphere);
   s.incoming = std::move(balls[1].sphere);
   return s;

@@ -3,6 +3,7 @@
 // spheres of the two trees lie, which decides whether recognition runs at all.
 
 #include <string_view>
+#include <vector>
 
 #include "core/memory/place_memory.h"
 #include "core/merge/hyper_terminals.h"
@@ -30,6 +31,10 @@ struct RootSpheres {
   NodeStatistics base;
   NodeStatistics incoming;
   MergeCase merge_case = MergeCase::kNothingNew;
+  /// HyperTerminals of the base ([0]) and of the incoming memory ([1]) where telling a
+  /// contained case apart took them (the larger memory's), else empty: recognition takes them
+  /// rather than finding them again (~20 ms at 10⁴ places).
+  std::vector<HyperTerminal> terminals[2];
 };
 /// The root spheres of two non-empty memories and their case, each sphere reaching a
 /// recognition radius (from `tau_r`) further so that places close enough to be recognised as

@@ -273,10 +273,12 @@ Recognitions::Recognitions(std::vector<int> linked, size_t base_count)
 
 void Recognise(const PlaceMemory& base, const PlaceMemory& incoming, const KnownIds& known,
                const std::vector<int>& fresh, double tau_r, int threads, IdJoin& join,
-               Recognitions& found) {
-  // Each memory's hyper-terminals side by side (the spheres of 10⁴ places take ~20 ms).
-  std::vector<HyperTerminal> terminals[2];
-  OnThreads(2, threads, [&](size_t m) { terminals[m] = HyperTerminals(m == 0 ? base : incoming); });
+               Recognitions& found, std::vector<HyperTerminal> (&terminals)[2]) {
+  // Each memory's hyper-terminals not known yet, side by side (the spheres of 10⁴ places take
+  // ~20 ms). A memory has at least one, so an empty list is one not found yet.
+  OnThreads(2, threads, [&](size_t m) {
+    if (terminals[m].empty()) terminals[m] = HyperTerminals(m == 0 ? base : incoming);
+  });
   const std::vector<HyperTerminal>& hb = terminals[0];
   const std::vector<HyperTerminal>& hi = terminals[1];
   // (Only a place the base knows can be matched: none known, nothing to do.)

@@ -8,6 +8,7 @@
 #include <vector>
 
 #include "core/memory/place_memory.h"
+#include "core/merge/hyper_terminals.h"
 #include "core/merge/id_join.h"
 
 namespace tsc {
@@ -31,9 +32,10 @@ struct Recognitions {
 /// places (FreshBasePlaces) against `incoming`, with threshold `tau_r` on g. A fresh base place
 /// recognised joins the base place holding its match in `join`. Up to `threads` threads share
 /// the places (each place's recognition depends only on it and its N*): what is found is the
-/// same for any number.
+/// same for any number. `terminals`: HyperTerminals of the base ([0]) and of the incoming
+/// memory ([1]) where known already, else empty (they are found here then).
 void Recognise(const PlaceMemory& base, const PlaceMemory& incoming, const KnownIds& known,
                const std::vector<int>& fresh, double tau_r, int threads, IdJoin& join,
-               Recognitions& found);
+               Recognitions& found, std::vector<HyperTerminal> (&terminals)[2]);
 
 }  // namespace tsc
