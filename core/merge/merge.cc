@@ -45,7 +45,7 @@ MergeCase CaseAndRecognition(const PlaceMemory& base, const PlaceMemory& incomin
     spheres = CaseOfRootSpheres(base, incoming, tau_r, threads);
     if (RecognitionDecides(spheres.merge_case)) {
       Recognise(base, incoming, known, fresh.places, tau_r, threads, join, found,
-                spheres.terminals);
+                std::move(spheres.terminals));
     }
     return known.anything_new ? spheres.merge_case : MergeCase::kNothingNew;
   }

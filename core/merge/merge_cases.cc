@@ -57,7 +57,7 @@ RootBall RootBallOf(const PlaceMemory& memory) {
 // `terminals` (base [0], incoming [1]).
 MergeCase RootSphereCase(const PlaceMemory& base, const PlaceMemory& incoming, const RootBall& b,
                          const RootBall& i, double tau_r,
-                         std::vector<HyperTerminal> (&terminals)[2]) {
+                         std::array<std::vector<HyperTerminal>, 2>& terminals) {
   const NodeStatistics& sb = b.sphere;
   const NodeStatistics& si = i.sphere;
   const double d = (sb.centroid - si.centroid).norm();

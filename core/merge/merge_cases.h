@@ -2,6 +2,7 @@
 // The cases of the merge (figure 4.4, §4.5.2): which memory goes into which, and how the root
 // spheres of the two trees lie, which decides whether recognition runs at all.
 
+#include <array>
 #include <string_view>
 #include <vector>
 
@@ -33,8 +34,8 @@ struct RootSpheres {
   MergeCase merge_case = MergeCase::kNothingNew;
   /// HyperTerminals of the base ([0]) and of the incoming memory ([1]) where telling a
   /// contained case apart took them (the larger memory's), else empty: recognition takes them
-  /// rather than finding them again (~20 ms at 10⁴ places).
-  std::vector<HyperTerminal> terminals[2];
+  /// (moved: they need not outlive it) rather than finding them again (~20 ms at 10⁴ places).
+  std::array<std::vector<HyperTerminal>, 2> terminals;
 };
 /// The root spheres of two non-empty memories and their case, each sphere reaching a
 /// recognition radius (from `tau_r`) further so that places close enough to be recognised as

@@ -273,7 +273,7 @@ Recognitions::Recognitions(std::vector<int> linked, size_t base_count)
 
 void Recognise(const PlaceMemory& base, const PlaceMemory& incoming, const KnownIds& known,
                const std::vector<int>& fresh, double tau_r, int threads, IdJoin& join,
-               Recognitions& found, std::vector<HyperTerminal> (&terminals)[2]) {
+               Recognitions& found, std::array<std::vector<HyperTerminal>, 2> terminals) {
   // Each memory's hyper-terminals not known yet, side by side (the spheres of 10⁴ places take
   // ~20 ms). A memory has at least one, so an empty list is one not found yet.
   OnThreads(2, threads, [&](size_t m) {

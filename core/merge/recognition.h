@@ -4,6 +4,7 @@
 // round. A place recognised with g ≤ τ_r goes into the other memory's place; a robot's own
 // places never join (its pipeline already judged them different).
 
+#include <array>
 #include <cstddef>
 #include <vector>
 
@@ -33,9 +34,10 @@ struct Recognitions {
 /// recognised joins the base place holding its match in `join`. Up to `threads` threads share
 /// the places (each place's recognition depends only on it and its N*): what is found is the
 /// same for any number. `terminals`: HyperTerminals of the base ([0]) and of the incoming
-/// memory ([1]) where known already, else empty (they are found here then).
+/// memory ([1]) where known already, else empty (they are found here then); they are let go
+/// on return, before the merge builds its memory.
 void Recognise(const PlaceMemory& base, const PlaceMemory& incoming, const KnownIds& known,
                const std::vector<int>& fresh, double tau_r, int threads, IdJoin& join,
-               Recognitions& found, std::vector<HyperTerminal> (&terminals)[2]);
+               Recognitions& found, std::array<std::vector<HyperTerminal>, 2> terminals);
 
 }  // namespace tsc
