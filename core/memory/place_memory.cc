@@ -441,6 +441,7 @@ void PlaceMemory::StoreDerived(int first, int end,
   // keys a place by views ThinViews spreads; thinned already, they are kept as they are).
   // New places are filed in the index's cells once, at the end (a restore appends them all).
   if (static_cast<size_t>(end) > spacings_.size()) spacings_.resize(static_cast<size_t>(end));
+  if (static_cast<size_t>(end) > view_radii_.size()) view_radii_.resize(static_cast<size_t>(end));
   // A place appended to the index takes its given keys; one re-keyed is summarised anew.
   const int indexed = view_index_.size();
   TSC_ASSERT(first <= indexed, "places are appended to the view index in order");
@@ -456,12 +457,16 @@ void PlaceMemory::StoreDerived(int first, int end,
     OnThreads(summaries.size(), threads, [&](size_t k) {
       const int p = block + static_cast<int>(k);
       if (keeps_given(p)) return;
-      summaries[k] = SummariseViews(places_[p].samples.Decoded(), ViewIndex::kKeysPerPlace - 1);
+      const Eigen::MatrixXf views = places_[p].samples.Decoded();
+      view_radii_[static_cast<size_t>(p)] =
+          (views.colwise() - ViewCentre(p)).colwise().norm().maxCoeff();
+      summaries[k] = SummariseViews(views, ViewIndex::kKeysPerPlace - 1);
     });
     for (int p = block; p < block_end; ++p) {
       if (keeps_given(p)) {
         const Derived* d = given(p);
         spacings_[static_cast<size_t>(p)] = d->spacing;
+        view_radii_[static_cast<size_t>(p)] = d->view_radius;
         view_index_.AppendKeys(d->keys);
         continue;
       }
@@ -679,6 +684,7 @@ PlaceMemory::Derived PlaceMemory::DerivedOf(int place) const {
     out.mean_norm = mean_norms_.at(p);
   }
   out.spacing = spacings_.at(p);
+  out.view_radius = view_radii_.at(p);
   out.keys = view_index_.KeysOf(place);
   return out;
 }

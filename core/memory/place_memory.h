@@ -183,6 +183,10 @@ class PlaceMemory {
   const ViewBasis* view_basis() const { return options_.view_basis.get(); }
   /// Place `place`'s mean in the space of member views (the mean itself without a basis).
   const Eigen::VectorXf& ViewCentre(int place) const;
+  /// The distance from ViewCentre(place) to its farthest member view: what bounds the place's
+  /// views for the merge's root spheres (core/merge/merge_cases.cc), which otherwise decoded
+  /// every view of both memories at each merge.
+  float ViewRadius(int place) const { return view_radii_.at(static_cast<size_t>(place)); }
 
   /// Learns D as a new place p*+1 (SLINK insertion, rebuild, retrain changed nodes).
   int Learn(const DetectedPlace& d);
@@ -226,14 +230,15 @@ class PlaceMemory {
   std::vector<LearnedPlace> TakePlaces() &&;
 
   /// What the memory derives from a place's mean and member views alone: the mean's
-  /// coordinates in the view basis and its norm (with a basis), the view spacing, the view
-  /// index's keys. A merge hands it to Restore for the places it takes over unchanged, which
-  /// would otherwise compute it all again (a sixth of a 10⁴ + 10⁴ merge). It belongs to the
-  /// exact mean and views it was taken from.
+  /// coordinates in the view basis and its norm (with a basis), the view spacing and radius,
+  /// the view index's keys. A merge hands it to Restore for the places it takes over
+  /// unchanged, which would otherwise compute it all again (a sixth of a 10⁴ + 10⁴ merge). It
+  /// belongs to the exact mean and views it was taken from.
   struct Derived {
     Eigen::VectorXf view_centre;  // empty without a basis
     float mean_norm = 0.0f;
     double spacing = 0.0;
+    float view_radius = 0.0f;
     ViewIndex::PlaceKeys keys;
   };
   Derived DerivedOf(int place) const;
@@ -278,8 +283,8 @@ class PlaceMemory {
   void GammaLowerBounds(const Eigen::VectorXf& mean, std::vector<double>& out) const;
   /// With a view basis, takes the means of places [first, end) into it (view_centres_,
   /// mean_norms_); without one, copies them into their columns of `means_` (growing it as
-  /// needed). Then measures their view spacings and re-keys them in the view index. With
-  /// `derived` (one per place), a place that has one takes it instead. On up to `threads`
+  /// needed). Then measures their view spacings and radii and re-keys them in the view index.
+  /// With `derived` (one per place), a place that has one takes it instead. On up to `threads`
   /// threads.
   void StoreDerived(int first, int end,
                     const std::vector<std::optional<Derived>>* derived = nullptr, int threads = 1);
@@ -292,7 +297,8 @@ class PlaceMemory {
   std::vector<OneClassDiscriminant> discriminants_;  // per node; root's is unused
   std::vector<Eigen::VectorXf> centroid_sums_;       // per inner node: Σ place means
   std::vector<int> leaf_order_;
-  std::vector<double> spacings_;  // per place: ViewSpacing of its member views
+  std::vector<double> spacings_;   // per place: ViewSpacing of its member views
+  std::vector<float> view_radii_;  // per place: ViewRadius
   int root_ = -1;
   uint32_t next_local_ = 1;
 

@@ -14,14 +14,9 @@ namespace {
 // space of the views (a view basis shortens distances, never lengthens them).
 double ViewBound(const PlaceMemory& memory, const Eigen::VectorXf& centre) {
   double bound = 0.0;
-  Eigen::MatrixXf views;  // one place's, decoded; reused
   for (size_t i = 0; i < memory.places().size(); ++i) {
-    const LearnedPlace& p = memory.places()[i];
-    const Eigen::VectorXf& c = memory.ViewCentre(static_cast<int>(i));
-    views.resize(p.samples.rows(), p.samples.cols());
-    p.samples.DecodeInto(views.data());
-    const double spread = (views.colwise() - c).colwise().norm().maxCoeff();
-    bound = std::max(bound, (p.mean - centre).norm() + spread);
+    const double spread = memory.ViewRadius(static_cast<int>(i));
+    bound = std::max(bound, (memory.places()[i].mean - centre).norm() + spread);
   }
   return bound;
 }
@@ -111,8 +106,8 @@ bool PeerGoesIntoOurs(const PlaceMemory& ours, const PlaceMemory& peer) {
 
 RootSpheres CaseOfRootSpheres(const PlaceMemory& base, const PlaceMemory& incoming, double tau_r,
                               int threads) {
-  // Each memory's ball reads every one of its views (~65 ms for two memories of 10⁴ places):
-  // the two are measured side by side, each as one thread would.
+  // Each memory's ball reads every one of its means: the two are measured side by side, each
+  // as one thread would.
   RootBall balls[2];
   OnThreads(2, threads, [&](size_t m) { balls[m] = RootBallOf(m == 0 ? base : incoming); });
   RootSpheres s;

@@ -708,6 +708,7 @@ void ExpectDerivedAsComputed(const PlaceMemory& m) {
     EXPECT_TRUE(a.view_centre == b.view_centre);
     EXPECT_EQ(a.mean_norm, b.mean_norm);
     EXPECT_EQ(a.spacing, b.spacing);
+    EXPECT_EQ(a.view_radius, b.view_radius);
     EXPECT_TRUE(a.keys.keys == b.keys.keys);
     EXPECT_EQ(a.keys.norms, b.keys.norms);
   }

@@ -699,6 +699,7 @@ TEST(PlaceMemory, RestoreOnAnyNumberOfThreadsDerivesTheSameValues) {
       ASSERT_EQ(a.view_centre, b.view_centre) << what << ", place " << p;
       ASSERT_EQ(a.mean_norm, b.mean_norm) << what << ", place " << p;
       ASSERT_EQ(a.spacing, b.spacing) << what << ", place " << p;
+      ASSERT_EQ(a.view_radius, b.view_radius) << what << ", place " << p;
       ASSERT_EQ(a.keys.keys, b.keys.keys) << what << ", place " << p;
       ASSERT_EQ(a.keys.norms, b.keys.norms) << what << ", place " << p;
     }
@@ -707,6 +708,34 @@ TEST(PlaceMemory, RestoreOnAnyNumberOfThreadsDerivesTheSameValues) {
   expect_same(restore(1), learned, "1 thread against learning");
   expect_same(restore(2), learned, "2 threads against learning");
   expect_same(restore(3), learned, "3 threads against learning");
+}
+
+// A place's view radius is the distance from its view centre to its farthest member view,
+// kept as learning and updates change the views (the merge bounds a memory's views by it).
+TEST(PlaceMemory, ViewRadiusReachesTheFarthestMemberView) {
+  constexpr uint32_t kSeed = 79;
+  SCOPED_TRACE("seed " + std::to_string(kSeed));
+  testing_support::SyntheticPlaces world(kSeed, BuiltinViewBasis()->input_dimension(), 8, 0.05f);
+  world.LieIn(BuiltinViewBasis(), 0.033f);
+  for (const bool basis : {true, false}) {
+    SCOPED_TRACE(basis ? "builtin basis" : "no basis");
+    PlaceMemoryOptions options;
+    options.view_basis = basis ? BuiltinViewBasis() : nullptr;
+    PlaceMemory m(1, options);
+    for (int p = 0; p < 8; ++p) m.Learn(world.Visit(p, 0, 6, 6));
+    for (int p = 0; p < 8; p += 2) m.Update(p, world.Visit(p, 1, 9, 9));
+    for (int p = 0; p < 8; ++p) {
+      const Eigen::MatrixXf views = m.places()[static_cast<size_t>(p)].samples.Decoded();
+      const Eigen::VectorXf& centre = m.ViewCentre(p);
+      float farthest = 0.0f;
+      for (Eigen::Index j = 0; j < views.cols(); ++j) {
+        farthest = std::max(farthest, (views.col(j) - centre).norm());
+      }
+      EXPECT_GT(farthest, 0.0f) << "place " << p;
+      // Up to rounding: the memory sums the squares in another order.
+      EXPECT_NEAR(m.ViewRadius(p), farthest, 1e-5f * farthest) << "place " << p;
+    }
+  }
 }
 
 // A recognition names the copies of its room that its siblings hold (CostTerms::held_again,

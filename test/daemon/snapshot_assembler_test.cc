@@ -79,6 +79,7 @@ TEST(ToPlaceMemory, BuildsTheSameMemoryOnAnyNumberOfThreads) {
     EXPECT_TRUE(db.view_centre == da.view_centre);
     EXPECT_EQ(db.mean_norm, da.mean_norm);
     EXPECT_EQ(db.spacing, da.spacing);
+    EXPECT_EQ(db.view_radius, da.view_radius);
     EXPECT_TRUE(db.keys.keys == da.keys.keys);
     EXPECT_EQ(db.keys.norms, da.keys.norms);
   }
