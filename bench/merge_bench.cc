@@ -19,6 +19,7 @@
 
 #include "core/memory/builtin_view_basis.h"
 #include "core/merge/merge.h"
+#include "core/merge/merge_cases.h"
 #include "daemon/memory_snapshot.h"
 #include "settings/daemon_options.h"
 #include "test/support/synthetic_places.h"
@@ -235,6 +236,31 @@ BENCHMARK(BM_MergeMemories)
     ->MeasureProcessCPUTime()
     ->Unit(benchmark::kMillisecond)
     ->Iterations(1);  // the giving-up form consumes its inputs
+
+// The first step of every merge, figure 4.4's case from the two memories' root spheres (and,
+// for a contained case, the larger memory's hyper-terminals): it reads every place of both.
+// Args: places per memory, % shared (as BM_MergeMemories), the views a place keeps
+// (PlaceCaps), threads. Views in the builtin basis, places near it, as tscd runs.
+void BM_CaseOfRootSpheres(benchmark::State& state) {
+  const auto& [ours, peer] =
+      Pair(static_cast<int>(state.range(0)), static_cast<int>(state.range(1)), true, kSites, true,
+           static_cast<int>(state.range(2)));
+  const double tau_r = ours.options().tau_r;
+  MergeCase found = MergeCase::kNothingNew;
+  for (auto _ : state) {
+    RootSpheres s = CaseOfRootSpheres(ours, peer, tau_r, static_cast<int>(state.range(3)));
+    found = s.merge_case;
+    benchmark::DoNotOptimize(s);
+  }
+  state.SetLabel(std::string(ToString(found)));
+}
+BENCHMARK(BM_CaseOfRootSpheres)
+    ->Args({10000, 50, 1, 1})
+    ->Args({10000, 50, 2, 1})
+    ->Args({10000, 50, 1, 2})
+    ->MeasureProcessCPUTime()
+    ->UseRealTime()
+    ->Unit(benchmark::kMillisecond);
 
 // Bytes on the wire per place: the LCM encodings of the snapshot portions a robot publishes
 // (daemon/memory_snapshot: places with mean and samples, tree nodes; empty map here) at the
