@@ -15,6 +15,7 @@
 #include "core/memory/unchanged_places.h"
 #include "core/merge/children_distance_bounds.h"
 #include "core/merge/merge_maps.h"
+#include "test/support/derived_compare.h"
 #include "test/support/synthetic_places.h"
 
 namespace tsc {
@@ -701,17 +702,7 @@ TEST(MergeMemories, TscdsFormGivesUpOursOnlyWhereTheMergeChangesIt) {
 void ExpectDerivedAsComputed(const PlaceMemory& m) {
   const PlaceMemory fresh =
       PlaceMemory::Restore(m.robot(), m.options(), m.places(), m.slink(), m.next_local_id(), {});
-  for (int p = 0; p < static_cast<int>(m.places().size()); ++p) {
-    const PlaceMemory::Derived a = m.DerivedOf(p), b = fresh.DerivedOf(p);
-    SCOPED_TRACE("place " + m.places()[static_cast<size_t>(p)].id.ToString());
-    ASSERT_EQ(a.view_centre.size(), b.view_centre.size());
-    EXPECT_TRUE(a.view_centre == b.view_centre);
-    EXPECT_EQ(a.mean_norm, b.mean_norm);
-    EXPECT_EQ(a.spacing, b.spacing);
-    EXPECT_EQ(a.view_radius, b.view_radius);
-    EXPECT_TRUE(a.keys.keys == b.keys.keys);
-    EXPECT_EQ(a.keys.norms, b.keys.norms);
-  }
+  EXPECT_EQ(testing_support::DerivedDifference(m, fresh), "");
 }
 
 TEST(MergeMemories, PlacesTakenOverUnchangedKeepWhatTheirMemoryDerived) {

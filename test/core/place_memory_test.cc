@@ -9,6 +9,7 @@
 
 #include "core/memory/builtin_view_basis.h"
 #include "core/merge/consolidate.h"
+#include "test/support/derived_compare.h"
 #include "test/support/synthetic_places.h"
 
 namespace tsc {
@@ -692,22 +693,11 @@ TEST(PlaceMemory, RestoreOnAnyNumberOfThreadsDerivesTheSameValues) {
     return PlaceMemory::Restore(1, options, learned.places(), learned.slink(),
                                 learned.next_local_id(), {}, {}, threads);
   };
-  auto expect_same = [](const PlaceMemory& x, const PlaceMemory& y, const std::string& what) {
-    ASSERT_EQ(x.places().size(), y.places().size()) << what;
-    for (int p = 0; p < static_cast<int>(x.places().size()); ++p) {
-      const PlaceMemory::Derived a = x.DerivedOf(p), b = y.DerivedOf(p);
-      ASSERT_EQ(a.view_centre, b.view_centre) << what << ", place " << p;
-      ASSERT_EQ(a.mean_norm, b.mean_norm) << what << ", place " << p;
-      ASSERT_EQ(a.spacing, b.spacing) << what << ", place " << p;
-      ASSERT_EQ(a.view_radius, b.view_radius) << what << ", place " << p;
-      ASSERT_EQ(a.keys.keys, b.keys.keys) << what << ", place " << p;
-      ASSERT_EQ(a.keys.norms, b.keys.norms) << what << ", place " << p;
-    }
-  };
   // The learned memory derived its values place by place, as it learned them.
-  expect_same(restore(1), learned, "1 thread against learning");
-  expect_same(restore(2), learned, "2 threads against learning");
-  expect_same(restore(3), learned, "3 threads against learning");
+  for (const int threads : {1, 2, 3}) {
+    ASSERT_EQ(testing_support::DerivedDifference(restore(threads), learned), "")
+        << threads << " threads against learning";
+  }
 }
 
 // A place's view radius is the distance from its view centre to its farthest member view,
