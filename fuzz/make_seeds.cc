@@ -11,6 +11,8 @@
 #include <string>
 #include <vector>
 
+#include "core/memory/builtin_view_basis.h"
+#include "core/pipeline/pipeline.h"
 #include "daemon/lcm_bus.h"
 #include "daemon/memory_snapshot.h"
 #include "drivers/motor/jaguar_ascii_protocol.h"
@@ -147,6 +149,18 @@ size_t WriteSnapshotSeeds(const fs::path& out) {
     AppendFramed(two_versions, LcmBus::Encode(next.Portion(i)));
   }
   Write(out / "fuzz_snapshot_assembler/next-version-changed-body-only", two_versions);
+
+  // A memory in tscd's default view basis (descriptors of its input dimension, views on its
+  // axes), so that the assembler's memory is restored and merged in the basis, as tscd does.
+  const auto in_basis = tsc::testing_support::MakeRandomMemory(
+      2, 4, tsc::BuiltinViewBasis()->input_dimension(), 1, 4, tsc::PipelineOptions{}.memory);
+  const tsc::MemorySnapshot basis_snapshot =
+      tsc::BuildSnapshot(in_basis.memory, in_basis.map, tsc::SnapshotHeader{2, 78, 3, 0}, 60000);
+  std::vector<uint8_t> in_basis_stream;
+  for (const tsc::memory_portion_v2_t& p : tsc::AllPortions(basis_snapshot)) {
+    AppendFramed(in_basis_stream, LcmBus::Encode(p));
+  }
+  Write(out / "fuzz_snapshot_assembler/builtin-basis", in_basis_stream);
   return portions.size();
 }
 

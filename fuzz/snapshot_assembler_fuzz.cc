@@ -3,8 +3,15 @@
 // the digest of what arrived of their version (so the fuzzer gets past the digest check, as a
 // peer that computes digests honestly over a malicious memory would), fed to a
 // SnapshotAssembler, and a snapshot it accepts is turned into a place memory and a map as the
-// daemon does before merging. The bodies of a complete snapshot are offered to the next
-// assembly, as the daemon does for a peer's next version (issue 23).
+// daemon does before merging, then merged into a memory of ours, maps included, as the
+// daemon merges it: a memory the assembler accepts is merged or refused with
+// std::invalid_argument, nothing else (the daemon's worker survives either). The bodies of a
+// complete snapshot are offered to the next assembly, as the daemon does for a peer's next
+// version (issue 23).
+//
+// The options are those of the view basis the snapshot declares (none, or tscd's default
+// builtin one), so that both kinds of memory are reached; tscd itself refuses a basis not its
+// own before this point (ToPlaceMemory).
 
 #include <map>
 #include <memory>
@@ -13,10 +20,43 @@
 #include <string>
 #include <vector>
 
+#include "core/memory/builtin_view_basis.h"
+#include "core/merge/merge.h"
+#include "core/merge/merge_maps.h"
+#include "core/pipeline/pipeline.h"
 #include "daemon/lcm_bus.h"
 #include "daemon/memory_snapshot.h"
 #include "daemon/snapshot_assembler.h"
 #include "fuzz/fuzz_target.h"
+#include "test/support/random_memory.h"
+
+namespace {
+
+// The receiving robot's memory: robot 1 holding the places the seeds' peer holds (the same
+// random seed, fuzz/make_seeds.cc), so that merging a seed absorbs places, not only adds them.
+const tsc::testing_support::RandomMemory& Ours(bool builtin_basis) {
+  static const tsc::testing_support::RandomMemory plain =
+      tsc::testing_support::MakeRandomMemory(1, 12, 32, 1, 4);
+  static const tsc::testing_support::RandomMemory in_basis = tsc::testing_support::MakeRandomMemory(
+      1, 4, tsc::BuiltinViewBasis()->input_dimension(), 1, 4, tsc::PipelineOptions{}.memory);
+  return builtin_basis ? in_basis : plain;
+}
+
+void MergeAsTheDaemonDoes(const tsc::PeerSnapshot& snapshot) {
+  const bool builtin_basis = snapshot.view_basis == tsc::ViewBasisId(tsc::BuiltinViewBasis().get());
+  const tsc::testing_support::RandomMemory& ours = Ours(builtin_basis);
+  try {
+    tsc::PlaceMemory peer = tsc::ToPlaceMemory(snapshot, ours.memory.options());
+    const tsc::TopologicalMap peer_map = tsc::ToTopologicalMap(snapshot);
+    const tsc::MemoryMerge merged = tsc::MergeMemories(ours.memory, std::move(peer));
+    const tsc::TopologicalMap map = tsc::MergeMaps(ours.map, peer_map, merged.memory);
+    (void)tsc::MergeChangesAnything(merged, map, ours.map);
+  } catch (const std::invalid_argument&) {
+    // refused, as the daemon refuses it: the documented way to fail
+  }
+}
+
+}  // namespace
 
 extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
   std::vector<tsc::memory_portion_v2_t> portions;
@@ -56,12 +96,7 @@ extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
     for (size_t i = 0; i < snapshot->places.size(); ++i) {
       kept.emplace(snapshot->entries[i].body_digest, snapshot->places[i]);
     }
-    try {
-      (void)tsc::ToPlaceMemory(*snapshot, tsc::PlaceMemoryOptions{});
-      (void)tsc::ToTopologicalMap(*snapshot);
-    } catch (const std::invalid_argument&) {
-      // refused, as the daemon refuses it: the documented way to fail
-    }
+    MergeAsTheDaemonDoes(*snapshot);
   }
   return 0;
 }

@@ -4,6 +4,7 @@
 // does not matter.
 
 #include <random>
+#include <utility>
 
 #include "core/map/topological_map.h"
 #include "core/memory/place_memory.h"
@@ -16,10 +17,10 @@ struct RandomMemory {
 };
 
 /// `places` places of `members` uniform random descriptors of `dims` each; the same seed gives
-/// the same memory.
+/// the same memory (for any robot: two robots of one seed hold the same places).
 inline RandomMemory MakeRandomMemory(uint32_t robot, int places, int dims, unsigned seed,
-                                     int members = 10) {
-  RandomMemory out{PlaceMemory(robot, PlaceMemoryOptions{}), TopologicalMap{}};
+                                     int members = 10, PlaceMemoryOptions options = {}) {
+  RandomMemory out{PlaceMemory(robot, std::move(options)), TopologicalMap{}};
   std::mt19937 rng(seed);
   std::uniform_real_distribution<float> u(0.0f, 1.0f);
   for (int p = 0; p < places; ++p) {
