@@ -45,6 +45,8 @@ const tsc::testing_support::RandomMemory& Ours(bool builtin_basis) {
 void MergeAsTheDaemonDoes(const tsc::PeerSnapshot& snapshot) {
   const bool builtin_basis = snapshot.view_basis == tsc::ViewBasisId(tsc::BuiltinViewBasis().get());
   const tsc::testing_support::RandomMemory& ours = Ours(builtin_basis);
+  // tscd never fetches a memory announced under its own robot id (PeerExchange).
+  if (snapshot.robot == static_cast<int32_t>(ours.memory.robot())) return;
   try {
     tsc::PlaceMemory peer = tsc::ToPlaceMemory(snapshot, ours.memory.options());
     const tsc::TopologicalMap peer_map = tsc::ToTopologicalMap(snapshot);
