@@ -253,6 +253,25 @@ void WriteAxisSeeds(const fs::path& out) {
 
 }  // namespace
 
+// Edits to the store fuzz_store writes (fuzz/store_fuzz.cc): none, then for each of its 13
+// tables (by name) a cell's bytes overwritten, a cell set to the largest integer, a row
+// deleted; and a learned place's mean set to a NaN real.
+void WriteStoreSeeds(const fs::path& out) {
+  const fs::path dir = out / "fuzz_store";
+  Write(dir / "unchanged", std::vector<uint8_t>{});
+  constexpr uint8_t kTables = 13, kLearnedPlaces = 4;
+  for (uint8_t t = 0; t < kTables; ++t) {
+    const std::string table = std::to_string(t);
+    Write(dir / ("overwrite-" + table),
+          std::vector<uint8_t>{3, t, 2, 0, 4, 0, 4, 0xFF, 0xFF, 0xFF, 0x7F});
+    Write(dir / ("largest-integer-" + table),
+          std::vector<uint8_t>{0, t, 1, 0, 0xFF, 0xFF, 0xFF, 0xFF, 0xFF, 0xFF, 0xFF, 0x7F});
+    Write(dir / ("delete-" + table), std::vector<uint8_t>{4, t, 0, 0});
+  }
+  Write(dir / "nan-real",
+        std::vector<uint8_t>{1, kLearnedPlaces, 2, 0, 0, 0, 0, 0, 0, 0, 0xF8, 0x7F});
+}
+
 int main(int argc, char** argv) {
   if (argc != 2) {
     std::fprintf(stderr, "usage: fuzz_make_seeds FOLDER\n");
@@ -265,6 +284,7 @@ int main(int argc, char** argv) {
   WriteJaguarV2Seeds(out);
   WriteJaguarAsciiSeeds(out);
   WriteAxisSeeds(out);
+  WriteStoreSeeds(out);
   std::printf("seeds written to %s (%zu portions)\n", out.c_str(), portions);
   return 0;
 }
