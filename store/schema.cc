@@ -131,6 +131,21 @@ void Migrate(const Db& db) {
                  std::to_string(Store::kSchemaVersion) +
                  " this program knows; refusing to open it");
   }
+  if (version == 0) {
+    // This code records the version with the first tables it creates: tables without one
+    // are another program's, or a tscd database whose version row was lost. Migrating from 0
+    // would stop at the first table that exists, with SQLite's "already exists".
+    Statement tables(db,
+                     "SELECT group_concat(name, ', ') FROM sqlite_master WHERE type = 'table' "
+                     "AND name <> 'schema_version' AND name NOT LIKE 'sqlite\\_%' ESCAPE '\\'");
+    if (tables.Step() && sqlite3_column_type(tables.get(), 0) != SQLITE_NULL) {
+      Fail(db, std::string("no schema version is recorded (table schema_version), yet it holds "
+                           "tables (") +
+                   reinterpret_cast<const char*>(sqlite3_column_text(tables.get(), 0)) +
+                   "): not a tscd database, or one whose version was lost; refusing to change "
+                   "it");
+    }
+  }
   if (version < Store::kSchemaVersion) {
     for (int64_t v = version; v < Store::kSchemaVersion; ++v) {
       Exec(db, kMigrations[static_cast<size_t>(v)]);

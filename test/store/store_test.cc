@@ -550,6 +550,29 @@ TEST_F(StoreTest, OpenRefusesANewerSchemaVersion) {
   }
 }
 
+// Tables without a recorded version (another program's database, or tscd's with its version
+// row lost) are refused as they are: a migration from version 0 would try to create them.
+TEST_F(StoreTest, OpenRefusesTablesWithoutASchemaVersion) {
+  { Store::Open(path_); }
+  Sql(path_, "DELETE FROM schema_version");
+  for (const bool existing : {false, true}) {
+    try {
+      if (existing) {
+        Store::OpenExisting(path_);
+      } else {
+        Store::Open(path_);
+      }
+      FAIL() << "a database without its schema version was opened";
+    } catch (const StoreError& e) {
+      const std::string what = e.what();
+      EXPECT_NE(what.find(path_.string()), std::string::npos) << what;
+      EXPECT_NE(what.find("no schema version"), std::string::npos) << what;
+      EXPECT_NE(what.find("learned_places"), std::string::npos) << what;
+    }
+  }
+  EXPECT_EQ(Sql(path_, "SELECT COUNT(*) FROM schema_version"), 0);  // left as it was
+}
+
 // Every detected place that was recognised or learned is listed with the place it went to
 // and its members; the revisit of cluster 0 goes to the same place as the first visit.
 TEST_F(StoreTest, AssignmentsListDetectedPlacesWithTheirPlaceAndMembers) {
