@@ -127,7 +127,16 @@ TEST(Layouts, CellsNoEncoderWritesAreRefused) {
   };
   EXPECT_EQ(Refusal(samples(-1, 1 << 30, 1 << 30, 0), DecodeSamples),
             "1073741824 x 1073741824 values need 2305843009213693952 bytes, 0 left");
-  EXPECT_EQ(Refusal(samples(-1, -4, 2, 0), DecodeSamples), "negative size -4 x 2");
+  EXPECT_EQ(Refusal(samples(-1, -4, 2, 0), DecodeSamples), "views of size -4 x 2: at least 1 x 1");
+  // No views of no values, however many they claim: they hold no bytes, but 0 x 2·10⁹ views
+  // took seconds to walk (fuzz_store), in both layouts.
+  EXPECT_EQ(Refusal(samples(-1, 0, 2137390848, 0), DecodeSamples),
+            "views of size 0 x 2137390848: at least 1 x 1");
+  EXPECT_EQ(
+      Refusal(BlobWriter().PutOne(int32_t{0}).PutOne(int32_t{2137390848}).Finish(), DecodeSamples),
+      "views of size 0 x 2137390848: at least 1 x 1");
+  EXPECT_EQ(Refusal(samples(-1, 128, 0, 0), DecodeSamples),
+            "views of size 128 x 0: at least 1 x 1");
   Bytes not_encoding = samples(-1, 1, 1, 0);
   for (const unsigned char b : EncodeArray(std::span<const int16_t>({int16_t{3}}))) {
     not_encoding.push_back(b);
