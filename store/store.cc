@@ -342,19 +342,21 @@ std::vector<int> WriteLearnedPlaces(const Db& db, const PlaceMemory& memory,
 /// (inside the caller's transaction); records `peer` when given. The pipeline's previous place
 /// may have been absorbed: it continues from the place that holds it. `unchanged`: as
 /// WriteLearnedPlaces.
+void WritePeer(const Db& db, const PeerMerge& peer) {
+  Statement(db,
+            "INSERT OR REPLACE INTO peers(robot, last_merged_version, merged_at_utime, digest) "
+            "VALUES(?1, ?2, ?3, ?4)")
+      .Int(1, peer.robot)
+      .Int(2, peer.version)
+      .Int(3, peer.utime)
+      .Int(4, peer.digest)
+      .Run();
+}
+
 void WriteKnowledge(const Db& db, const PlaceMemory& memory, const TopologicalMap& map,
                     const std::optional<PeerMerge>& peer,
                     const std::vector<char>* unchanged = nullptr) {
-  if (peer) {
-    Statement(db,
-              "INSERT OR REPLACE INTO peers(robot, last_merged_version, merged_at_utime, digest) "
-              "VALUES(?1, ?2, ?3, ?4)")
-        .Int(1, peer->robot)
-        .Int(2, peer->version)
-        .Int(3, peer->utime)
-        .Int(4, peer->digest)
-        .Run();
-  }
+  if (peer) WritePeer(db, *peer);
   // The discriminants of the nodes above the places written are refreshed with the tree.
   WriteTree(db, memory, WriteLearnedPlaces(db, memory, unchanged));
   Exec(db, "DELETE FROM map_edges; DELETE FROM map_places;");
@@ -892,6 +894,9 @@ SpillReplay Store::ReplaySpill(const std::filesystem::path& spill, uint32_t robo
     continues = MetaInt(sdb, kMetaSpillContinues, 0, std::numeric_limits<int64_t>::max());
   }
   const StoredState saved = from.Load(robot, options);  // throws for another robot's
+  // Read as Load reads them, not copied row by row: a damaged one refuses the spill rather
+  // than the next start's store (fuzz_spill).
+  const std::map<uint32_t, PeerMerge> peers = from.LoadPeers();
   const StoredState ours = Load(robot, options);
   // A continuation of exactly this database, or of none when its writer never loaded one.
   if (!continues) {
@@ -931,9 +936,8 @@ SpillReplay Store::ReplaySpill(const std::filesystem::path& spill, uint32_t robo
          "INSERT OR IGNORE INTO main.detected_places SELECT * FROM spill.detected_places;"
          "INSERT OR IGNORE INTO main.transition_regions(first, last, from_robot, from_local, "
          "to_robot, to_local) SELECT first, last, from_robot, from_local, to_robot, to_local "
-         "FROM spill.transition_regions ORDER BY id;"
-         "INSERT OR REPLACE INTO main.peers(robot, last_merged_version, merged_at_utime, digest) "
-         "SELECT robot, last_merged_version, merged_at_utime, digest FROM spill.peers;");
+         "FROM spill.transition_regions ORDER BY id;");
+    for (const auto& [peer_robot, peer] : peers) WritePeer(db, peer);
     {
       Statement count(db, "SELECT COUNT(*) FROM spill.base_points");
       if (count.Step()) out.base_points = sqlite3_column_int64(count.get(), 0);

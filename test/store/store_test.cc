@@ -1196,6 +1196,39 @@ TEST_F(StoreTest, ASpillTakenInEqualsResultsCommittedOneByOne) {
             Sql(one_by_one, "SELECT COUNT(*) FROM base_points"));
 }
 
+// A spill whose peers row is damaged is refused, the store left as it was: copied row by row,
+// the row went in and the next start could not read the store's peers (fuzz_spill).
+TEST_F(StoreTest, ASpillWithADamagedPeerIsRefusedAndTheStoreKept) {
+  Stream stream(48);
+  stream.AddCluster();
+  const fs::path spill = dir_ / "memory.db.spill.1";
+  {
+    Store dut = Store::Open(path_);
+    Pipeline pipeline = Continue(dut);
+    for (Descriptor& d : stream.Visit(0, 14)) {
+      dut.Commit(pipeline.ProcessDescriptor(d, IntensityStats{0.5, 0.05}), pipeline);
+    }
+    Store::WriteSpill(spill, {}, pipeline, PeerMerge{2, 3, 99, 1}, pipeline.state().next_base);
+  }
+  const auto before = testing_support::LoadKnowledge(path_, kRobot, Options().memory);
+  Sql(spill, "UPDATE peers SET merged_at_utime = x'00ff'");
+  {
+    Store dut = Store::Open(path_);
+    try {
+      dut.ReplaySpill(spill, kRobot, Options().memory);
+      FAIL() << "a spill with a damaged peers row was taken in";
+    } catch (const StoreError& e) {
+      const std::string what = e.what();
+      EXPECT_NE(what.find(spill.string()), std::string::npos) << what;
+      EXPECT_NE(what.find("merged_at_utime"), std::string::npos) << what;
+    }
+  }
+  EXPECT_EQ(testing_support::DescribeDifferences(
+                before, testing_support::LoadKnowledge(path_, kRobot, Options().memory)),
+            "");
+  EXPECT_TRUE(fs::exists(spill));
+}
+
 // The crash tests' comparison sees one bit of one mean, one traversal and one merged version.
 TEST_F(StoreTest, StructuralComparisonNamesTheSmallestDifference) {
   WriteThreeRoomsAndARevisit(43);
