@@ -253,11 +253,10 @@ void WriteAxisSeeds(const fs::path& out) {
 
 }  // namespace
 
-// Edits to the store fuzz_store writes (fuzz/store_fuzz.cc): none, then for each of its 13
-// tables (by name) a cell's bytes overwritten, a cell set to the largest integer, a row
-// deleted; and a learned place's mean set to a NaN real.
-void WriteStoreSeeds(const fs::path& out) {
-  const fs::path dir = out / "fuzz_store";
+// Edits (fuzz/sqlite_edits.h) to a database of the store's schema, for fuzz_store and
+// fuzz_spill: none, then for each of its 13 tables (by name) a cell's bytes overwritten, a
+// cell set to the largest integer, a row deleted; and a learned place's mean set to a NaN real.
+void WriteDatabaseEditSeeds(const fs::path& dir) {
   Write(dir / "unchanged", std::vector<uint8_t>{});
   constexpr uint8_t kTables = 13, kLearnedPlaces = 4;
   for (uint8_t t = 0; t < kTables; ++t) {
@@ -284,7 +283,8 @@ int main(int argc, char** argv) {
   WriteJaguarV2Seeds(out);
   WriteJaguarAsciiSeeds(out);
   WriteAxisSeeds(out);
-  WriteStoreSeeds(out);
+  WriteDatabaseEditSeeds(out / "fuzz_store");
+  WriteDatabaseEditSeeds(out / "fuzz_spill");
   std::printf("seeds written to %s (%zu portions)\n", out.c_str(), portions);
   return 0;
 }

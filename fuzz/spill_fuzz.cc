@@ -1,0 +1,112 @@
+// Fuzz target: a damaged spill taken in at start. A tscd that stops while its store fails
+// writes what it could not commit to a spill, a database of its own (Store::WriteSpill), and
+// the next start takes it into the store (Store::ReplaySpill). Written once per process: a
+// store holding robot 1's memory and a spill continuing it (one place more, a merged peer);
+// each input is a list of edits to a fresh copy of the spill (fuzz/sqlite_edits.h), which is
+// then taken into a fresh copy of the store as tscd does. What must hold: the spill is taken
+// in, after which the store loads, or it is refused with StoreError and the store holds
+// exactly what it held (places, tree, map, peers: test/support/memory_compare.h); no crash.
+
+#include <cstdint>
+#include <cstdio>
+#include <filesystem>
+#include <optional>
+#include <string>
+#include <vector>
+
+#include "core/memory/builtin_view_basis.h"
+#include "core/pipeline/pipeline.h"
+#include "fuzz/fuzz_target.h"
+#include "fuzz/sqlite_edits.h"
+#include "store/store.h"
+#include "test/support/memory_compare.h"
+#include "test/support/random_memory.h"
+
+namespace {
+
+namespace fs = std::filesystem;
+
+constexpr uint32_t kRobot = 1;
+
+tsc::PipelineOptions Options() {
+  tsc::PipelineOptions o;
+  o.robot = kRobot;
+  return o;
+}
+
+// The store and the spill every input starts from, written once, with the spill's tables and
+// what the store holds; removed when the process exits.
+struct Seed {
+  fs::path dir, store, spill, work_store, work_spill;
+  std::vector<tsc::fuzz::SqlTable> tables;
+  std::optional<tsc::testing_support::Knowledge> held;
+  Seed() = default;
+  Seed(const Seed&) = delete;
+  Seed& operator=(const Seed&) = delete;
+  ~Seed() {
+    std::error_code ec;
+    if (!dir.empty()) fs::remove_all(dir, ec);
+  }
+};
+
+void Write(Seed& s) {
+  s.dir = fs::temp_directory_path() / ("tscd-fuzz-spill-" + tsc::fuzz::FixedWidthPid());
+  fs::remove_all(s.dir);
+  fs::create_directories(s.dir);
+  s.store = s.dir / "store.db";
+  s.spill = s.dir / "spill.db";
+  s.work_store = s.dir / "work.db";
+  s.work_spill = s.dir / "work-spill.db";
+  const int dim = tsc::BuiltinViewBasis()->input_dimension();
+  const tsc::PipelineOptions options = Options();
+  // The same random places, learned in the same order: the spill's memory holds the store's.
+  const auto stored = tsc::testing_support::MakeRandomMemory(kRobot, 4, dim, 1, 4, options.memory);
+  auto spilled = tsc::testing_support::MakeRandomMemory(kRobot, 5, dim, 1, 4, options.memory);
+  {
+    tsc::Store store = tsc::Store::Open(s.store);
+    store.ReplaceKnowledge(stored.memory, stored.map);
+  }
+  const tsc::Pipeline pipeline(tsc::CameraIntrinsics::FromHorizontalFov(64, 48, 60), options,
+                               std::move(spilled.memory), std::move(spilled.map));
+  tsc::Store::WriteSpill(s.spill, {}, pipeline, tsc::PeerMerge{2, 3, 99, 1}, tsc::BaseIndex{0});
+  s.tables = tsc::fuzz::TablesOf(s.spill);
+  s.held = tsc::testing_support::LoadKnowledge(s.store, kRobot);
+}
+
+const Seed& TheSeed() {
+  static Seed seed;
+  if (seed.tables.empty()) Write(seed);
+  return seed;
+}
+
+}  // namespace
+
+extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
+  const Seed& seed = TheSeed();
+  fs::copy_file(seed.store, seed.work_store, fs::copy_options::overwrite_existing);
+  fs::copy_file(seed.spill, seed.work_spill, fs::copy_options::overwrite_existing);
+  tsc::fuzz::ApplyEdits(seed.work_spill, seed.tables, data, size);
+  bool taken = false;
+  {
+    tsc::Store store = tsc::Store::OpenExisting(seed.work_store);
+    try {
+      (void)store.ReplaySpill(seed.work_spill, kRobot, Options().memory);
+      taken = true;
+    } catch (const tsc::StoreError&) {
+      // refused, as tscd refuses it: the spill is kept and said so
+    }
+  }
+  std::optional<tsc::testing_support::Knowledge> after;
+  try {
+    after = tsc::testing_support::LoadKnowledge(seed.work_store, kRobot);
+  } catch (const tsc::StoreError& e) {
+    std::fprintf(stderr, "after %s spill: %s\n", taken ? "a taken" : "a refused", e.what());
+  }
+  tsc::fuzz::Require(after.has_value(), "the store loads after a spill was taken in or refused");
+  if (!taken) {
+    const std::string changes = tsc::testing_support::DescribeDifferences(*seed.held, *after);
+    if (!changes.empty()) std::fprintf(stderr, "%s\n", changes.c_str());
+    tsc::fuzz::Require(changes.empty(), "a refused spill leaves the store as it was");
+  }
+  return 0;
+}
