@@ -17,6 +17,7 @@
 #include "core/memory/builtin_view_basis.h"
 #include "core/pipeline/pipeline.h"
 #include "fuzz/fuzz_target.h"
+#include "fuzz/scratch_dir.h"
 #include "fuzz/sqlite_edits.h"
 #include "store/store.h"
 #include "test/support/memory_compare.h"
@@ -26,39 +27,24 @@ namespace {
 
 namespace fs = std::filesystem;
 
-constexpr uint32_t kRobot = 1;
-
-tsc::PipelineOptions Options() {
-  tsc::PipelineOptions o;
-  o.robot = kRobot;
-  return o;
-}
+constexpr uint32_t kRobot = 1;  // tscd's default options' robot (PipelineOptions)
 
 // The store and the spill every input starts from, written once, with the spill's tables and
-// what the store holds; removed when the process exits.
+// what the store holds.
 struct Seed {
-  fs::path dir, store, spill, work_store, work_spill;
+  tsc::fuzz::ScratchDir dir{"tscd-fuzz-spill"};
+  fs::path store, spill, work_store, work_spill;
   std::vector<tsc::fuzz::SqlTable> tables;
   std::optional<tsc::testing_support::Knowledge> held;
-  Seed() = default;
-  Seed(const Seed&) = delete;
-  Seed& operator=(const Seed&) = delete;
-  ~Seed() {
-    std::error_code ec;
-    if (!dir.empty()) fs::remove_all(dir, ec);
-  }
 };
 
 void Write(Seed& s) {
-  s.dir = fs::temp_directory_path() / ("tscd-fuzz-spill-" + tsc::fuzz::FixedWidthPid());
-  fs::remove_all(s.dir);
-  fs::create_directories(s.dir);
-  s.store = s.dir / "store.db";
-  s.spill = s.dir / "spill.db";
-  s.work_store = s.dir / "work.db";
-  s.work_spill = s.dir / "work-spill.db";
+  s.store = s.dir.path() / "store.db";
+  s.spill = s.dir.path() / "spill.db";
+  s.work_store = s.dir.path() / "work.db";
+  s.work_spill = s.dir.path() / "work-spill.db";
   const int dim = tsc::BuiltinViewBasis()->input_dimension();
-  const tsc::PipelineOptions options = Options();
+  const tsc::PipelineOptions options;
   // The same random places, learned in the same order: the spill's memory holds the store's.
   const auto stored = tsc::testing_support::MakeRandomMemory(kRobot, 4, dim, 1, 4, options.memory);
   auto spilled = tsc::testing_support::MakeRandomMemory(kRobot, 5, dim, 1, 4, options.memory);
@@ -90,7 +76,7 @@ extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
   {
     tsc::Store store = tsc::Store::OpenExisting(seed.work_store);
     try {
-      (void)store.ReplaySpill(seed.work_spill, kRobot, Options().memory);
+      (void)store.ReplaySpill(seed.work_spill, kRobot, tsc::PipelineOptions{}.memory);
       taken = true;
     } catch (const tsc::StoreError&) {
       // refused, as tscd refuses it: the spill is kept and said so

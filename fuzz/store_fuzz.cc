@@ -20,6 +20,7 @@
 #include "core/pipeline/pipeline.h"
 #include "daemon/memory_snapshot.h"
 #include "fuzz/fuzz_target.h"
+#include "fuzz/scratch_dir.h"
 #include "fuzz/sqlite_edits.h"
 #include "store/store.h"
 #include "test/support/random_memory.h"
@@ -28,36 +29,20 @@ namespace {
 
 namespace fs = std::filesystem;
 
-constexpr uint32_t kRobot = 1;
+constexpr uint32_t kRobot = 1;  // tscd's default options' robot (PipelineOptions)
 
-tsc::PipelineOptions Options() {
-  tsc::PipelineOptions o;
-  o.robot = kRobot;
-  return o;
-}
-
-// The database every input edits, written once, and its tables; removed when the process
-// exits.
+// The database every input edits, written once, and its tables.
 struct Seed {
-  fs::path dir, db, work;
+  tsc::fuzz::ScratchDir dir{"tscd-fuzz-store"};
+  fs::path db, work;
   std::vector<tsc::fuzz::SqlTable> tables;
-  Seed() = default;
-  Seed(const Seed&) = delete;
-  Seed& operator=(const Seed&) = delete;
-  ~Seed() {
-    std::error_code ec;
-    if (!dir.empty()) fs::remove_all(dir, ec);
-  }
 };
 
 void Write(Seed& s) {
-  s.dir = fs::temp_directory_path() / ("tscd-fuzz-store-" + tsc::fuzz::FixedWidthPid());
-  fs::remove_all(s.dir);
-  fs::create_directories(s.dir);
-  s.db = s.dir / "seed.db";
-  s.work = s.dir / "work.db";
+  s.db = s.dir.path() / "seed.db";
+  s.work = s.dir.path() / "work.db";
   const int dim = tsc::BuiltinViewBasis()->input_dimension();
-  const tsc::PipelineOptions options = Options();
+  const tsc::PipelineOptions options;
   const auto ours = tsc::testing_support::MakeRandomMemory(kRobot, 6, dim, 1, 4, options.memory);
   const auto peer = tsc::testing_support::MakeRandomMemory(2, 3, dim, 2, 4, options.memory);
   const tsc::MemorySnapshot snap =
@@ -93,7 +78,7 @@ extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
   std::optional<tsc::StoredState> loaded;
   try {
     tsc::Store store = tsc::Store::OpenExisting(seed.work);
-    loaded.emplace(store.Load(kRobot, Options().memory));
+    loaded.emplace(store.Load(kRobot, tsc::PipelineOptions{}.memory));
     (void)store.LoadPeers();
     for (const auto& [robot, digests] : store.LoadPeerBodyDigests()) {
       store.ForEachPeerBody(robot, [](int64_t digest, std::span<const unsigned char> bytes) {
@@ -105,9 +90,9 @@ extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
     return 0;  // the documented way to fail: tscd says so and runs without its store
   }
   try {
-    const tsc::Pipeline pipeline(tsc::CameraIntrinsics::FromHorizontalFov(64, 48, 60), Options(),
-                                 std::move(loaded->memory), std::move(loaded->map),
-                                 loaded->pipeline);
+    const tsc::Pipeline pipeline(tsc::CameraIntrinsics::FromHorizontalFov(64, 48, 60),
+                                 tsc::PipelineOptions{}, std::move(loaded->memory),
+                                 std::move(loaded->map), loaded->pipeline);
     (void)tsc::BuildSnapshot(pipeline.memory(), pipeline.map(),
                              tsc::SnapshotHeader{kRobot, 1, 1, 0}, 60000);
   } catch (const std::invalid_argument&) {
