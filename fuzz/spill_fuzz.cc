@@ -32,43 +32,38 @@ constexpr uint32_t kRobot = 1;  // tscd's default options' robot (PipelineOption
 // The store and the spill every input starts from, written once, with the spill's tables and
 // what the store holds.
 struct Seed {
+  Seed();
   tsc::fuzz::ScratchDir dir{"tscd-fuzz-spill"};
   fs::path store, spill, work_store, work_spill;
   std::vector<tsc::fuzz::SqlTable> tables;
   std::optional<tsc::testing_support::Knowledge> held;
 };
 
-void Write(Seed& s) {
-  s.store = s.dir.path() / "store.db";
-  s.spill = s.dir.path() / "spill.db";
-  s.work_store = s.dir.path() / "work.db";
-  s.work_spill = s.dir.path() / "work-spill.db";
+Seed::Seed() {
+  store = dir.path() / "store.db";
+  spill = dir.path() / "spill.db";
+  work_store = dir.path() / "work.db";
+  work_spill = dir.path() / "work-spill.db";
   const int dim = tsc::BuiltinViewBasis()->input_dimension();
   const tsc::PipelineOptions options;
-  // The same random places, learned in the same order: the spill's memory holds the store's.
+  // The same random places, learned in the same order: the spill's memory holds the store'
   const auto stored = tsc::testing_support::MakeRandomMemory(kRobot, 4, dim, 1, 4, options.memory);
   auto spilled = tsc::testing_support::MakeRandomMemory(kRobot, 5, dim, 1, 4, options.memory);
   {
-    tsc::Store store = tsc::Store::Open(s.store);
-    store.ReplaceKnowledge(stored.memory, stored.map);
+    tsc::Store written = tsc::Store::Open(store);
+    written.ReplaceKnowledge(stored.memory, stored.map);
   }
   const tsc::Pipeline pipeline(tsc::CameraIntrinsics::FromHorizontalFov(64, 48, 60), options,
                                std::move(spilled.memory), std::move(spilled.map));
-  tsc::Store::WriteSpill(s.spill, {}, pipeline, tsc::PeerMerge{2, 3, 99, 1}, tsc::BaseIndex{0});
-  s.tables = tsc::fuzz::TablesOf(s.spill);
-  s.held = tsc::testing_support::LoadKnowledge(s.store, kRobot);
-}
-
-const Seed& TheSeed() {
-  static Seed seed;
-  if (seed.tables.empty()) Write(seed);
-  return seed;
+  tsc::Store::WriteSpill(spill, {}, pipeline, tsc::PeerMerge{2, 3, 99, 1}, tsc::BaseIndex{0});
+  tables = tsc::fuzz::TablesOf(spill);
+  held = tsc::testing_support::LoadKnowledge(store, kRobot);
 }
 
 }  // namespace
 
 extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
-  const Seed& seed = TheSeed();
+  static const Seed seed;  // written on the first input
   fs::copy_file(seed.store, seed.work_store, fs::copy_options::overwrite_existing);
   fs::copy_file(seed.spill, seed.work_spill, fs::copy_options::overwrite_existing);
   tsc::fuzz::ApplyEdits(seed.work_spill, seed.tables, data, size);

@@ -33,14 +33,15 @@ constexpr uint32_t kRobot = 1;  // tscd's default options' robot (PipelineOption
 
 // The database every input edits, written once, and its tables.
 struct Seed {
+  Seed();
   tsc::fuzz::ScratchDir dir{"tscd-fuzz-store"};
   fs::path db, work;
   std::vector<tsc::fuzz::SqlTable> tables;
 };
 
-void Write(Seed& s) {
-  s.db = s.dir.path() / "seed.db";
-  s.work = s.dir.path() / "work.db";
+Seed::Seed() {
+  db = dir.path() / "seed.db";
+  work = dir.path() / "work.db";
   const int dim = tsc::BuiltinViewBasis()->input_dimension();
   const tsc::PipelineOptions options;
   const auto ours = tsc::testing_support::MakeRandomMemory(kRobot, 6, dim, 1, 4, options.memory);
@@ -56,23 +57,17 @@ void Write(Seed& s) {
     }
   }
   {
-    tsc::Store store = tsc::Store::Open(s.db);
+    tsc::Store store = tsc::Store::Open(db);
     store.ReplaceKnowledge(ours.memory, ours.map, tsc::PeerMerge{2, 1, snap.digest, 1});
     store.AddPeerBodies(2, bodies);
   }
-  s.tables = tsc::fuzz::TablesOf(s.db);
-}
-
-const Seed& TheSeed() {
-  static Seed seed;
-  if (seed.tables.empty()) Write(seed);
-  return seed;
+  tables = tsc::fuzz::TablesOf(db);
 }
 
 }  // namespace
 
 extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
-  const Seed& seed = TheSeed();
+  static const Seed seed;  // written on the first input
   fs::copy_file(seed.db, seed.work, fs::copy_options::overwrite_existing);
   tsc::fuzz::ApplyEdits(seed.work, seed.tables, data, size);
   std::optional<tsc::StoredState> loaded;
