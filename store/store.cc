@@ -504,8 +504,20 @@ int64_t ThinDetectedPlaces(const Db& db, int64_t count) {
     s.Int(1, count);
     while (s.Step()) {
       const Row row(db, s, "detected_places", "?");
-      const std::vector<int64_t> members = row.Array<int64_t>(1, "members");
-      if (!members.empty() && members.back() >= horizon) break;  // later places are newer
+      // Members that cannot be read (a damaged disk, a spill taken in) leave history nothing
+      // can use: it goes in its turn, where failing here stopped retention for good.
+      std::optional<int64_t> newest;
+      if (sqlite3_column_type(s.get(), 1) == SQLITE_BLOB) {
+        const auto* data = static_cast<const unsigned char*>(sqlite3_column_blob(s.get(), 1));
+        const auto size = static_cast<size_t>(sqlite3_column_bytes(s.get(), 1));
+        try {
+          BlobReader reader(std::span<const unsigned char>(data, data ? size : 0));
+          const std::vector<int64_t> members = reader.TakeRest<int64_t>();
+          if (!members.empty()) newest = members.back();
+        } catch (const BlobError&) {
+        }
+      }
+      if (newest && *newest >= horizon) break;  // later places are newer
       last = row.Int(0, "idx");
       ++gone;
     }

@@ -9,9 +9,10 @@
 namespace tsc {
 
 /// Retention of the store (Store::Maintain). Learned places (with their member views, the
-/// descriptors recognition and merging use), the tree, its discriminants, the map, the
-/// detected places and the peers' versions are kept forever; only base point records (the
-/// raw stream, one ~2.8 KB descriptor per base point, ~5 GB a day at 10 fps) are thinned.
+/// descriptors recognition and merging use), the tree, its discriminants, the map and the
+/// peers' versions are kept forever; only the history is thinned: base point records (the
+/// raw stream, one ~2.8 KB descriptor per base point, ~5 GB a day at 10 fps), and with them
+/// the detected places and transition regions none of whose base points is kept.
 struct StoreOptions {
   /// Size the database may use (MiB) before the oldest base point records are deleted; 0 =
   /// unlimited (everything is kept, as before issue 23). A size, not an age, because what a

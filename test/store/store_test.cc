@@ -21,6 +21,7 @@
 #include "core/memory/unchanged_places.h"
 #include "core/merge/consolidate.h"
 #include "core/merge/merge_maps.h"
+#include "test/support/descriptor_stream.h"
 #include "test/support/memory_compare.h"
 #include "test/support/temp_dir.h"
 
@@ -43,43 +44,10 @@ PipelineOptions Options() {
 
 CameraIntrinsics Camera() { return CameraIntrinsics::FromHorizontalFov(64, 48, 60); }
 
-Eigen::VectorXf Normalised(Eigen::VectorXf v) { return v / v.sum(); }
-
-/// A synthetic descriptor stream: clusters of noisy vectors (places) separated by sparse
-/// vectors far from everything (transitions).
-class Stream {
+/// The synthetic stream of these tests, in their dimension.
+class Stream : public testing_support::DescriptorStream {
  public:
-  explicit Stream(unsigned seed) : rng_(seed) {}
-
-  int AddCluster() {
-    std::uniform_real_distribution<float> u(0.0f, 1.0f);
-    Eigen::VectorXf v(kDim);
-    for (int i = 0; i < kDim; ++i) v[i] = u(rng_);
-    centres_.push_back(Normalised(v));
-    return static_cast<int>(centres_.size()) - 1;
-  }
-
-  /// `n` frames of cluster `c` with 2 % multiplicative noise, then 3 incoherent frames.
-  std::vector<Descriptor> Visit(int c, int n) {
-    std::vector<Descriptor> out;
-    std::normal_distribution<float> noise(0.0f, 0.02f);
-    for (int j = 0; j < n; ++j) {
-      Eigen::VectorXf v = centres_[static_cast<size_t>(c)];
-      for (int i = 0; i < kDim; ++i) v[i] = std::max(0.0f, v[i] * (1.0f + noise(rng_)));
-      out.emplace_back(Normalised(v));
-    }
-    std::uniform_int_distribution<int> pick(0, kDim - 1);
-    for (int j = 0; j < 3; ++j) {
-      Eigen::VectorXf v = Eigen::VectorXf::Zero(kDim);
-      for (int s = 0; s < 5; ++s) v[pick(rng_)] = 1.0f;
-      out.emplace_back(Normalised(v));
-    }
-    return out;
-  }
-
- private:
-  std::mt19937 rng_;
-  std::vector<Eigen::VectorXf> centres_;
+  explicit Stream(unsigned seed) : DescriptorStream(seed, kDim) {}
 };
 
 /// Counts of what a run committed.
@@ -850,6 +818,40 @@ TEST_F(StoreTest, MaintainThinsOldBasePointsUnderTheBudgetAndKeepsTheKnowledge) 
   Feed(pipeline, dut, stream.Visit(2, 14), more);
   EXPECT_EQ(more.learned, 0);
   EXPECT_EQ(Sql(path_, "SELECT MAX(idx) FROM base_points"), committed.frames - 1 + more.frames);
+}
+
+// A detected place record that cannot be read (a damaged disk, a spill taken in) is history
+// nothing can use any more: retention deletes it in its turn instead of failing every step
+// on it, which stopped thinning for good and let the database grow past its budget.
+TEST_F(StoreTest, MaintainThinsPastADetectedPlaceRecordThatCannotBeRead) {
+  Committed committed;
+  const testing_support::Knowledge before = FillBeyondABudget(path_, 700, committed);
+  const int64_t records = Sql(path_, "SELECT COUNT(*) FROM detected_places");
+  ASSERT_GE(records, 4);
+  Sql(path_,
+      "UPDATE detected_places SET members = x'0102' WHERE idx = "
+      "(SELECT MIN(idx) FROM detected_places)");
+  Sql(path_,
+      "UPDATE detected_places SET members = 7 WHERE idx = "
+      "(SELECT idx FROM detected_places ORDER BY idx LIMIT 1 OFFSET 2)");
+  StoreOptions options;
+  options.budget_mb = 1;
+  options.maintenance_pages = 64;
+  {
+    Store dut = Store::Open(path_);
+    int steps = 0;
+    for (MaintenanceStep step; steps == 0 || step.more; ++steps) {
+      ASSERT_LT(steps, 1000) << "maintenance does not converge";
+      ASSERT_NO_THROW(step = dut.Maintain(options));
+    }
+    EXPECT_LE(dut.Maintain(options).bytes_used, int64_t{1} << 20);
+    // Both damaged records went, being older than every base point kept.
+    EXPECT_NO_THROW(dut.LoadAssignments());
+  }
+  EXPECT_LT(Sql(path_, "SELECT COUNT(*) FROM detected_places"), records - 2);
+  EXPECT_EQ(testing_support::DescribeDifferences(
+                before, testing_support::LoadKnowledge(path_, kRobot, Options().memory)),
+            "");
 }
 
 TEST_F(StoreTest, MaintainWithoutABudgetKeepsEveryBasePoint) {
