@@ -1,13 +1,17 @@
 // Fuzz target: a damaged database, loaded as tscd loads it at start. A real store (robot 1's
 // learned places in tscd's default view basis, their tree and discriminants, the map, a merged
-// peer and that peer's place bodies) is written once per process; each input is a list of
+// peer and that peer's place bodies, then the history of a run: base points, detected places,
+// transitions) is written once per process; each input is a list of
 // edits to a fresh copy of it (fuzz/sqlite_edits.h). Then the database is opened and loaded as
 // tscd's worker does (Load, the peers, the peer bodies, each decoded against its digest), the
 // pipeline is built on what was loaded and its first snapshot taken, and `tsc inspect`'s
-// assignments are read. What must hold: the store loads or throws StoreError; the pipeline is
-// built or refuses the memory with std::invalid_argument; no crash, no unbounded allocation.
+// assignments are read; then retention runs at its smallest budget. What must hold: the store
+// loads or throws StoreError; the pipeline is built or refuses the memory with
+// std::invalid_argument; retention over a store that loads never fails and leaves what loads
+// unchanged; no crash, no unbounded allocation.
 
 #include <cstdint>
+#include <cstdio>
 #include <filesystem>
 #include <optional>
 #include <span>
@@ -22,14 +26,17 @@
 #include "fuzz/fuzz_target.h"
 #include "fuzz/scratch_dir.h"
 #include "fuzz/sqlite_edits.h"
+#include "fuzz/store_history.h"
 #include "store/store.h"
+#include "test/support/memory_compare.h"
 #include "test/support/random_memory.h"
 
 namespace {
 
 namespace fs = std::filesystem;
 
-constexpr uint32_t kRobot = 1;  // tscd's default options' robot (PipelineOptions)
+constexpr uint32_t kRobot = 1;           // tscd's default options' robot (PipelineOptions)
+constexpr int kHistoryBasePoints = 300;  // ~1.4 MiB of 1200-dimension descriptors
 
 // The database every input edits, written once, and its tables.
 struct Seed {
@@ -60,6 +67,11 @@ Seed::Seed() {
     tsc::Store store = tsc::Store::Open(db);
     store.ReplaceKnowledge(ours.memory, ours.map, tsc::PeerMerge{2, 1, snap.digest, 1});
     store.AddPeerBodies(2, bodies);
+    // The robot's history since: base points, detected places, transitions, committed as tscd
+    // commits them (over 1 MiB, so that retention's smallest budget thins it).
+    tsc::fuzz::RunHistory(
+        options, store.Load(kRobot, options.memory), kHistoryBasePoints,
+        [&](const tsc::FrameResult& r, const tsc::Pipeline& p) { store.Commit(r, p); });
   }
   tables = tsc::fuzz::TablesOf(db);
 }
@@ -80,9 +92,13 @@ extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
         (void)tsc::DecodeBody(bytes, digest);
       });
     }
-    (void)store.LoadAssignments();
   } catch (const tsc::StoreError&) {
     return 0;  // the documented way to fail: tscd says so and runs without its store
+  }
+  try {
+    (void)tsc::Store::OpenExisting(seed.work).LoadAssignments();
+  } catch (const tsc::StoreError&) {
+    // a damaged history record: `tsc team` says which, tscd never reads them
   }
   try {
     const tsc::Pipeline pipeline(tsc::CameraIntrinsics::FromHorizontalFov(64, 48, 60),
@@ -91,7 +107,8 @@ extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
     (void)tsc::BuildSnapshot(pipeline.memory(), pipeline.map(),
                              tsc::SnapshotHeader{kRobot, 1, 1, 0}, 60000);
   } catch (const std::invalid_argument&) {
-    // a memory the pipeline cannot take: refused with its reason
+    return 0;  // a memory the pipeline cannot take: refused with its reason
   }
+  tsc::fuzz::RequireRetentionKeepsKnowledge(seed.work, kRobot);
   return 0;
 }

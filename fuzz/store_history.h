@@ -1,0 +1,77 @@
+#pragma once
+// The robot's history in the database fuzz targets (fuzz_store, fuzz_spill). Their seeds hold
+// it as a robot's store does: tscd's pipeline, continuing a memory, run over a synthetic stream
+// of places (test/support/descriptor_stream.h) leaves base point, detected place and transition
+// records, more than a megabyte of them, so that retention (Store::Maintain) has something to
+// thin under its smallest budget. Then retention runs over the damaged database.
+
+#include <cstdint>
+#include <cstdio>
+#include <filesystem>
+#include <functional>
+#include <string>
+#include <utility>
+#include <vector>
+
+#include "core/memory/builtin_view_basis.h"
+#include "core/pipeline/pipeline.h"
+#include "fuzz/fuzz_target.h"
+#include "store/store.h"
+#include "test/support/descriptor_stream.h"
+#include "test/support/memory_compare.h"
+
+namespace tsc::fuzz {
+
+/// `options` but for detection, which closes the stream's short visits.
+inline PipelineOptions HistoryOptions(PipelineOptions options) {
+  options.detector = DetectorOptions{2, 2, 3};
+  return options;
+}
+
+/// Runs the pipeline of `options` (detection: HistoryOptions) from `state` over at least
+/// `base_points` base points of four places visited in turn, then Finish; `f(result,
+/// pipeline)` after each step, as tscd commits them. Returns the pipeline as it ends.
+inline Pipeline RunHistory(const PipelineOptions& options, StoredState state, int base_points,
+                           const std::function<void(const FrameResult&, const Pipeline&)>& f) {
+  Pipeline pipeline(CameraIntrinsics::FromHorizontalFov(64, 48, 60), HistoryOptions(options),
+                    std::move(state.memory), std::move(state.map), state.pipeline);
+  testing_support::DescriptorStream stream(23, BuiltinViewBasis()->input_dimension());
+  for (int c = 0; c < 4; ++c) stream.AddCluster();
+  for (int taken = 0, visit = 0; taken < base_points; ++visit) {
+    for (const Descriptor& d : stream.Visit(visit % 4, 14)) {
+      f(pipeline.ProcessDescriptor(d, IntensityStats{0.5, 0.05}), pipeline);
+      ++taken;
+    }
+  }
+  f(pipeline.Finish(), pipeline);
+  return pipeline;
+}
+
+/// Retention over the store `path` of `robot`, which loads, as tscd runs it: at the smallest
+/// budget, step after step until it has nothing left to do. It must neither fail on a damaged
+/// record of the history (that stopped it for good) nor change what Load returns.
+inline void RequireRetentionKeepsKnowledge(const std::filesystem::path& path, uint32_t robot) {
+  const testing_support::Knowledge before = testing_support::LoadKnowledge(path, robot);
+  {
+    Store store = Store::OpenExisting(path);
+    StoreOptions options;
+    options.budget_mb = 1;
+    options.maintenance_pages = 64;
+    bool more = true;
+    for (int step = 0; more; ++step) {
+      Require(step < 1000, "retention ends");
+      try {
+        more = store.Maintain(options).more;
+      } catch (const StoreError& e) {
+        std::fprintf(stderr, "retention: %s\n", e.what());
+        Require(false, "retention does not fail on a loadable store");
+      }
+    }
+  }
+  const std::string changes =
+      testing_support::DescribeDifferences(before, testing_support::LoadKnowledge(path, robot));
+  if (!changes.empty()) std::fprintf(stderr, "%s\n", changes.c_str());
+  Require(changes.empty(), "retention keeps what Load returns");
+}
+
+}  // namespace tsc::fuzz
