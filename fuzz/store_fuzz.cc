@@ -5,10 +5,11 @@
 // edits to a fresh copy of it (fuzz/sqlite_edits.h). Then the database is opened and loaded as
 // tscd's worker does (Load, the peers, the peer bodies, each decoded against its digest), the
 // pipeline is built on what was loaded and its first snapshot taken, and `tsc inspect`'s
-// assignments are read; then retention runs at its smallest budget. What must hold: the store
-// loads or throws StoreError; the pipeline is built or refuses the memory with
-// std::invalid_argument; retention over a store that loads never fails and leaves what loads
-// unchanged; no crash, no unbounded allocation.
+// assignments are read; then the pipeline goes on (a visit, each result committed) and
+// retention runs at its smallest budget. What must hold: the store loads or throws StoreError;
+// the pipeline is built or refuses the memory with std::invalid_argument; a store that took
+// every commit loads as the pipeline holds its memory; retention over a store that loads never
+// fails and leaves what loads unchanged; no crash, no unbounded allocation.
 
 #include <cstdint>
 #include <cstdio>
@@ -100,15 +101,17 @@ extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
   } catch (const tsc::StoreError&) {
     // a damaged history record: `tsc team` says which, tscd never reads them
   }
+  std::optional<tsc::Pipeline> pipeline;
   try {
-    const tsc::Pipeline pipeline(tsc::CameraIntrinsics::FromHorizontalFov(64, 48, 60),
-                                 tsc::PipelineOptions{}, std::move(loaded->memory),
-                                 std::move(loaded->map), loaded->pipeline);
-    (void)tsc::BuildSnapshot(pipeline.memory(), pipeline.map(),
+    pipeline.emplace(tsc::CameraIntrinsics::FromHorizontalFov(64, 48, 60),
+                     tsc::fuzz::HistoryOptions(tsc::PipelineOptions{}), std::move(loaded->memory),
+                     std::move(loaded->map), loaded->pipeline);
+    (void)tsc::BuildSnapshot(pipeline->memory(), pipeline->map(),
                              tsc::SnapshotHeader{kRobot, 1, 1, 0}, 60000);
   } catch (const std::invalid_argument&) {
     return 0;  // a memory the pipeline cannot take: refused with its reason
   }
+  tsc::fuzz::RequireCommitsLoadBack(seed.work, kRobot, *pipeline);
   tsc::fuzz::RequireRetentionKeepsKnowledge(seed.work, kRobot);
   return 0;
 }
