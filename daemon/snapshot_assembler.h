@@ -109,7 +109,8 @@ class SnapshotAssembler {
   /// Largest |value| of a descriptor component: (2·10⁶)² · kMaxDims is finite in float, so
   /// distances between a peer's views cannot overflow to infinity (found by fuzzing: views of
   /// ~10³⁸ made every distance infinite and broke view thinning).
-  static constexpr float kMaxDescriptorValue = 1e6f;
+  /// The bound a memory takes means in at (PlaceMemory::Restore), for views too.
+  static constexpr float kMaxDescriptorValue = LearnedPlace::kMaxMeanValue;
 
  private:
   void Reset();    // everything, for a snapshot taken or refused

@@ -3,6 +3,7 @@
 // learned place p ∈ P (a terminal of the place memory, section 3.3).
 
 #include <Eigen/Core>
+#include <algorithm>
 #include <cstddef>
 #include <cstdint>
 #include <vector>
@@ -48,6 +49,14 @@ struct LearnedPlace {
   /// Past memory.sample_visits' largest value (1000), so the views a place keeps
   /// (PlaceMemoryOptions::SampleCap) never depend on it.
   static constexpr size_t kMaxDetected = 4096;
+  /// Largest |value| of a mean a memory takes in (PlaceMemory::Restore: a store, a peer).
+  /// Descriptors lie in [0, 1]; within this bound a mean times kMaxMemberCount, and squared
+  /// distances over 10⁵ dimensions, stay finite in float (a stored mean near 10³⁸ made the
+  /// next update infinite, and the store could not be loaded again: fuzz_store).
+  static constexpr float kMaxMeanValue = 1e6f;
+  /// Most base points member_count counts (a century at 30 fps is 10¹¹): Update and Absorb
+  /// hold it there (HoldWithinBounds), so no count a store or a peer claims can overflow.
+  static constexpr int64_t kMaxMemberCount = int64_t{1} << 40;
 };
 
 /// Drops the oldest of `p`'s members and detected places (the lowest indices come first) past
@@ -55,6 +64,14 @@ struct LearnedPlace {
 inline void TrimHistory(LearnedPlace& p) {
   KeepLatest(p.members, LearnedPlace::kMaxMembers);
   KeepLatest(p.detected, LearnedPlace::kMaxDetected);
+}
+
+/// Holds `p`'s mean and count within LearnedPlace::kMaxMeanValue and kMaxMemberCount after an
+/// update or a merge, which Restore would otherwise refuse: their arithmetic keeps a mean
+/// between its inputs but for rounding, and adds counts. Real places never reach either bound.
+inline void HoldWithinBounds(LearnedPlace& p) {
+  p.mean = p.mean.cwiseMax(-LearnedPlace::kMaxMeanValue).cwiseMin(LearnedPlace::kMaxMeanValue);
+  p.member_count = std::min(p.member_count, LearnedPlace::kMaxMemberCount);
 }
 
 }  // namespace tsc

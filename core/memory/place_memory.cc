@@ -328,6 +328,7 @@ void PlaceMemory::Update(int place, const DetectedPlace& d) {
   p.mean = (p.mean * static_cast<float>(p.member_count) + d.descriptors.rowwise().sum()) /
            static_cast<float>(p.member_count + added);
   p.member_count += added;
+  HoldWithinBounds(p);
   // The kept views first, then this visit's: thinning keeps what the visit shows anew.
   const Eigen::MatrixXf visit =
       ViewCoordinates(view_basis(), EvenlySpaced(d.descriptors, options_.max_samples_per_place));
@@ -720,6 +721,12 @@ PlaceMemory PlaceMemory::Restore(uint32_t robot, PlaceMemoryOptions options,
     if (p.mean.size() == 0 || p.mean.size() != places.front().mean.size() || !p.mean.allFinite() ||
         p.samples.cols() == 0 || p.member_count < 1) {
       throw std::invalid_argument("place memory: place " + p.id.ToString() + " is inconsistent");
+    }
+    if (p.mean.cwiseAbs().maxCoeff() > LearnedPlace::kMaxMeanValue ||
+        p.member_count > LearnedPlace::kMaxMemberCount) {
+      throw std::invalid_argument("place memory: place " + p.id.ToString() +
+                                  " has a mean value beyond ±1e6 or more than 2^40 members, "
+                                  "which no update keeps finite");
     }
     const int view_dim = ViewDimension(memory.view_basis(), static_cast<int>(p.mean.size()));
     if (p.samples.rows() != view_dim) {

@@ -129,7 +129,8 @@ bool CarriesSmallestId(const LearnedPlace& p) {
 void Absorb(LearnedPlace& target, const LearnedPlace& p, const PlaceMemoryOptions& options) {
   const auto n = static_cast<float>(target.member_count), m = static_cast<float>(p.member_count);
   target.mean = (target.mean * n + p.mean * m) / (n + m);
-  target.member_count += p.member_count;
+  target.member_count += p.member_count;  // both within kMaxMemberCount: no overflow
+  HoldWithinBounds(target);
   AddSource(target, p.id);
   for (PlaceId s : p.sources) AddSource(target, s);
   const int max_samples = options.SampleCap(target);

@@ -193,6 +193,33 @@ TEST_F(PlaceMemoryTest, APlaceKeepsItsLatestDetectedPlacesOnly) {
   EXPECT_EQ(restored.places()[2].detected.back(), next);
 }
 
+// A memory taken in (a store, a peer) whose mean or count no update could keep finite is
+// refused: a stored mean near 10³⁸ made the next update's mean infinite, and the store that
+// took it could not be loaded again (fuzz_store). Counts past the largest are held there.
+TEST_F(PlaceMemoryTest, RestoreRefusesMeansAndCountsBeyondWhatAnUpdateKeepsFinite) {
+  const auto restore = [&](const std::vector<LearnedPlace>& places) {
+    return PlaceMemory::Restore(1, Options(), places, dut_.slink(), dut_.next_local_id(), {});
+  };
+  for (const float value : {2e38f, -2e6f, LearnedPlace::kMaxMeanValue * 1.5f}) {
+    std::vector<LearnedPlace> places = dut_.places();
+    places[1].mean[3] = value;
+    EXPECT_THROW(restore(places), std::invalid_argument) << value;
+  }
+  std::vector<LearnedPlace> places = dut_.places();
+  places[1].member_count = LearnedPlace::kMaxMemberCount + 1;
+  EXPECT_THROW(restore(places), std::invalid_argument);
+  // At the bounds a memory is taken, and its updates stay finite and within them.
+  places[1].member_count = LearnedPlace::kMaxMemberCount;
+  places[1].mean[3] = LearnedPlace::kMaxMeanValue;
+  PlaceMemory restored = restore(places);
+  restored.Update(1, MakePlace(71, centres_[1], rng_, 40));
+  const LearnedPlace& p = restored.places()[1];
+  EXPECT_TRUE(p.mean.allFinite());
+  EXPECT_LE(p.mean.cwiseAbs().maxCoeff(), LearnedPlace::kMaxMeanValue);
+  EXPECT_EQ(p.member_count, LearnedPlace::kMaxMemberCount);
+  EXPECT_NO_THROW(restore(restored.places()));
+}
+
 TEST_F(PlaceMemoryTest, RestoreReproducesTreeWithoutRetraining) {
   std::unordered_map<uint64_t, OneClassDiscriminant> saved;
   for (size_t n = 0; n < dut_.nodes().size(); ++n) {
