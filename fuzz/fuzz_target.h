@@ -12,6 +12,9 @@
 #include <string>
 
 extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size);
+/// Optional: set-up run once before the first input, outside libFuzzer's per-input timeout
+/// (a target whose seed takes seconds to write under ASan). Weak, as libFuzzer declares it.
+extern "C" __attribute__((weak)) int LLVMFuzzerInitialize(int* argc, char*** argv);
 
 namespace tsc::fuzz {
 

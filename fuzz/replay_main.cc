@@ -29,6 +29,7 @@ int Replay(const fs::path& file) {
 }  // namespace
 
 int main(int argc, char** argv) {
+  if (LLVMFuzzerInitialize != nullptr) LLVMFuzzerInitialize(&argc, &argv);
   int inputs = 0;
   int failures = 0;
   for (int i = 1; i < argc; ++i) {
