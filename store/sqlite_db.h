@@ -162,9 +162,7 @@ class Row {
   template <typename F>
   auto Decode(int col, const char* name, F&& decode) const {
     if (sqlite3_column_type(stmt_, col) != SQLITE_BLOB) Fail(name, "not a blob");
-    const auto* data = static_cast<const unsigned char*>(sqlite3_column_blob(stmt_, col));
-    const int size = sqlite3_column_bytes(stmt_, col);
-    BlobReader reader(std::span<const unsigned char>(data, data ? static_cast<size_t>(size) : 0));
+    BlobReader reader = Reader(col);
     try {
       return decode(reader);
     } catch (const BlobError& e) {
@@ -175,8 +173,26 @@ class Row {
   std::vector<T> Array(int col, const char* name) const {
     return Decode(col, name, [](BlobReader& r) { return r.TakeRest<T>(); });
   }
+  /// Array's values, or nullopt where the cell holds none (not a blob, or a size that is no
+  /// multiple of T): for a read that passes over a damaged cell instead of failing.
+  template <Arithmetic T>
+  std::optional<std::vector<T>> ArrayIfReadable(int col) const {
+    if (sqlite3_column_type(stmt_, col) != SQLITE_BLOB) return std::nullopt;
+    BlobReader reader = Reader(col);
+    try {
+      return reader.TakeRest<T>();
+    } catch (const BlobError&) {
+      return std::nullopt;
+    }
+  }
 
  private:
+  BlobReader Reader(int col) const {
+    const auto* data = static_cast<const unsigned char*>(sqlite3_column_blob(stmt_, col));
+    const int size = sqlite3_column_bytes(stmt_, col);
+    return BlobReader(std::span<const unsigned char>(data, data ? static_cast<size_t>(size) : 0));
+  }
+
   Db db_;
   sqlite3_stmt* stmt_;
   std::string table_;

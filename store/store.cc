@@ -506,18 +506,8 @@ int64_t ThinDetectedPlaces(const Db& db, int64_t count) {
       const Row row(db, s, "detected_places", "?");
       // Members that cannot be read (a damaged disk, a spill taken in) leave history nothing
       // can use: it goes in its turn, where failing here stopped retention for good.
-      std::optional<int64_t> newest;
-      if (sqlite3_column_type(s.get(), 1) == SQLITE_BLOB) {
-        const auto* data = static_cast<const unsigned char*>(sqlite3_column_blob(s.get(), 1));
-        const auto size = static_cast<size_t>(sqlite3_column_bytes(s.get(), 1));
-        try {
-          BlobReader reader(std::span<const unsigned char>(data, data ? size : 0));
-          const std::vector<int64_t> members = reader.TakeRest<int64_t>();
-          if (!members.empty()) newest = members.back();
-        } catch (const BlobError&) {
-        }
-      }
-      if (newest && *newest >= horizon) break;  // later places are newer
+      const std::optional<std::vector<int64_t>> members = row.ArrayIfReadable<int64_t>(1);
+      if (members && !members->empty() && members->back() >= horizon) break;  // later: newer
       last = row.Int(0, "idx");
       ++gone;
     }
