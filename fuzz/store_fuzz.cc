@@ -123,7 +123,8 @@ extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
   } catch (const std::invalid_argument&) {
     return 0;  // a memory the pipeline cannot take: refused with its reason
   }
-  tsc::fuzz::RequireCommitsLoadBack(seed.work, kRobot, *pipeline);
-  tsc::fuzz::RequireRetentionKeepsKnowledge(seed.work, kRobot);
+  std::optional<tsc::testing_support::Knowledge> committed =
+      tsc::fuzz::RequireCommitsLoadBack(seed.work, kRobot, *pipeline);
+  tsc::fuzz::RequireRetentionKeepsKnowledge(seed.work, kRobot, std::move(committed));
   return 0;
 }

@@ -59,9 +59,9 @@ inline Pipeline RunHistory(const PipelineOptions& options, StoredState state, in
 /// HistoryOptions) visits one of the history's places and the stream ends, each result
 /// committed as it comes. When every commit went in, the store must load as `pipeline` holds
 /// its memory and map; a commit may fail instead (StoreError: tscd keeps the results and tries
-/// again), and then nothing more is asked.
-inline void RequireCommitsLoadBack(const std::filesystem::path& path, uint32_t robot,
-                                   Pipeline& pipeline) {
+/// again), and then nothing more is asked. Returns what loaded, if the commits went in.
+inline std::optional<testing_support::Knowledge> RequireCommitsLoadBack(
+    const std::filesystem::path& path, uint32_t robot, Pipeline& pipeline) {
   {
     Store store = Store::OpenExisting(path);
     testing_support::DescriptorStream stream = HistoryStream();
@@ -71,7 +71,7 @@ inline void RequireCommitsLoadBack(const std::filesystem::path& path, uint32_t r
       }
       store.Commit(pipeline.Finish(), pipeline);
     } catch (const StoreError&) {
-      return;
+      return std::nullopt;
     }
   }
   std::optional<testing_support::Knowledge> loaded;
@@ -86,13 +86,17 @@ inline void RequireCommitsLoadBack(const std::filesystem::path& path, uint32_t r
   const std::string changes = testing_support::DescribeDifferences(held, *loaded, false);
   if (!changes.empty()) std::fprintf(stderr, "%s\n", changes.c_str());
   Require(changes.empty(), "a store that took every commit loads as the pipeline holds it");
+  return loaded;
 }
 
 /// Retention over the store `path` of `robot`, which loads, as tscd runs it: at the smallest
 /// budget, step after step until it has nothing left to do. It must neither fail on a damaged
-/// record of the history (that stopped it for good) nor change what Load returns.
-inline void RequireRetentionKeepsKnowledge(const std::filesystem::path& path, uint32_t robot) {
-  const testing_support::Knowledge before = testing_support::LoadKnowledge(path, robot);
+/// record of the history (that stopped it for good) nor change what Load returns: `before`,
+/// where the caller has just loaded it.
+inline void RequireRetentionKeepsKnowledge(
+    const std::filesystem::path& path, uint32_t robot,
+    std::optional<testing_support::Knowledge> before = std::nullopt) {
+  if (!before) before = testing_support::LoadKnowledge(path, robot);
   {
     Store store = Store::OpenExisting(path);
     StoreOptions options;
@@ -110,7 +114,7 @@ inline void RequireRetentionKeepsKnowledge(const std::filesystem::path& path, ui
     }
   }
   const std::string changes =
-      testing_support::DescribeDifferences(before, testing_support::LoadKnowledge(path, robot));
+      testing_support::DescribeDifferences(*before, testing_support::LoadKnowledge(path, robot));
   if (!changes.empty()) std::fprintf(stderr, "%s\n", changes.c_str());
   Require(changes.empty(), "retention keeps what Load returns");
 }
