@@ -513,9 +513,11 @@ int64_t ThinDetectedPlaces(const Db& db, int64_t count) {
     }
   }
   if (gone > 0) Statement(db, "DELETE FROM detected_places WHERE idx <= ?1").Int(1, last).Run();
+  // A region whose end is no number (damaged as above) compared above every integer and
+  // stayed for good: it goes in its turn too.
   Statement(db,
             "DELETE FROM transition_regions WHERE id IN (SELECT id FROM transition_regions "
-            "WHERE last < ?1 ORDER BY id LIMIT ?2)")
+            "WHERE last < ?1 OR typeof(last) NOT IN ('integer', 'real') ORDER BY id LIMIT ?2)")
       .Int(1, horizon)
       .Int(2, count)
       .Run();

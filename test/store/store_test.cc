@@ -823,7 +823,7 @@ TEST_F(StoreTest, MaintainThinsOldBasePointsUnderTheBudgetAndKeepsTheKnowledge) 
 // A detected place record that cannot be read (a damaged disk, a spill taken in) is history
 // nothing can use any more: retention deletes it in its turn instead of failing every step
 // on it, which stopped thinning for good and let the database grow past its budget.
-TEST_F(StoreTest, MaintainThinsPastADetectedPlaceRecordThatCannotBeRead) {
+TEST_F(StoreTest, MaintainThinsPastHistoryRecordsThatCannotBeRead) {
   Committed committed;
   const testing_support::Knowledge before = FillBeyondABudget(path_, 700, committed);
   const int64_t records = Sql(path_, "SELECT COUNT(*) FROM detected_places");
@@ -834,6 +834,10 @@ TEST_F(StoreTest, MaintainThinsPastADetectedPlaceRecordThatCannotBeRead) {
   Sql(path_,
       "UPDATE detected_places SET members = 7 WHERE idx = "
       "(SELECT idx FROM detected_places ORDER BY idx LIMIT 1 OFFSET 2)");
+  ASSERT_GE(Sql(path_, "SELECT COUNT(*) FROM transition_regions"), 2);
+  Sql(path_,
+      "UPDATE transition_regions SET last = x'0102' WHERE id = "
+      "(SELECT MIN(id) FROM transition_regions)");
   StoreOptions options;
   options.budget_mb = 1;
   options.maintenance_pages = 64;
@@ -849,6 +853,7 @@ TEST_F(StoreTest, MaintainThinsPastADetectedPlaceRecordThatCannotBeRead) {
     EXPECT_NO_THROW(dut.LoadAssignments());
   }
   EXPECT_LT(Sql(path_, "SELECT COUNT(*) FROM detected_places"), records - 2);
+  EXPECT_EQ(Sql(path_, "SELECT COUNT(*) FROM transition_regions WHERE typeof(last) = 'blob'"), 0);
   EXPECT_EQ(testing_support::DescribeDifferences(
                 before, testing_support::LoadKnowledge(path_, kRobot, Options().memory)),
             "");
