@@ -34,4 +34,20 @@ inline std::string FixedWidthPid() {
   return buf;
 }
 
+/// A target's seed, a `Seed` whose constructor writes it, made on first use: the target
+/// defines LLVMFuzzerInitialize with TSC_FUZZ_INITIALIZE_SEED(Seed), so that writing it (a few
+/// seconds under ASan on a loaded machine) does not count against the first input's timeout.
+template <typename Seed>
+const Seed& SeedOf() {
+  static const Seed seed;
+  return seed;
+}
+
 }  // namespace tsc::fuzz
+
+// A C entry point, defined in the target's file.
+#define TSC_FUZZ_INITIALIZE_SEED(Seed)                 \
+  extern "C" int LLVMFuzzerInitialize(int*, char***) { \
+    (void)::tsc::fuzz::SeedOf<Seed>();                 \
+    return 0;                                          \
+  }

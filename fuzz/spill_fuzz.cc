@@ -69,22 +69,12 @@ Seed::Seed() {
   held = tsc::testing_support::LoadKnowledge(store, kRobot);
 }
 
-// Written once, before the first input (LLVMFuzzerInitialize): a few seconds under ASan on a
-// loaded machine, which must not count against an input's timeout.
-const Seed& TheSeed() {
-  static const Seed seed;
-  return seed;
-}
-
 }  // namespace
 
-extern "C" int LLVMFuzzerInitialize(int*, char***) {
-  (void)TheSeed();
-  return 0;
-}
+TSC_FUZZ_INITIALIZE_SEED(Seed)
 
 extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
-  const Seed& seed = TheSeed();
+  const Seed& seed = tsc::fuzz::SeedOf<Seed>();
   fs::copy_file(seed.store, seed.work_store, fs::copy_options::overwrite_existing);
   fs::copy_file(seed.spill, seed.work_spill, fs::copy_options::overwrite_existing);
   tsc::fuzz::ApplyEdits(seed.work_spill, seed.tables, data, size);

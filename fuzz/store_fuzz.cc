@@ -77,22 +77,12 @@ Seed::Seed() {
   tables = tsc::fuzz::TablesOf(db);
 }
 
-// Written once, before the first input (LLVMFuzzerInitialize): a few seconds under ASan on a
-// loaded machine, which must not count against an input's timeout.
-const Seed& TheSeed() {
-  static const Seed seed;
-  return seed;
-}
-
 }  // namespace
 
-extern "C" int LLVMFuzzerInitialize(int*, char***) {
-  (void)TheSeed();
-  return 0;
-}
+TSC_FUZZ_INITIALIZE_SEED(Seed)
 
 extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
-  const Seed& seed = TheSeed();
+  const Seed& seed = tsc::fuzz::SeedOf<Seed>();
   fs::copy_file(seed.db, seed.work, fs::copy_options::overwrite_existing);
   tsc::fuzz::ApplyEdits(seed.work, seed.tables, data, size);
   std::optional<tsc::StoredState> loaded;
