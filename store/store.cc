@@ -507,7 +507,8 @@ int64_t ThinDetectedPlaces(const Db& db, int64_t count) {
       // Members that cannot be read (a damaged disk, a spill taken in) leave history nothing
       // can use: it goes in its turn, where failing here stopped retention for good.
       const std::optional<std::vector<int64_t>> members = row.ArrayIfReadable<int64_t>(1);
-      if (members && !members->empty() && members->back() >= horizon) break;  // later: newer
+      // The first place with a base point kept ends the prefix: later places are newer.
+      if (members && !members->empty() && members->back() >= horizon) break;
       last = row.Int(0, "idx");
       ++gone;
     }

@@ -822,7 +822,8 @@ TEST_F(StoreTest, MaintainThinsOldBasePointsUnderTheBudgetAndKeepsTheKnowledge) 
 
 // A detected place record that cannot be read (a damaged disk, a spill taken in) is history
 // nothing can use any more: retention deletes it in its turn instead of failing every step
-// on it, which stopped thinning for good and let the database grow past its budget.
+// on it, which stopped thinning for good and let the database grow past its budget. So does a
+// transition region whose end is no number, which compared above every index and stayed.
 TEST_F(StoreTest, MaintainThinsPastHistoryRecordsThatCannotBeRead) {
   Committed committed;
   const testing_support::Knowledge before = FillBeyondABudget(path_, 700, committed);
