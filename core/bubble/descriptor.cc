@@ -94,13 +94,14 @@ Eigen::VectorXf DescriptorComputer::RawBlock(const BubbleSurface& surface,
   //   c(j, h1) = Σ_i ρ(j, i) cos(h1 f1_i),  s(j, h1) = Σ_i ρ(j, i) sin(h1 f1_i).
   // ρ is column-major (one pan column is contiguous in tilt), so walk it column by column.
   // Cells with ρ = 0 (every unobserved one when ρ_0 = 0) add nothing and are skipped, and
-  // so are rows that end up empty. Accumulation in double keeps the pan-shift symmetry
-  // exact to ~1e-7.
+  // so are columns no view reached and rows that end up empty. Accumulation in double keeps the
+  // pan-shift symmetry exact to ~1e-7.
   Eigen::MatrixXd c = Eigen::MatrixXd::Zero(n1, n_tilt);
   Eigen::MatrixXd s = Eigen::MatrixXd::Zero(n1, n_tilt);
   std::vector<uint8_t> row_used(static_cast<size_t>(n_tilt), 0);
   for (int i = 0; i < n_pan; ++i) {
-    if (rho.col(i).cwiseAbs().maxCoeff() == 0.0f) continue;  // typical: outside every view
+    // Typical: outside every view. (A column of rho_0 = 0 adds nothing.)
+    if (!surface.ColumnObserved(i) && surface.rest_radius() == 0.0f) continue;
     const float* column = rho.col(i).data();
     const float* cos_i = cos1_.col(i).data();
     const float* sin_i = sin1_.col(i).data();

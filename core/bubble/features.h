@@ -74,8 +74,9 @@ struct FeatureImages {
   cv::Mat hue_cos, hue_sin;       ///< CV_32F per-pixel cos/sin of hue weighted by saturation
   cv::Mat depth;                  ///< CV_32F in [0,1], 0 = no reading
   std::array<cv::Mat, 4> orient;  ///< CV_32F gradient energy along 0°, 45°, 90°, 135°
-  /// Buffers ComputeOrientationImages reuses from frame to frame (no meaning outside it).
-  std::array<cv::Mat, 7> gradient_scratch;
+  /// The blurred grey ComputeOrientationImages reuses from frame to frame (no meaning outside
+  /// it).
+  cv::Mat blurred_grey;
 };
 
 /// Fills `out.orient` from `grey`: per pixel, with (gx, gy) the central-difference gradient

@@ -65,6 +65,11 @@ void BubbleSurfaceOptions::Validate() const {
   kRestRadiusRange.Check("bubble.rest_radius", rest_radius);
   kMaxDepthMRange.Check("bubble.max_depth_m", max_depth_m);
   kPatchPxRange.Check("bubble.patch_px", patch_px);
+  try {
+    PatchFeatureExtractor{patch_px};  // a side may sample a grating only at its zeros
+  } catch (const std::invalid_argument& e) {
+    throw std::invalid_argument("bubble.patch_px = " + std::to_string(patch_px) + ": " + e.what());
+  }
   kOrientationBlurDegRange.Check("bubble.orientation_blur_deg", orientation_blur_deg);
 }
 
@@ -80,11 +85,16 @@ BubbleSurface::BubbleSurface(FeatureSet features, CameraIntrinsics camera,
   rho_.assign(features_.size(),
               Eigen::MatrixXf::Constant(grid_.n_tilt(), grid_.n_pan(), options_.rest_radius));
   observed_.setZero(grid_.n_tilt(), grid_.n_pan());
+  observed_columns_.assign(static_cast<size_t>(grid_.n_pan()), 0);
 }
 
 void BubbleSurface::Reset() {
-  for (auto& r : rho_) r.setConstant(options_.rest_radius);
+  for (int i = 0; i < grid_.n_pan(); ++i) {
+    if (!ColumnObserved(i)) continue;  // it holds rho_0 already
+    for (auto& r : rho_) r.col(i).setConstant(options_.rest_radius);
+  }
   observed_.setZero();
+  std::fill(observed_columns_.begin(), observed_columns_.end(), uint8_t{0});
 }
 
 void BubbleSurface::Set(int feature, int tilt, int pan, float value) {
@@ -100,6 +110,7 @@ void BubbleSurface::Set(int feature, int tilt, int pan, float value) {
   }
   rho_[feature](tilt, pan) = value;
   observed_(tilt, pan) = 1;
+  observed_columns_[static_cast<size_t>(pan)] = 1;
 }
 
 int BubbleSurface::ObservedCount() const { return observed_.cast<int>().sum(); }
@@ -279,6 +290,7 @@ void BubbleSurface::Observe(const Observation& obs) {
     extractor_.Compute(features_, images, site.x0, site.y0, q.data());
     for (int k = 0; k < nv; ++k) rho_[k](site.cell) = q[k];
     observed_(site.cell) = 1;
+    observed_columns_[static_cast<size_t>(site.cell / grid_.n_tilt())] = 1;
   }
 }
 

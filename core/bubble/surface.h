@@ -3,6 +3,7 @@
 // feature, accumulated over the observations made at one base point.
 
 #include <Eigen/Core>
+#include <cstdint>
 #include <opencv2/core.hpp>
 #include <vector>
 
@@ -79,6 +80,10 @@ class BubbleSurface {
     return observed_;
   }
   int ObservedCount() const;
+  /// Whether a direction of pan column `pan` has been observed since the last Reset(); every
+  /// other column holds rho_0 in every feature block.
+  bool ColumnObserved(int pan) const { return observed_columns_[static_cast<size_t>(pan)] != 0; }
+  float rest_radius() const { return options_.rest_radius; }
 
  private:
   FeatureSet features_;
@@ -88,6 +93,9 @@ class BubbleSurface {
   PatchFeatureExtractor extractor_;
   std::vector<Eigen::MatrixXf> rho_;
   Eigen::Matrix<uint8_t, Eigen::Dynamic, Eigen::Dynamic> observed_;
+  // 1 for each pan column with an observed direction: a frame covers a sixth of the columns,
+  // and Reset() and the descriptor's sums pass over the others without reading them.
+  std::vector<uint8_t> observed_columns_;
 
   // A grid direction seen by a frame: its cell (column-major index into rho_ and observed_)
   // and the top-left corner of its patch in the resized image.

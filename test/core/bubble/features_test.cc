@@ -2,14 +2,18 @@
 
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <array>
 #include <cmath>
+#include <cstdint>
 #include <functional>
 #include <numbers>
 #include <stdexcept>
 #include <string>
+#include <utility>
 #include <vector>
 
+#include "core/bubble/descriptor.h"
 #include "core/bubble/surface.h"
 #include "core/split_mix64.h"
 
@@ -328,6 +332,26 @@ TEST(PatchFeatureExtractor, RejectsPatchesTooSmallForTheGratings) {
   EXPECT_NO_THROW(PatchFeatureExtractor(6));
 }
 
+// 8 pixels sample the vertical cosine only at its zeros: the configuration names the key, so
+// tscd exits as for any other bad value (it used to stop on a logic_error naming no key).
+TEST(PatchFeatureExtractor, RejectsASideThatSamplesAGratingAtItsZeros) {
+  EXPECT_THROW(PatchFeatureExtractor(8), std::invalid_argument);
+  BubbleSurfaceOptions options;
+  options.patch_px = 8;
+  try {
+    options.Validate();
+    ADD_FAILURE() << "patch_px 8 was accepted";
+  } catch (const std::invalid_argument& e) {
+    EXPECT_NE(std::string(e.what()).find("bubble.patch_px = 8"), std::string::npos) << e.what();
+  }
+  for (int n = static_cast<int>(BubbleSurfaceOptions::kPatchPxRange.min);
+       n <= static_cast<int>(BubbleSurfaceOptions::kPatchPxRange.max); ++n) {
+    options.patch_px = n;
+    if (n == 8) continue;
+    EXPECT_NO_THROW(options.Validate()) << "side " << n;
+  }
+}
+
 // Observes a uniform colour frame and returns the mean of feature `f` over observed directions.
 double MeanOverObserved(const FeatureSet& set, const cv::Scalar& bgr, const cv::Mat& depth,
                         Feature f) {
@@ -398,6 +422,97 @@ TEST(BubbleSurfaceFeatures, DetailFinerThanTheGridIsAveragedNotAliased) {
     }
   }
   EXPECT_LT(largest, 0.01);  // 0.29 unfiltered; 0.0000 now
+}
+
+// Pseudo-random grey in [0, 1] of a rows x cols image (SplitMix64 of the pixel index, `seed`).
+cv::Mat RandomGrey(int rows, int cols, uint64_t seed) {
+  cv::Mat grey(rows, cols, CV_32F);
+  for (int k = 0; k < rows * cols; ++k) {
+    const uint64_t h = SplitMix64(seed + static_cast<uint64_t>(k));
+    grey.at<float>(k / cols, k % cols) =
+        static_cast<float>(static_cast<double>(h >> 11) / static_cast<double>(1ull << 53));
+  }
+  return grey;
+}
+
+// ComputeOrientationImages against its formula, pixel by pixel in double, on images whose rows
+// and columns exercise the border rules and the single-pixel case (features.h). It runs as one
+// vectorised pass over the pixels, four at a time with scalar ends.
+TEST(OrientationImages, MatchTheFormulaAtEveryPixelAndBorder) {
+  constexpr uint64_t kSeed = 0x0de5;
+  for (const auto& [rows, cols] : std::vector<std::pair<int, int>>{
+           {7, 13}, {5, 4}, {6, 5}, {1, 9}, {9, 1}, {1, 1}, {2, 2}, {3, 17}}) {
+    const cv::Mat grey = RandomGrey(rows, cols, kSeed);
+    FeatureImages images;
+    ComputeOrientationImages(grey, images);
+    const auto diff = [](const cv::Mat& g, int y0, int x0, int y1, int x1, double scale) {
+      return scale * (static_cast<double>(g.at<float>(y1, x1)) - g.at<float>(y0, x0));
+    };
+    for (int y = 0; y < rows; ++y) {
+      for (int x = 0; x < cols; ++x) {
+        const double gx = cols < 2        ? 0.0
+                          : x == 0        ? diff(grey, y, 0, y, 1, 1.0)
+                          : x == cols - 1 ? diff(grey, y, x - 1, y, x, 1.0)
+                                          : diff(grey, y, x - 1, y, x + 1, 0.5);
+        const double gy = rows < 2        ? 0.0
+                          : y == 0        ? diff(grey, 0, x, 1, x, 1.0)
+                          : y == rows - 1 ? diff(grey, y - 1, x, y, x, 1.0)
+                                          : diff(grey, y - 1, x, y + 1, x, 0.5);
+        const double m = std::sqrt(gx * gx + gy * gy);
+        const double c = m > 0.0 ? (gx * gx - gy * gy) / m : 0.0;
+        const double s = m > 0.0 ? 2.0 * gx * gy / m : 0.0;
+        const std::array<double, 4> want = {std::max(c, 0.0), std::max(s, 0.0), std::max(-c, 0.0),
+                                            std::max(-s, 0.0)};
+        for (size_t b = 0; b < 4; ++b) {
+          ASSERT_EQ(images.orient[b].size(), grey.size());
+          EXPECT_NEAR(images.orient[b].at<float>(y, x), want[b], 1e-6)
+              << rows << "x" << cols << " image, pixel (" << x << ", " << y << "), bin " << b;
+        }
+      }
+    }
+  }
+}
+
+// A patch's intensity is the mean of its pixels for every side the extractor accepts, whether
+// or not the side is a whole number of four-pixel steps.
+TEST(PatchFeatureExtractor, IntensityIsThePatchMeanForEverySide) {
+  constexpr uint64_t kSeed = 0x51de;
+  const cv::Mat grey = RandomGrey(80, 80, kSeed);
+  const FeatureSet set({Feature::kIntensity});
+  FeatureImages images;
+  images.grey = grey;
+  for (int n = 6; n <= 64; n += 1) {
+    if (n == 8) continue;  // no extractor (RejectsASideThatSamplesAGratingAtItsZeros)
+    const int x0 = 80 - n - n % 7, y0 = n % 5;
+    double sum = 0.0;
+    for (int y = 0; y < n; ++y) {
+      for (int x = 0; x < n; ++x) sum += grey.at<float>(y0 + y, x0 + x);
+    }
+    float value = -1.0f;
+    PatchFeatureExtractor(n).Compute(set, images, x0, y0, &value);
+    EXPECT_NEAR(value, sum / (n * n), 1e-6) << "side " << n;
+  }
+}
+
+// Reset forgets what frames and Set wrote, whatever rho_0: every direction holds rho_0 again,
+// none is observed, and the descriptor is that of a fresh surface.
+TEST(BubbleSurfaceFeatures, ResetRestoresRestRadiusEverywhere) {
+  BubbleSurfaceOptions options;
+  options.rest_radius = 0.25f;
+  const FeatureSet set = FeatureSet::Recognition();
+  const CameraIntrinsics camera = CameraIntrinsics::FromHorizontalFov(160, 120, 60.0);
+  BubbleSurface fresh(set, camera, options), used(set, camera, options);
+  const cv::Mat frame = cv::Mat(120, 160, CV_8UC3, cv::Scalar(30, 120, 200));
+  used.Observe(Observation{frame, cv::Mat(), PanTilt{0.4, 0.1}});
+  used.Set(3, 5, used.grid().n_pan() - 1, 0.9f);  // a column no frame reached
+  ASSERT_GT(used.ObservedCount(), 0);
+  used.Reset();
+  EXPECT_EQ(used.ObservedCount(), 0);
+  for (int f = 0; f < set.size(); ++f) {
+    EXPECT_EQ((used.radius(f).array() != 0.25f).count(), 0) << "feature block " << f;
+  }
+  const DescriptorComputer computer(fresh.grid());
+  EXPECT_EQ(computer.Compute(used).values(), computer.Compute(fresh).values());
 }
 
 }  // namespace
