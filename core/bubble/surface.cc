@@ -186,8 +186,12 @@ void BubbleSurface::Resize(const cv::Mat& in, cv::Mat& out) {
   const double fy = static_cast<double>(src->rows) / resized_size_.height;
   if (fx > 1.0 || fy > 1.0) {
     // A σ of 0 would make OpenCV derive it from the other axis; 1e-3 is a one-tap kernel.
-    cv::GaussianBlur(*src, scratch_.prefiltered, cv::Size(), fx > 1.0 ? fx / 2 : 1e-3,
-                     fy > 1.0 ? fy / 2 : 1e-3);
+    // Five taps (±2 pixels, ±2.2σ or more for the σ < 1 of a step under 2): OpenCV's own
+    // choice for σ ≥ 0.75 (seven taps, the loop's 512x384 frames) runs on its generic path at
+    // twice the time of its five-tap one, and the two taps it adds weigh under 0.5 % each.
+    const auto taps = [](double f) { return f > 1.0 ? 5 : 1; };
+    cv::GaussianBlur(*src, scratch_.prefiltered, cv::Size(taps(fx), taps(fy)),
+                     fx > 1.0 ? fx / 2 : 1e-3, fy > 1.0 ? fy / 2 : 1e-3);
     src = &scratch_.prefiltered;
   }
   cv::resize(*src, out, resized_size_, 0, 0, cv::INTER_LINEAR);
