@@ -1,6 +1,7 @@
 #include "core/bubble/descriptor.h"
 
 #include <cmath>
+#include <cstdio>
 #include <numbers>
 #include <stdexcept>
 #include <string>
@@ -37,19 +38,31 @@ void DescriptorOptions::Validate() const {
   kHarmonicsRange.Check("descriptor.harmonics_tilt (H2)", h2);
 }
 
+void DescriptorOptions::CheckGrid(const ViewingGrid& grid) const {
+  const auto degrees = [&grid] {
+    char text[32];
+    std::snprintf(text, sizeof text, "%g", grid.d_phi_rad() * 180.0 / std::numbers::pi);
+    return std::string(text);
+  };
+  if (2 * h1 >= grid.n_pan()) {
+    throw std::invalid_argument("descriptor.harmonics_pan (H1) = " + std::to_string(h1) +
+                                " needs more than " + std::to_string(2 * h1) +
+                                " pan steps; bubble.d_phi_deg = " + degrees() + " gives " +
+                                std::to_string(grid.n_pan()));
+  }
+  if (h2 >= grid.n_tilt()) {
+    throw std::invalid_argument("descriptor.harmonics_tilt (H2) = " + std::to_string(h2) +
+                                " needs more than " + std::to_string(h2) +
+                                " tilt steps; bubble.d_phi_deg = " + degrees() + " gives " +
+                                std::to_string(grid.n_tilt()));
+  }
+}
+
 DescriptorComputer::DescriptorComputer(const ViewingGrid& grid, DescriptorOptions options)
     : grid_(grid), options_(options) {
   options_.Validate();
+  options_.CheckGrid(grid_);
   const int n_pan = grid_.n_pan(), n_tilt = grid_.n_tilt();
-  // Beyond these the grid aliases the harmonics.
-  if (2 * options_.h1 >= n_pan) {
-    throw std::invalid_argument("descriptor.harmonics_pan (H1) = " + std::to_string(options_.h1) +
-                                " needs more than " + std::to_string(n_pan) + " pan steps");
-  }
-  if (options_.h2 >= n_tilt) {
-    throw std::invalid_argument("descriptor.harmonics_tilt (H2) = " + std::to_string(options_.h2) +
-                                " needs more than " + std::to_string(n_tilt) + " tilt steps");
-  }
   cos1_.resize(options_.h1 + 1, n_pan);
   sin1_.resize(options_.h1 + 1, n_pan);
   for (int i = 0; i < n_pan; ++i) {

@@ -42,6 +42,9 @@ struct DescriptorOptions {
   /// Valid range of h1 and h2 (also the configuration's, descriptor.harmonics_*).
   static constexpr Range kHarmonicsRange{0, 64};
   void Validate() const;
+  /// Throws std::invalid_argument, naming the keys, unless `grid` resolves h1 and h2 (beyond
+  /// 2·h1 ≥ n_pan or h2 ≥ n_tilt the grid aliases the harmonics).
+  void CheckGrid(const ViewingGrid& grid) const;
 };
 
 /// Computes descriptors from bubble surfaces by quadrature of (A.4) over the viewing grid.

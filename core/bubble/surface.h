@@ -45,7 +45,9 @@ struct BubbleSurfaceOptions {
   /// σ of the Gaussian blur before the orientation gradients, degrees of view (0 = none).
   double orientation_blur_deg = 0.0;
   // Valid ranges (also the configuration's, bubble.*); d_phi_deg must also divide 180.
-  static constexpr Range kDPhiDegRange{0, 90, /*min_open=*/true};
+  // Down to 0.5°: a finer grid holds more cells than any camera resolves (0.001° asked for
+  // 10¹⁰ cells and ended in bad_alloc).
+  static constexpr Range kDPhiDegRange{0.5, 90};
   static constexpr Range kRestRadiusRange{0, 1};
   static constexpr Range kMaxDepthMRange{0, 1000, /*min_open=*/true};
   static constexpr Range kPatchPxRange{6, 64};

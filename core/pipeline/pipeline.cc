@@ -49,6 +49,9 @@ void PipelineOptions::Validate() const {
   if (!features.Contains(Feature::kIntensity)) {
     throw std::invalid_argument("bubble.features must include intensity (place detection uses it)");
   }
+  // Said when the configuration is read (exit 78), rather than when the pipeline starts. (The
+  // view basis is checked at start: tools read a configuration and set other features.)
+  descriptor.CheckGrid(ViewingGrid(surface.d_phi_deg));
 }
 
 PlaceMemoryOptions WithBuiltinViewBasis(PlaceMemoryOptions options) {

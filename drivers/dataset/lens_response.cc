@@ -62,7 +62,9 @@ void AdaptToLens(PipelineOptions& options, const CameraLens& lens) {
   // and recognition made more wrong ones; the configured τ_κ already detects there.
   options.reliability.tau_kappa *= std::min(r.chi2, 1.0);
   // 0 is the memory's own median view spacing, which follows the lens by itself.
-  options.memory.distance_unit *= r.squared_distance;
+  // Within the key's range, which a unit configured near its top would otherwise leave.
+  options.memory.distance_unit = std::min(options.memory.distance_unit * r.squared_distance,
+                                          PlaceMemoryOptions::kDistanceUnitRange.max);
 }
 
 std::optional<std::string> LensNote(const PipelineOptions& adapted, const CameraLens& lens) {

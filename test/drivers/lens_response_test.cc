@@ -69,6 +69,16 @@ TEST(LensResponseTest, WiderLensesScaleTheUnitUpAndKeepTauKappa) {
       << *note;
 }
 
+// A unit configured near the top of its range stays in it at a wide lens (it left the range,
+// and the memory refused it when the pipeline started).
+TEST(LensResponseTest, TheScaledUnitStaysInTheKeysRange) {
+  PipelineOptions options;
+  options.memory.distance_unit = PlaceMemoryOptions::kDistanceUnitRange.max;
+  AdaptToLens(options, CameraLens(90.0, 1));
+  EXPECT_EQ(options.memory.distance_unit, PlaceMemoryOptions::kDistanceUnitRange.max);
+  EXPECT_NO_THROW(options.Validate());
+}
+
 TEST(LensResponseTest, NarrowerLensesScaleBothDownContinuously) {
   EXPECT_NEAR(LensResponseAt(45.0).chi2, 0.616, 1e-12);
   EXPECT_NEAR(LensResponseAt(45.0).squared_distance, 0.554, 1e-12);

@@ -125,6 +125,20 @@ TEST_F(ConfigTest, OutOfRangeNamesKeyAndRange) {
   EXPECT_NE(open.find("[0, 1)"), std::string::npos) << open;
 }
 
+// Keys that only fail together are refused when the configuration is read, naming them, so
+// tscd exits 78; they used to stop the pipeline's construction with exit 1 (session 82's sweep
+// of every key's range ends).
+TEST_F(ConfigTest, KeysThatConflictAreRefusedWhenRead) {
+  // A grid of 90° steps has 4 pan steps, too few for 9 pan harmonics.
+  const std::string grid = ErrorOf("[bubble]\nd_phi_deg = 90\n");
+  EXPECT_NE(grid.find("descriptor.harmonics_pan (H1) = 9"), std::string::npos) << grid;
+  EXPECT_NE(grid.find("bubble.d_phi_deg"), std::string::npos) << grid;
+  // A grid finer than 0.5° (0.001° asked for 10¹⁰ cells and ended in bad_alloc).
+  const std::string fine = ErrorOf("[bubble]\nd_phi_deg = 0.001\n");
+  EXPECT_NE(fine.find("bubble.d_phi_deg"), std::string::npos) << fine;
+  EXPECT_EQ(ErrorOf("[bubble]\nd_phi_deg = 0.5\n"), "");
+}
+
 // Ranges the Options structs check in Validate() are declared once, beside the option: the
 // table shows and applies that declaration, and a value just outside it is refused by both.
 TEST_F(ConfigTest, ValidatedRangesAreTheOptionsOwn) {
