@@ -125,6 +125,25 @@ TEST_F(ConfigTest, OutOfRangeNamesKeyAndRange) {
   EXPECT_NE(open.find("[0, 1)"), std::string::npos) << open;
 }
 
+// The range a key shows is what it accepts: each closed end, written as `tsc config` prints it,
+// is read back (sim.start_frame's top, 1e15, was printed as "1e+15" and refused as not whole).
+TEST_F(ConfigTest, EveryClosedEndOfAShownRangeIsAccepted) {
+  int ends = 0;
+  for (const ConfigKey& k : ConfigTable()) {
+    if (k.kind != ConfigKey::Kind::kInteger && k.kind != ConfigKey::Kind::kReal) continue;
+    if (k.range.min >= k.range.max) continue;  // no numeric range declared
+    for (const auto& [value, open] :
+         {std::pair{k.range.min, k.range.min_open}, std::pair{k.range.max, k.range.max_open}}) {
+      if (open) continue;
+      Settings read;
+      const std::string assignment = k.key + "=" + FormatRangeNumber(value);
+      EXPECT_NO_THROW(ApplyOverride(assignment, read)) << assignment;
+      ++ends;
+    }
+  }
+  EXPECT_GT(ends, 100);  // the table's numeric keys were walked
+}
+
 // Keys that only fail together are refused when the configuration is read, naming them, so
 // tscd exits 78; they used to stop the pipeline's construction with exit 1 (session 82's sweep
 // of every key's range ends).
