@@ -1,5 +1,6 @@
 #include "settings/settings.h"
 
+#include <algorithm>
 #include <boost/program_options/options_description.hpp>
 #include <boost/program_options/parsers.hpp>
 #include <boost/program_options/value_semantic.hpp>
@@ -161,6 +162,58 @@ std::function<void(const std::string&)> OneOf(std::vector<std::string> choices) 
     for (const std::string& c : choices) list += (list.empty() ? "" : " | ") + c;
     throw std::invalid_argument("'" + v + "' is not one of " + list);
   };
+}
+
+// The first octet of a dotted IPv4 address, or nothing when `v` is not one.
+std::optional<unsigned> FirstOctetOfIPv4(const std::string& v) {
+  unsigned a, b, c, d;
+  char tail;
+  if (std::sscanf(v.c_str(), "%u.%u.%u.%u%c", &a, &b, &c, &d, &tail) != 4 || a > 255 || b > 255 ||
+      c > 255 || d > 255) {
+    return std::nullopt;
+  }
+  return a;
+}
+
+// lcm.url: memq://, or udpm://GROUP:PORT[?options] with a multicast group, a port LCM can
+// bind and a ttl it can set, so that a typo is refused when read (exit 78) rather than
+// reported at start as a missing multicast route.
+void CheckLcmUrl(const std::string& v) {
+  if (v.rfind("memq://", 0) == 0) return;
+  if (v.rfind("udpm://", 0) != 0) {
+    throw std::invalid_argument("'" + v + "' is not a udpm:// or memq:// URL");
+  }
+  const std::string rest = v.substr(7);
+  const size_t query = rest.find('?');
+  const std::string where = rest.substr(0, query);
+  const size_t colon = where.find(':');
+  const std::string group = where.substr(0, colon);
+  const std::optional<unsigned> first = FirstOctetOfIPv4(group);
+  if (!first || *first < 224 || *first > 239) {
+    throw std::invalid_argument("'" + v + "': '" + group +
+                                "' is not a multicast group (224.0.0.0-239.255.255.255)");
+  }
+  const auto whole_in = [&](const std::string& text, long lo, long hi, const char* what) {
+    long n = -1;
+    const auto r = std::from_chars(text.data(), text.data() + text.size(), n);
+    if (r.ec != std::errc() || r.ptr != text.data() + text.size() || n < lo || n > hi) {
+      throw std::invalid_argument("'" + v + "': " + what + " '" + text + "' is not in [" +
+                                  std::to_string(lo) + ", " + std::to_string(hi) + "]");
+    }
+  };
+  // Without a port LCM binds an ephemeral one and its self test fails at start.
+  if (colon == std::string::npos) {
+    throw std::invalid_argument("'" + v + "' has no port (udpm://GROUP:PORT, e.g. :7667)");
+  }
+  whole_in(where.substr(colon + 1), 1, 65535, "port");
+  if (query == std::string::npos) return;
+  std::string options = rest.substr(query + 1);
+  for (size_t start = 0; start <= options.size();) {
+    const size_t end = std::min(options.find('&', start), options.size());
+    const std::string option = options.substr(start, end - start);
+    if (option.rfind("ttl=", 0) == 0) whole_in(option.substr(4), 0, 255, "ttl");
+    start = end + 1;
+  }
 }
 
 // memory.view_basis: "builtin", "none" (null) or a file of ViewBasisBytes' form.
@@ -647,12 +700,7 @@ std::vector<ConfigKey> BuildTable() {
   // [lcm] — the bus (DESIGN §4)
   t.push_back(Text(
       "lcm.url", "LCM provider URL; ttl=0 keeps multicast on this host", "an LCM URL",
-      [](auto& o) -> auto& { return o.daemon.bus.url; },
-      [](const std::string& v) {
-        if (v.rfind("udpm://", 0) != 0 && v.rfind("memq://", 0) != 0) {
-          throw std::invalid_argument("'" + v + "' is not a udpm:// or memq:// URL");
-        }
-      }));
+      [](auto& o) -> auto& { return o.daemon.bus.url; }, CheckLcmUrl));
   t.push_back(Number(
       "lcm.announce_period_s", "seconds between announces on TSC_ANNOUNCE", "s", 0.05, 3600,
       [](auto& o) -> auto& { return o.daemon.bus.announce_period_s; }));
@@ -688,10 +736,7 @@ std::vector<ConfigKey> BuildTable() {
       "motor.address", "IPv4 address of the Jaguar board", "dotted IPv4",
       [](auto& o) -> auto& { return o.daemon.motor.address; },
       [](const std::string& v) {
-        unsigned a, b, c, d;
-        char tail;
-        if (std::sscanf(v.c_str(), "%u.%u.%u.%u%c", &a, &b, &c, &d, &tail) != 4 || a > 255 ||
-            b > 255 || c > 255 || d > 255) {
+        if (!FirstOctetOfIPv4(v)) {
           throw std::invalid_argument("'" + v + "' is not a dotted IPv4 address");
         }
       }));

@@ -208,6 +208,36 @@ TEST_F(ConfigTest, ValidatedRangesAreTheOptionsOwn) {
   }
 }
 
+// An LCM URL that LCM cannot open is refused when read, naming lcm.url and the part at fault;
+// tscd used to start and then blame a missing multicast route (exit 1).
+TEST_F(ConfigTest, AnLcmUrlIsCheckedWhenRead) {
+  for (const char* good :
+       {"udpm://239.255.76.67:7667?ttl=0", "udpm://239.255.76.67:7667", "udpm://224.0.0.1:7667",
+        "udpm://239.1.2.3:1?recv_buf_size=2097152&ttl=255", "memq://"}) {
+    Settings read;
+    EXPECT_NO_THROW(ApplyOverride(std::string("lcm.url=") + good, read)) << good;
+  }
+  for (const auto& [bad, part] : std::vector<std::pair<std::string, std::string>>{
+           {"udpm://239.255.76.67:99999?ttl=0", "port '99999'"},
+           {"udpm://239.255.76.67:0", "port '0'"},
+           {"udpm://239.255.76.67?ttl=0", "has no port"},
+           {"udpm://239.255.76.67:76x", "port '76x'"},
+           {"udpm://192.168.1.10:7667", "'192.168.1.10' is not a multicast group"},
+           {"udpm://lcm.local:7667", "'lcm.local' is not a multicast group"},
+           {"udpm://239.255.76.67:7667?ttl=300", "ttl '300'"},
+           {"udpm://239.255.76.67:7667?recv_buf_size=1&ttl=-1", "ttl '-1'"},
+           {"tcp://239.255.76.67:7667", "not a udpm:// or memq:// URL"}}) {
+    Settings read;
+    try {
+      ApplyOverride("lcm.url=" + bad, read);
+      ADD_FAILURE() << bad << " was accepted";
+    } catch (const ConfigError& e) {
+      EXPECT_NE(std::string(e.what()).find("lcm.url"), std::string::npos) << e.what();
+      EXPECT_NE(std::string(e.what()).find(part), std::string::npos) << e.what();
+    }
+  }
+}
+
 TEST_F(ConfigTest, MalformedValuesNameKey) {
   for (const char* text :
        {"[detection]\ntau_n = 2.5\n", "[detection]\ntau_n = three\n", "[memory]\ntau_r = \n",
