@@ -70,7 +70,7 @@ DescriptorComputer::DescriptorComputer(const ViewingGrid& grid, DescriptorOption
       // Reduce h·i modulo the period first, so the table of every pan shift holds exactly
       // the same values: a shift by whole steps is then an exact symmetry of the quadrature.
       const double angle = 2.0 * std::numbers::pi * ((h * i) % n_pan) / n_pan;
-      cos1_(h, i) = static_cast<float>(std::cos(angle));
+      cos1_(h, i) = static_cast<float>(std::cos(angle));  // float-rounded, as ever
       sin1_(h, i) = static_cast<float>(std::sin(angle));
     }
   }
@@ -116,18 +116,14 @@ Eigen::VectorXf DescriptorComputer::RawBlock(const BubbleSurface& surface,
     // Typical: outside every view. (A column of rho_0 = 0 adds nothing.)
     if (!surface.ColumnObserved(i) && surface.rest_radius() == 0.0f) continue;
     const float* column = rho.col(i).data();
-    const float* cos_i = cos1_.col(i).data();
-    const float* sin_i = sin1_.col(i).data();
     for (int j = 0; j < n_tilt; ++j) {
       const double r = column[j];
       if (r == 0.0) continue;
       row_used[j] = 1;
-      double* cj = c.col(j).data();
-      double* sj = s.col(j).data();
-      for (int h = 0; h < n1; ++h) {
-        cj[h] += r * cos_i[h];
-        sj[h] += r * sin_i[h];
-      }
+      // Element by element (products, then sums; no fused multiply-add on the baseline): the
+      // same doubles as a scalar loop, on whole vectors.
+      c.col(j).noalias() += r * cos1_.col(i);
+      s.col(j).noalias() += r * sin1_.col(i);
     }
   }
   // Stage 2: the tilt sums, giving the four components of z_{h1h2} (A.4):
@@ -135,16 +131,14 @@ Eigen::VectorXf DescriptorComputer::RawBlock(const BubbleSurface& surface,
   Eigen::MatrixXd cc = Eigen::MatrixXd::Zero(n2, n1), sc = cc, cs = cc, ss = cc;  // (h2, h1)
   for (int j = 0; j < n_tilt; ++j) {
     if (!row_used[j]) continue;
-    const float* cos_j = cos2_.col(j).data();
-    const float* sin_j = sin2_.col(j).data();
+    const auto cos_j = cos2_.col(j);
+    const auto sin_j = sin2_.col(j);
     for (int h1 = 0; h1 < n1; ++h1) {
       const double cj = c(h1, j), sj = s(h1, j);
-      for (int h2 = 0; h2 < n2; ++h2) {
-        cc(h2, h1) += cj * cos_j[h2];
-        sc(h2, h1) += sj * cos_j[h2];
-        cs(h2, h1) += cj * sin_j[h2];
-        ss(h2, h1) += sj * sin_j[h2];
-      }
+      cc.col(h1).noalias() += cj * cos_j;
+      sc.col(h1).noalias() += sj * cos_j;
+      cs.col(h1).noalias() += cj * sin_j;
+      ss.col(h1).noalias() += sj * sin_j;
     }
   }
   // Quadrature weight d_phi² per cell and the factor 1/π² of (A.4).

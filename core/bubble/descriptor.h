@@ -61,8 +61,10 @@ class DescriptorComputer {
  private:
   ViewingGrid grid_;
   DescriptorOptions options_;
-  Eigen::MatrixXf cos1_, sin1_;  // (H1+1) x n_pan
-  Eigen::MatrixXf cos2_, sin2_;  // (H2+1) x n_tilt
+  // The quadrature's trigonometric tables, float-rounded values held as doubles so the sums
+  // (in double) run on whole vectors without a conversion per term.
+  Eigen::MatrixXd cos1_, sin1_;  // (H1+1) x n_pan
+  Eigen::MatrixXd cos2_, sin2_;  // (H2+1) x n_tilt
   double full_sphere_dc_ = 1.0;  // I_00 of a unit sphere, the fixed scale without block_sum
 };
 
