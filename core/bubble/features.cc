@@ -1,6 +1,5 @@
 #include "core/bubble/features.h"
 
-#include <Eigen/Core>
 #include <algorithm>
 #include <cctype>
 #include <cmath>
@@ -16,7 +15,7 @@
 namespace tsc {
 namespace {
 
-// Largest patch side the extractor accepts; the patch is gathered into a stack buffer.
+// Largest patch side the extractor accepts.
 constexpr int kMaxPatchPx = 64;
 // Smallest patch side on which every grating (two cycles across the patch) is resolved.
 constexpr int kMinPatchPx = 6;
@@ -330,8 +329,10 @@ void BlockSumsOf(const cv::Mat* const* images, int x0, int y0, int n, float* sum
 #endif
   for (int y = 0; y < n; ++y) {
     std::array<const float*, kCount> row;
+#pragma GCC unroll 16
     for (int m = 0; m < kCount; ++m) row[m] = images[m]->ptr<float>(y0 + y) + x0;
     for (int x = 0; x < wide; x += 4) {
+#pragma GCC unroll 16
       for (int m = 0; m < kCount; ++m) {
 #if defined(__SSE2__)
         acc[m] = _mm_add_ps(acc[m], _mm_loadu_ps(row[m] + x));
@@ -341,9 +342,11 @@ void BlockSumsOf(const cv::Mat* const* images, int x0, int y0, int n, float* sum
       }
     }
     for (int x = wide; x < n; ++x) {
+#pragma GCC unroll 16
       for (int m = 0; m < kCount; ++m) tail[m] += row[m][x];
     }
   }
+#pragma GCC unroll 16
   for (int m = 0; m < kCount; ++m) {
     std::array<float, 4> lanes{};
 #if defined(__SSE2__)
@@ -376,6 +379,75 @@ void BlockSums(const cv::Mat* const* images, int count, int x0, int y0, int n, f
       return BlockSumsOf<7>(images, x0, y0, n, sums);
     default:
       throw std::logic_error("BlockSums of more than seven images");
+  }
+}
+
+// Dot products of kCount n x n kernels (row-major) with the n x n block of CV_32F `grey` at
+// (x0, y0), in BlockSumsOf's order per kernel (four lanes over each row in turn, the row tails,
+// then the lanes). The kernels share each load of the patch and their chains interleave.
+template <int kCount>
+void KernelDotsOf(const float* const* kernels, const cv::Mat& grey, int x0, int y0, int n,
+                  float* dots) {
+  const int wide = n - n % 4;
+  std::array<float, kCount> tail{};
+#if defined(__SSE2__)
+  __m128 acc[kCount];  // NOLINT(*-avoid-c-arrays): std::array would drop __m128's alignment
+  for (__m128& a : acc) a = _mm_setzero_ps();
+#else
+  std::array<std::array<float, 4>, kCount> acc{};
+#endif
+  for (int y = 0; y < n; ++y) {
+    const float* row = grey.ptr<float>(y0 + y) + x0;
+    const int at = y * n;
+    for (int x = 0; x < wide; x += 4) {
+#if defined(__SSE2__)
+      const __m128 pixels = _mm_loadu_ps(row + x);
+#pragma GCC unroll 16
+      for (int m = 0; m < kCount; ++m) {
+        acc[m] = _mm_add_ps(acc[m], _mm_mul_ps(_mm_loadu_ps(kernels[m] + at + x), pixels));
+      }
+#else
+#pragma GCC unroll 16
+      for (int m = 0; m < kCount; ++m) {
+        for (int k = 0; k < 4; ++k) acc[m][k] += kernels[m][at + x + k] * row[x + k];
+      }
+#endif
+    }
+    for (int x = wide; x < n; ++x) {
+#pragma GCC unroll 16
+      for (int m = 0; m < kCount; ++m) tail[m] += kernels[m][at + x] * row[x];
+    }
+  }
+#pragma GCC unroll 16
+  for (int m = 0; m < kCount; ++m) {
+    std::array<float, 4> lanes{};
+#if defined(__SSE2__)
+    _mm_storeu_ps(lanes.data(), acc[m]);
+#else
+    lanes = acc[m];
+#endif
+    dots[m] = ((lanes[0] + lanes[1]) + (lanes[2] + lanes[3])) + tail[m];
+  }
+}
+
+// The dots of up to the ten grating kernels (a cosine and a sine each) in one pass.
+void KernelDots(const float* const* kernels, int count, const cv::Mat& grey, int x0, int y0, int n,
+                float* dots) {
+  switch (count) {
+    case 0:
+      return;
+    case 2:
+      return KernelDotsOf<2>(kernels, grey, x0, y0, n, dots);
+    case 4:
+      return KernelDotsOf<4>(kernels, grey, x0, y0, n, dots);
+    case 6:
+      return KernelDotsOf<6>(kernels, grey, x0, y0, n, dots);
+    case 8:
+      return KernelDotsOf<8>(kernels, grey, x0, y0, n, dots);
+    case 10:
+      return KernelDotsOf<10>(kernels, grey, x0, y0, n, dots);
+    default:
+      throw std::logic_error("KernelDots of an odd count or more than ten kernels");
   }
 }
 
@@ -456,18 +528,19 @@ void PatchFeatureExtractor::Compute(const FeatureSet& set, const FeatureImages& 
   // Largest response of a zero-mean unit-norm kernel to a [0,1] patch is below n/2.
   const float inv_max_response = 2.0f / static_cast<float>(n);
 
-  // The grey patch, gathered once into a contiguous buffer for the kernel dot products.
-  std::array<float, kMaxPatchPx * kMaxPatchPx> buffer;
-  Eigen::Map<const Eigen::VectorXf> patch(buffer.data(), n2);
-  bool gathered = false;
-  auto gather_grey = [&]() {
-    if (gathered) return;
-    for (int y = 0; y < n; ++y) {
-      const float* row = images.grey.ptr<float>(y0 + y) + x0;
-      std::copy(row, row + n, buffer.data() + y * n);
-    }
-    gathered = true;
-  };
+  // The dot products of every grating kernel the set reads with the grey patch, together.
+  std::array<const float*, 10> kernels{};
+  std::array<int, 5> dot_at{};  // per grating, the index of its cosine's dot
+  int n_kernels = 0;
+  for (const Feature f : set.features()) {
+    const int g = GratingIndex(f);
+    if (g < 0) continue;
+    dot_at[static_cast<size_t>(g)] = n_kernels;
+    kernels[static_cast<size_t>(n_kernels++)] = kernels_[static_cast<size_t>(2 * g)].data();
+    kernels[static_cast<size_t>(n_kernels++)] = kernels_[static_cast<size_t>(2 * g + 1)].data();
+  }
+  std::array<float, 10> dots{};
+  KernelDots(kernels.data(), n_kernels, images.grey, x0, y0, n, dots.data());
   // Every patch sum the set reads, taken together (BlockSums): the hue pair, grey (intensity)
   // and the four orientation energies.
   const bool hue = set.NeedsHue(), intensity = set.Contains(Feature::kIntensity);
@@ -499,11 +572,8 @@ void PatchFeatureExtractor::Compute(const FeatureSet& set, const FeatureImages& 
     const Feature f = set.features()[k];
     const int g = GratingIndex(f);
     if (g >= 0) {
-      gather_grey();
-      const auto& kc = kernels_[2 * g];
-      const auto& ks = kernels_[2 * g + 1];
-      const float c = Eigen::Map<const Eigen::VectorXf>(kc.data(), n2).dot(patch);
-      const float s = Eigen::Map<const Eigen::VectorXf>(ks.data(), n2).dot(patch);
+      const float c = dots[static_cast<size_t>(dot_at[static_cast<size_t>(g)])];
+      const float s = dots[static_cast<size_t>(dot_at[static_cast<size_t>(g)] + 1)];
       out[k] = std::min(1.0f, std::sqrt(c * c + s * s) * inv_max_response);
       continue;
     }

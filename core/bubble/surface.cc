@@ -146,6 +146,11 @@ std::vector<BubbleSurface::PatchSite> BubbleSurface::ComputeSites(const PanTilt&
           PatchSite{i * grid_.n_tilt() + j, static_cast<int>(x0), static_cast<int>(y0)});
     }
   }
+  // In image order, so that the patch sums walk each band of rows once, left to right, rather
+  // than down one pan column after another (each site sets its own cell: the order is free).
+  std::sort(sites.begin(), sites.end(), [](const PatchSite& a, const PatchSite& b) {
+    return a.y0 != b.y0 ? a.y0 < b.y0 : a.x0 < b.x0;
+  });
   return sites;
 }
 
