@@ -47,6 +47,21 @@ std::string OsError(const Db& db) {
   return " (" + std::system_category().message(os_errno) + ")";
 }
 
+/// What a person can do about a file SQLite cannot read as a database, which the store never
+/// rewrites: "" for every other failure.
+std::string Remedy(const Db& db) {
+  switch (sqlite3_errcode(db.handle) & 0xff) {
+    case SQLITE_NOTADB:
+      return "; the file is not a SQLite database and is left as it is: move it away to start a "
+             "new memory, or put back a copy";
+    case SQLITE_CORRUPT:
+      return "; the database is damaged and is left as it is: put back a copy, or try "
+             "`sqlite3 FILE .recover`";
+    default:
+      return "";
+  }
+}
+
 }  // namespace
 
 [[noreturn]] void Fail(const Db& db, const std::string& what) {
@@ -55,14 +70,16 @@ std::string OsError(const Db& db) {
 
 [[noreturn]] void FailSqlite(const Db& db, const std::string& what) {
   if (db.handle == nullptr) Fail(db, what + ": out of memory");
-  throw StoreError(db.path.string() + ": " + what + ": " + sqlite3_errmsg(db.handle) + OsError(db),
-                   FileSystemFailure(db));
+  throw StoreError(
+      db.path.string() + ": " + what + ": " + sqlite3_errmsg(db.handle) + OsError(db) + Remedy(db),
+      FileSystemFailure(db));
 }
 
 void Exec(const Db& db, const char* sql) {
   char* message = nullptr;
   if (sqlite3_exec(db.handle, sql, nullptr, nullptr, &message) != SQLITE_OK) {
-    const std::string text = (message ? message : sqlite3_errmsg(db.handle)) + OsError(db);
+    const std::string text =
+        (message ? message : sqlite3_errmsg(db.handle)) + OsError(db) + Remedy(db);
     sqlite3_free(message);
     const std::string_view head(sql);
     throw StoreError(

@@ -10,7 +10,9 @@
 #include <bit>
 #include <chrono>
 #include <filesystem>
+#include <fstream>
 #include <initializer_list>
+#include <iterator>
 #include <optional>
 #include <random>
 #include <set>
@@ -502,6 +504,34 @@ TEST_F(StoreTest, OpenExistingRefusesAMissingDatabaseAndCreatesNothing) {
   { Store::Open(path_); }
   Store dut = Store::OpenExisting(path_);
   EXPECT_EQ(dut.schema_version(), Store::kSchemaVersion);
+}
+
+// A memory.db that is not a database (another file in its place, or its first page overwritten)
+// is refused with what to do about it, and left byte for byte as it was.
+TEST_F(StoreTest, OpenRefusesAFileThatIsNotADatabaseAndLeavesIt) {
+  const std::string text(5000, 'x');
+  {
+    std::ofstream out(path_, std::ios::binary);
+    out << text;
+  }
+  for (const bool existing : {true, false}) {
+    try {
+      if (existing) {
+        Store::OpenExisting(path_);
+      } else {
+        Store::Open(path_);
+      }
+      FAIL() << "a file of 'x' was opened as a database";
+    } catch (const StoreError& e) {
+      const std::string what = e.what();
+      EXPECT_NE(what.find(path_.string()), std::string::npos) << what;
+      EXPECT_NE(what.find("not a SQLite database"), std::string::npos) << what;
+      EXPECT_NE(what.find("move it away"), std::string::npos) << what;
+    }
+    std::ifstream in(path_, std::ios::binary);
+    const std::string after((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
+    EXPECT_EQ(after, text);
+  }
 }
 
 TEST_F(StoreTest, OpenRefusesANewerSchemaVersion) {
