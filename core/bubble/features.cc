@@ -312,34 +312,50 @@ void SplitOrientation4(__m128 gx, __m128 gy, std::array<float*, 4>& out, int x) 
 }
 #endif
 
+// Four float lanes: SSE2's where the build has it, else four floats added alike (the same
+// floats either way).
+#if defined(__SSE2__)
+using Lanes = __m128;
+Lanes ZeroLanes() { return _mm_setzero_ps(); }
+Lanes LoadLanes(const float* p) { return _mm_loadu_ps(p); }
+Lanes AddLanes(Lanes a, Lanes b) { return _mm_add_ps(a, b); }
+Lanes MulLanes(Lanes a, Lanes b) { return _mm_mul_ps(a, b); }
+float SumLanes(Lanes a) {
+  std::array<float, 4> l{};
+  _mm_storeu_ps(l.data(), a);
+  return (l[0] + l[1]) + (l[2] + l[3]);
+}
+#else
+using Lanes = std::array<float, 4>;
+Lanes ZeroLanes() { return Lanes{}; }
+Lanes LoadLanes(const float* p) { return Lanes{p[0], p[1], p[2], p[3]}; }
+Lanes AddLanes(Lanes a, Lanes b) {
+  return Lanes{a[0] + b[0], a[1] + b[1], a[2] + b[2], a[3] + b[3]};
+}
+Lanes MulLanes(Lanes a, Lanes b) {
+  return Lanes{a[0] * b[0], a[1] * b[1], a[2] * b[2], a[3] * b[3]};
+}
+float SumLanes(Lanes a) { return (a[0] + a[1]) + (a[2] + a[3]); }
+#endif
+
 // Sums of the n x n blocks at (x0, y0) of kCount CV_32F images of one size. Per image: four
-// lanes, each adding every fourth pixel of each row in turn (the vector and the portable loop
-// give the same floats), then the row tails and the lanes. The images' chains of additions
-// interleave, so a patch's sums wait on the add's latency once, not once per image. (A lambda
-// over an Eigen block, one image at a time, took a tenth of a frame.)
+// lanes, each adding every fourth pixel of each row in turn, then the row tails and the lanes.
+// The images' chains of additions interleave, so a patch's sums wait on the add's latency once,
+// not once per image. (A lambda over an Eigen block, one image at a time, took a tenth of a
+// frame.)
 template <int kCount>
 void BlockSumsOf(const cv::Mat* const* images, int x0, int y0, int n, float* sums) {
   const int wide = n - n % 4;
   std::array<float, kCount> tail{};
-#if defined(__SSE2__)
-  __m128 acc[kCount];  // NOLINT(*-avoid-c-arrays): std::array would drop __m128's alignment
-  for (__m128& a : acc) a = _mm_setzero_ps();
-#else
-  std::array<std::array<float, 4>, kCount> acc{};
-#endif
+  Lanes acc[kCount];  // NOLINT(*-avoid-c-arrays): std::array would drop __m128's alignment
+  for (Lanes& a : acc) a = ZeroLanes();
   for (int y = 0; y < n; ++y) {
     std::array<const float*, kCount> row;
 #pragma GCC unroll 16
     for (int m = 0; m < kCount; ++m) row[m] = images[m]->ptr<float>(y0 + y) + x0;
     for (int x = 0; x < wide; x += 4) {
 #pragma GCC unroll 16
-      for (int m = 0; m < kCount; ++m) {
-#if defined(__SSE2__)
-        acc[m] = _mm_add_ps(acc[m], _mm_loadu_ps(row[m] + x));
-#else
-        for (size_t k = 0; k < 4; ++k) acc[m][k] += row[m][x + static_cast<int>(k)];
-#endif
-      }
+      for (int m = 0; m < kCount; ++m) acc[m] = AddLanes(acc[m], LoadLanes(row[m] + x));
     }
     for (int x = wide; x < n; ++x) {
 #pragma GCC unroll 16
@@ -347,15 +363,7 @@ void BlockSumsOf(const cv::Mat* const* images, int x0, int y0, int n, float* sum
     }
   }
 #pragma GCC unroll 16
-  for (int m = 0; m < kCount; ++m) {
-    std::array<float, 4> lanes{};
-#if defined(__SSE2__)
-    _mm_storeu_ps(lanes.data(), acc[m]);
-#else
-    lanes = acc[m];
-#endif
-    sums[m] = ((lanes[0] + lanes[1]) + (lanes[2] + lanes[3])) + tail[m];
-  }
+  for (int m = 0; m < kCount; ++m) sums[m] = SumLanes(acc[m]) + tail[m];
 }
 
 // The patch sums of up to seven images (hue pair, grey, four orientations) in one pass.
@@ -390,28 +398,17 @@ void KernelDotsOf(const float* const* kernels, const cv::Mat& grey, int x0, int 
                   float* dots) {
   const int wide = n - n % 4;
   std::array<float, kCount> tail{};
-#if defined(__SSE2__)
-  __m128 acc[kCount];  // NOLINT(*-avoid-c-arrays): std::array would drop __m128's alignment
-  for (__m128& a : acc) a = _mm_setzero_ps();
-#else
-  std::array<std::array<float, 4>, kCount> acc{};
-#endif
+  Lanes acc[kCount];  // NOLINT(*-avoid-c-arrays): std::array would drop __m128's alignment
+  for (Lanes& a : acc) a = ZeroLanes();
   for (int y = 0; y < n; ++y) {
     const float* row = grey.ptr<float>(y0 + y) + x0;
     const int at = y * n;
     for (int x = 0; x < wide; x += 4) {
-#if defined(__SSE2__)
-      const __m128 pixels = _mm_loadu_ps(row + x);
+      const Lanes pixels = LoadLanes(row + x);
 #pragma GCC unroll 16
       for (int m = 0; m < kCount; ++m) {
-        acc[m] = _mm_add_ps(acc[m], _mm_mul_ps(_mm_loadu_ps(kernels[m] + at + x), pixels));
+        acc[m] = AddLanes(acc[m], MulLanes(LoadLanes(kernels[m] + at + x), pixels));
       }
-#else
-#pragma GCC unroll 16
-      for (int m = 0; m < kCount; ++m) {
-        for (int k = 0; k < 4; ++k) acc[m][k] += kernels[m][at + x + k] * row[x + k];
-      }
-#endif
     }
     for (int x = wide; x < n; ++x) {
 #pragma GCC unroll 16
@@ -419,15 +416,7 @@ void KernelDotsOf(const float* const* kernels, const cv::Mat& grey, int x0, int 
     }
   }
 #pragma GCC unroll 16
-  for (int m = 0; m < kCount; ++m) {
-    std::array<float, 4> lanes{};
-#if defined(__SSE2__)
-    _mm_storeu_ps(lanes.data(), acc[m]);
-#else
-    lanes = acc[m];
-#endif
-    dots[m] = ((lanes[0] + lanes[1]) + (lanes[2] + lanes[3])) + tail[m];
-  }
+  for (int m = 0; m < kCount; ++m) dots[m] = SumLanes(acc[m]) + tail[m];
 }
 
 // The dots of up to the ten grating kernels (a cosine and a sine each) in one pass.
