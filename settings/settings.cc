@@ -839,7 +839,26 @@ const po::options_description& IniOptions() {
 
 }  // namespace
 
-void ApplyConfigFile(const fs::path& file, Settings& options) {
+namespace {
+
+// `text` with its control bytes (below 0x20, and 0x7F) written as \xNN: a config file's bytes
+// quoted in an error reach a terminal or the journal, where an escape sequence would act.
+std::string Printable(const std::string& text) {
+  std::string out;
+  for (const char c : text) {
+    const auto byte = static_cast<unsigned char>(c);
+    if (byte >= 0x20 && byte != 0x7F) {
+      out += c;
+      continue;
+    }
+    char escaped[5];
+    std::snprintf(escaped, sizeof escaped, "\\x%02X", byte);
+    out += escaped;
+  }
+  return out;
+}
+
+void ApplyConfigFileUnchecked(const fs::path& file, Settings& options) {
   const std::string name = file.string();
   std::error_code ec;
   if (fs::is_directory(file, ec)) throw ConfigError(name + ": is a folder, not a config file");
@@ -861,6 +880,16 @@ void ApplyConfigFile(const fs::path& file, Settings& options) {
     }
     if (!seen.insert(k->key).second) throw ConfigError(name + ": key '" + k->key + "' given twice");
     Apply(*k, opt.value.empty() ? std::string() : opt.value.front(), options, name);
+  }
+}
+
+}  // namespace
+
+void ApplyConfigFile(const fs::path& file, Settings& options) {
+  try {
+    ApplyConfigFileUnchecked(file, options);
+  } catch (const ConfigError& e) {
+    throw ConfigError(Printable(e.what()));
   }
 }
 

@@ -249,6 +249,22 @@ TEST_F(ConfigTest, MalformedValuesNameKey) {
   }
 }
 
+// A config file's bytes quoted in an error keep no control byte (an escape sequence would act
+// on the terminal or journal that shows the error): they are written as \xNN.
+TEST_F(ConfigTest, ControlBytesOfAFileAreEscapedInItsErrors) {
+  for (const std::string& text :
+       {std::string("[memory]\n\x1b[2Jtau_r = 1\n"), std::string("[memory]\ntau_r = 1\x07\n"),
+        std::string("\x01\x02 garbage\n")}) {
+    const std::string msg = ErrorOf(text);
+    ASSERT_FALSE(msg.empty()) << "accepted";
+    for (const char c : msg) {
+      const auto byte = static_cast<unsigned char>(c);
+      EXPECT_TRUE(byte >= 0x20 && byte != 0x7F) << "control byte " << int{byte} << " in " << msg;
+    }
+    EXPECT_NE(msg.find("\\x"), std::string::npos) << msg;
+  }
+}
+
 TEST_F(ConfigTest, RepeatedKeyIsAnError) {
   const std::string msg = ErrorOf("[memory]\ntau_r = 1\ntau_r = 2\n");
   EXPECT_NE(msg.find("memory.tau_r"), std::string::npos) << msg;
