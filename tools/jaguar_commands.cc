@@ -18,6 +18,7 @@
 #include "drivers/camera/make_camera.h"
 #include "jaguar/motor_command_t.hpp"
 #include "settings/daemon_options.h"
+#include "settings/settings.h"
 #include "tools/command_line.h"
 #include "tools/simulators/jaguar_sim.h"
 
@@ -336,7 +337,14 @@ int RunTeleopCommand(const std::vector<std::string>& args) {
   if (!(hold_s > 0 && hold_s <= 5)) throw UsageError("--hold-s must be in (0, 5]");
   if (!(rate_hz >= 2 && rate_hz <= 100)) throw UsageError("--rate-hz must be in [2, 100]");
   const std::string channel = "JAGUAR_CMD_" + std::to_string(vm["robot"].as<uint32_t>());
-  LcmBus bus(vm["lcm-url"].as<std::string>());
+  const std::string url = vm["lcm-url"].as<std::string>();
+  try {  // the check tscd's lcm.url has: a multicast group, a port, a ttl LCM can use
+    Settings checked;
+    ApplyOverride("lcm.url=" + url, checked, "--lcm-url");
+  } catch (const ConfigError& e) {
+    throw UsageError(e.what());
+  }
+  LcmBus bus(url);
   InstallStopHandlers();
   RawTerminal terminal;
   std::cerr << "teleop on " << channel

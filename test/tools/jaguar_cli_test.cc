@@ -42,6 +42,11 @@ TEST_F(JaguarCliTest, BadArgumentsExit2NamingTheOption) {
   r = RunTsc(dir_, "teleop --robot 1 --hold-s 0");
   EXPECT_EQ(r.code, 2);
   EXPECT_NE(r.err.find("--hold-s"), std::string::npos) << r.err;
+  // Checked before LCM opens it (which would blame a missing multicast route).
+  r = RunTsc(dir_, "teleop --robot 1 --lcm-url udpm://239.255.76.67:99999");
+  EXPECT_EQ(r.code, 2);
+  EXPECT_NE(r.err.find("--lcm-url"), std::string::npos) << r.err;
+  EXPECT_NE(r.err.find("port '99999'"), std::string::npos) << r.err;
 }
 
 TEST_F(JaguarCliTest, PoseFileHoldsTheStartPoseAndPortsAreAnnounced) {
