@@ -350,7 +350,7 @@ void BlockSumsOf(const cv::Mat* const* images, int x0, int y0, int n, float* sum
   Lanes acc[kCount];  // NOLINT(*-avoid-c-arrays): std::array would drop __m128's alignment
   for (Lanes& a : acc) a = ZeroLanes();
   for (int y = 0; y < n; ++y) {
-    std::array<const float*, kCount> row;
+    std::array<const float*, kCount> row{};
 #pragma GCC unroll 16
     for (int m = 0; m < kCount; ++m) row[m] = images[m]->ptr<float>(y0 + y) + x0;
     for (int x = 0; x < wide; x += 4) {
@@ -519,17 +519,18 @@ void PatchFeatureExtractor::Compute(const FeatureSet& set, const FeatureImages& 
 
   // The dot products of every grating kernel the set reads with the grey patch, together.
   std::array<const float*, 10> kernels{};
-  std::array<int, 5> dot_at{};  // per grating, the index of its cosine's dot
-  int n_kernels = 0;
+  std::array<size_t, 5> dot_at{};  // per grating, the index of its cosine's dot
+  size_t n_kernels = 0;
   for (const Feature f : set.features()) {
     const int g = GratingIndex(f);
     if (g < 0) continue;
-    dot_at[static_cast<size_t>(g)] = n_kernels;
-    kernels[static_cast<size_t>(n_kernels++)] = kernels_[static_cast<size_t>(2 * g)].data();
-    kernels[static_cast<size_t>(n_kernels++)] = kernels_[static_cast<size_t>(2 * g + 1)].data();
+    const auto grating = static_cast<size_t>(g);
+    dot_at[grating] = n_kernels;
+    kernels[n_kernels++] = kernels_[2 * grating].data();
+    kernels[n_kernels++] = kernels_[2 * grating + 1].data();
   }
   std::array<float, 10> dots{};
-  KernelDots(kernels.data(), n_kernels, images.grey, x0, y0, n, dots.data());
+  KernelDots(kernels.data(), static_cast<int>(n_kernels), images.grey, x0, y0, n, dots.data());
   // Every patch sum the set reads, taken together (BlockSums): the hue pair, grey (intensity)
   // and the four orientation energies.
   const bool hue = set.NeedsHue(), intensity = set.Contains(Feature::kIntensity);
@@ -561,8 +562,9 @@ void PatchFeatureExtractor::Compute(const FeatureSet& set, const FeatureImages& 
     const Feature f = set.features()[k];
     const int g = GratingIndex(f);
     if (g >= 0) {
-      const float c = dots[static_cast<size_t>(dot_at[static_cast<size_t>(g)])];
-      const float s = dots[static_cast<size_t>(dot_at[static_cast<size_t>(g)] + 1)];
+      const size_t at = dot_at[static_cast<size_t>(g)];
+      const float c = dots[at];
+      const float s = dots[at + 1];
       out[k] = std::min(1.0f, std::sqrt(c * c + s * s) * inv_max_response);
       continue;
     }
