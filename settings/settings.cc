@@ -699,8 +699,9 @@ std::vector<ConfigKey> BuildTable() {
       [](auto& o) -> auto& { return o.daemon.sim.height; }));
   // [lcm] — the bus (DESIGN §4)
   t.push_back(Text(
-      "lcm.url", "LCM provider URL; ttl=0 keeps multicast on this host", "an LCM URL",
-      [](auto& o) -> auto& { return o.daemon.bus.url; }, CheckLcmUrl));
+      "lcm.url", "LCM provider URL; ttl=0 keeps multicast on this host",
+      "udpm://GROUP:PORT[?ttl=N] or memq://", [](auto& o) -> auto& { return o.daemon.bus.url; },
+      CheckLcmUrl));
   t.push_back(Number(
       "lcm.announce_period_s", "seconds between announces on TSC_ANNOUNCE", "s", 0.05, 3600,
       [](auto& o) -> auto& { return o.daemon.bus.announce_period_s; }));
