@@ -55,7 +55,7 @@ Exit codes: 0 ok, 1 runtime failure (dataset, store, I/O), 2 usage error,
 )";
 
 constexpr const char* kInspectHelp =
-    R"(usage: tsc inspect --db FILE [--json] [--dot PATH] [--png PATH] [--robot ID]
+    R"(usage: tsc inspect FILE [--json] [--dot PATH] [--png PATH] [--robot ID]
                    [--config F] [--set section.key=value]...
 
 Prints what a store holds: robot, base points (good / uninformative / incoherent), detected
@@ -81,14 +81,17 @@ Options)";
 int Inspect(const std::vector<std::string>& args) {
   po::options_description desc(kInspectHelp);
   desc.add_options()("help,h", "show this help")(
-      "db", po::value<std::string>()->required()->value_name("FILE"), "SQLite store to read")(
+      "db", po::value<std::string>()->required()->value_name("FILE"),
+      "SQLite store to read (also the first positional argument: tsc inspect memory.db)")(
       "json", "print the summary as one JSON object")(
       "dot", po::value<std::string>()->value_name("PATH"), "write the Graphviz DOT file")(
       "png", po::value<std::string>()->value_name("PATH"), "render the graph to PNG with `dot`")(
       "robot", po::value<std::string>()->value_name("ID"),
       "robot whose memory to read (default: the store's)");
   AddConfigOptions(desc);
-  const po::variables_map vm = ParseCommandLine(args, desc);
+  po::positional_options_description pos;
+  pos.add("db", 1);
+  const po::variables_map vm = ParseCommandLine(args, desc, &pos);
   if (vm.count("help")) {
     std::cout << desc << "\n";
     return kExitOk;

@@ -212,6 +212,11 @@ TEST_F(TscCliTest, RunThenInspect) {
   ASSERT_EQ(text.code, 0) << text.err;
   EXPECT_NE(text.out.find("learned places"), std::string::npos) << text.out;
   EXPECT_NE(ReadFile(dot).find("digraph"), std::string::npos);
+  // The store may be named without --db, as `tsc run` takes its dataset.
+  const Outcome positional = Tsc("inspect " + Quote(db.string()));
+  ASSERT_EQ(positional.code, 0) << positional.err;
+  EXPECT_EQ(positional.out, text.out);
+  EXPECT_EQ(Tsc("inspect " + Quote(db.string()) + " --db " + Quote(db.string())).code, 2);
 
   // Running again continues the same store.
   const Outcome again = Tsc("run " + Quote(ds.string()) + " --db " + Quote(db.string()));
