@@ -49,7 +49,7 @@ constexpr const char* kUsage =
 // after a merge's large temporaries, later ones of their size are carved from the heap and
 // leave holes between the places built beside them. Held at 4 MB (a camera frame of up to
 // 1280x1024 BGR still comes from the heap, not a fresh mapping each time): RSS 15 s after a
-// 10⁴ + 10⁴ merge 206 → 198 MB, the merge's time and the frames' page faults unchanged
+// 10⁴ + 10⁴ merge 204-206 → 198 MB, the merge's time and the frames' page faults unchanged
 // (tscd_footprint --peer-places 10000; docs/results.md, session 84). At glibc's initial 128 KB
 // every 640x480 frame was mapped anew: 8x the page faults. A threshold set through the
 // environment is left as it is.
