@@ -18,6 +18,7 @@
 
 #include "drivers/dataset/json_reader.h"
 #include "tools/inspect.h"
+#include "tools/label_placer.h"
 
 namespace tsc {
 namespace fs = std::filesystem;
@@ -60,12 +61,24 @@ cv::Size TextSize(const std::string& s, double scale = 0.45, int thickness = 1) 
   return cv::getTextSize(s, kFont, scale, thickness, &baseline);
 }
 
-// A place's name beside its marker, on white so that it reads over edges and walls.
-void PlaceLabel(cv::Mat& img, const std::string& s, cv::Point corner) {
+// A place's name beside its marker (where `labels` finds room), on white so that it reads over
+// edges and walls. A name moved off the marker's row gets a thin line to the marker.
+void PlaceLabel(cv::Mat& img, LabelPlacer& labels, const std::string& s, cv::Point at, int radius) {
   const cv::Size t = TextSize(s, 0.42);
-  cv::rectangle(img, cv::Rect(corner.x - 2, corner.y - t.height - 3, t.width + 4, t.height + 7),
-                kWhite, cv::FILLED);
-  Text(img, s, corner, 0.42);
+  const cv::Rect box = labels.Place({t.width + 4, t.height + 7}, at, radius);
+  if (at.y < box.y || at.y >= box.y + box.height) {
+    const cv::Point near(std::clamp(at.x, box.x, box.x + box.width - 1),
+                         std::clamp(at.y, box.y, box.y + box.height - 1));
+    const cv::Point2d d = near - at;
+    const double length = std::hypot(d.x, d.y);
+    if (length > radius) {
+      const cv::Point from =
+          at + cv::Point(cvRound(d.x * radius / length), cvRound(d.y * radius / length));
+      cv::line(img, from, near, kAxis, 1, cv::LINE_AA);
+    }
+  }
+  cv::rectangle(img, box, kWhite, cv::FILLED);
+  Text(img, s, {box.x + 2, box.y + t.height + 3}, 0.42);
 }
 
 // Text centred in `box` when it fits.
@@ -105,12 +118,28 @@ void VerticalText(cv::Mat& img, const std::string& s, cv::Point at, double scale
   if ((roi & cv::Rect(0, 0, img.cols, img.rows)) == roi) rotated.copyTo(img(roi));
 }
 
-// Index of each learned place (by id order) for its colour.
+// Index of each learned place (by id order) for its colour. A place a consolidation folded
+// into another (pipeline.consolidate_after) is no learned place at the end, yet the detected
+// places that learned or recognised it name it: it takes the colour of the place holding it.
 std::map<PlaceId, size_t> PlaceColours(const EvalRun& run) {
   std::map<PlaceId, size_t> out;
   for (const auto& [id, frames] : run.frames_of) {
     const size_t i = out.size();
     out[id] = i;
+  }
+  std::map<PlaceId, PlaceId> into;
+  for (const EvalDetectedPlace& d : run.detected) {
+    for (const PlaceId& f : d.folded) {
+      if (d.place) into[f] = *d.place;
+    }
+  }
+  for (const auto& [folded, first] : into) {
+    PlaceId holder = first;
+    for (size_t hops = 0; hops < into.size() && into.contains(holder); ++hops) {
+      holder = into.at(holder);
+    }
+    const auto colour = out.find(holder);
+    if (colour != out.end()) out.emplace(folded, colour->second);
   }
   return out;
 }
@@ -180,8 +209,8 @@ class PlanLayout {
   int x_off_ = 0, top_ = 0, plan_h_ = 0;
 };
 
-// The floor plan of `world`: room floors, boxes, doors, walls and room labels, where `layout`
-// puts them.
+// The floor plan of `world`: room floors, boxes, doors and walls, where `layout` puts them (the
+// rooms' names: DrawRoomLabels).
 void DrawWorldPlan(cv::Mat& img, const WorldPlan& world, const PlanLayout& layout) {
   const auto px = [&](double x, double y) { return layout.Px(x, y); };
   const auto rect_px = [&](const WorldPlan::Rect& rc) { return layout.RectPx(rc); };
@@ -201,14 +230,30 @@ void DrawWorldPlan(cv::Mat& img, const WorldPlan& world, const PlanLayout& layou
   for (const WorldPlan::Rect& wl : world.walls) {
     cv::line(img, px(wl.x0, wl.y0), px(wl.x1, wl.y1), kWall, wall_px, cv::LINE_AA);
   }
-  // Room labels: centred, a little above the centre where the place markers usually sit.
+}
+
+// The rooms' names, drawn once the place markers are known to `labels`: centred, a little above
+// the centre where the markers usually sit, or moved up or down inside the room off them.
+void DrawRoomLabels(cv::Mat& img, const WorldPlan& world, const PlanLayout& layout,
+                    LabelPlacer& labels) {
+  constexpr double kScale = 0.65;
   for (const WorldPlan::Room& room : world.rooms) {
-    const cv::Rect box = rect_px(room.rect);
-    const double label_scale = 0.65;
-    const cv::Size t = TextSize(room.label, label_scale);
-    cv::Point at(box.x + (box.width - t.width) / 2, box.y + (box.height + t.height) / 2);
-    if (box.height > 4 * t.height + 60) at.y -= 30;
-    Text(img, room.label, at, label_scale, kRoomLabel, 2);
+    const cv::Rect inside = layout.RectPx(room.rect);
+    int baseline = 0;
+    const cv::Size t = cv::getTextSize(room.label, kFont, kScale, 2, &baseline);
+    const cv::Size box(t.width, t.height + baseline);
+    cv::Point centre(inside.x + (inside.width - t.width) / 2,
+                     inside.y + (inside.height - t.height) / 2);
+    if (inside.height > 4 * t.height + 60) centre.y -= 30;
+    std::vector<cv::Rect> candidates = {cv::Rect(centre, box)};
+    for (int k = 1; k <= 4; ++k) {
+      for (const int dy : {-k * (box.height + 6), k * (box.height + 6)}) {
+        const cv::Rect moved(centre + cv::Point(0, dy), box);
+        if ((moved & inside) == moved) candidates.push_back(moved);
+      }
+    }
+    const cv::Rect at = labels.PlaceFirstFree(candidates);
+    Text(img, room.label, {at.x, at.y + t.height}, kScale, kRoomLabel, 2);
   }
 }
 
@@ -347,7 +392,8 @@ void DrawPlaceRow(cv::Mat& img, const Timeline& tl, const EvalResult& r, int y) 
   const std::map<PlaceId, size_t> colour_of = PlaceColours(r.main);
   for (const EvalDetectedPlace& d : r.main.detected) {
     if (d.frames.empty() || !d.place) continue;  // an ambiguous place has no place to show
-    const cv::Scalar c = Palette(colour_of.at(*d.place));
+    const auto colour = colour_of.find(*d.place);
+    const cv::Scalar c = colour != colour_of.end() ? Palette(colour->second) : kRevisit;
     const cv::Rect box = tl.col(d.frames.front(), d.frames.back(), y);
     cv::rectangle(img, box, c, cv::FILLED);
     CentredText(img, std::string(d.recognized ? "R " : "L ") + d.place->ToString(), box, c);
@@ -705,14 +751,21 @@ cv::Mat DrawFloorPlan(const EvalResult& r, const Dataset& dataset, const WorldPl
              static_cast<int>(std::min<int64_t>(1 + e.traversals, 4)), cv::LINE_AA);
   }
   const std::map<PlaceId, size_t> colour_of = PlaceColours(r.main);
+  // Every marker first, then the names where they cover none of them.
+  constexpr int kRadius = 12;
+  LabelPlacer labels(img.size());
   for (const auto& [id, at] : where) {
     const cv::Scalar c = Palette(colour_of.at(id));
-    cv::circle(img, at, 12, c, cv::FILLED, cv::LINE_AA);
-    cv::circle(img, at, 12, kText, 1, cv::LINE_AA);
+    cv::circle(img, at, kRadius, c, cv::FILLED, cv::LINE_AA);
+    cv::circle(img, at, kRadius, kText, 1, cv::LINE_AA);
+    labels.AddMarker(at, kRadius);
+  }
+  if (world) DrawRoomLabels(img, *world, layout, labels);
+  for (const auto& [id, at] : where) {
     std::string label = id.ToString();
     const std::string truth = MajorityLabel(r.truth, r.main.frames_of.at(id));
     if (!truth.empty()) label += " " + truth;
-    PlaceLabel(img, label, at + cv::Point(15, 5));
+    PlaceLabel(img, labels, label, at, kRadius);
   }
 
   const int bar_y = layout.legend_top() + 28;
@@ -768,7 +821,10 @@ cv::Mat DrawTeamMap(const TeamMapPicture& team, const WorldPlan* world) {
   }
   // Places: filled with the colour of the robot whose id they carry; a merged place ringed in
   // the colours of the robots whose places it absorbed.
+  // Every marker first, then the names where they cover none of them.
   int merged = 0;
+  LabelPlacer labels(img.size());
+  std::vector<std::pair<std::string, int>> names;  // with the marker's outer radius
   for (const TeamMapPicture::Place& p : team.places) {
     if (!p.located) continue;
     const cv::Point at = where[p.id];
@@ -777,6 +833,13 @@ cv::Mat DrawTeamMap(const TeamMapPicture& team, const WorldPlan* world) {
       if (s.robot != p.id.robot) others.insert(s.robot);
     }
     constexpr int radius = 11;
+    const int outer =
+        p.sources.empty() ? radius + 1 : std::max(16, 12 + 5 * static_cast<int>(others.size()));
+    labels.AddMarker(at, outer);
+    std::string name = p.id.ToString();
+    for (const PlaceId& s : p.sources) name += "+" + s.ToString();
+    if (!p.label.empty()) name += " " + p.label;
+    names.emplace_back(std::move(name), outer);
     if (!p.sources.empty()) {
       ++merged;
       int ring = 11 + 5 * static_cast<int>(others.size());
@@ -791,10 +854,13 @@ cv::Mat DrawTeamMap(const TeamMapPicture& team, const WorldPlan* world) {
     }
     cv::circle(img, at, radius, robot_colour(p.id.robot), cv::FILLED, cv::LINE_AA);
     cv::circle(img, at, radius, kText, 1, cv::LINE_AA);
-    std::string name = p.id.ToString();
-    for (const PlaceId& s : p.sources) name += "+" + s.ToString();
-    if (!p.label.empty()) name += " " + p.label;
-    PlaceLabel(img, name, at + cv::Point(13 + 5 * static_cast<int>(others.size()), 5));
+  }
+  if (world) DrawRoomLabels(img, *world, layout, labels);
+  size_t named = 0;
+  for (const TeamMapPicture::Place& p : team.places) {
+    if (!p.located) continue;
+    const auto& [name, outer] = names[named++];
+    PlaceLabel(img, labels, name, where[p.id], outer);
   }
 
   const int bar_y = layout.legend_top() + 28;

@@ -290,6 +290,31 @@ TEST_F(EvalTest, LabelledDatasetScoresBoundariesEdgesAndDrawsFloorPlan) {
   ExpectPng(dir_ / "plots" / "timeline.png", 900, 250);
 }
 
+// A place a consolidation folded into another is no learned place at the end, but the detected
+// place that learned it still names it: the timeline draws it in its holder's colour. It threw
+// std::out_of_range ("tsc: map::at", no plot written) on office 31 of the calibration worlds.
+TEST_F(EvalTest, TimelineDrawsAPlaceThatWasFoldedIntoAnother) {
+  const Dataset dataset = Dataset::Open(MakeLabelledDataset());
+  PipelineOptions options = testing_support::DefaultProfile(dataset);
+  options.memory.tau_r = 1.4;
+  EvalResult r = Evaluate(dataset, options, EvalOptions{});
+  ASSERT_GE(r.main.detected.size(), 2u);
+  EvalDetectedPlace& first = r.main.detected.front();
+  EvalDetectedPlace& last = r.main.detected.back();
+  ASSERT_TRUE(first.place && last.place);
+  // As the pipeline reports it: the first detected place learned a place that the last one's
+  // recognition folded into its own.
+  const PlaceId folded{first.place->robot, 9999};
+  ASSERT_FALSE(r.main.frames_of.count(folded));
+  first.place = folded;
+  first.recognized = false;
+  last.folded.push_back(folded);
+  const cv::Mat timeline = DrawTimeline(r);
+  EXPECT_FALSE(timeline.empty());
+  const auto written = WritePlots(r, dataset, dir_ / "plots");
+  EXPECT_EQ(written.size(), 4u);
+}
+
 // Pixels darker than the trajectory, the places' outlines and text: mostly walls.
 int DarkPixels(const fs::path& png) {
   const cv::Mat img = cv::imread(png.string(), cv::IMREAD_GRAYSCALE);
