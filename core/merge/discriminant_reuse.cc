@@ -50,6 +50,8 @@ ReusableDiscriminants ReusableDiscriminantsOf(const PlaceMemory& base, const Pla
 }
 
 int Retrained(const PlaceMemory& merged, const std::unordered_set<uint64_t>& reused) {
+  // Without the SVM vote no node trains a discriminant (`tsc merge` said "retrained 21" there).
+  if (!merged.options().svm_vote) return 0;
   int retrained = 0;
   for (size_t i = 0; i < merged.nodes().size(); ++i) {
     if (static_cast<int>(i) == merged.root()) continue;

@@ -25,7 +25,8 @@ ReusableDiscriminants ReusableDiscriminantsOf(const PlaceMemory& base, const Pla
                                               const Placement& placement,
                                               const std::vector<char>& is_new,
                                               const std::vector<int>& targets);
-/// The non-root nodes of `merged` whose key was not among the `reused` ones.
+/// The non-root nodes of `merged` whose key was not among the `reused` ones: the discriminants
+/// trained anew. 0 where `merged` trains none (memory.svm_vote off, the default).
 int Retrained(const PlaceMemory& merged, const std::unordered_set<uint64_t>& reused);
 
 }  // namespace tsc

@@ -319,7 +319,32 @@ TEST(MergeMemories, ContainedWithIntersectionAbsorbsRecognisedPlaces) {
   EXPECT_EQ(merged.member_count, 12);
   EXPECT_LE(merged.samples.cols(), UnitScale().max_samples_per_place);
   EXPECT_TRUE(merged.mean.isApprox(a.places()[8].mean, 1e-6f));  // same descriptors
-  EXPECT_GT(dut.retrained, 0);
+  EXPECT_EQ(dut.retrained, 0);  // no SVM vote (the default): no discriminant is trained
+}
+
+// With the thesis' SVM vote the merged tree's new nodes train their discriminants, and the
+// merge counts them; without it there is nothing to count.
+TEST(MergeMemories, RetrainedCountsDiscriminantsOnlyWhereTheSvmVotes) {
+  for (const bool svm : {false, true}) {
+    PlaceMemoryOptions o = UnitScale();
+    o.svm_vote = svm;
+    PlaceMemory a(1, o), b(2, o);
+    for (int i = 0; i < 4; ++i) a.Learn(MakePlace(At(10.0f * static_cast<float>(i)), 30 + i));
+    // Between a's places: the merged tree has nodes over places of both, new to either.
+    for (int i = 0; i < 3; ++i) {
+      b.Learn(MakePlace(At(10.0f * static_cast<float>(i) + 5.0f), 40 + i));
+    }
+    const MemoryMerge dut = MergeMemories(a, b);
+    ASSERT_EQ(dut.memory.places().size(), 7u) << "svm_vote " << svm;
+    if (svm) {
+      EXPECT_GT(dut.retrained, 0);
+      int trained = 0;
+      for (const OneClassDiscriminant& d : dut.memory.discriminants()) trained += d.trained();
+      EXPECT_GE(trained, dut.retrained);
+    } else {
+      EXPECT_EQ(dut.retrained, 0);
+    }
+  }
 }
 
 // Figure 4.4d: the spheres intersect, neither contains the other.
