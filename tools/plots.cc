@@ -233,7 +233,7 @@ void DrawWorldPlan(cv::Mat& img, const WorldPlan& world, const PlanLayout& layou
 }
 
 // The rooms' names, drawn once the place markers are known to `labels`: centred, a little above
-// the centre where the markers usually sit, or moved up or down inside the room off them.
+// the centre where the markers usually sit, or moved inside the room off them.
 void DrawRoomLabels(cv::Mat& img, const WorldPlan& world, const PlanLayout& layout,
                     LabelPlacer& labels) {
   constexpr double kScale = 0.65;
@@ -246,10 +246,15 @@ void DrawRoomLabels(cv::Mat& img, const WorldPlan& world, const PlanLayout& layo
                      inside.y + (inside.height - t.height) / 2);
     if (inside.height > 4 * t.height + 60) centre.y -= 30;
     std::vector<cv::Rect> candidates = {cv::Rect(centre, box)};
-    for (int k = 1; k <= 4; ++k) {
-      for (const int dy : {-k * (box.height + 6), k * (box.height + 6)}) {
-        const cv::Rect moved(centre + cv::Point(0, dy), box);
-        if ((moved & inside) == moved) candidates.push_back(moved);
+    // Up or down first (a room), then left or right (a corridor is too low to move in).
+    for (const bool across : {false, true}) {
+      for (int k = 1; k <= 4; ++k) {
+        for (const int sign : {-1, 1}) {
+          const cv::Point step = across ? cv::Point(sign * k * (box.width + 12), 0)
+                                        : cv::Point(0, sign * k * (box.height + 6));
+          const cv::Rect moved(centre + step, box);
+          if ((moved & inside) == moved) candidates.push_back(moved);
+        }
       }
     }
     const cv::Rect at = labels.PlaceFirstFree(candidates);
