@@ -827,9 +827,14 @@ cv::Mat DrawTeamMap(const TeamMapPicture& team, const WorldPlan* world) {
   // Places: filled with the colour of the robot whose id they carry; a merged place ringed in
   // the colours of the robots whose places it absorbed.
   // Every marker first, then the names where they cover none of them.
+  struct Name {
+    std::string text;
+    cv::Point at;
+    int outer;  // the marker's outer radius
+  };
   int merged = 0;
   LabelPlacer labels(img.size());
-  std::vector<std::pair<std::string, int>> names;  // with the marker's outer radius
+  std::vector<Name> names;
   for (const TeamMapPicture::Place& p : team.places) {
     if (!p.located) continue;
     const cv::Point at = where[p.id];
@@ -838,35 +843,30 @@ cv::Mat DrawTeamMap(const TeamMapPicture& team, const WorldPlan* world) {
       if (s.robot != p.id.robot) others.insert(s.robot);
     }
     constexpr int radius = 11;
-    const int outer =
-        p.sources.empty() ? radius + 1 : std::max(16, 12 + 5 * static_cast<int>(others.size()));
+    constexpr int kOwnJoinRing = 15;  // drawn 2 pixels wide
+    int ring = radius + 5 * static_cast<int>(others.size());
+    const int outer = p.sources.empty() ? radius + 1 : std::max(ring + 1, kOwnJoinRing + 1);
     labels.AddMarker(at, outer);
-    std::string name = p.id.ToString();
-    for (const PlaceId& s : p.sources) name += "+" + s.ToString();
-    if (!p.label.empty()) name += " " + p.label;
-    names.emplace_back(std::move(name), outer);
+    std::string text = p.id.ToString();
+    for (const PlaceId& s : p.sources) text += "+" + s.ToString();
+    if (!p.label.empty()) text += " " + p.label;
+    names.push_back({std::move(text), at, outer});
     if (!p.sources.empty()) {
       ++merged;
-      int ring = 11 + 5 * static_cast<int>(others.size());
       cv::circle(img, at, ring + 1, kText, 1, cv::LINE_AA);
       for (uint32_t r : others) {
         cv::circle(img, at, ring, robot_colour(r), cv::FILLED, cv::LINE_AA);
         ring -= 5;
       }
       if (others.empty()) {  // joined with its own robot's places only
-        cv::circle(img, at, 15, kText, 2, cv::LINE_AA);
+        cv::circle(img, at, kOwnJoinRing, kText, 2, cv::LINE_AA);
       }
     }
     cv::circle(img, at, radius, robot_colour(p.id.robot), cv::FILLED, cv::LINE_AA);
     cv::circle(img, at, radius, kText, 1, cv::LINE_AA);
   }
   if (world) DrawRoomLabels(img, *world, layout, labels);
-  size_t named = 0;
-  for (const TeamMapPicture::Place& p : team.places) {
-    if (!p.located) continue;
-    const auto& [name, outer] = names[named++];
-    PlaceLabel(img, labels, name, where[p.id], outer);
-  }
+  for (const Name& n : names) PlaceLabel(img, labels, n.text, n.at, n.outer);
 
   const int bar_y = layout.legend_top() + 28;
   ScaleBar(img, scale, bar_y, world ? " m" : " (units)");
