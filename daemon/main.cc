@@ -13,6 +13,7 @@
 #include <utility>
 #include <vector>
 
+#include "core/memory/descriptor_space_mismatch.h"
 #include "daemon/daemon.h"
 #include "drivers/camera/make_camera.h"
 #include "drivers/motor/make_motor.h"
@@ -177,6 +178,9 @@ int main(int argc, char** argv) {
     tsc::Daemon daemon(std::move(settings), std::move(source), std::move(camera), std::move(base),
                        std::move(team_key));
     return daemon.Run();
+  } catch (const tsc::DescriptorSpaceMismatch& e) {
+    spdlog::critical("configuration error: {}", e.what());
+    return kExitConfig;
   } catch (const std::exception& e) {
     spdlog::critical("{}", e.what());
     return kExitFailure;

@@ -15,6 +15,7 @@
 #include <system_error>
 #include <utility>
 
+#include "core/memory/descriptor_space_mismatch.h"
 #include "core/memory/unchanged_places.h"
 #include "core/merge/merge.h"
 #include "core/merge/merge_maps.h"
@@ -144,6 +145,10 @@ PipelineWorker::PipelineWorker(const Settings& settings, const CameraSource& cam
         "of places with copy evidence, continuing at base point {}",
         db_path_.string(), load_s, load_threads, memory.places().size(), map.edges().size(),
         state.copies.size(), state.next_base);
+  } catch (const DescriptorSpaceMismatch&) {
+    // Learned under another configuration: no retry opens it, and a run beside it would learn
+    // what cannot be joined with it. tscd stops with a configuration error; the store is kept.
+    throw;
   } catch (const std::exception& e) {
     // Keep running (recognition and learning go on in memory) and keep every result for the
     // day the store opens; never touch a database we could not read.
@@ -183,8 +188,13 @@ PipelineWorker::PipelineWorker(const Settings& settings, const CameraSource& cam
   }
   keyframes_check_ = AssumedKeyframesCheck(spacing, lens_);
   started_empty_ = memory.places().empty();
-  pipeline_ = std::make_unique<Pipeline>(camera.intrinsics(), pipeline, std::move(memory),
-                                         std::move(map), state);
+  try {
+    pipeline_ = std::make_unique<Pipeline>(camera.intrinsics(), pipeline, std::move(memory),
+                                           std::move(map), state);
+    pipeline_->RequireMemoryOfTheseFeatures();
+  } catch (const DescriptorSpaceMismatch& e) {
+    throw DescriptorSpaceMismatch(db_path_.string() + ": " + e.what());
+  }
   pipeline_->set_before_update(
       [this](int place) { bodies_.BeforeUpdate(pipeline_->memory(), place); });
   pipeline_->set_before_replace([this] { bodies_.BeforeReplace(); });

@@ -15,6 +15,7 @@
 #include <utility>
 #include <vector>
 
+#include "core/memory/descriptor_space_mismatch.h"
 #include "store/blob.h"
 #include "store/layouts.h"
 #include "store/schema.h"
@@ -664,6 +665,9 @@ StoredState Store::Load(uint32_t robot, const PlaceMemoryOptions& options, int t
     try {
       memory = PlaceMemory::Restore(robot, options, std::move(places), std::move(slink), next_local,
                                     saved, {}, threads);
+    } catch (const DescriptorSpaceMismatch& e) {
+      // The configuration's fault, not the store's: nothing to repair or retry.
+      throw DescriptorSpaceMismatch(path_.string() + ": " + e.what());
     } catch (const std::invalid_argument& e) {
       Fail(db, std::string("tables learned_places/discriminants, meta slink: ") + e.what());
     }
@@ -672,6 +676,8 @@ StoredState Store::Load(uint32_t robot, const PlaceMemoryOptions& options, int t
     tx.Commit();
     return StoredState{std::move(*memory), std::move(map), state};
   } catch (const StoreError&) {
+    throw;
+  } catch (const DescriptorSpaceMismatch&) {
     throw;
   } catch (const std::exception& e) {
     Fail(db, std::string("cannot load: ") + e.what());

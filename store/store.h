@@ -87,7 +87,8 @@ class Store {
   ~Store();
 
   /// Loads the saved state (an empty memory for a new database). `robot` must match the
-  /// database's robot id when one is recorded (throws StoreError otherwise). The places'
+  /// database's robot id when one is recorded (throws StoreError otherwise); a memory learned
+  /// in another descriptor space than `options` throws DescriptorSpaceMismatch. The places'
   /// derived values are computed on up to `threads` threads (PlaceMemory::Restore): the same
   /// memory for any number.
   StoredState Load(uint32_t robot, const PlaceMemoryOptions& options, int threads = 1);

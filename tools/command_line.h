@@ -10,6 +10,7 @@
 #include <string>
 #include <vector>
 
+#include "core/memory/descriptor_space_mismatch.h"
 #include "settings/settings.h"
 
 namespace tsc {
@@ -107,9 +108,9 @@ inline Settings SettingsWithRobotOption(const boost::program_options::variables_
 }
 
 /// Runs subcommand `name` and turns what it throws into one line on stderr and an exit code:
-/// UsageError → kExitUsage (with a pointer to its --help), ConfigError → kExitConfig, any
-/// other exception → kExitFailure. Subcommands throw; only `tsc`'s dispatcher (and tests that
-/// call a subcommand directly) come through here.
+/// UsageError → kExitUsage (with a pointer to its --help), ConfigError and
+/// DescriptorSpaceMismatch → kExitConfig, any other exception → kExitFailure. Subcommands
+/// throw; only `tsc`'s dispatcher (and tests that call a subcommand directly) come through here.
 template <typename Body>
 int RunReportingErrors(const std::string& name, Body&& body) {
   try {
@@ -119,6 +120,9 @@ int RunReportingErrors(const std::string& name, Body&& body) {
     return kExitUsage;
   } catch (const ConfigError& e) {
     std::cerr << "tsc: " << e.what() << "\n";
+    return kExitConfig;
+  } catch (const DescriptorSpaceMismatch& e) {  // a store learned under another configuration
+    std::cerr << "tsc: configuration error: " << e.what() << "\n";
     return kExitConfig;
   } catch (const std::exception& e) {  // DatasetError, StoreError, I/O, ...
     std::cerr << "tsc: " << e.what() << "\n";

@@ -9,9 +9,11 @@
 #include <cstdlib>
 #include <cstring>
 #include <fstream>
+#include <optional>
 #include <sstream>
 #include <unordered_map>
 
+#include "core/memory/descriptor_space_mismatch.h"
 #include "store/store.h"
 #include "tools/events_json.h"
 
@@ -140,9 +142,24 @@ InspectedStore InspectStore(const fs::path& db, const PlaceMemoryOptions& option
   s.robot = robot.value_or(1);
   // Load() records the robot in a store that has none yet; inspection must not write, so a
   // store nothing was committed to reads as empty.
-  StoredState state = robot_recorded
-                          ? store.Load(s.robot, options, threads)
-                          : StoredState{PlaceMemory(s.robot, options), TopologicalMap{}, {}};
+  const auto load = [&](const PlaceMemoryOptions& o) {
+    return robot_recorded ? store.Load(s.robot, o, threads)
+                          : StoredState{PlaceMemory(s.robot, o), TopologicalMap{}, {}};
+  };
+  std::optional<StoredState> loaded;
+  try {
+    loaded = load(options);
+  } catch (const DescriptorSpaceMismatch&) {
+    // Learned with other features (a preset such as config/sweep.ini): a summary needs no
+    // basis, so its views are read as they were stored.
+    PlaceMemoryOptions own = options;
+    own.view_basis = nullptr;
+    loaded = load(own);
+    s.own_space = true;
+  }
+  StoredState& state = *loaded;
+  s.descriptor_dimension = state.memory.empty() ? 0 : state.memory.places().front().mean.size();
+  s.view_basis = state.memory.view_basis() ? state.memory.view_basis()->name() : "none";
   for (const LearnedPlace& p : state.memory.places()) {
     s.learned_places.push_back({p.id, p.member_count, static_cast<int64_t>(p.detected.size())});
   }
@@ -174,6 +191,11 @@ void PrintSummary(std::ostream& out, const StoreSummary& s) {
     out << "  " << p.id.ToString() << "  " << p.members << " base points from " << p.detected_places
         << " detected place" << (p.detected_places == 1 ? "" : "s") << "\n";
   }
+  if (s.descriptor_dimension > 0) {
+    out << "descriptors      dimension " << s.descriptor_dimension << ", member views "
+        << (s.view_basis == "none" ? "as descriptors" : "in view basis " + s.view_basis)
+        << (s.own_space ? " (not the configuration's: learned with other features)" : "") << "\n";
+  }
   out << "memory tree      " << s.tree_nodes << " nodes, depth " << s.tree_depth << "\n"
       << "topological map  " << s.map_nodes << " nodes, " << s.map_edges << " edges\n";
 }
@@ -191,7 +213,10 @@ void PrintSummaryJson(std::ostream& out, const StoreSummary& s) {
     out << (i ? "," : "") << "{\"id\":" << JsonString(p.id.ToString())
         << ",\"members\":" << p.members << ",\"detected_places\":" << p.detected_places << "}";
   }
-  out << "],\"tree_depth\":" << s.tree_depth << ",\"tree_nodes\":" << s.tree_nodes
+  out << "],\"descriptor_dimension\":" << s.descriptor_dimension
+      << ",\"view_basis\":" << JsonString(s.view_basis)
+      << ",\"configuration_fits\":" << (s.own_space ? "false" : "true")
+      << ",\"tree_depth\":" << s.tree_depth << ",\"tree_nodes\":" << s.tree_nodes
       << ",\"map_nodes\":" << s.map_nodes << ",\"map_edges\":" << s.map_edges << "}\n";
 }
 

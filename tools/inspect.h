@@ -41,6 +41,13 @@ struct StoreSummary {
   /// tscd stopped took one and was never closed.
   int64_t detected_places_numbered = 0;
   std::vector<LearnedPlaceSummary> learned_places;
+  /// The space the places were learned in: their descriptors' dimension (0 without places)
+  /// and the view basis their member views are read in ("none": as descriptors).
+  int64_t descriptor_dimension = 0;
+  std::string view_basis;
+  /// True when the configuration given does not fit the store (other features or basis), so
+  /// the memory was read in the space it was learned in.
+  bool own_space = false;
   int tree_depth = 0;
   int64_t tree_nodes = 0;
   int64_t map_nodes = 0;
@@ -55,9 +62,10 @@ struct InspectedStore {
 };
 
 /// Reads an existing store (never creates one). `robot`: the robot whose memory to load;
-/// by default the one recorded in the database. Throws InspectError (missing file) or
-/// StoreError. The memory is restored on `threads` threads (tsc inspect: daemon.merge_threads,
-/// as tscd loads it).
+/// by default the one recorded in the database. A store learned in another descriptor space
+/// than `options` (DescriptorSpaceMismatch) is read in its own, with its views as stored.
+/// Throws InspectError (missing file) or StoreError. The memory is restored on `threads` threads
+/// (tsc inspect: daemon.merge_threads, as tscd loads it).
 InspectedStore InspectStore(const std::filesystem::path& db, const PlaceMemoryOptions& options,
                             std::optional<uint32_t> robot = std::nullopt, int threads = 1);
 

@@ -13,6 +13,7 @@
 #include <vector>
 
 #include "core/median.h"
+#include "core/memory/descriptor_space_mismatch.h"
 #include "drivers/dataset/assumed_keyframes_check.h"
 #include "drivers/dataset/dataset.h"
 #include "settings/settings.h"
@@ -144,6 +145,11 @@ int RunPipelineCommand(const std::vector<std::string>& args) {
   const int64_t learned_before = static_cast<int64_t>(stored.memory.places().size());
   Pipeline pipeline(dataset.camera(), options, std::move(stored.memory), std::move(stored.map),
                     stored.pipeline);
+  try {
+    pipeline.RequireMemoryOfTheseFeatures();
+  } catch (const DescriptorSpaceMismatch& e) {
+    throw DescriptorSpaceMismatch(db_path.string() + ": " + e.what());
+  }
 
   RunCounts counts;
   std::vector<double> pipeline_ms, total_ms;

@@ -59,13 +59,16 @@ constexpr const char* kInspectHelp =
                    [--config F] [--set section.key=value]...
 
 Prints what a store holds: robot, base points (good / uninformative / incoherent), detected
-places, learned places with their member counts, the depth of the place memory tree and the
-size of the topological map. --json prints the same as one JSON object.
+places, learned places with their member counts, the descriptor space they were learned in,
+the depth of the place memory tree and the size of the topological map. --json prints the same
+as one JSON object.
 
 --dot and --png write ONE Graphviz graph with two clusters: "place memory" (the tree, root
 on top, terminals = learned places) and "topological map" (places and their edges, labelled
 with traversal counts). --png runs Graphviz's `dot` command (package graphviz).
-The configuration only matters for how discriminants missing from the store are retrained.
+The configuration only matters for how discriminants missing from the store are retrained
+and the view basis the member views are read in; a store learned with other features (such
+as config/sweep.ini's) is read in its own space, and the summary says so.
 
 Options)";
 

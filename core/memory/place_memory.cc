@@ -10,6 +10,7 @@
 
 #include "core/assert.h"
 #include "core/median.h"
+#include "core/memory/descriptor_space_mismatch.h"
 #include "core/memory/member_views.h"
 #include "core/on_threads.h"
 #include "core/split_mix64.h"
@@ -705,6 +706,16 @@ PlaceMemory PlaceMemory::Restore(uint32_t robot, PlaceMemoryOptions options,
                                 std::to_string(places.size()));
   }
   if (const ViewBasis* basis = memory.view_basis()) {
+    for (const LearnedPlace& p : places) {
+      if (p.mean.size() > 0 && p.mean.size() != basis->input_dimension()) {
+        throw DescriptorSpaceMismatch(
+            "place memory: place " + p.id.ToString() + " has descriptors of dimension " +
+            std::to_string(p.mean.size()) + ", but memory.view_basis = " + basis->name() +
+            " takes " + std::to_string(basis->input_dimension()) +
+            ": the memory was learned with other bubble.features; use the configuration it "
+            "was learned with");
+      }
+    }
     // A memory saved, or sent by a peer, before views were kept in the basis holds them in
     // the descriptors' own space: they are taken into the basis (docs/decisions.md "A
     // principal basis for member views").
@@ -731,7 +742,7 @@ PlaceMemory PlaceMemory::Restore(uint32_t robot, PlaceMemoryOptions options,
     const int view_dim = ViewDimension(memory.view_basis(), static_cast<int>(p.mean.size()));
     if (p.samples.rows() != view_dim) {
       const ViewBasis* basis = memory.view_basis();
-      throw std::invalid_argument(
+      throw DescriptorSpaceMismatch(
           "place memory: place " + p.id.ToString() + " keeps member views of dimension " +
           std::to_string(p.samples.rows()) + ", but memory.view_basis = " +
           (basis ? basis->name() : std::string("none")) + " keeps them in " +

@@ -6,6 +6,7 @@
 #include <utility>
 
 #include "core/memory/builtin_view_basis.h"
+#include "core/memory/descriptor_space_mismatch.h"
 #include "core/merge/consolidate.h"
 #include "core/merge/merge_maps.h"
 
@@ -78,17 +79,29 @@ Pipeline::Pipeline(CameraIntrinsics camera, PipelineOptions options, PlaceMemory
   // A stored memory does not know the camera: its units are those of the options, adapted to
   // the camera's spacing and lens.
   memory_.AdoptUnits(options_.memory);
-  if (const ViewBasis* basis = memory_.view_basis()) {
-    // Said here, at start, rather than when the first place is learned.
-    const int dim = computer_.Compute(surface_).dim();
-    surface_.Reset();
-    if (dim != basis->input_dimension()) {
-      throw std::invalid_argument(
-          "memory.view_basis = " + basis->name() + " takes descriptors of dimension " +
-          std::to_string(basis->input_dimension()) + ", but bubble.features = " +
-          options_.features.ToString() + " gives " + std::to_string(dim) +
-          ": set memory.view_basis = none, or fit a basis for these features with tsc basis");
-    }
+  // Said here, at start, rather than when the first place is learned.
+  descriptor_dimension_ = computer_.Compute(surface_).dim();
+  surface_.Reset();
+  if (const ViewBasis* basis = memory_.view_basis();
+      basis && descriptor_dimension_ != basis->input_dimension()) {
+    throw std::invalid_argument(
+        "memory.view_basis = " + basis->name() + " takes descriptors of dimension " +
+        std::to_string(basis->input_dimension()) + ", but bubble.features = " +
+        options_.features.ToString() + " gives " + std::to_string(descriptor_dimension_) +
+        ": set memory.view_basis = none, or fit a basis for these features with tsc basis");
+  }
+}
+
+void Pipeline::RequireMemoryOfTheseFeatures() const {
+  if (memory_.empty()) return;
+  const Eigen::Index held = memory_.places().front().mean.size();
+  if (held != descriptor_dimension_) {
+    throw DescriptorSpaceMismatch(
+        "the place memory holds descriptors of dimension " + std::to_string(held) +
+        ", but bubble.features = " + options_.features.ToString() + " gives " +
+        std::to_string(descriptor_dimension_) +
+        ": the memory was learned with other features; use the configuration it was learned "
+        "with");
   }
 }
 

@@ -189,6 +189,13 @@ class Pipeline {
   /// with the memory still as it was.
   void set_before_replace(std::function<void()> hook) { before_replace_ = std::move(hook); }
 
+  /// The dimension of the descriptors the configured features give.
+  int descriptor_dimension() const { return descriptor_dimension_; }
+  /// Throws DescriptorSpaceMismatch when the memory's places were learned with other features
+  /// (a stored memory read under another configuration), whose every frame would be refused.
+  /// Not a precondition of construction: ProcessDescriptor takes descriptors from elsewhere.
+  void RequireMemoryOfTheseFeatures() const;
+
   const PlaceMemory& memory() const { return memory_; }
   const TopologicalMap& map() const { return map_; }
   const PipelineOptions& options() const { return options_; }
@@ -223,6 +230,7 @@ class Pipeline {
   DescriptorComputer computer_;
   PlaceDetector detector_;
   PlaceMemory memory_;
+  int descriptor_dimension_ = 0;
   std::function<void(int place)> before_update_;
   std::function<void()> before_replace_;
   CopyEvidence copies_;

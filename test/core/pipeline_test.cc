@@ -8,6 +8,7 @@
 #include <random>
 #include <stdexcept>
 
+#include "core/memory/descriptor_space_mismatch.h"
 #include "core/merge/merge.h"
 #include "core/merge/merge_maps.h"
 #include "test/support/random_memory.h"
@@ -609,6 +610,35 @@ TEST_F(PipelineTest, ReadaptsDetectionAndTheStepUnitAndKeepsThemAcrossAMerge) {
   EXPECT_THROW(dut_.Readapt(detector, 0.5), std::invalid_argument);
   EXPECT_EQ(dut_.options().detector.tau_w, 2);
   EXPECT_EQ(dut_.memory().options().step_unit, 0.25);
+}
+
+// A stored memory read under a configuration of other features (config/sweep.ini's L2+I, 700
+// dimensions, against the defaults' 1200) would have every frame refused ("descriptor of
+// dimension 1200 for a memory of dimension 700"): tscd and `tsc run` ask first, and stop with
+// a configuration error.
+TEST_F(PipelineTest, AMemoryLearnedWithOtherFeaturesIsNamedBeforeAnyFrame) {
+  Visit(0, 15);
+  Visit(1, 15);
+  Collect(dut_.Finish());
+  ASSERT_FALSE(dut_.memory().empty());
+  ASSERT_EQ(dut_.memory().places().front().mean.size(), kDim);
+  EXPECT_EQ(dut_.descriptor_dimension(), 1200);  // the default features
+  try {
+    dut_.RequireMemoryOfTheseFeatures();
+    FAIL() << "a memory of " << kDim << " dimensions was taken for one of 1200";
+  } catch (const DescriptorSpaceMismatch& e) {
+    const std::string what = e.what();
+    EXPECT_NE(what.find("dimension 700"), std::string::npos) << what;
+    EXPECT_NE(what.find("gives 1200"), std::string::npos) << what;
+  }
+  const CameraIntrinsics camera = CameraIntrinsics::FromHorizontalFov(64, 48, 60);
+  PipelineOptions thesis = Options();
+  thesis.features = FeatureSet::Thesis(2);  // L2+I: 7 features of 100 coefficients
+  const Pipeline fits(camera, thesis, dut_.memory(), dut_.map());
+  EXPECT_EQ(fits.descriptor_dimension(), kDim);
+  EXPECT_NO_THROW(fits.RequireMemoryOfTheseFeatures());
+  const Pipeline empty(camera, Options(), PlaceMemory(1, Options().memory), TopologicalMap{});
+  EXPECT_NO_THROW(empty.RequireMemoryOfTheseFeatures());
 }
 
 // A stored memory does not know the camera: a pipeline given one measures with its own units,

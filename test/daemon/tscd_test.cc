@@ -29,6 +29,7 @@
 #include "test/daemon/fast_sim_robot.h"
 #include "test/support/child_process.h"
 #include "test/support/image_bombs.h"
+#include "test/support/synthetic_places.h"
 #include "test/support/temp_dir.h"
 
 // Built with a sanitizer (gcc defines __SANITIZE_*__, clang answers __has_feature).
@@ -297,6 +298,55 @@ TEST_F(TscdTest, UnwritableStateDirectoryIsReportedAndTheDaemonKeepsRunning) {
   dut.Signal(SIGTERM);
   EXPECT_EQ(dut.Wait(seconds(20)), 1) << dut.Log();
   EXPECT_NE(dut.Log().find("LOST"), std::string::npos) << dut.Log();
+}
+
+// A store learned with other features than the configuration's (a robot's config/sweep.ini
+// left out at a restart): tscd used to take it for a failing store and run on, learning apart
+// from it, or refuse every frame. It stops with a configuration error naming the store and
+// the dimensions, leaves no spill, and starts on it under the features it was learned with.
+TEST_F(TscdTest, AStoreLearnedWithOtherFeaturesStopsTscdWithAConfigurationError) {
+  const fs::path state = dir_ / "state";
+  fs::create_directories(state);
+  {
+    PipelineOptions l2;
+    l2.features = FeatureSet::Thesis(2);  // L2+I: 700 dimensions
+    l2.memory.view_basis = nullptr;
+    const testing_support::SyntheticPlaces world(1, 700, 8, 0.02f, 1);
+    Store store = Store::Open(state / "memory.db");
+    const Pipeline pipeline(CameraIntrinsics::FromHorizontalFov(160, 120, 60), l2,
+                            testing_support::SyntheticMemory(1, world, 0, 4, 8, l2.memory),
+                            TopologicalMap{}, PipelineState{});
+    store.CommitPending({}, pipeline, true, std::nullopt);
+  }
+  const std::vector<std::string> args = {kTscd,          "--robot",      "1",
+                                         "--state-dir",  state.string(), "--set",
+                                         "camera.fps=1", "--set",        "lcm.url=memq://"};
+  {
+    ChildProcess dut(args, dir_ / "defaults.log");
+    EXPECT_EQ(dut.Wait(seconds(20)), 78) << dut.Log();
+    EXPECT_NE(dut.Log().find("configuration error: " + (state / "memory.db").string()),
+              std::string::npos)
+        << dut.Log();
+    EXPECT_NE(dut.Log().find("dimension 700"), std::string::npos) << dut.Log();
+    EXPECT_EQ(dut.Log().find("not persisted"), std::string::npos) << dut.Log();
+  }
+  for (const auto& entry : fs::directory_iterator(state)) {
+    EXPECT_EQ(entry.path().filename().string().find("spill"), std::string::npos) << entry.path();
+  }
+  std::vector<std::string> own = args;
+  for (const char* key : {"bubble.features=L2+I", "memory.view_basis=none"}) {
+    own.insert(own.end(), {"--set", key});
+  }
+  ChildProcess dut(own, dir_ / "own.log");
+  const auto deadline = std::chrono::steady_clock::now() + seconds(30);
+  while (dut.Log().find("ready:") == std::string::npos &&
+         std::chrono::steady_clock::now() < deadline) {
+    std::this_thread::sleep_for(milliseconds(50));
+  }
+  EXPECT_NE(dut.Log().find("memory loaded from"), std::string::npos) << dut.Log();
+  EXPECT_NE(dut.Log().find(": 4 places"), std::string::npos) << dut.Log();
+  dut.Signal(SIGTERM);
+  EXPECT_EQ(dut.Wait(seconds(20)), 0) << dut.Log();
 }
 
 // SIGTERM while the store cannot be written: tscd waits a bounded time for it, then spills

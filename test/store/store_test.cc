@@ -20,6 +20,7 @@
 #include <unordered_set>
 #include <vector>
 
+#include "core/memory/descriptor_space_mismatch.h"
 #include "core/memory/unchanged_places.h"
 #include "core/merge/consolidate.h"
 #include "core/merge/merge_maps.h"
@@ -955,6 +956,36 @@ TEST_F(StoreTest, LoadRefusesADatabaseOfAnotherRobot) {
     EXPECT_NE(what.find(path_.string()), std::string::npos) << what;
     EXPECT_NE(what.find("robot " + std::to_string(kRobot)), std::string::npos) << what;
   }
+}
+
+// A store learned with other features than the configuration's (tscd started without the
+// config/sweep.ini its memory was learned with) is no damaged store: Load says which space
+// each holds, naming the file, and the store still loads under its own configuration.
+TEST_F(StoreTest, LoadNamesAMemoryLearnedInAnotherDescriptorSpace) {
+  {
+    Stream stream(5);
+    stream.AddCluster();
+    stream.AddCluster();
+    Committed committed;
+    Store dut = Store::Open(path_);
+    Pipeline pipeline = Continue(dut);
+    for (int c : {0, 1}) Feed(pipeline, dut, stream.Visit(c, 12), committed);
+    Finish(pipeline, dut, committed);
+  }
+  ASSERT_GE(Sql(path_, "SELECT COUNT(*) FROM learned_places"), 1);
+  Store dut = Store::Open(path_);
+  const PlaceMemoryOptions builtin = PipelineOptions{}.memory;  // the builtin basis: 1200 in
+  ASSERT_NE(builtin.view_basis, nullptr);
+  try {
+    dut.Load(kRobot, builtin);
+    FAIL() << "places of " << kDim << " dimensions were loaded into the builtin basis";
+  } catch (const DescriptorSpaceMismatch& e) {
+    const std::string what = e.what();
+    EXPECT_NE(what.find(path_.string()), std::string::npos) << what;
+    EXPECT_NE(what.find("dimension 700"), std::string::npos) << what;
+    EXPECT_NE(what.find("memory.view_basis = builtin takes 1200"), std::string::npos) << what;
+  }
+  EXPECT_GE(dut.Load(kRobot, Options().memory).memory.places().size(), 1u);
 }
 
 TEST_F(StoreTest, CommitRefusesAPipelineOfAnotherRobotAndRollsBack) {

@@ -225,6 +225,39 @@ TEST_F(TscCliTest, RunThenInspect) {
   EXPECT_NE(after.out.find("\"base_points\":24"), std::string::npos) << after.out;
 }
 
+// A store learned with other features (as with config/sweep.ini: L2+I, views as descriptors)
+// is inspected whatever the configuration, in its own space, and the summary says so; `tsc
+// run` under the defaults refuses to continue it with a configuration error naming the store
+// (it used to refuse every frame), and continues it under its own configuration.
+TEST_F(TscCliTest, AStoreLearnedWithOtherFeaturesIsInspectedAndContinuedOnlyUnderThem) {
+  const fs::path ds = MakeDataset(12);
+  const fs::path db = dir_ / "l2.db";
+  const std::string own = " --set bubble.features=L2+I --set memory.view_basis=none";
+  ASSERT_EQ(Tsc("run " + Quote(ds.string()) + " --db " + Quote(db.string()) + own).code, 0);
+
+  const Outcome inspect = Tsc("inspect " + Quote(db.string()));
+  ASSERT_EQ(inspect.code, 0) << inspect.err;
+  EXPECT_NE(inspect.out.find("descriptors      dimension 700, member views as descriptors (not "
+                             "the configuration's"),
+            std::string::npos)
+      << inspect.out;
+  const Outcome json = Tsc("inspect --json " + Quote(db.string()) + own);
+  ASSERT_EQ(json.code, 0) << json.err;
+  EXPECT_NE(json.out.find("\"descriptor_dimension\":700,\"view_basis\":\"none\","
+                          "\"configuration_fits\":true"),
+            std::string::npos)
+      << json.out;
+
+  const Outcome refused = Tsc("run " + Quote(ds.string()) + " --db " + Quote(db.string()));
+  EXPECT_EQ(refused.code, 78) << refused.err;
+  EXPECT_NE(refused.err.find(db.string()), std::string::npos) << refused.err;
+  EXPECT_NE(refused.err.find("dimension 700"), std::string::npos) << refused.err;
+  const Outcome again = Tsc("run " + Quote(ds.string()) + " --db " + Quote(db.string()) + own);
+  ASSERT_EQ(again.code, 0) << again.err;
+  EXPECT_NE(Tsc("inspect --json " + Quote(db.string())).out.find("\"base_points\":24"),
+            std::string::npos);
+}
+
 TEST_F(TscCliTest, InspectMissingStoreExits1NamingIt) {
   const fs::path db = dir_ / "absent.db";
   const Outcome o = Tsc("inspect --db " + Quote(db.string()));
