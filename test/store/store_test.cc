@@ -963,14 +963,8 @@ TEST_F(StoreTest, LoadRefusesADatabaseOfAnotherRobot) {
 // each holds, naming the file, and the store still loads under its own configuration.
 TEST_F(StoreTest, LoadNamesAMemoryLearnedInAnotherDescriptorSpace) {
   {
-    Stream stream(5);
-    stream.AddCluster();
-    stream.AddCluster();
-    Committed committed;
     Store dut = Store::Open(path_);
-    Pipeline pipeline = Continue(dut);
-    for (int c : {0, 1}) Feed(pipeline, dut, stream.Visit(c, 12), committed);
-    Finish(pipeline, dut, committed);
+    LearnedRooms(dut, 2, {0, 1});
   }
   ASSERT_GE(Sql(path_, "SELECT COUNT(*) FROM learned_places"), 1);
   Store dut = Store::Open(path_);
@@ -1004,14 +998,8 @@ TEST_F(StoreTest, CommitRefusesAPipelineOfAnotherRobotAndRollsBack) {
 
 TEST_F(StoreTest, LoadNamesTableRowAndColumnOfACorruptBlob) {
   {
-    Stream stream(9);
-    stream.AddCluster();
-    stream.AddCluster();
-    Committed committed;
     Store dut = Store::Open(path_);
-    Pipeline pipeline = Continue(dut);
-    for (int c : {0, 1}) Feed(pipeline, dut, stream.Visit(c, 12), committed);
-    Finish(pipeline, dut, committed);
+    LearnedRooms(dut, 2, {0, 1});
   }
   ASSERT_GE(Sql(path_, "SELECT COUNT(*) FROM learned_places"), 1);
   Sql(path_, "UPDATE learned_places SET mean = x'0102030405' WHERE position = 0");
@@ -1030,14 +1018,8 @@ TEST_F(StoreTest, LoadNamesTableRowAndColumnOfACorruptBlob) {
 
 TEST_F(StoreTest, LoadRejectsBlobsOfTheWrongShape) {
   {
-    Stream stream(9);
-    stream.AddCluster();
-    stream.AddCluster();
-    Committed committed;
     Store dut = Store::Open(path_);
-    Pipeline pipeline = Continue(dut);
-    for (int c : {0, 1}) Feed(pipeline, dut, stream.Visit(c, 12), committed);
-    Finish(pipeline, dut, committed);
+    LearnedRooms(dut, 2, {0, 1});
   }
   struct Case {
     const char* sql;
