@@ -7,6 +7,7 @@
 #include <numbers>
 #include <opencv2/imgproc.hpp>
 #include <stdexcept>
+#include <type_traits>
 
 #if defined(__SSE2__)
 #include <immintrin.h>
@@ -338,6 +339,13 @@ Lanes MulLanes(Lanes a, Lanes b) {
 float SumLanes(Lanes a) { return (a[0] + a[1]) + (a[2] + a[3]); }
 #endif
 
+// Calls body(std::integral_constant<int, N>{}) for the N of kCounts equal to `count`, so that a
+// count known only at run time picks a loop unrolled for it; false when no N is.
+template <int... kCounts, typename Body>
+bool WithCount(int count, Body&& body) {
+  return ((count == kCounts && (body(std::integral_constant<int, kCounts>{}), true)) || ...);
+}
+
 // Sums of the n x n blocks at (x0, y0) of kCount CV_32F images of one size. Per image: four
 // lanes, each adding every fourth pixel of each row in turn, then the row tails and the lanes.
 // The images' chains of additions interleave, so a patch's sums wait on the add's latency once,
@@ -368,26 +376,12 @@ void BlockSumsOf(const cv::Mat* const* images, int x0, int y0, int n, float* sum
 
 // The patch sums of up to seven images (hue pair, grey, four orientations) in one pass.
 void BlockSums(const cv::Mat* const* images, int count, int x0, int y0, int n, float* sums) {
-  switch (count) {
-    case 0:
-      return;
-    case 1:
-      return BlockSumsOf<1>(images, x0, y0, n, sums);
-    case 2:
-      return BlockSumsOf<2>(images, x0, y0, n, sums);
-    case 3:
-      return BlockSumsOf<3>(images, x0, y0, n, sums);
-    case 4:
-      return BlockSumsOf<4>(images, x0, y0, n, sums);
-    case 5:
-      return BlockSumsOf<5>(images, x0, y0, n, sums);
-    case 6:
-      return BlockSumsOf<6>(images, x0, y0, n, sums);
-    case 7:
-      return BlockSumsOf<7>(images, x0, y0, n, sums);
-    default:
-      throw std::logic_error("BlockSums of more than seven images");
-  }
+  const bool done = WithCount<0, 1, 2, 3, 4, 5, 6, 7>(count, [&](auto k) {
+    if constexpr (decltype(k)::value > 0) {
+      BlockSumsOf<decltype(k)::value>(images, x0, y0, n, sums);
+    }
+  });
+  if (!done) throw std::logic_error("BlockSums of more than seven images");
 }
 
 // Dot products of kCount n x n kernels (row-major) with the n x n block of CV_32F `grey` at
@@ -422,22 +416,12 @@ void KernelDotsOf(const float* const* kernels, const cv::Mat& grey, int x0, int 
 // The dots of up to the ten grating kernels (a cosine and a sine each) in one pass.
 void KernelDots(const float* const* kernels, int count, const cv::Mat& grey, int x0, int y0, int n,
                 float* dots) {
-  switch (count) {
-    case 0:
-      return;
-    case 2:
-      return KernelDotsOf<2>(kernels, grey, x0, y0, n, dots);
-    case 4:
-      return KernelDotsOf<4>(kernels, grey, x0, y0, n, dots);
-    case 6:
-      return KernelDotsOf<6>(kernels, grey, x0, y0, n, dots);
-    case 8:
-      return KernelDotsOf<8>(kernels, grey, x0, y0, n, dots);
-    case 10:
-      return KernelDotsOf<10>(kernels, grey, x0, y0, n, dots);
-    default:
-      throw std::logic_error("KernelDots of an odd count or more than ten kernels");
-  }
+  const bool done = WithCount<0, 2, 4, 6, 8, 10>(count, [&](auto k) {
+    if constexpr (decltype(k)::value > 0) {
+      KernelDotsOf<decltype(k)::value>(kernels, grey, x0, y0, n, dots);
+    }
+  });
+  if (!done) throw std::logic_error("KernelDots of an odd count or more than ten kernels");
 }
 
 }  // namespace
