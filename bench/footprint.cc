@@ -19,10 +19,15 @@
 // merged too, and tscd's account of both merges (its "merged the memory" lines, with the time
 // of each phase) is printed. The peer speaks the real exchange protocol over udpm://,
 // so this mode runs in a private network namespace only (test/support/in_netns).
+// With --peer-merged 1 the teammate has merged robot 1's memory before it serves its own (it
+// holds robot 1's places among its sources), as in a team that has exchanged both ways: its
+// version 2 is then the repeat exchange of a settled team, where without it every place of
+// ours is new to the teammate and version 2 still recognises them.
 //
 //   build/bin/tscd_footprint [--places N] [--dim D] [--members M] [--settle-s S] [--out FILE]
 //                            [--keep DIR | --reuse DIR] [--threads T]
-//   test/support/in_netns build/bin/tscd_footprint --peer-places P [the options above]
+//   test/support/in_netns build/bin/tscd_footprint --peer-places P [--peer-merged 1]
+//                                                  [the options above]
 
 #include <unistd.h>
 
@@ -39,6 +44,7 @@
 #include <vector>
 
 #include "bench/key_value_args.h"
+#include "core/merge/merge.h"
 #include "core/pipeline/pipeline.h"
 #include "daemon/memory_snapshot.h"
 #include "settings/daemon_options.h"
@@ -103,11 +109,12 @@ uint64_t FileBytes(const fs::path& p) {
 }
 
 int Main(int argc, char** argv) {
-  const auto args = KeyValueArgs(
-      argc, argv,
-      {"places", "dim", "members", "settle-s", "out", "keep", "reuse", "threads", "peer-places"},
-      "[--places N] [--dim D] [--members M] [--settle-s S] [--out FILE] "
-      "[--keep DIR | --reuse DIR] [--threads T] [--peer-places P]");
+  const auto args =
+      KeyValueArgs(argc, argv,
+                   {"places", "dim", "members", "settle-s", "out", "keep", "reuse", "threads",
+                    "peer-places", "peer-merged"},
+                   "[--places N] [--dim D] [--members M] [--settle-s S] [--out FILE] "
+                   "[--keep DIR | --reuse DIR] [--threads T] [--peer-places P [--peer-merged 1]]");
   if (!args) return 2;
   const int places = static_cast<int>(NumberArg(*args, "places", 10000));
   const int dim = static_cast<int>(NumberArg(*args, "dim", 1200));
@@ -123,6 +130,7 @@ int Main(int argc, char** argv) {
   const int threads = static_cast<int>(NumberArg(*args, "threads", 0));
   const std::string out = args->count("out") ? args->at("out") : "";
   const int peer_places = static_cast<int>(NumberArg(*args, "peer-places", 0));
+  const bool peer_merged = NumberArg(*args, "peer-merged", 0) != 0;
   if (places < 1 || dim < 1 || members < 1 || threads < 0 || peer_places < 0) {
     std::fprintf(stderr,
                  "%s: places, dim and members must be positive, threads and peer-places not "
@@ -205,6 +213,13 @@ int Main(int argc, char** argv) {
   if (peer_places > 0) {
     const auto t_peer = Clock::now();
     PlaceMemory v1 = synthetic(2, places / 2, peer_places);
+    if (peer_merged) {
+      // Robot 1's memory as its store holds it (the same synthetic places), merged into the
+      // teammate's as the teammate's tscd would have.
+      v1 =
+          MergeMemories(std::move(v1), synthetic(1, 0, places), std::thread::hardware_concurrency())
+              .memory;
+    }
     std::vector<LearnedPlace> changed = v1.places();
     changed.front().member_count += 1;
     changed.front().mean *= 1.001f;
@@ -226,7 +241,9 @@ int Main(int argc, char** argv) {
       {std::string(TSCD_BIN_DIR) + "/tscd", "--robot", "1", "--state-dir", run_dir.string(),
        "--set", "camera.source=sim", "--set", "camera.fps=1", "--set",
        std::string("lcm.url=") + (peer ? testing_support::kNamespaceBusUrl : "memq://"), "--set",
-       "daemon.merge_threads=" + std::to_string(threads)},
+       "daemon.merge_threads=" + std::to_string(threads), "--set",
+       // A settled team's repeat exchange changes nothing, which tscd logs at debug level.
+       std::string("daemon.log_level=") + (peer_merged ? "debug" : "info")},
       log);
   // Loaded, announcing and serving: "ready" is logged after the memory is loaded; the first
   // announce asks the worker for a snapshot, which the settling time leaves room for.
@@ -255,10 +272,10 @@ int Main(int argc, char** argv) {
     std::this_thread::sleep_for(std::chrono::duration<double>(settle_s));
     char line[384];
     std::snprintf(line, sizeof line,
-                  "peer of %d places (half of them robot 1's) merged %.1f s after it appeared; "
-                  "%.0f s later: RSS %.1f MB, peak %.1f MB\n",
-                  peer_places, merged_s, settle_s, StatusMb(tscd.pid(), "VmRSS"),
-                  StatusMb(tscd.pid(), "VmHWM"));
+                  "peer of %d places (half of them robot 1's%s) merged %.1f s after it "
+                  "appeared; %.0f s later: RSS %.1f MB, peak %.1f MB\n",
+                  peer_places, peer_merged ? ", and robot 1's memory merged before" : "", merged_s,
+                  settle_s, StatusMb(tscd.pid(), "VmRSS"), StatusMb(tscd.pid(), "VmHWM"));
     merged_report = line;
     // tscd's own account: the merge's case, places and time (building the peer's memory,
     // merging and storing the result; not the transfer).

@@ -622,6 +622,10 @@ void PipelineWorker::MergePeer(PeerSnapshot snapshot) {
         pipeline_->AdoptMerged(std::move(merged.memory), std::move(map));
         // Only once the memory they describe is the pipeline's.
         if (stored_as_ours) stored_unchanged_ = std::move(unchanged);
+      } else if (stored_as_ours) {
+        // The store holds our memory as it stands; only the peer's version is new. Rewriting
+        // every place for it took 1.5 s at 10⁴ places on every exchange of a settled team.
+        stored_unchanged_ = std::vector<char>(pipeline_->memory().places().size(), 1);
       }
       adopted = true;
     } catch (const std::exception& e) {
