@@ -6,7 +6,6 @@
 #include "daemon/pipeline_worker.h"
 
 #include <gtest/gtest.h>
-#include <sqlite3.h>
 
 #include <atomic>
 #include <filesystem>
@@ -18,12 +17,14 @@
 
 #include "store/store.h"
 #include "test/support/random_memory.h"
+#include "test/support/sql.h"
 #include "test/support/temp_dir.h"
 
 namespace tsc {
 namespace {
 
 namespace fs = std::filesystem;
+using testing_support::Sql;
 
 // A camera that is never read: the worker only needs its intrinsics.
 class UnreadCamera : public CameraSource {
@@ -219,30 +220,6 @@ TEST_F(PipelineWorkerTest, ASnapshotServesTheBodiesItNamedUntilAMergeReplacesThe
   EXPECT_EQ(kept.at(3).size(), 12u);
 }
 
-// Runs `sql` on the database at `path` through a connection of its own; false on an error.
-bool Exec(const std::filesystem::path& path, const std::string& sql) {
-  sqlite3* db = nullptr;
-  bool ok = sqlite3_open(path.c_str(), &db) == SQLITE_OK &&
-            sqlite3_exec(db, sql.c_str(), nullptr, nullptr, nullptr) == SQLITE_OK;
-  sqlite3_close(db);
-  return ok;
-}
-
-// The number in the first column of `sql`'s first row, or -1.
-int64_t Count(const std::filesystem::path& path, const std::string& sql) {
-  sqlite3* db = nullptr;
-  sqlite3_stmt* s = nullptr;
-  int64_t n = -1;
-  if (sqlite3_open(path.c_str(), &db) == SQLITE_OK &&
-      sqlite3_prepare_v2(db, sql.c_str(), -1, &s, nullptr) == SQLITE_OK &&
-      sqlite3_step(s) == SQLITE_ROW) {
-    n = sqlite3_column_int64(s, 0);
-  }
-  sqlite3_finalize(s);
-  sqlite3_close(db);
-  return n;
-}
-
 // A teammate's memory merged before changes nothing when it comes again (in a settled team,
 // most exchanges): the store records the peer's version and leaves the stored places as they
 // are. It rewrote every one of them (1.5 s at 10⁴ places, tscd_footprint --peer-merged 1).
@@ -257,23 +234,28 @@ TEST_F(PipelineWorkerTest, AMergeThatChangesNothingLeavesTheStoredPlacesAsTheyAr
   dut.Enqueue(PeerMemory(20));
   merged(1);
   const fs::path db = temp_.path() / "memory.db";
-  ASSERT_EQ(Count(db, "SELECT count(*) FROM learned_places"), 20);
-  ASSERT_TRUE(Exec(db,
-                   "CREATE TABLE probe(writes INTEGER); INSERT INTO probe VALUES(0); "
-                   "CREATE TRIGGER probe_insert AFTER INSERT ON learned_places BEGIN "
-                   "UPDATE probe SET writes = writes + 1; END; "
-                   "CREATE TRIGGER probe_delete AFTER DELETE ON learned_places BEGIN "
-                   "UPDATE probe SET writes = writes + 1; END;"));
+  ASSERT_EQ(Sql(db, "SELECT count(*) FROM learned_places"), 20);
+  Sql(db, "CREATE TABLE probe(writes INTEGER)");
+  Sql(db, "INSERT INTO probe VALUES(0)");
+  for (const char* change : {"INSERT", "DELETE"}) {
+    Sql(db, std::string("CREATE TRIGGER probe_") + change + " AFTER " + change +
+                " ON learned_places BEGIN UPDATE probe SET writes = writes + 1; END");
+  }
+  ASSERT_FALSE(::testing::Test::HasFailure());  // the probe is in place
   const int64_t version = counters_.memory_version;
   dut.Enqueue(PeerMemory(20));  // the same memory again
   merged(2);
   EXPECT_EQ(counters_.memory_version, version);  // the merge changed nothing
   queue_.Close();
   dut.Join();
-  EXPECT_EQ(Count(db, "SELECT writes FROM probe"), 0);
-  EXPECT_EQ(Count(db, "SELECT count(*) FROM learned_places"), 20);
-  EXPECT_EQ(Count(db, "SELECT last_merged_version FROM peers WHERE robot = 2"), 3);
-  ASSERT_TRUE(Exec(db, "DROP TRIGGER probe_insert; DROP TRIGGER probe_delete; DROP TABLE probe;"));
+  EXPECT_EQ(Sql(db, "SELECT writes FROM probe"), 0);
+  EXPECT_EQ(Sql(db, "SELECT count(*) FROM learned_places"), 20);
+  EXPECT_EQ(Sql(db, "SELECT last_merged_version FROM peers WHERE robot = 2"), 3);
+  for (const char* drop :
+       {"DROP TRIGGER probe_INSERT", "DROP TRIGGER probe_DELETE", "DROP TABLE probe"}) {
+    Sql(db, drop);
+  }
+  ASSERT_FALSE(::testing::Test::HasFailure());
   EXPECT_EQ(Store::Open(db).Load(1, settings_.pipeline.memory).memory.places().size(), 20u);
 }
 

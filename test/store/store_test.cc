@@ -26,12 +26,15 @@
 #include "core/merge/merge_maps.h"
 #include "test/support/descriptor_stream.h"
 #include "test/support/memory_compare.h"
+#include "test/support/sql.h"
 #include "test/support/temp_dir.h"
 
 namespace tsc {
 namespace {
 
 namespace fs = std::filesystem;
+using testing_support::Sql;
+using testing_support::SqlText;
 
 constexpr int kDim = 7 * 100;
 constexpr uint32_t kRobot = 3;
@@ -83,39 +86,6 @@ void Finish(Pipeline& pipeline, Store& store, Committed& committed) {
     committed.learned += e.kind == EventKind::kLearned;
     committed.recognized += e.kind == EventKind::kRecognized && !e.partial;
   }
-}
-
-/// Runs one SQL statement on the file directly (bypassing Store) and returns the first
-/// column of the first row as an integer (0 when there is none).
-int64_t Sql(const fs::path& path, const std::string& sql) {
-  sqlite3* db = nullptr;
-  EXPECT_EQ(sqlite3_open(path.c_str(), &db), SQLITE_OK);
-  sqlite3_stmt* stmt = nullptr;
-  EXPECT_EQ(sqlite3_prepare_v2(db, sql.c_str(), -1, &stmt, nullptr), SQLITE_OK)
-      << sql << ": " << sqlite3_errmsg(db);
-  int64_t value = 0;
-  const int rc = sqlite3_step(stmt);
-  EXPECT_TRUE(rc == SQLITE_ROW || rc == SQLITE_DONE) << sql << ": " << sqlite3_errmsg(db);
-  if (rc == SQLITE_ROW) value = sqlite3_column_int64(stmt, 0);
-  sqlite3_finalize(stmt);
-  sqlite3_close(db);
-  return value;
-}
-
-/// Like Sql() for a text result.
-std::string SqlText(const fs::path& path, const std::string& sql) {
-  sqlite3* db = nullptr;
-  EXPECT_EQ(sqlite3_open(path.c_str(), &db), SQLITE_OK);
-  sqlite3_stmt* stmt = nullptr;
-  EXPECT_EQ(sqlite3_prepare_v2(db, sql.c_str(), -1, &stmt, nullptr), SQLITE_OK)
-      << sql << ": " << sqlite3_errmsg(db);
-  std::string value;
-  if (sqlite3_step(stmt) == SQLITE_ROW && sqlite3_column_text(stmt, 0) != nullptr) {
-    value = reinterpret_cast<const char*>(sqlite3_column_text(stmt, 0));
-  }
-  sqlite3_finalize(stmt);
-  sqlite3_close(db);
-  return value;
 }
 
 void ExpectSameMemory(const PlaceMemory& want, const PlaceMemory& got) {
