@@ -99,6 +99,12 @@ class PipelineWorkerTest : public ::testing::Test {
     };
   }
 
+  // Returns once the worker has completed `merges` merges in all (merges never block here
+  // once release_merge_ is set).
+  void AwaitMerges(int64_t merges) const {
+    while (counters_.merges_completed < merges) std::this_thread::yield();
+  }
+
   testing_support::TempDir temp_{"pipeline_worker_test"};
   Settings settings_;
   UnreadCamera camera_;
@@ -190,7 +196,7 @@ TEST_F(PipelineWorkerTest, ASnapshotServesTheBodiesItNamedUntilAMergeReplacesThe
   PipelineWorker dut(settings_, camera_, SnapshotHeader{1, 99, 0, 0}, counters_, queue_, Hooks());
   dut.Start(join_);
   const auto current = [&](int64_t merges) {
-    while (counters_.merges_completed < merges) std::this_thread::yield();
+    AwaitMerges(merges);
     dut.RequestSnapshot();
     while (dut.snapshot()->version != counters_.memory_version) std::this_thread::yield();
     return dut.snapshot();
@@ -228,11 +234,8 @@ TEST_F(PipelineWorkerTest, AMergeThatChangesNothingLeavesTheStoredPlacesAsTheyAr
   release_merge_.Set();
   PipelineWorker dut(settings_, camera_, SnapshotHeader{1, 99, 0, 0}, counters_, queue_, Hooks());
   dut.Start(join_);
-  const auto merged = [&](int64_t merges) {
-    while (counters_.merges_completed < merges) std::this_thread::yield();
-  };
   dut.Enqueue(PeerMemory(20));
-  merged(1);
+  AwaitMerges(1);
   const fs::path db = temp_.path() / "memory.db";
   ASSERT_EQ(Sql(db, "SELECT count(*) FROM learned_places"), 20);
   Sql(db, "CREATE TABLE probe(writes INTEGER)");
@@ -244,7 +247,7 @@ TEST_F(PipelineWorkerTest, AMergeThatChangesNothingLeavesTheStoredPlacesAsTheyAr
   ASSERT_FALSE(::testing::Test::HasFailure());  // the probe is in place
   const int64_t version = counters_.memory_version;
   dut.Enqueue(PeerMemory(20));  // the same memory again
-  merged(2);
+  AwaitMerges(2);
   EXPECT_EQ(counters_.memory_version, version);  // the merge changed nothing
   queue_.Close();
   dut.Join();
