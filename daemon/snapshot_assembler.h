@@ -48,11 +48,11 @@ struct PeerSnapshot {
 };
 
 /// The peer's place memory rebuilt from a snapshot (SLINK state as published, discriminants
-/// retrained). Each body is let go once its place is built, so a snapshot moved in is not held
-/// beside the memory it becomes (a peer's bodies take twice its compact places). Throws
-/// std::invalid_argument when the places do not make a valid memory. The places' derived data
-/// are computed on up to `threads` threads (PlaceMemory::Restore); the memory is the same for
-/// any number.
+/// retrained). The bodies are let go as their places are built, a few hundred at a time, so a
+/// snapshot moved in is not held beside the memory it becomes (a peer's bodies take twice its
+/// compact places). Throws std::invalid_argument when the places do not make a valid memory.
+/// The places' derived data are computed on up to `threads` threads (PlaceMemory::Restore);
+/// the memory is the same for any number.
 PlaceMemory ToPlaceMemory(PeerSnapshot snapshot, const PlaceMemoryOptions& options,
                           int threads = 1);
 /// The peer's topological map (edges with traversal counts; no transition regions, which

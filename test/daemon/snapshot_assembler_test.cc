@@ -54,6 +54,29 @@ TEST(SnapshotAssembler, CompletesFromShuffledDuplicatedPortionsAfterAskingForThe
   for (const auto& p : got->places) EXPECT_EQ(p->id.local, expected_local++);
 }
 
+// ToPlaceMemory lets the bodies go a few hundred at a time as it builds: past such a batch
+// each place is still built from its own body.
+TEST(ToPlaceMemory, BuildsEveryPlaceFromItsOwnBodyPastTheBodiesLetGo) {
+  constexpr int kPlaces = 700;
+  const auto m = testing_support::MakeRandomMemory(2, kPlaces, kDim, 7);
+  const MemorySnapshot snap = BuildSnapshot(m.memory, m.map, {2, 77, 1, 1}, 6000);
+  SnapshotAssembler assembler(2);
+  for (const memory_portion_v2_t& p : AllPortions(snap)) {
+    ASSERT_EQ(assembler.Accept(p).verdict, SnapshotAssembler::Verdict::kAccepted);
+  }
+  std::string reason;
+  auto peer = assembler.Take(&reason);
+  ASSERT_TRUE(peer.has_value()) << reason;
+  const PlaceMemory built = ToPlaceMemory(std::move(*peer), PlaceMemoryOptions{});
+  ASSERT_EQ(built.places().size(), m.memory.places().size());
+  for (size_t p = 0; p < built.places().size(); ++p) {
+    const LearnedPlace &got = built.places()[p], &sent = m.memory.places()[p];
+    EXPECT_EQ(got.id, sent.id) << p;
+    EXPECT_TRUE(got.mean == sent.mean) << p;
+    EXPECT_TRUE(got.samples == sent.samples) << p;
+  }
+}
+
 // The worker builds a peer's memory on its merge threads: the same memory on any number.
 TEST(ToPlaceMemory, BuildsTheSameMemoryOnAnyNumberOfThreads) {
   const MemorySnapshot snap = MakeSnapshot(40, 1);
