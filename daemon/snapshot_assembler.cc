@@ -63,6 +63,18 @@ std::string CheckEntry(const place_entry_t& e) {
   return "";
 }
 
+PlaceId IdOf(const place_ref_t& r) {
+  return PlaceId{static_cast<uint32_t>(r.robot), static_cast<uint32_t>(r.local)};
+}
+
+std::vector<PlaceId> SortedSourcesOf(const learned_place_v2_t& m) {
+  std::vector<PlaceId> sources;
+  sources.reserve(m.sources.size());
+  for (const place_ref_t& s : m.sources) sources.push_back(IdOf(s));
+  std::sort(sources.begin(), sources.end());
+  return sources;
+}
+
 }  // namespace
 
 PlaceMemory ToPlaceMemory(PeerSnapshot snapshot, const PlaceMemoryOptions& options, int threads) {
@@ -85,14 +97,11 @@ PlaceMemory ToPlaceMemory(PeerSnapshot snapshot, const PlaceMemoryOptions& optio
   for (size_t i = 0; i < snapshot.places.size(); ++i) {
     const learned_place_v2_t& m = *snapshot.places[i];
     LearnedPlace p;
-    p.id = PlaceId{static_cast<uint32_t>(m.id.robot), static_cast<uint32_t>(m.id.local)};
+    p.id = IdOf(m.id);
     p.mean = Eigen::Map<const Eigen::VectorXf>(m.mean.data(), m.dims);
     p.member_count = m.member_count;
     p.samples = ViewsOf(m);
-    for (const place_ref_t& s : m.sources) {
-      p.sources.push_back(PlaceId{static_cast<uint32_t>(s.robot), static_cast<uint32_t>(s.local)});
-    }
-    std::sort(p.sources.begin(), p.sources.end());
+    p.sources = SortedSourcesOf(m);
     places.push_back(std::move(p));
     if (i + 1 - unreleased == kReleaseBatch || i + 1 == snapshot.places.size()) {
       for (; unreleased <= i; ++unreleased) snapshot.places[unreleased].reset();
@@ -106,17 +115,27 @@ PlaceMemory ToPlaceMemory(PeerSnapshot snapshot, const PlaceMemoryOptions& optio
                               static_cast<uint32_t>(snapshot.next_local), {}, {}, threads);
 }
 
+std::optional<std::vector<LearnedPlace>> PlaceNamesOf(const PeerSnapshot& snapshot,
+                                                      const PlaceMemory& ours) {
+  if (snapshot.view_basis != ViewBasisId(ours.options().view_basis.get())) return std::nullopt;
+  std::vector<LearnedPlace> names(snapshot.places.size());
+  for (size_t i = 0; i < names.size(); ++i) {
+    const learned_place_v2_t& m = *snapshot.places[i];
+    if (!ours.empty() && m.dims != ours.places().front().mean.size()) return std::nullopt;
+    names[i].id = IdOf(m.id);
+    names[i].sources = SortedSourcesOf(m);
+  }
+  return names;
+}
+
 TopologicalMap ToTopologicalMap(const PeerSnapshot& snapshot) {
   TopologicalMap map;
-  auto id = [](const place_ref_t& r) {
-    return PlaceId{static_cast<uint32_t>(r.robot), static_cast<uint32_t>(r.local)};
-  };
-  for (const place_entry_t& e : snapshot.entries) map.AddPlace(id(e.id));
+  for (const place_entry_t& e : snapshot.entries) map.AddPlace(IdOf(e.id));
   for (const map_edge_t& e : snapshot.edges) {
-    if (id(e.a) == id(e.b)) throw std::invalid_argument("map edge from a place to itself");
+    if (IdOf(e.a) == IdOf(e.b)) throw std::invalid_argument("map edge from a place to itself");
     MapEdge edge;
-    edge.a = std::min(id(e.a), id(e.b));
-    edge.b = std::max(id(e.a), id(e.b));
+    edge.a = std::min(IdOf(e.a), IdOf(e.b));
+    edge.b = std::max(IdOf(e.a), IdOf(e.b));
     edge.traversals = e.traversals;
     map.RestoreEdge(std::move(edge));
   }

@@ -55,6 +55,12 @@ struct PeerSnapshot {
 /// the memory is the same for any number.
 PlaceMemory ToPlaceMemory(PeerSnapshot snapshot, const PlaceMemoryOptions& options,
                           int threads = 1);
+/// The peer's places as MergeLeavesOurs reads them (only ids and sources set, the sources sorted
+/// as ToPlaceMemory sorts them), when its descriptors are of the kind `ours` holds: member views
+/// in the same basis, and means of ours' dimension. nullopt otherwise: ToPlaceMemory and the
+/// merge say what is wrong.
+std::optional<std::vector<LearnedPlace>> PlaceNamesOf(const PeerSnapshot& snapshot,
+                                                      const PlaceMemory& ours);
 /// The peer's topological map (edges with traversal counts; no transition regions, which
 /// index the peer's own frames).
 TopologicalMap ToTopologicalMap(const PeerSnapshot& snapshot);

@@ -23,7 +23,7 @@ PlaceId TakeSmallestId(LearnedPlace& p) {
 
 }  // namespace
 
-KnownIds KnownToBase(const PlaceMemory& base, const PlaceMemory& incoming) {
+KnownIds KnownToBase(const PlaceMemory& base, std::span<const LearnedPlace> incoming) {
   KnownIds k;
   k.holder.reserve(base.places().size());
   for (size_t b = 0; b < base.places().size(); ++b) {
@@ -32,9 +32,9 @@ KnownIds KnownToBase(const PlaceMemory& base, const PlaceMemory& incoming) {
   for (size_t b = 0; b < base.places().size(); ++b) {
     for (PlaceId s : base.places()[b].sources) k.holder.emplace(s, static_cast<int>(b));
   }
-  k.is_new.assign(incoming.places().size(), 0);
-  for (size_t i = 0; i < incoming.places().size(); ++i) {
-    const PlaceId id = incoming.places()[i].id;
+  k.is_new.assign(incoming.size(), 0);
+  for (size_t i = 0; i < incoming.size(); ++i) {
+    const PlaceId id = incoming[i].id;
     if (k.holder.contains(id)) {
       k.known.push_back(id);
     } else {
@@ -45,10 +45,10 @@ KnownIds KnownToBase(const PlaceMemory& base, const PlaceMemory& incoming) {
   return k;
 }
 
-FreshPlaces FreshBasePlaces(const PlaceMemory& base, const PlaceMemory& incoming) {
+FreshPlaces FreshBasePlaces(const PlaceMemory& base, std::span<const LearnedPlace> incoming) {
   FreshPlaces f;
   std::unordered_set<PlaceId, PlaceIdHash> seen;
-  for (const LearnedPlace& p : incoming.places()) {
+  for (const LearnedPlace& p : incoming) {
     seen.insert(p.id);
     seen.insert(p.sources.begin(), p.sources.end());
   }
@@ -85,11 +85,11 @@ std::vector<int> PlaceUnion::Holders() {
   return out;
 }
 
-IdJoin JoinByIds(const PlaceMemory& base, const PlaceMemory& incoming,
+IdJoin JoinByIds(const PlaceMemory& base, std::span<const LearnedPlace> incoming,
                  const std::unordered_map<PlaceId, int, PlaceIdHash>& known) {
-  IdJoin j{PlaceUnion(base.places().size()), std::vector<int>(incoming.places().size(), -1), {}};
-  for (size_t i = 0; i < incoming.places().size(); ++i) {
-    const LearnedPlace& p = incoming.places()[i];
+  IdJoin j{PlaceUnion(base.places().size()), std::vector<int>(incoming.size(), -1), {}};
+  for (size_t i = 0; i < incoming.size(); ++i) {
+    const LearnedPlace& p = incoming[i];
     const auto own = known.find(p.id);
     int h = own == known.end() ? -1 : own->second;
     for (PlaceId s : p.sources) {

@@ -6,6 +6,7 @@
 
 #include <cstdint>
 #include <numeric>
+#include <span>
 #include <unordered_map>
 #include <utility>
 #include <vector>
@@ -26,7 +27,8 @@ struct KnownIds {
   std::vector<PlaceId> known;  ///< the incoming places' ids the base holds, in incoming order
   bool anything_new = false;   ///< some incoming place is new
 };
-KnownIds KnownToBase(const PlaceMemory& base, const PlaceMemory& incoming);
+/// `incoming`: the incoming memory's places (only their ids and sources are read).
+KnownIds KnownToBase(const PlaceMemory& base, std::span<const LearnedPlace> incoming);
 
 /// Base places the incoming memory has never held (a peer's places learned since it last
 /// merged ours, when the peer is the base).
@@ -34,7 +36,7 @@ struct FreshPlaces {
   std::vector<int> places;       ///< base place indices whose id the incoming never held
   bool base_knows_more = false;  ///< an id, as a place or a source, the incoming never held
 };
-FreshPlaces FreshBasePlaces(const PlaceMemory& base, const PlaceMemory& incoming);
+FreshPlaces FreshBasePlaces(const PlaceMemory& base, std::span<const LearnedPlace> incoming);
 
 /// Base places that are one place: a union-find whose class root is its lowest index, so the
 /// result does not depend on the order in which unions are found.
@@ -66,7 +68,7 @@ struct IdJoin {
   std::vector<std::pair<int, PlaceId>> learned;  ///< (base place, id) for ids new to the base
 };
 /// `known` is KnownToBase(base, incoming).holder.
-IdJoin JoinByIds(const PlaceMemory& base, const PlaceMemory& incoming,
+IdJoin JoinByIds(const PlaceMemory& base, std::span<const LearnedPlace> incoming,
                  const std::unordered_map<PlaceId, int, PlaceIdHash>& known);
 /// Once every union is known: each base place's holder, with `targets` (base places, −1:
 /// none) and `join.learned` moved onto the holders.

@@ -73,10 +73,10 @@ MemoryMerge Merge(const PlaceMemory& ours, const PlaceMemory& peer, PlaceMemory*
       PlaceMemory(robot, options), MergeCase::kNothingNew, peer_into_ours, {}, {}, {}, 0};
 
   // What the ids say, then the case of the root spheres and recognition where they meet.
-  const KnownIds known = KnownToBase(base, incoming);
+  const KnownIds known = KnownToBase(base, incoming.places());
   result.known = known.known;
-  IdJoin join = JoinByIds(base, incoming, known.holder);
-  const FreshPlaces fresh = FreshBasePlaces(base, incoming);
+  IdJoin join = JoinByIds(base, incoming.places(), known.holder);
+  const FreshPlaces fresh = FreshBasePlaces(base, incoming.places());
   Recognitions found(join.linked, base.places().size());
   RootSpheres spheres;
   result.merge_case = CaseAndRecognition(base, incoming, known, fresh, options.tau_r, threads, join,
@@ -149,6 +149,20 @@ MemoryMerge MergeMemories(const PlaceMemory& ours, PlaceMemory&& peer, int threa
                           const std::function<PlaceMemory()>& give_up_ours) {
   if (&ours == &peer) return Merge(ours, peer, nullptr, nullptr, threads);
   return Merge(ours, peer, nullptr, &peer, threads, &give_up_ours);
+}
+
+bool MergeLeavesOurs(const PlaceMemory& ours, uint32_t peer_robot,
+                     std::span<const LearnedPlace> peer_places) {
+  // Merge's own tests, in its order: with nothing new and no fresh base place it recognises
+  // nothing, so only the ids can change ours.
+  if (!PeerGoesIntoOurs(ours.places().size(), ours.robot(), peer_places.size(), peer_robot)) {
+    return false;
+  }
+  const KnownIds known = KnownToBase(ours, peer_places);
+  if (known.anything_new || !FreshBasePlaces(ours, peer_places).places.empty()) return false;
+  const IdJoin join = JoinByIds(ours, peer_places, known.holder);
+  return !join.places.united() && join.learned.empty() &&
+         std::all_of(ours.places().begin(), ours.places().end(), CarriesSmallestId);
 }
 
 }  // namespace tsc

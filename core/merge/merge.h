@@ -10,7 +10,9 @@
 // (recognition.h, hyper_terminals.h), the merged place list (merged_places.h), the
 // discriminants kept (discriminant_reuse.h) and the merged tree (merged_tree.h).
 
+#include <cstdint>
 #include <functional>
+#include <span>
 #include <vector>
 
 #include "core/map/topological_map.h"
@@ -73,5 +75,16 @@ MemoryMerge MergeMemories(const PlaceMemory& ours, PlaceMemory&& peer, int threa
 /// called loses the memory it returned: its caller holds it elsewhere (tscd: in its store).
 MemoryMerge MergeMemories(const PlaceMemory& ours, PlaceMemory&& peer, int threads,
                           const std::function<PlaceMemory()>& give_up_ours);
+
+/// Whether MergeMemories(ours, peer) returns ours as it is, told before any descriptor from the
+/// peer's robot and its places' ids and sources (`peer_places`: only `id` and `sources` are
+/// read): ours is the base (PeerGoesIntoOurs) and holds the id of every peer place, every place
+/// of ours is one the peer holds, the peer's records join no two places of ours and name no id
+/// ours lacks, and ours carries canonical ids. The merge then recognises nothing and changes
+/// nothing. False says nothing: the merge decides. (tscd: most exchanges of a settled team
+/// bring nothing new, and building the peer's memory to learn so took 0.65 s of 0.69 s at 10⁴
+/// places.)
+bool MergeLeavesOurs(const PlaceMemory& ours, uint32_t peer_robot,
+                     std::span<const LearnedPlace> peer_places);
 
 }  // namespace tsc

@@ -100,8 +100,12 @@ std::string_view ToString(MergeCase c) {
 }
 
 bool PeerGoesIntoOurs(const PlaceMemory& ours, const PlaceMemory& peer) {
-  return peer.places().size() < ours.places().size() ||
-         (peer.places().size() == ours.places().size() && ours.robot() <= peer.robot());
+  return PeerGoesIntoOurs(ours.places().size(), ours.robot(), peer.places().size(), peer.robot());
+}
+
+bool PeerGoesIntoOurs(size_t ours_places, uint32_t ours_robot, size_t peer_places,
+                      uint32_t peer_robot) {
+  return peer_places < ours_places || (peer_places == ours_places && ours_robot <= peer_robot);
 }
 
 RootSpheres CaseOfRootSpheres(const PlaceMemory& base, const PlaceMemory& incoming, double tau_r,

@@ -25,6 +25,9 @@ std::string_view ToString(MergeCase c);
 /// that brings nothing new returns ours unchanged): the smaller memory by place count goes
 /// into the larger; on a tie the memory of the lower robot id is the larger (§4.5.2).
 bool PeerGoesIntoOurs(const PlaceMemory& ours, const PlaceMemory& peer);
+/// The same rule from the place counts and robots of the two memories.
+bool PeerGoesIntoOurs(size_t ours_places, uint32_t ours_robot, size_t peer_places,
+                      uint32_t peer_robot);
 
 /// The root spheres of the base and of the incoming memory (over all their places) and the
 /// case of figure 4.4 they fall in.

@@ -722,6 +722,40 @@ TEST(MergeMemories, TscdsFormGivesUpOursOnlyWhereTheMergeChangesIt) {
   ExpectSameMemory(held, m.a);
 }
 
+// tscd does not build a peer's memory where its ids alone say the merge leaves ours as it is
+// (a settled team's repeat exchange). Wherever MergeLeavesOurs says so, the merge agrees; the
+// pairs of MergeCaseMemories, then each pair after both robots merged the other.
+TEST(MergeLeavesOurs, SaysSoOnlyWhereTheMergeLeavesOursAsItIs) {
+  const MergeCaseMemories m;
+  int said = 0, asked = 0;
+  const auto check = [&](const PlaceMemory& ours, const PlaceMemory& peer) {
+    ++asked;
+    if (!MergeLeavesOurs(ours, peer.robot(), peer.places())) return;
+    ++said;
+    const MemoryMerge merged = MergeMemories(ours, peer);
+    EXPECT_FALSE(merged.changed);
+    EXPECT_TRUE(merged.peer_into_ours);
+    ExpectSameMemory(merged.memory, ours);
+  };
+  for (const auto& [ours, peer] : m.Pairs()) {
+    SCOPED_TRACE("robot " + std::to_string(ours->robot()) + " + robot " +
+                 std::to_string(peer->robot()));
+    check(*ours, *peer);
+    const PlaceMemory settled_ours = MergeMemories(*ours, *peer).memory;
+    const PlaceMemory settled_peer = MergeMemories(*peer, *ours).memory;
+    check(settled_ours, settled_peer);
+    check(settled_peer, settled_ours);
+    // A place of the peer's under an id new to ours (one it learned since): not for the ids
+    // to decide.
+    std::vector<LearnedPlace> renamed = settled_peer.places();
+    renamed.back().id = PlaceId{settled_peer.robot(), settled_peer.next_local_id()};
+    renamed.back().sources.clear();
+    EXPECT_FALSE(MergeLeavesOurs(settled_ours, settled_peer.robot(), renamed));
+  }
+  EXPECT_GE(said, 4);  // settled pairs, both ways
+  EXPECT_LT(said, asked);
+}
+
 // What a merged memory takes over from its inputs for unchanged places (PlaceMemory::Derived)
 // is what restoring its places from scratch computes, bit for bit.
 void ExpectDerivedAsComputed(const PlaceMemory& m) {
