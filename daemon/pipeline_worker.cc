@@ -589,17 +589,12 @@ void PipelineWorker::MergePeer(PeerSnapshot snapshot) {
     };
     bool adopted = false;
     try {  // until the pipeline holds a memory again (LoadMemoryBack)
-      MemoryMerge merged =
-          left_by_ids      ? MemoryMerge{PlaceMemory(header_.robot, pipeline_->memory().options()),
-                                    MergeCase::kNothingNew,
-                                    true,
-                                    {},
-                                    {},
-                                    {}}
-          : stored_as_ours ? MergeMemories(pipeline_->memory(), std::move(*peer),
-                                           settings_.daemon.MergeThreads(), give_up_ours)
-                           : MergeMemories(pipeline_->memory(), std::move(*peer),
-                                           settings_.daemon.MergeThreads());
+      MemoryMerge merged = left_by_ids ? OursLeftAsItIs(pipeline_->memory())
+                           : stored_as_ours
+                               ? MergeMemories(pipeline_->memory(), std::move(*peer),
+                                               settings_.daemon.MergeThreads(), give_up_ours)
+                               : MergeMemories(pipeline_->memory(), std::move(*peer),
+                                               settings_.daemon.MergeThreads());
       // Where ours was the base and the merge changed nothing, it left ours where it is.
       const bool ours_stands = stored_as_ours && !given_up && merged.peer_into_ours;
       const PlaceMemory& merged_memory = ours_stands ? pipeline_->memory() : merged.memory;

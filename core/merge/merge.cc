@@ -165,4 +165,9 @@ bool MergeLeavesOurs(const PlaceMemory& ours, uint32_t peer_robot,
          std::all_of(ours.places().begin(), ours.places().end(), CarriesSmallestId);
 }
 
+MemoryMerge OursLeftAsItIs(const PlaceMemory& ours) {
+  return MemoryMerge{
+      PlaceMemory(ours.robot(), ours.options()), MergeCase::kNothingNew, true, {}, {}, {}};
+}
+
 }  // namespace tsc

@@ -86,5 +86,9 @@ MemoryMerge MergeMemories(const PlaceMemory& ours, PlaceMemory&& peer, int threa
 /// places.)
 bool MergeLeavesOurs(const PlaceMemory& ours, uint32_t peer_robot,
                      std::span<const LearnedPlace> peer_places);
+/// The merge of a caller that MergeLeavesOurs spared the merge, as the tscd form of
+/// MergeMemories returns it where ours stands (nothing new, peer into ours, unchanged, `memory`
+/// empty), without the list of known places.
+MemoryMerge OursLeftAsItIs(const PlaceMemory& ours);
 
 }  // namespace tsc
