@@ -452,8 +452,12 @@ void PipelineWorker::MergeInbox(std::vector<SnapshotAssembler> inbox) {
     // The check the loop leaves to us: joining the portions and their digest over all of them.
     std::string reason;
     const int32_t robot = complete.robot();
+    // The kept bodies are loaded only where their names do not do (MergePeer loads them when
+    // the merge needs them).
+    const auto names = kept_names_.find(robot);
     std::optional<PeerSnapshot> checked = complete.Take(
-        &reason, [&](const KnownDigests& digests) { return LoadPeerBodies(robot, digests); });
+        &reason, [&](const KnownDigests& digests) { return LoadPeerBodies(robot, digests); },
+        names == kept_names_.end() ? nullptr : &names->second);
     if (!checked) {
       const int64_t n = ++counters_.messages_rejected;
       if (ShouldLog(n)) {
@@ -465,8 +469,11 @@ void PipelineWorker::MergeInbox(std::vector<SnapshotAssembler> inbox) {
       continue;
     }
     const int64_t version = checked->version;
-    spdlog::info("received the memory of robot {} (version {}, {} places, {} map edges)", robot,
-                 version, checked->places.size(), checked->edges.size());
+    spdlog::info("received the memory of robot {} (version {}, {} places, {} map edges{})", robot,
+                 version, checked->places.size(), checked->edges.size(),
+                 checked->unloaded > 0
+                     ? fmt::format("; {} kept bodies known by name", checked->unloaded)
+                     : "");
     ++counters_.snapshots_received;
     // Kept before the merge, which can then let the bodies go once it has the peer's places.
     KeepPeerBodies(*checked);
@@ -489,7 +496,7 @@ PlaceBodies PipelineWorker::LoadPeerBodies(int32_t robot, const KnownDigests& di
   try {
     store_->ForEachPeerBody(
         static_cast<uint32_t>(robot), [&](int64_t digest, std::span<const unsigned char> bytes) {
-          if (!digests.count(digest)) return;
+          if (!digests.contains(digest)) return;
           // Damaged on disk: left out, so the memory is fetched again whole.
           if (auto body = DecodeBody(bytes, digest)) {
             bodies.emplace(digest, std::make_shared<const learned_place_v2_t>(std::move(*body)));
@@ -503,6 +510,10 @@ PlaceBodies PipelineWorker::LoadPeerBodies(int32_t robot, const KnownDigests& di
 
 void PipelineWorker::KeepPeerBodies(const PeerSnapshot& snapshot) {
   const int32_t robot = snapshot.robot;
+  const auto earlier = kept_names_.find(robot);
+  KeptPlaceNames names =
+      NamesOfBodies(snapshot, earlier == kept_names_.end() ? nullptr : &earlier->second);
+  kept_names_.erase(robot);  // named again below once the store holds every body
   if (!store_ || degraded_store_) {
     hooks_.bodies_not_kept(robot);
     return;
@@ -519,6 +530,9 @@ void PipelineWorker::KeepPeerBodies(const PeerSnapshot& snapshot) {
     for (size_t i = 0; i < snapshot.entries.size(); ++i) {
       const int64_t digest = snapshot.entries[i].body_digest;
       if (!have.insert(digest).second) continue;
+      if (!snapshot.places[i]) {  // named only, and gone from the store since
+        throw StoreError("a kept place body is missing from the store");
+      }
       batch.emplace_back(digest, EncodeBody(*snapshot.places[i]));
       if (batch.size() == kBatch) {
         store_->AddPeerBodies(static_cast<uint32_t>(robot), batch);
@@ -526,6 +540,7 @@ void PipelineWorker::KeepPeerBodies(const PeerSnapshot& snapshot) {
       }
     }
     if (!batch.empty()) store_->AddPeerBodies(static_cast<uint32_t>(robot), batch);
+    kept_names_.emplace(robot, std::move(names));
   } catch (const StoreError& e) {
     spdlog::warn(
         "the bodies of robot {}'s places were not kept ({}): its next exchange fetches them "
@@ -533,6 +548,37 @@ void PipelineWorker::KeepPeerBodies(const PeerSnapshot& snapshot) {
         robot, e.what());
     hooks_.bodies_not_kept(robot);
   }
+}
+
+std::optional<PlaceMemory> PipelineWorker::PeerMemoryToMerge(PeerSnapshot snapshot,
+                                                             bool stored_as_ours) {
+  const int32_t robot = snapshot.robot;
+  // Most exchanges of a settled team bring nothing new. Where the ids alone say the merge
+  // leaves ours as it is, the peer's memory is not built to learn so (0.65 s of 0.69 s at 10⁴
+  // places); ours then stands, which needs the store to hold it as it is.
+  if (stored_as_ours) {
+    const auto kept = kept_names_.find(robot);
+    const std::optional<std::vector<LearnedPlace>> names = PlaceNamesOf(
+        snapshot, pipeline_->memory(), kept == kept_names_.end() ? nullptr : &kept->second);
+    if (names && MergeLeavesOurs(pipeline_->memory(), static_cast<uint32_t>(robot), *names)) {
+      return std::nullopt;
+    }
+  }
+  std::string reason;
+  if (!LoadKeptBodies(
+          snapshot, [&](const KnownDigests& d) { return LoadPeerBodies(robot, d); }, &reason)) {
+    throw std::runtime_error(reason + " (it is fetched again whole)");
+  }
+  // The bodies go as the places are built: the peer's memory is not held twice (164 MB more at
+  // the peak of a 10⁴-place merge; the bodies are in the store, KeepPeerBodies).
+  PlaceMemory peer = ToPlaceMemory(std::move(snapshot), pipeline_->memory().options(),
+                                   settings_.daemon.MergeThreads());
+  // The bodies decoded and let go while the places were built go back to the system before
+  // the merge allocates: glibc keeps them in holes between the built places, which the
+  // merge's larger blocks and other threads do not reuse. A 10⁴-place merge peaked at 720 MB
+  // RSS without, 559 MB with, for 0.26 s of trimming (tscd_footprint --peer-places 10000).
+  malloc_trim(0);
+  return peer;
 }
 
 // Merges one peer memory into ours (chapter 4) on the worker, then stores the whole merged
@@ -544,27 +590,10 @@ void PipelineWorker::MergePeer(PeerSnapshot snapshot) {
   const bool stored_as_ours = store_ && AllCommitted() && !degraded_store_;
   // The peer's places are measured in our units (our camera's spacing and lens): one g_N.
   const TopologicalMap peer_map = ToTopologicalMap(snapshot);
-  // The bodies go as the places are built: the peer's memory is not held twice (164 MB more at
-  // the peak of a 10⁴-place merge; the bodies are in the store, KeepPeerBodies).
   const int32_t robot = snapshot.robot;
   const int64_t version = snapshot.version, digest = snapshot.digest;
-  // Most exchanges of a settled team bring nothing new. Where the ids alone say the merge
-  // leaves ours as it is, the peer's memory is not built to learn so (0.65 s of 0.69 s at 10⁴
-  // places); ours then stands, which needs the store to hold it as it is.
-  const std::optional<std::vector<LearnedPlace>> names =
-      stored_as_ours ? PlaceNamesOf(snapshot, pipeline_->memory()) : std::nullopt;
-  const bool left_by_ids =
-      names && MergeLeavesOurs(pipeline_->memory(), static_cast<uint32_t>(robot), *names);
-  std::optional<PlaceMemory> peer;
-  if (!left_by_ids) {
-    peer.emplace(ToPlaceMemory(std::move(snapshot), pipeline_->memory().options(),
-                               settings_.daemon.MergeThreads()));
-    // The bodies decoded and let go while the places were built go back to the system before
-    // the merge allocates: glibc keeps them in holes between the built places, which the
-    // merge's larger blocks and other threads do not reuse. A 10⁴-place merge peaked at 720 MB
-    // RSS without, 559 MB with, for 0.26 s of trimming (tscd_footprint --peer-places 10000).
-    malloc_trim(0);
-  }
+  std::optional<PlaceMemory> peer = PeerMemoryToMerge(std::move(snapshot), stored_as_ours);
+  const bool left_by_ids = !peer;
   const auto built = Clock::now();
   std::vector<std::pair<PlaceId, PlaceId>> absorbed;
   std::string absorptions;  // for the log: which place went into which, and at what cost

@@ -145,12 +145,17 @@ class PipelineWorker {
   /// Returns the heap freed by merges and bodies served to the system, once they are over.
   void TrimAfterBursts();
   void MergePeer(PeerSnapshot snapshot);
+  /// The peer's memory built for the merge, its kept bodies loaded; nullopt where the ids alone
+  /// say the merge leaves ours as it is (only where `stored_as_ours`: ours then stands). Throws
+  /// where a kept body cannot be loaded.
+  std::optional<PlaceMemory> PeerMemoryToMerge(PeerSnapshot snapshot, bool stored_as_ours);
   // After a merge that failed holding our memory (MergePeer): the store's copy of it becomes the
   // pipeline's again.
   void LoadMemoryBack(const std::string& why);
   /// The bodies of `robot` the store keeps among `digests` (SnapshotAssembler::Take's loader).
   PlaceBodies LoadPeerBodies(int32_t robot, const KnownDigests& digests);
-  /// Keeps the bodies of `snapshot`, about to be merged, in the store for the next exchange.
+  /// Keeps the bodies of `snapshot`, about to be merged, in the store for the next exchange,
+  /// and their names in kept_names_.
   void KeepPeerBodies(const PeerSnapshot& snapshot);
   /// Builds and hands over a snapshot when one was asked for (or `stale`: when the memory
   /// changed since the latest).
@@ -199,6 +204,10 @@ class PipelineWorker {
   int64_t base_points_thinned_ = 0;                           // by Maintain since the start
   std::map<uint32_t, PeerMerge> saved_peers_;
   std::map<uint32_t, std::vector<int64_t>> kept_peer_bodies_;
+  // The names of the bodies KeepPeerBodies kept of each peer this run, so that Take need not
+  // load them to decide an exchange that changes nothing (empty after a start: the first
+  // exchange loads them).
+  std::map<int32_t, KeptPlaceNames> kept_names_;
   // The last merge or bodies served, not trimmed since (TrimAfterBursts).
   std::optional<std::chrono::steady_clock::time_point> freed_at_;
   bool started_empty_ = false;

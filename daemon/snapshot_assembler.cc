@@ -78,6 +78,7 @@ std::vector<PlaceId> SortedSourcesOf(const learned_place_v2_t& m) {
 }  // namespace
 
 PlaceMemory ToPlaceMemory(PeerSnapshot snapshot, const PlaceMemoryOptions& options, int threads) {
+  if (snapshot.unloaded != 0) throw std::invalid_argument("place bodies not loaded");
   if (snapshot.view_basis != ViewBasisId(options.view_basis.get())) {
     throw std::invalid_argument("robot " + std::to_string(snapshot.robot) +
                                 " keeps member views in another view basis (memory.view_basis)");
@@ -116,16 +117,74 @@ PlaceMemory ToPlaceMemory(PeerSnapshot snapshot, const PlaceMemoryOptions& optio
 }
 
 std::optional<std::vector<LearnedPlace>> PlaceNamesOf(const PeerSnapshot& snapshot,
-                                                      const PlaceMemory& ours) {
+                                                      const PlaceMemory& ours,
+                                                      const KeptPlaceNames* kept) {
   if (snapshot.view_basis != ViewBasisId(ours.options().view_basis.get())) return std::nullopt;
   std::vector<LearnedPlace> names(snapshot.places.size());
   for (size_t i = 0; i < names.size(); ++i) {
-    const learned_place_v2_t& m = *snapshot.places[i];
-    if (!ours.empty() && m.dims != ours.places().front().mean.size()) return std::nullopt;
-    names[i].id = IdOf(m.id);
-    names[i].sources = SortedSourcesOf(m);
+    const learned_place_v2_t* m = snapshot.places[i].get();
+    if (m == nullptr) {  // left unloaded by Take: named by `kept`
+      const auto name = kept ? kept->Find(snapshot.entries[i].body_digest) : std::nullopt;
+      if (!name) return std::nullopt;
+      if (!ours.empty() && kept->dims() != ours.places().front().mean.size()) return std::nullopt;
+      names[i].id = name->id;
+      names[i].sources.assign(name->sources.begin(), name->sources.end());
+      continue;
+    }
+    if (!ours.empty() && m->dims != ours.places().front().mean.size()) return std::nullopt;
+    names[i].id = IdOf(m->id);
+    names[i].sources = SortedSourcesOf(*m);
   }
   return names;
+}
+
+bool LoadKeptBodies(PeerSnapshot& snapshot, const BodyLoader& load, std::string* reason) {
+  if (snapshot.unloaded == 0) return true;
+  const auto fail = [&](const std::string& why) {
+    if (reason != nullptr) *reason = why;
+    return false;
+  };
+  std::vector<int64_t> wanted;
+  std::optional<int32_t> dims;
+  for (size_t i = 0; i < snapshot.places.size(); ++i) {
+    if (!snapshot.places[i]) {
+      wanted.push_back(snapshot.entries[i].body_digest);
+    } else if (!dims) {
+      dims = snapshot.places[i]->dims;
+    }
+  }
+  const PlaceBodies loaded = load ? load(KnownDigests(std::move(wanted))) : PlaceBodies{};
+  for (size_t i = 0; i < snapshot.places.size(); ++i) {
+    if (snapshot.places[i]) continue;
+    const place_entry_t& e = snapshot.entries[i];
+    const auto it = loaded.find(e.body_digest);
+    if (it == loaded.end() || !it->second) {
+      return fail("a place body kept from an earlier version is no longer kept");
+    }
+    if (IdOf(it->second->id) != IdOf(e.id)) return fail("a place body of another place");
+    if (!dims) dims = it->second->dims;
+    if (it->second->dims != *dims) return fail("places of different dimensions");
+    snapshot.places[i] = it->second;
+  }
+  snapshot.unloaded = 0;
+  return true;
+}
+
+KeptPlaceNames NamesOfBodies(const PeerSnapshot& snapshot, const KeptPlaceNames* earlier) {
+  std::vector<KeptPlaceNames::Named> named;
+  named.reserve(snapshot.places.size());
+  int32_t dims = 0;
+  for (size_t i = 0; i < snapshot.places.size(); ++i) {
+    const int64_t digest = snapshot.entries[i].body_digest;
+    if (const learned_place_v2_t* m = snapshot.places[i].get()) {
+      dims = m->dims;
+      named.push_back({digest, IdOf(m->id), SortedSourcesOf(*m)});
+    } else if (const auto name = earlier ? earlier->Find(digest) : std::nullopt) {
+      dims = earlier->dims();
+      named.push_back({digest, name->id, {name->sources.begin(), name->sources.end()}});
+    }
+  }
+  return KeptPlaceNames(dims, std::move(named));
 }
 
 TopologicalMap ToTopologicalMap(const PeerSnapshot& snapshot) {
@@ -152,9 +211,9 @@ void SnapshotAssembler::ForEachEntry(F f) const {
 }
 
 KnownDigests SnapshotAssembler::Named() const {
-  KnownDigests digests;
-  ForEachEntry([&](size_t, const place_entry_t& e) { digests.insert(e.body_digest); });
-  return digests;
+  std::vector<int64_t> digests;
+  ForEachEntry([&](size_t, const place_entry_t& e) { digests.push_back(e.body_digest); });
+  return KnownDigests(std::move(digests));
 }
 
 void SnapshotAssembler::Reset() {
@@ -275,7 +334,7 @@ void SnapshotAssembler::FillKnownBodies() {
     // One carried is at hand; a known one is loaded by Take.
     if (const auto it = carried_.find(e.body_digest); it != carried_.end()) {
       bodies_[i] = it->second;
-    } else if (known_ && known_->count(e.body_digest)) {
+    } else if (known_ && known_->contains(e.body_digest)) {
       kept_[i] = true;
     } else {
       return;
@@ -313,18 +372,23 @@ std::vector<int32_t> SnapshotAssembler::Missing() const {
   return missing;
 }
 
-std::optional<PeerSnapshot> SnapshotAssembler::Take(std::string* reason, const BodyLoader& load) {
+std::optional<PeerSnapshot> SnapshotAssembler::Take(std::string* reason, const BodyLoader& load,
+                                                    const KeptPlaceNames* names) {
   auto fail = [&](const std::string& why) -> std::optional<PeerSnapshot> {
     if (reason != nullptr) *reason = why;
     Reset();
     return std::nullopt;
   };
   if (!complete()) return fail("incomplete");
-  KnownDigests wanted;
+  std::vector<int64_t> kept_digests;
   for (size_t i = 0; i < kept_.size(); ++i) {
-    if (kept_[i]) wanted.insert(digests_[i]);
+    if (kept_[i]) kept_digests.push_back(digests_[i]);
   }
-  if (!wanted.empty()) {
+  const KnownDigests wanted(std::move(kept_digests));
+  const bool by_name =
+      names != nullptr && std::all_of(wanted.begin(), wanted.end(),
+                                      [&](int64_t d) { return names->Find(d).has_value(); });
+  if (!wanted.empty() && !by_name) {
     const PlaceBodies loaded = load ? load(wanted) : PlaceBodies{};
     for (size_t i = 0; i < kept_.size(); ++i) {
       if (!kept_[i]) continue;
@@ -364,6 +428,13 @@ std::optional<PeerSnapshot> SnapshotAssembler::Take(std::string* reason, const B
   const int32_t n = static_cast<int32_t>(snap.entries.size());
   for (int32_t i = 0; i < n; ++i) {
     const place_entry_t& e = snap.entries[static_cast<size_t>(i)];
+    if (!bodies_[static_cast<size_t>(i)]) {  // kept, and known by its name alone
+      if (names->Find(digests_[static_cast<size_t>(i)])->id != IdOf(e.id)) {
+        return fail("a place body of another place");
+      }
+      ++snap.unloaded;
+      continue;
+    }
     const learned_place_v2_t& body = *bodies_[static_cast<size_t>(i)];
     // Known bodies were checked when they came; a received one is checked here.
     if (received_[static_cast<size_t>(i)] && BodyDigest(body) != e.body_digest) {
@@ -374,11 +445,14 @@ std::optional<PeerSnapshot> SnapshotAssembler::Take(std::string* reason, const B
     }
   }
   snap.places = std::move(bodies_);
-  const int32_t dims = snap.places.empty() ? 0 : snap.places.front()->dims;
+  const auto dims_of = [&](size_t i) {
+    return snap.places[i] ? snap.places[i]->dims : names->dims();
+  };
+  const int32_t dims = snap.places.empty() ? 0 : dims_of(0);
   std::set<std::pair<int32_t, int32_t>> ids;
   for (int32_t i = 0; i < n; ++i) {
     const place_entry_t& e = snap.entries[static_cast<size_t>(i)];
-    if (snap.places[static_cast<size_t>(i)]->dims != dims) {
+    if (dims_of(static_cast<size_t>(i)) != dims) {
       return fail("places of different dimensions");
     }
     if (!ids.insert({e.id.robot, e.id.local}).second) return fail("duplicate place id");

@@ -6,7 +6,8 @@
 // totals that disagree between portions; a finished snapshot must match its digest, and each
 // body received must match the digest the structure gives it. Bodies the receiver keeps from
 // an earlier version of the same peer (`known`: their digests; tscd keeps the bodies in its
-// store and Take loads them), and those of a version whose assembly a newer one replaced, fill
+// store and Take loads them, or checks them by their names and leaves them to LoadKeptBodies
+// until a merge needs them), and those of a version whose assembly a newer one replaced, fill
 // in for their portions once the structure names them, so only what changed is asked for
 // (issue 23).
 
@@ -17,17 +18,16 @@
 #include <optional>
 #include <string>
 #include <unordered_map>
-#include <unordered_set>
 #include <vector>
 
+#include "daemon/kept_place_names.h"
+#include "daemon/known_digests.h"
 #include "daemon/memory_snapshot.h"
 
 namespace tsc {
 
 /// Place bodies by their digest (BodyDigest), shared between the snapshots that hold them.
 using PlaceBodies = std::unordered_map<int64_t, std::shared_ptr<const learned_place_v2_t>>;
-/// Digests of the place bodies a receiver keeps of a peer (held outside the assembler).
-using KnownDigests = std::unordered_set<int64_t>;
 /// The kept bodies of `digests` (SnapshotAssembler::Take), each as it was received (checked
 /// against its digest by the loader: what it keeps them in can be damaged); those it cannot
 /// give are left out.
@@ -41,26 +41,37 @@ struct PeerSnapshot {
   int64_t digest = 0;
   int64_t view_basis = 0;  ///< memory_portion_v2_t.view_basis
   int32_t next_local = 0;
-  std::vector<place_entry_t> entries;                             ///< in snapshot order
-  std::vector<std::shared_ptr<const learned_place_v2_t>> places;  ///< the body of each entry
-  std::vector<memory_node_t> nodes;                               ///< in index order
+  std::vector<place_entry_t> entries;  ///< in snapshot order
+  /// The body of each entry; null for a kept body Take checked by its name alone (`unloaded`
+  /// of them; LoadKeptBodies loads them).
+  std::vector<std::shared_ptr<const learned_place_v2_t>> places;
+  int32_t unloaded = 0;
+  std::vector<memory_node_t> nodes;  ///< in index order
   std::vector<map_edge_t> edges;
 };
 
+/// Loads the kept bodies Take left unloaded (`load` as for Take), checking each against its
+/// entry. False with `reason` set when one cannot be loaded or is not the entry's place.
+bool LoadKeptBodies(PeerSnapshot& snapshot, const BodyLoader& load, std::string* reason);
+/// The names of the snapshot's bodies, to check its successor's by (SnapshotAssembler::Take):
+/// those it holds and, for those Take left unloaded, their names in `earlier`.
+KeptPlaceNames NamesOfBodies(const PeerSnapshot& snapshot, const KeptPlaceNames* earlier);
 /// The peer's place memory rebuilt from a snapshot (SLINK state as published, discriminants
-/// retrained). The bodies are let go as their places are built, a few hundred at a time, so a
-/// snapshot moved in is not held beside the memory it becomes (a peer's bodies take twice its
-/// compact places). Throws std::invalid_argument when the places do not make a valid memory.
-/// The places' derived data are computed on up to `threads` threads (PlaceMemory::Restore);
+/// retrained), every body loaded. The bodies are let go as their places are built, a few hundred at
+/// a time, so a snapshot moved in is not held beside the memory it becomes (a peer's bodies take
+/// twice its compact places). Throws std::invalid_argument when the places do not make a valid
+/// memory. The places' derived data are computed on up to `threads` threads (PlaceMemory::Restore);
 /// the memory is the same for any number.
 PlaceMemory ToPlaceMemory(PeerSnapshot snapshot, const PlaceMemoryOptions& options,
                           int threads = 1);
 /// The peer's places as MergeLeavesOurs reads them (only ids and sources set, the sources sorted
 /// as ToPlaceMemory sorts them), when its descriptors are of the kind `ours` holds: member views
-/// in the same basis, and means of ours' dimension. nullopt otherwise: ToPlaceMemory and the
-/// merge say what is wrong.
+/// in the same basis, and means of ours' dimension. Bodies Take left unloaded are read from
+/// `kept`. nullopt otherwise, or where `kept` lacks one: ToPlaceMemory and the merge say what
+/// is wrong.
 std::optional<std::vector<LearnedPlace>> PlaceNamesOf(const PeerSnapshot& snapshot,
-                                                      const PlaceMemory& ours);
+                                                      const PlaceMemory& ours,
+                                                      const KeptPlaceNames* kept = nullptr);
 /// The peer's topological map (edges with traversal counts; no transition regions, which
 /// index the peer's own frames).
 TopologicalMap ToTopologicalMap(const PeerSnapshot& snapshot);
@@ -102,11 +113,13 @@ class SnapshotAssembler {
   /// to ask only for changes next time.
   KnownDigests Named() const;
   /// The snapshot, once complete: the portions joined in order and checked as a whole (digest,
-  /// place ranges, node indices, edge places), the known bodies it names loaded by `load`.
-  /// nullopt with `reason` set when inconsistent or when a known
-  /// body cannot be loaded (the receiver then fetches the memory whole); the assembler then
-  /// starts over.
-  std::optional<PeerSnapshot> Take(std::string* reason, const BodyLoader& load = {});
+  /// place ranges, node indices, edge places), the known bodies it names loaded by `load`;
+  /// or, where `names` names every one of them, checked against their names and left
+  /// unloaded (PeerSnapshot::unloaded). nullopt with `reason` set when inconsistent or when a
+  /// known body cannot be loaded (the receiver then fetches the memory whole); the assembler
+  /// then starts over.
+  std::optional<PeerSnapshot> Take(std::string* reason, const BodyLoader& load = {},
+                                   const KeptPlaceNames* names = nullptr);
 
   /// Limits on what a portion may claim, so a forged one cannot make us allocate without bound.
   static constexpr int32_t kMaxPortions = 100000;

@@ -7,7 +7,9 @@
 // daemon merges it: a memory the assembler accepts is merged or refused with
 // std::invalid_argument, nothing else (the daemon's worker survives either). The bodies of a
 // complete snapshot are offered to the next assembly, as the daemon does for a peer's next
-// version (issue 23).
+// version (issue 23), with their names (KeptPlaceNames): bodies known by name are left
+// unloaded, the merge's first question is asked of the names (MergeLeavesOurs), and the bodies
+// are then loaded as the daemon loads them for a merge.
 //
 // The options are those of the view basis the snapshot declares (none, or tscd's default
 // builtin one), so that both kinds of memory are reached; tscd itself refuses a basis not its
@@ -58,6 +60,18 @@ void MergeAsTheDaemonDoes(const tsc::PeerSnapshot& snapshot) {
   }
 }
 
+// What tscd asks of a snapshot before building the peer's memory: whether the ids alone say the
+// merge leaves ours as it is.
+void AskByNames(const tsc::PeerSnapshot& snapshot, const tsc::KeptPlaceNames* names) {
+  const bool builtin_basis = snapshot.view_basis == tsc::ViewBasisId(tsc::BuiltinViewBasis().get());
+  const tsc::testing_support::RandomMemory& ours = Ours(builtin_basis);
+  if (snapshot.robot == static_cast<int32_t>(ours.memory.robot())) return;
+  const auto by_name = tsc::PlaceNamesOf(snapshot, ours.memory, names);
+  if (by_name) {
+    (void)tsc::MergeLeavesOurs(ours.memory, static_cast<uint32_t>(snapshot.robot), *by_name);
+  }
+}
+
 }  // namespace
 
 extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
@@ -82,6 +96,8 @@ extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
   }
   std::optional<tsc::SnapshotAssembler> dut(std::in_place, portions.front().robot);
   tsc::PlaceBodies kept;
+  std::optional<tsc::KeptPlaceNames> names;  // of the bodies in `kept`
+  const auto load = [&](const tsc::KnownDigests&) { return kept; };
   for (tsc::memory_portion_v2_t& p : portions) {
     p.digest = digests[p.version];
     dut->Accept(p);
@@ -89,10 +105,16 @@ extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
     if (!dut->complete()) continue;
     auto known = std::make_shared<const tsc::KnownDigests>(dut->Named());
     std::string reason;
-    const std::optional<tsc::PeerSnapshot> snapshot =
-        dut->Take(&reason, [&](const tsc::KnownDigests&) { return kept; });
+    std::optional<tsc::PeerSnapshot> snapshot = dut->Take(&reason, load, names ? &*names : nullptr);
     dut.emplace(portions.front().robot, std::move(known));
     if (!snapshot) continue;
+    AskByNames(*snapshot, names ? &*names : nullptr);
+    names = tsc::NamesOfBodies(*snapshot, names ? &*names : nullptr);
+    if (!tsc::LoadKeptBodies(*snapshot, load, &reason)) {  // as tscd, which fetches it whole
+      names.reset();
+      kept.clear();
+      continue;
+    }
     // What a receiver keeps of it for the next (tscd: in its store).
     kept.clear();
     for (size_t i = 0; i < snapshot->places.size(); ++i) {

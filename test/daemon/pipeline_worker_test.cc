@@ -55,16 +55,30 @@ class Signal {
 // a snapshot, every portion received (checked by the worker).
 // `corrupt`: one value of a place changed after the digest was taken (as on a faulty link
 // that keeps the datagram's framing).
-SnapshotAssembler PeerMemory(int places, bool corrupt = false, int32_t robot = 2) {
+MemorySnapshot PeerSnapshot(int places, int32_t robot) {
   const auto memory = testing_support::MakeRandomMemory(static_cast<uint32_t>(robot), places, 32,
                                                         static_cast<unsigned>(5 + robot));
-  std::vector<memory_portion_v2_t> published = AllPortions(
-      BuildSnapshot(memory.memory, memory.map, SnapshotHeader{robot, 4242, 3, 1}, 60000));
+  return BuildSnapshot(memory.memory, memory.map, SnapshotHeader{robot, 4242, 3, 1}, 60000);
+}
+
+SnapshotAssembler PeerMemory(int places, bool corrupt = false, int32_t robot = 2) {
+  std::vector<memory_portion_v2_t> published = AllPortions(PeerSnapshot(places, robot));
   // A body other than the structure names (its digest fails on the worker).
   if (corrupt) published.back().places.front().mean.front() += 1.0f;
   SnapshotAssembler assembler(robot);
   for (const memory_portion_v2_t& p : published) assembler.Accept(p);
   if (!assembler.complete()) throw std::runtime_error("peer snapshot incomplete");
+  return assembler;
+}
+
+// The same memory again from a receiver that kept its bodies: only the structure came.
+SnapshotAssembler KnownPeerMemory(int places, int32_t robot = 2) {
+  const MemorySnapshot snapshot = PeerSnapshot(places, robot);
+  SnapshotAssembler assembler(robot,
+                              std::make_shared<const KnownDigests>(snapshot.body_digests.begin(),
+                                                                   snapshot.body_digests.end()));
+  for (int32_t i = 0; i < snapshot.structure_portions; ++i) assembler.Accept(snapshot.Portion(i));
+  if (!assembler.complete()) throw std::runtime_error("peer structure incomplete");
   return assembler;
 }
 
@@ -260,6 +274,44 @@ TEST_F(PipelineWorkerTest, AMergeThatChangesNothingLeavesTheStoredPlacesAsTheyAr
   }
   ASSERT_FALSE(::testing::Test::HasFailure());
   EXPECT_EQ(Store::Open(db).Load(1, settings_.pipeline.memory).memory.places().size(), 20u);
+}
+
+// Issue 23: a teammate's memory that names only bodies kept from its last exchange, and that the
+// merge leaves as ours is, is decided by the names the worker kept of those bodies: none is read
+// from the store, where the test damaged every one (a read refuses them). Once a merge needs
+// them, they are read, refused, and the memory is fetched again whole.
+TEST_F(PipelineWorkerTest, ARepeatExchangeThatChangesNothingReadsNoKeptBody) {
+  release_merge_.Set();
+  PipelineWorker dut(settings_, camera_, SnapshotHeader{1, 99, 0, 0}, counters_, queue_, Hooks());
+  dut.Start(join_);
+  dut.Enqueue(PeerMemory(20));
+  AwaitMerges(1);
+  const fs::path db = temp_.path() / "memory.db";
+  ASSERT_EQ(Sql(db, "SELECT count(*) FROM peer_bodies WHERE robot = 2"), 20);
+  Sql(db, "UPDATE peer_bodies SET body = X'00'");
+  ASSERT_FALSE(::testing::Test::HasFailure());
+
+  dut.Enqueue(KnownPeerMemory(20));
+  // Merged, or refused (what reading a damaged body gives).
+  while (counters_.merges_completed < 2 && counters_.messages_rejected == 0) {
+    std::this_thread::yield();
+  }
+  EXPECT_EQ(counters_.merges_completed, 2);
+  EXPECT_EQ(counters_.messages_rejected, 0);
+  EXPECT_EQ(counters_.merges_failed, 0);
+  EXPECT_EQ(not_kept_robot_, 0);
+
+  // Robot 3's places, which robot 2 never held: robot 2's next memory is merged in full.
+  dut.Enqueue(PeerMemory(12, false, 3));
+  AwaitMerges(3);
+  dut.Enqueue(KnownPeerMemory(20));
+  merge_failed_.Wait();
+  EXPECT_EQ(failed_robot_, 2);
+  EXPECT_EQ(counters_.merges_failed, 1);
+  queue_.Close();
+  dut.Join();
+  EXPECT_EQ(counters_.merges_completed, 3);
+  EXPECT_EQ(Store::Open(db).Load(1, settings_.pipeline.memory).memory.places().size(), 32u);
 }
 
 }  // namespace

@@ -238,7 +238,7 @@ TEST(SnapshotAssembler, KnownBodiesLeaveOnlyTheChangedPlaceToAskFor) {
   const auto got = dut.Take(&reason, load);
   ASSERT_TRUE(got.has_value()) << reason;
   EXPECT_EQ(asked.size(), 79u);  // every body but the one that came
-  EXPECT_FALSE(asked.count(v2.body_digests[12]));
+  EXPECT_FALSE(asked.contains(v2.body_digests[12]));
   ASSERT_EQ(got->places.size(), 80u);
   for (size_t i = 0; i < 80; ++i) {
     const learned_place_v2_t& want = *v2.bodies[i];
@@ -267,6 +267,132 @@ TEST(SnapshotAssembler, AKnownBodyNoLongerKeptRefusesTheSnapshot) {
     EXPECT_EQ(reason, "a place body kept from an earlier version is no longer kept");
     EXPECT_FALSE(dut.started());
   }
+}
+
+// Issue 23: a receiver that also keeps the names of the bodies it merged (KeptPlaceNames) checks
+// the next version's known bodies by their names and loads none until the merge needs them; the
+// ids and sources it then reads are those of the bodies, and loading them later gives exactly
+// the bodies.
+TEST(SnapshotAssembler, KnownBodiesNamedAreLoadedOnlyWhenAsked) {
+  auto m = testing_support::MakeRandomMemory(2, 80, kDim, 81);
+  const MemorySnapshot v1 = BuildSnapshot(m.memory, m.map, {2, 77, 1, 1}, 4096);
+  SnapshotAssembler first(2);
+  for (const memory_portion_v2_t& p : AllPortions(v1)) first.Accept(p);
+  const auto known = std::make_shared<const KnownDigests>(first.Named());
+  std::string reason;
+  const auto got1 = first.Take(&reason);
+  ASSERT_TRUE(got1.has_value()) << reason;
+  const KeptPlaceNames names = NamesOfBodies(*got1, nullptr);
+  ASSERT_EQ(names.size(), 80u);
+  PlaceBodies kept;
+  for (size_t i = 0; i < v1.bodies.size(); ++i) kept.emplace(v1.body_digests[i], v1.bodies[i]);
+  size_t loads = 0;
+  KnownDigests asked;
+  const BodyLoader load = [&](const KnownDigests& digests) {
+    ++loads;
+    asked = digests;
+    return kept;
+  };
+
+  DetectedPlace revisit;  // place 12 seen again
+  revisit.index = 81;
+  revisit.descriptors = Eigen::MatrixXf::Constant(kDim, 4, 0.5f);
+  revisit.members = {3100, 3101, 3102, 3103};
+  m.memory.Update(12, revisit);
+  const MemorySnapshot v2 = BuildSnapshot(m.memory, m.map, {2, 77, 2, 2}, 4096);
+  const auto assemble = [&] {
+    SnapshotAssembler dut(2, known);
+    for (int32_t i = 0; i < v2.structure_portions; ++i) dut.Accept(v2.Portion(i));
+    dut.Accept(v2.Portion(v2.structure_portions + 12));
+    EXPECT_TRUE(dut.complete());
+    return dut;
+  };
+
+  auto got = assemble().Take(&reason, load, &names);
+  ASSERT_TRUE(got.has_value()) << reason;
+  EXPECT_EQ(loads, 0u);
+  EXPECT_EQ(got->unloaded, 79);
+  ASSERT_EQ(got->places.size(), 80u);
+  for (size_t i = 0; i < 80; ++i) EXPECT_EQ(got->places[i] == nullptr, i != 12) << i;
+  EXPECT_THROW(ToPlaceMemory(*got, PlaceMemoryOptions{}), std::invalid_argument);
+
+  // The names the merge's first question reads, as from the bodies themselves.
+  const auto by_name = PlaceNamesOf(*got, m.memory, &names);
+  ASSERT_TRUE(by_name.has_value());
+  EXPECT_FALSE(PlaceNamesOf(*got, m.memory).has_value());  // unloaded and unnamed
+  ASSERT_EQ(by_name->size(), m.memory.places().size());
+  for (size_t i = 0; i < by_name->size(); ++i) {
+    EXPECT_EQ((*by_name)[i].id, m.memory.places()[i].id) << i;
+    EXPECT_EQ((*by_name)[i].sources, m.memory.places()[i].sources) << i;
+  }
+  // The successor's names: the received body's own, the others carried.
+  const KeptPlaceNames next = NamesOfBodies(*got, &names);
+  EXPECT_EQ(next.size(), 80u);
+  EXPECT_TRUE(next.Find(v2.body_digests[12]).has_value());
+  EXPECT_FALSE(next.Find(v1.body_digests[12]).has_value());
+
+  ASSERT_TRUE(LoadKeptBodies(*got, load, &reason)) << reason;
+  EXPECT_EQ(loads, 1u);
+  EXPECT_EQ(asked.size(), 79u);
+  EXPECT_EQ(got->unloaded, 0);
+  for (size_t i = 0; i < 80; ++i) {
+    EXPECT_EQ(got->places[i]->mean, v2.bodies[i]->mean) << i;
+    EXPECT_EQ(got->places[i]->samples, v2.bodies[i]->samples) << i;
+  }
+  EXPECT_EQ(ToPlaceMemory(*got, PlaceMemoryOptions{}).places().size(), 80u);
+
+  // Names that miss a known body do not do: every known body is loaded, as without names.
+  std::vector<KeptPlaceNames::Named> partial;
+  for (size_t i = 1; i < 80; ++i) {
+    partial.push_back({v1.body_digests[i], m.memory.places()[i].id, {}});
+  }
+  const KeptPlaceNames missing_one(kDim, std::move(partial));
+  loads = 0;
+  got = assemble().Take(&reason, load, &missing_one);
+  ASSERT_TRUE(got.has_value()) << reason;
+  EXPECT_EQ(loads, 1u);
+  EXPECT_EQ(got->unloaded, 0);
+
+  // A structure that names a known body for another place is refused by its name, as by its
+  // body; so is one whose named bodies are of another dimension.
+  std::vector<KeptPlaceNames::Named> shifted;
+  for (size_t i = 0; i < 80; ++i) {
+    shifted.push_back({v1.body_digests[i], m.memory.places()[(i + 1) % 80].id, {}});
+  }
+  const KeptPlaceNames wrong_ids(kDim, std::move(shifted));
+  EXPECT_FALSE(assemble().Take(&reason, load, &wrong_ids).has_value());
+  EXPECT_EQ(reason, "a place body of another place");
+  std::vector<KeptPlaceNames::Named> same;
+  for (size_t i = 0; i < 80; ++i) same.push_back({v1.body_digests[i], m.memory.places()[i].id, {}});
+  const KeptPlaceNames wrong_dims(kDim + 1, std::move(same));
+  EXPECT_FALSE(assemble().Take(&reason, load, &wrong_dims).has_value());
+  EXPECT_EQ(reason, "places of different dimensions");
+}
+
+// A body left unloaded that the receiver no longer keeps when the merge asks for it: refused
+// with the reason, so tscd fetches the memory whole.
+TEST(LoadKeptBodies, SaysWhichBodyCannotBeLoaded) {
+  auto m = testing_support::MakeRandomMemory(2, 20, kDim, 20);
+  const MemorySnapshot v1 = BuildSnapshot(m.memory, m.map, {2, 77, 1, 1}, 4096);
+  SnapshotAssembler first(2);
+  for (const memory_portion_v2_t& p : AllPortions(v1)) first.Accept(p);
+  const auto known = std::make_shared<const KnownDigests>(first.Named());
+  std::string reason;
+  const auto got1 = first.Take(&reason);
+  ASSERT_TRUE(got1.has_value()) << reason;
+  const KeptPlaceNames names = NamesOfBodies(*got1, nullptr);
+  SnapshotAssembler dut(2, known);
+  for (int32_t i = 0; i < v1.structure_portions; ++i) dut.Accept(v1.Portion(i));
+  auto got = dut.Take(&reason, {}, &names);
+  ASSERT_TRUE(got.has_value()) << reason;
+  EXPECT_EQ(got->unloaded, 20);
+  PlaceBodies all_but_one;
+  for (size_t i = 1; i < v1.bodies.size(); ++i) {
+    all_but_one.emplace(v1.body_digests[i], v1.bodies[i]);
+  }
+  EXPECT_FALSE(LoadKeptBodies(
+      *got, [&](const KnownDigests&) { return all_but_one; }, &reason));
+  EXPECT_EQ(reason, "a place body kept from an earlier version is no longer kept");
 }
 
 // A peer whose memory changes while we assemble it: the bodies received of the version given
