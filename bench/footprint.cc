@@ -291,7 +291,16 @@ int Main(int argc, char** argv) {
     peer.reset();
     peer.emplace(2, std::move(*peer_v2), testing_support::kNamespaceBusUrl, /*announcing=*/true);
     merged = AwaitLogLine(tscd, "merged the memory of robot 2 (version 2", std::chrono::minutes(5));
-    report_merge("merged the memory of robot 2 (version 2");
+    // The exchange of version 2 as tscd logged it, with its times: its requests, the memory
+    // received and checked (where kept bodies are loaded or known by name), the merge.
+    const std::string after = tscd.Log();
+    std::istringstream lines(after);
+    for (std::string l; std::getline(lines, l);) {
+      if (l.find("of version 2") != std::string::npos ||
+          l.find("robot 2 (version 2") != std::string::npos) {
+        merged_report += "tscd log: " + l + "\n";
+      }
+    }
   }
   tscd.Signal(SIGTERM);
   const std::optional<int> status = tscd.Wait(std::chrono::seconds(60));
