@@ -113,6 +113,14 @@ class PipelineWorkerTest : public ::testing::Test {
     };
   }
 
+  // Starts `dut` with merges never held, and has it merge robot 2's memory of `places`.
+  void StartWithPeerMerged(PipelineWorker& dut, int places) {
+    release_merge_.Set();
+    dut.Start(join_);
+    dut.Enqueue(PeerMemory(places));
+    AwaitMerges(1);
+  }
+
   // Returns once the worker has completed `merges` merges in all (merges never block here
   // once release_merge_ is set).
   void AwaitMerges(int64_t merges) const {
@@ -245,11 +253,8 @@ TEST_F(PipelineWorkerTest, ASnapshotServesTheBodiesItNamedUntilAMergeReplacesThe
 // are. It rewrote every one of them (1.5 s at 10⁴ places, tscd_footprint --peer-merged 1).
 // The database itself counts the writes to the places: triggers added by the test.
 TEST_F(PipelineWorkerTest, AMergeThatChangesNothingLeavesTheStoredPlacesAsTheyAre) {
-  release_merge_.Set();
   PipelineWorker dut(settings_, camera_, SnapshotHeader{1, 99, 0, 0}, counters_, queue_, Hooks());
-  dut.Start(join_);
-  dut.Enqueue(PeerMemory(20));
-  AwaitMerges(1);
+  StartWithPeerMerged(dut, 20);
   const fs::path db = temp_.path() / "memory.db";
   ASSERT_EQ(Sql(db, "SELECT count(*) FROM learned_places"), 20);
   Sql(db, "CREATE TABLE probe(writes INTEGER)");
@@ -281,11 +286,8 @@ TEST_F(PipelineWorkerTest, AMergeThatChangesNothingLeavesTheStoredPlacesAsTheyAr
 // from the store, where the test damaged every one (a read refuses them). Once a merge needs
 // them, they are read, refused, and the memory is fetched again whole.
 TEST_F(PipelineWorkerTest, ARepeatExchangeThatChangesNothingReadsNoKeptBody) {
-  release_merge_.Set();
   PipelineWorker dut(settings_, camera_, SnapshotHeader{1, 99, 0, 0}, counters_, queue_, Hooks());
-  dut.Start(join_);
-  dut.Enqueue(PeerMemory(20));
-  AwaitMerges(1);
+  StartWithPeerMerged(dut, 20);
   const fs::path db = temp_.path() / "memory.db";
   ASSERT_EQ(Sql(db, "SELECT count(*) FROM peer_bodies WHERE robot = 2"), 20);
   Sql(db, "UPDATE peer_bodies SET body = X'00'");

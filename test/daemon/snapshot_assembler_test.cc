@@ -6,6 +6,7 @@
 #include <cmath>
 #include <memory>
 #include <random>
+#include <stdexcept>
 
 #include "test/support/derived_compare.h"
 #include "test/support/random_memory.h"
@@ -269,6 +270,22 @@ TEST(SnapshotAssembler, AKnownBodyNoLongerKeptRefusesTheSnapshot) {
   }
 }
 
+// A receiver that took `v1` whole, as tscd keeps it for the next version: the digests of its
+// bodies (for the next assembler) and their names.
+struct Received {
+  std::shared_ptr<const KnownDigests> known;
+  KeptPlaceNames names;
+};
+Received ReceiveWhole(const MemorySnapshot& v1) {
+  SnapshotAssembler first(2);
+  for (const memory_portion_v2_t& p : AllPortions(v1)) first.Accept(p);
+  auto known = std::make_shared<const KnownDigests>(first.Named());
+  std::string reason;
+  const auto got = first.Take(&reason);
+  if (!got) throw std::runtime_error("not taken: " + reason);
+  return Received{std::move(known), NamesOfBodies(*got, nullptr)};
+}
+
 // Issue 23: a receiver that also keeps the names of the bodies it merged (KeptPlaceNames) checks
 // the next version's known bodies by their names and loads none until the merge needs them; the
 // ids and sources it then reads are those of the bodies, and loading them later gives exactly
@@ -276,14 +293,11 @@ TEST(SnapshotAssembler, AKnownBodyNoLongerKeptRefusesTheSnapshot) {
 TEST(SnapshotAssembler, KnownBodiesNamedAreLoadedOnlyWhenAsked) {
   auto m = testing_support::MakeRandomMemory(2, 80, kDim, 81);
   const MemorySnapshot v1 = BuildSnapshot(m.memory, m.map, {2, 77, 1, 1}, 4096);
-  SnapshotAssembler first(2);
-  for (const memory_portion_v2_t& p : AllPortions(v1)) first.Accept(p);
-  const auto known = std::make_shared<const KnownDigests>(first.Named());
-  std::string reason;
-  const auto got1 = first.Take(&reason);
-  ASSERT_TRUE(got1.has_value()) << reason;
-  const KeptPlaceNames names = NamesOfBodies(*got1, nullptr);
+  const Received received = ReceiveWhole(v1);
+  const auto& known = received.known;
+  const auto& names = received.names;
   ASSERT_EQ(names.size(), 80u);
+  std::string reason;
   PlaceBodies kept;
   for (size_t i = 0; i < v1.bodies.size(); ++i) kept.emplace(v1.body_digests[i], v1.bodies[i]);
   size_t loads = 0;
@@ -374,14 +388,11 @@ TEST(SnapshotAssembler, KnownBodiesNamedAreLoadedOnlyWhenAsked) {
 TEST(LoadKeptBodies, SaysWhichBodyCannotBeLoaded) {
   auto m = testing_support::MakeRandomMemory(2, 20, kDim, 20);
   const MemorySnapshot v1 = BuildSnapshot(m.memory, m.map, {2, 77, 1, 1}, 4096);
-  SnapshotAssembler first(2);
-  for (const memory_portion_v2_t& p : AllPortions(v1)) first.Accept(p);
-  const auto known = std::make_shared<const KnownDigests>(first.Named());
-  std::string reason;
-  const auto got1 = first.Take(&reason);
-  ASSERT_TRUE(got1.has_value()) << reason;
-  const KeptPlaceNames names = NamesOfBodies(*got1, nullptr);
+  const Received received = ReceiveWhole(v1);
+  const auto& known = received.known;
+  const auto& names = received.names;
   SnapshotAssembler dut(2, known);
+  std::string reason;
   for (int32_t i = 0; i < v1.structure_portions; ++i) dut.Accept(v1.Portion(i));
   auto got = dut.Take(&reason, {}, &names);
   ASSERT_TRUE(got.has_value()) << reason;
