@@ -498,14 +498,29 @@ PlaceBodies PipelineWorker::LoadPeerBodies(int32_t robot, const KnownDigests& di
   PlaceBodies bodies;
   if (!store_ || degraded_store_) return bodies;
   try {
+    std::unordered_set<int64_t> sound;  // every kept body of `robot` but the damaged ones
+    size_t damaged = 0;
     store_->ForEachPeerBody(
         static_cast<uint32_t>(robot), [&](int64_t digest, std::span<const unsigned char> bytes) {
-          if (!digests.contains(digest)) return;
+          if (!digests.contains(digest)) {
+            sound.insert(digest);
+            return;
+          }
           // Damaged on disk: left out, so the memory is fetched again whole.
           if (auto body = DecodeBody(bytes, digest)) {
+            sound.insert(digest);
             bodies.emplace(digest, std::make_shared<const learned_place_v2_t>(std::move(*body)));
+          } else {
+            ++damaged;
           }
         });
+    // Dropped, so that the whole memory fetched next keeps them afresh (KeepPeerBodies adds only
+    // bodies the store lacks): kept, a damaged body failed every later exchange that read it.
+    if (damaged > 0) {
+      spdlog::warn("{} kept bodies of robot {}'s places were damaged in the store; dropped",
+                   damaged, robot);
+      store_->KeepOnlyPeerBodies(static_cast<uint32_t>(robot), sound);
+    }
   } catch (const StoreError& e) {
     spdlog::warn("the kept bodies of robot {}'s places cannot be read: {}", robot, e.what());
   }

@@ -316,5 +316,32 @@ TEST_F(PipelineWorkerTest, ARepeatExchangeThatChangesNothingReadsNoKeptBody) {
   EXPECT_EQ(Store::Open(db).Load(1, settings_.pipeline.memory).memory.places().size(), 32u);
 }
 
+// A kept body damaged in the store fails the exchange that reads it, which then fetches the
+// memory whole; that whole memory must leave the store sound again, or every later exchange that
+// reads the body fails in turn.
+TEST_F(PipelineWorkerTest, AWholeFetchAfterADamagedKeptBodyKeepsItAfresh) {
+  PipelineWorker dut(settings_, camera_, SnapshotHeader{1, 99, 0, 0}, counters_, queue_, Hooks());
+  StartWithPeerMerged(dut, 20);
+  dut.Enqueue(PeerMemory(12, false, 3));  // places robot 2 never held: its next merge reads
+  AwaitMerges(2);
+  const fs::path db = temp_.path() / "memory.db";
+  const std::string sound = "SELECT count(*) FROM peer_bodies WHERE robot = 2 AND length(body) > 1";
+  ASSERT_EQ(Sql(db, sound), 20);
+  Sql(db,
+      "UPDATE peer_bodies SET body = X'00' WHERE rowid = (SELECT min(rowid) FROM peer_bodies "
+      "WHERE robot = 2)");
+  ASSERT_EQ(Sql(db, sound), 19);
+
+  dut.Enqueue(KnownPeerMemory(20));
+  merge_failed_.Wait();
+  EXPECT_EQ(failed_robot_, 2);
+  dut.Enqueue(PeerMemory(20));  // fetched again whole
+  AwaitMerges(3);
+  queue_.Close();
+  dut.Join();
+  EXPECT_EQ(Sql(db, sound), 20);
+  EXPECT_EQ(Sql(db, "SELECT count(*) FROM peer_bodies WHERE robot = 2"), 20);
+}
+
 }  // namespace
 }  // namespace tsc
