@@ -529,10 +529,8 @@ PlaceBodies PipelineWorker::LoadPeerBodies(int32_t robot, const KnownDigests& di
 
 void PipelineWorker::KeepPeerBodies(const PeerSnapshot& snapshot) {
   const int32_t robot = snapshot.robot;
-  const auto earlier = kept_names_.find(robot);
-  KeptPlaceNames names =
-      NamesOfBodies(snapshot, earlier == kept_names_.end() ? nullptr : &earlier->second);
-  kept_names_.erase(robot);  // named again below once the store holds every body
+  // Named again below once the store holds every body.
+  const auto earlier = kept_names_.extract(robot);
   if (!store_ || degraded_store_) {
     hooks_.bodies_not_kept(robot);
     return;
@@ -559,7 +557,7 @@ void PipelineWorker::KeepPeerBodies(const PeerSnapshot& snapshot) {
       }
     }
     if (!batch.empty()) store_->AddPeerBodies(static_cast<uint32_t>(robot), batch);
-    kept_names_.emplace(robot, std::move(names));
+    kept_names_.emplace(robot, NamesOfBodies(snapshot, earlier ? &earlier.mapped() : nullptr));
   } catch (const StoreError& e) {
     spdlog::warn(
         "the bodies of robot {}'s places were not kept ({}): its next exchange fetches them "

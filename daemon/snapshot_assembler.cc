@@ -380,24 +380,9 @@ std::optional<PeerSnapshot> SnapshotAssembler::Take(std::string* reason, const B
     return std::nullopt;
   };
   if (!complete()) return fail("incomplete");
-  std::vector<int64_t> kept_digests;
-  for (size_t i = 0; i < kept_.size(); ++i) {
-    if (kept_[i]) kept_digests.push_back(digests_[i]);
-  }
-  const KnownDigests wanted(std::move(kept_digests));
-  const bool by_name =
-      names != nullptr && std::all_of(wanted.begin(), wanted.end(),
-                                      [&](int64_t d) { return names->Find(d).has_value(); });
-  if (!wanted.empty() && !by_name) {
-    const PlaceBodies loaded = load ? load(wanted) : PlaceBodies{};
-    for (size_t i = 0; i < kept_.size(); ++i) {
-      if (!kept_[i]) continue;
-      const auto it = loaded.find(digests_[i]);
-      if (it == loaded.end() || !it->second) {
-        return fail("a place body kept from an earlier version is no longer kept");
-      }
-      bodies_[i] = it->second;
-    }
+  bool by_name = names != nullptr;  // every known body named
+  for (size_t i = 0; i < kept_.size() && by_name; ++i) {
+    by_name = !kept_[i] || names->Find(digests_[i]).has_value();
   }
   std::vector<memory_portion_v2_t> ordered;
   ordered.reserve(structure_.size());
@@ -425,17 +410,23 @@ std::optional<PeerSnapshot> SnapshotAssembler::Take(std::string* reason, const B
       snap.edges.size() != static_cast<size_t>(total_edges_)) {
     return fail("totals not reached");
   }
+  // The known bodies are null here: loaded now, unless their names do.
+  snap.places = std::move(bodies_);
+  snap.unloaded = static_cast<int32_t>(std::count(kept_.begin(), kept_.end(), true));
+  if (!by_name) {
+    std::string why;
+    if (!LoadKeptBodies(snap, load, &why)) return fail(why);
+  }
   const int32_t n = static_cast<int32_t>(snap.entries.size());
   for (int32_t i = 0; i < n; ++i) {
     const place_entry_t& e = snap.entries[static_cast<size_t>(i)];
-    if (!bodies_[static_cast<size_t>(i)]) {  // kept, and known by its name alone
+    if (!snap.places[static_cast<size_t>(i)]) {  // kept, and known by its name alone
       if (names->Find(digests_[static_cast<size_t>(i)])->id != IdOf(e.id)) {
         return fail("a place body of another place");
       }
-      ++snap.unloaded;
       continue;
     }
-    const learned_place_v2_t& body = *bodies_[static_cast<size_t>(i)];
+    const learned_place_v2_t& body = *snap.places[static_cast<size_t>(i)];
     // Known bodies were checked when they came; a received one is checked here.
     if (received_[static_cast<size_t>(i)] && BodyDigest(body) != e.body_digest) {
       return fail("a place body does not match its digest");
@@ -444,7 +435,6 @@ std::optional<PeerSnapshot> SnapshotAssembler::Take(std::string* reason, const B
       return fail("a place body of another place");
     }
   }
-  snap.places = std::move(bodies_);
   const auto dims_of = [&](size_t i) {
     return snap.places[i] ? snap.places[i]->dims : names->dims();
   };
