@@ -87,6 +87,22 @@ class RunRecorder {
   PlaceMembersMirror mirror_;
 };
 
+// What a long run's copies of a room raise (issue 23): the final memory's places, each under
+// the majority label of its frames (a consolidation moved a folded place's frames to it).
+double PlacesPerLabelOf(const GroundTruth& truth,
+                        const std::map<PlaceId, std::vector<int>>& frames_of,
+                        const PlaceMemory& memory) {
+  std::vector<std::vector<PlaceId>> places;
+  std::map<PlaceId, std::string> labels;
+  for (const LearnedPlace& p : memory.places()) {
+    places.push_back({p.id});
+    if (const auto it = frames_of.find(p.id); it != frames_of.end()) {
+      labels[p.id] = MajorityLabel(truth, it->second);
+    }
+  }
+  return PlacesPerLabel(places, labels);
+}
+
 // One pass of a fresh pipeline over the stored descriptors. `step_ms` (optional) receives the
 // time of each ProcessDescriptor call; `status` (optional) the status of each base point.
 EvalRun Replay(const Dataset& dataset, const PipelineOptions& options,
@@ -115,6 +131,7 @@ EvalRun Replay(const Dataset& dataset, const PipelineOptions& options,
   run.loop_closures = recorder.loop_closures;
   run.loop_closure = ScoreLoopClosures(truth, run.loop_closures, static_cast<int>(inputs.size()));
   run.learned_places = static_cast<int>(pipeline.memory().places().size());
+  run.places_per_label = PlacesPerLabelOf(truth, run.frames_of, pipeline.memory());
   run.map = pipeline.map();
   if (keep_memory) run.memory = pipeline.memory();
   return run;
@@ -503,6 +520,12 @@ void WriteEvalJson(std::ostream& out, const EvalResult& r) {
   w.End('}');
   w.Key("detected_places").Int(static_cast<long long>(r.main.detected.size()));
   w.Key("learned_places").Int(r.main.learned_places);
+  w.Key("places_per_label");
+  if (r.truth.has_labels()) {
+    w.Number(r.main.places_per_label);
+  } else {
+    w.Null();
+  }
   w.Key("ground_truth").Begin('{');
   w.Key("labels").Bool(r.truth.has_labels()).Key("revisits").Bool(r.truth.has_revisits());
   w.Key("poses").Bool(r.truth.has_poses());

@@ -65,6 +65,9 @@ struct EvalRun {
   std::vector<LoopClosure> loop_closures;  ///< one per frame of each recognised place
   LoopClosureScore loop_closure;
   int learned_places = 0;
+  /// Places per label of the final memory (DESIGN §7.1b, PlacesPerLabel): each place labelled
+  /// by the majority of the frames assigned to it; 0 without labels.
+  double places_per_label = 0.0;
   TopologicalMap map;
   std::optional<PlaceMemory> memory;  ///< kept for the main run only
 };

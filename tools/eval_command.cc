@@ -37,6 +37,7 @@ at the configured memory.tau_r (the main figures) and at each tau_r of the sweep
 curve; default 1.5:3.5:0.1, around the default 2.9; STEP 0 = no sweep).
 
 --json FILE gets one JSON object: frames, base_points, detected_places, learned_places,
+places_per_label (the final memory's places over the labels they hold; null without labels),
 detection.{boundary_f1,precision,recall} (with labels), recognition.{precision,recall,
 recall_at_full_precision,pr_curve:[[tau_r,precision,recall],...],sweep_counts:[[tau_r,
 recognitions,correct,should_be_recognized],...]} and, with poses,
@@ -138,6 +139,12 @@ int RunEvalCommand(const std::vector<std::string>& args) {
       r.main.detected.size(), r.main.learned_places,
       static_cast<long long>(std::count_if(r.main.detected.begin(), r.main.detected.end(),
                                            [](const EvalDetectedPlace& d) { return !d.place; })));
+  if (r.truth.has_labels()) {
+    std::printf(
+        "  places per label %.2f (the final memory's %d places, each under the majority "
+        "label of its frames)\n",
+        r.main.places_per_label, r.main.learned_places);
+  }
   std::cout << spacing.str();
   if (keyframes_caution) std::cout << "  caution         " << *keyframes_caution << "\n";
   if (r.boundaries) {

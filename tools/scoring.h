@@ -83,6 +83,13 @@ RecognitionScore ScoreRecognition(const GroundTruth& truth, const std::vector<As
 void FoldFrames(std::map<PlaceId, std::vector<int>>& frames_of, const PlaceId& into,
                 const std::vector<PlaceId>& folded);
 
+/// Places per label (DESIGN §7.1b) of one final memory: the places whose ids (own or absorbed)
+/// carry a label, divided by the distinct labels among them; a place's label is the most common
+/// one of its ids' labels (ties: the smallest). 1.0 = one place per room; 0 when no place is
+/// labelled. `labels` maps every robot's own places to their labels.
+double PlacesPerLabel(const std::vector<std::vector<PlaceId>>& groups,
+                      const std::map<PlaceId, std::string>& labels);
+
 /// An inclusive range of 0-based frames.
 struct FrameSpan {
   int first = 0;

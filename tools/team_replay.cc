@@ -232,28 +232,6 @@ TeamMemoryForScoring ForMergeScoring(const ReplayedRobot& route, const PlaceMemo
   return out;
 }
 
-double PlacesPerLabel(const std::vector<std::vector<PlaceId>>& groups,
-                      const std::map<PlaceId, std::string>& labels) {
-  int labelled = 0;
-  std::set<std::string> distinct;
-  for (const std::vector<PlaceId>& g : groups) {
-    std::map<std::string, int> count;
-    for (const PlaceId& id : g) {
-      const auto it = labels.find(id);
-      if (it != labels.end() && !it->second.empty()) ++count[it->second];
-    }
-    if (count.empty()) continue;
-    const auto best =
-        std::max_element(count.begin(), count.end(), [](const auto& a, const auto& b) {
-          return a.second < b.second;  // the first of equal counts: the smallest label
-        });
-    ++labelled;
-    distinct.insert(best->first);
-  }
-  return distinct.empty() ? 0.0
-                          : static_cast<double>(labelled) / static_cast<double>(distinct.size());
-}
-
 TeamVerdict JudgeTeam(const std::vector<TeamMemoryForScoring>& robots) {
   TeamVerdict v;
   v.merge = ScoreMerges(robots);

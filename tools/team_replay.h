@@ -76,13 +76,6 @@ bool ExchangeMemories(std::vector<ReplayedRobot>& robots, const std::vector<uint
 /// and the groups (each place of `memory` with the sources it absorbed).
 TeamMemoryForScoring ForMergeScoring(const ReplayedRobot& route, const PlaceMemory& memory);
 
-/// Places per label (DESIGN §7.1b) of one final memory: the places whose ids (own or absorbed)
-/// carry a label, divided by the distinct labels among them; a place's label is the most common
-/// one of its ids' labels (ties: the smallest). 1.0 = one place per room; 0 when no place is
-/// labelled. `labels` maps every robot's own places to their labels.
-double PlacesPerLabel(const std::vector<std::vector<PlaceId>>& groups,
-                      const std::map<PlaceId, std::string>& labels);
-
 /// The team's verdict: the merge score, the places each robot knows (own, taken or absorbed),
 /// whether they all know the same ones, and the places per label of each final memory.
 struct TeamVerdict {

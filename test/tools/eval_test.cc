@@ -6,12 +6,16 @@
 #include <gtest/gtest.h>
 #include <unistd.h>
 
+#include <algorithm>
 #include <filesystem>
 #include <fstream>
+#include <map>
 #include <opencv2/imgcodecs.hpp>
 #include <opencv2/imgproc.hpp>
 #include <random>
+#include <set>
 #include <sstream>
+#include <string>
 
 #include "drivers/dataset/assumed_keyframes_check.h"
 #include "drivers/dataset/json_reader.h"
@@ -160,6 +164,8 @@ TEST_F(EvalTest, RtabmapLoopRecognisesWithFullPrecisionAndWritesPlots) {
     EXPECT_NE(text.find(key), std::string::npos) << key << " in " << text;
   }
   const JsonValue root = ParseJson(text);
+  // Revisits but no labels: no place has a label to count under.
+  EXPECT_NE(text.find("\"places_per_label\":null"), std::string::npos) << text;
   for (const char* key :
        {"loop_closure.precision", "loop_closure.recall", "loop_closure.recall_at_full_precision"}) {
     ExpectFraction(root, key);
@@ -279,6 +285,26 @@ TEST_F(EvalTest, LabelledDatasetScoresBoundariesEdgesAndDrawsFloorPlan) {
   EXPECT_EQ(recognised, r.main.recognition.recognitions);
   EXPECT_EQ(correct, r.main.recognition.correct);
   EXPECT_EQ(should, r.main.recognition.should_be_recognized);
+  // Places per label (DESIGN §7.1b) from the decisions: each final place under the commonest
+  // label of the frames assigned to it, over the labels so held.
+  std::map<std::string, std::map<std::string, double>> frames_of;  // place → label → frames
+  for (const JsonValue& d : decisions->items) {
+    const JsonValue* place = d.Find("place");
+    if (place == nullptr) continue;
+    frames_of[place->text][d.Find("label")->text] +=
+        d.Find("last_frame")->number - d.Find("first_frame")->number + 1;
+  }
+  std::set<std::string> held;
+  for (const auto& [place, count] : frames_of) {
+    held.insert(std::max_element(count.begin(), count.end(), [](const auto& x, const auto& y) {
+                  return x.second < y.second;
+                })->first);
+  }
+  ASSERT_EQ(frames_of.size(), static_cast<size_t>(r.main.learned_places)) << "no place folded";
+  ASSERT_FALSE(held.empty());
+  EXPECT_DOUBLE_EQ(r.main.places_per_label,
+                   static_cast<double>(frames_of.size()) / static_cast<double>(held.size()));
+  EXPECT_DOUBLE_EQ(root.Find("places_per_label")->number, r.main.places_per_label);
   // Route a b c b a: every frame of the second b and the second a (10 each) has an earlier
   // revisit; a detection per frame of a recognised place, at most one per frame.
   EXPECT_EQ(r.main.loop_closure.frames_with_revisit, 20);
@@ -288,6 +314,22 @@ TEST_F(EvalTest, LabelledDatasetScoresBoundariesEdgesAndDrawsFloorPlan) {
   EXPECT_EQ(written.size(), 4u);
   ExpectPng(dir_ / "plots" / "floor_plan.png", 500, 200);
   ExpectPng(dir_ / "plots" / "timeline.png", 900, 250);
+}
+
+// A robot that recognises nothing learns every revisit again: route a b c b a leaves its
+// rooms held more than once, which DESIGN §7.1b's places per label counts.
+TEST_F(EvalTest, PlacesPerLabelCountsARoomLearnedAgain) {
+  const Dataset dataset = Dataset::Open(MakeLabelledDataset());
+  EvalOptions eval;
+  eval.sweep_step = 0;
+  PipelineOptions options = testing_support::DefaultProfile(dataset);
+  options.memory.tau_r = 1e-6;            // nothing is recognised
+  options.memory.near_miss_margin = 0.0;  // and nothing left without a place
+  const EvalResult r = Evaluate(dataset, options, eval);
+  ASSERT_EQ(r.main.recognition.recognitions, 0);
+  ASSERT_GT(r.main.learned_places, 3) << "a revisit was learned again";
+  // Three labels, each held by at least one place.
+  EXPECT_DOUBLE_EQ(r.main.places_per_label, r.main.learned_places / 3.0);
 }
 
 // A place a consolidation folded into another is no learned place at the end, but the detected

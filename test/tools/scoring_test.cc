@@ -4,7 +4,9 @@
 
 #include <cmath>
 #include <initializer_list>
+#include <map>
 #include <stdexcept>
+#include <string>
 #include <utility>
 #include <vector>
 
@@ -162,6 +164,24 @@ TEST(Scoring, RecallAtFullPrecisionIsBestRecallWithPrecisionOne) {
   EXPECT_DOUBLE_EQ(RecallAtFullPrecision({{1.0, 1.0, 0.2}, {1.2, 1.0, 0.5}, {1.4, 0.8, 0.9}}), 0.5);
   EXPECT_DOUBLE_EQ(RecallAtFullPrecision({{1.0, 0.9, 0.2}}), 0.0);
   EXPECT_DOUBLE_EQ(RecallAtFullPrecision({}), 0.0);
+}
+
+// DESIGN §7.1b's places per label: a place (its own id with the ids it absorbed) takes the
+// commonest label of its ids; a room held twice raises the figure, an unlabelled place is
+// left out.
+TEST(Scoring, PlacesPerLabelCountsEachPlaceUnderItsCommonestLabel) {
+  const PlaceId a{1, 1}, b{1, 2}, c{1, 3}, d{2, 1}, e{2, 2}, f{1, 4};
+  const std::map<PlaceId, std::string> labels = {{a, "room1"}, {b, "room2"}, {c, "room1"},
+                                                 {d, "room2"}, {e, "room3"}, {f, ""}};
+  // room1 twice (a, c), room2 once (b absorbed d): 3 places of 2 labels.
+  EXPECT_DOUBLE_EQ(PlacesPerLabel({{a}, {b, d}, {c}}, labels), 1.5);
+  // One place per room.
+  EXPECT_DOUBLE_EQ(PlacesPerLabel({{a}, {b, d}, {e}}, labels), 1.0);
+  // A place of an unlabelled id, or of ids nobody labelled, is not counted.
+  EXPECT_DOUBLE_EQ(PlacesPerLabel({{a}, {f}, {PlaceId{9, 9}}}, labels), 1.0);
+  // A tie of labels goes to the smallest: {b, e} is room2, so room2 is held twice.
+  EXPECT_DOUBLE_EQ(PlacesPerLabel({{b, e}, {d}, {a}}, labels), 1.5);
+  EXPECT_DOUBLE_EQ(PlacesPerLabel({}, labels), 0.0);
 }
 
 }  // namespace
