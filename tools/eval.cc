@@ -87,12 +87,14 @@ class RunRecorder {
   PlaceMembersMirror mirror_;
 };
 
-// What a long run's copies of a room raise (issue 23): the final memory's places, each under
-// the majority label of its frames (a consolidation moved a folded place's frames to it).
+// Places per label of the final memory (DESIGN §7.1b), the figure a long run's copies of a
+// room raise (issue 23). Each place takes the majority label of its frames; a consolidation
+// has moved the frames of the places it folded to the place holding them (FoldFrames).
 double PlacesPerLabelOf(const GroundTruth& truth,
                         const std::map<PlaceId, std::vector<int>>& frames_of,
                         const PlaceMemory& memory) {
   std::vector<std::vector<PlaceId>> places;
+  places.reserve(memory.places().size());
   std::map<PlaceId, std::string> labels;
   for (const LearnedPlace& p : memory.places()) {
     places.push_back({p.id});
