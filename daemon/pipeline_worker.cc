@@ -53,6 +53,23 @@ constexpr const char* kSpillPrefix = "memory.db.spill.";
 // Absorptions a merge's log line names before it counts the rest.
 constexpr size_t kLoggedAbsorptions = 20;
 
+// Which place went into which, and at what cost, for the log: the first ones only (a merge of
+// two large memories absorbs thousands, and a 10⁴-place peer made one log line of 260 KB). The
+// place events published after the merge and the merged places' sources keep every one.
+std::string AbsorptionsForTheLog(const std::vector<Absorption>& absorbed) {
+  std::string out;
+  for (size_t i = 0; i < std::min(absorbed.size(), kLoggedAbsorptions); ++i) {
+    const Absorption& a = absorbed[i];
+    out += fmt::format("{}{} into {} ({})", out.empty() ? "" : ", ", a.source.ToString(),
+                       a.target.ToString(),
+                       a.cost > 0.0 ? fmt::format("g {:.2f}", a.cost) : "joined by ids");
+  }
+  if (absorbed.size() > kLoggedAbsorptions) {
+    out += fmt::format(" and {} more", absorbed.size() - kLoggedAbsorptions);
+  }
+  return out;
+}
+
 // The spills waiting in `folders`, oldest first (their names end in the writer's wall time).
 std::vector<fs::path> FindSpills(const std::vector<fs::path>& folders) {
   std::vector<std::pair<std::string, fs::path>> found;
@@ -613,7 +630,7 @@ void PipelineWorker::MergePeer(PeerSnapshot snapshot) {
   const bool left_by_ids = !peer;
   const auto built = Clock::now();
   std::vector<std::pair<PlaceId, PlaceId>> absorbed;
-  std::string absorptions;  // for the log: which place went into which, and at what cost
+  std::string absorptions;  // for the log (AbsorptionsForTheLog)
   size_t places_before = 0, places_after = 0;
   MergeCase merge_case = MergeCase::kNothingNew;
   size_t added = 0;
@@ -647,19 +664,9 @@ void PipelineWorker::MergePeer(PeerSnapshot snapshot) {
       merge_case = merged.merge_case;
       peer_into_ours = merged.peer_into_ours;
       added = merged.added.size();
-      for (const Absorption& a : merged.absorbed) {
-        absorbed.emplace_back(a.source, a.target);
-        // The first ones only: a merge of two large memories absorbs thousands (a 10⁴-place
-        // peer made one log line of 260 KB). The place events published after the merge and the
-        // merged places' sources keep every one.
-        if (absorbed.size() > kLoggedAbsorptions) continue;
-        absorptions += fmt::format(
-            "{}{} into {} ({})", absorptions.empty() ? "" : ", ", a.source.ToString(),
-            a.target.ToString(), a.cost > 0.0 ? fmt::format("g {:.2f}", a.cost) : "joined by ids");
-      }
-      if (absorbed.size() > kLoggedAbsorptions) {
-        absorptions += fmt::format(" and {} more", absorbed.size() - kLoggedAbsorptions);
-      }
+      absorbed.reserve(merged.absorbed.size());
+      for (const Absorption& a : merged.absorbed) absorbed.emplace_back(a.source, a.target);
+      absorptions = AbsorptionsForTheLog(merged.absorbed);
       TopologicalMap map = MergeMaps(pipeline_->map(), peer_map, merged_memory);
       changed = MergeChangesAnything(merged, map, pipeline_->map());
       if (changed) {        // always where ours was given up (the merge changed it)
