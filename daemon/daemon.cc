@@ -533,6 +533,7 @@ void Daemon::OnRequest(const std::string& channel, const uint8_t* data, size_t s
 }
 
 std::shared_ptr<const MemorySnapshot> Daemon::HeldSnapshot(int64_t version) const {
+  if (version <= withdrawn_through_) return nullptr;
   for (const auto& held : {snapshot_, previous_snapshot_}) {
     if (held && held->version == version) return held;
   }
@@ -655,10 +656,17 @@ void Daemon::PublishPortions(std::shared_ptr<const MemorySnapshot> snapshot,
   auto publish = [this, snapshot, indices = std::move(indices),
                   end](PipelineWorker::Bodies bodies) mutable {
     if (bodies.empty()) {
-      // The memory was replaced whole since: the peer moves on to the version it is broadcast
-      // as (the merge or consolidation changed it), keeping the bodies it has that are unchanged.
+      // The memory was replaced whole since (a merge or consolidation): this snapshot and the
+      // older ones are no longer held, so the peer's next request for what it lacks is
+      // answered with the current structure (AnswerRequest), and it moves on keeping the
+      // bodies it has that are unchanged. Held, they were asked for the same bodies until the
+      // peer gave up (10 s) or our next broadcast (lcm.memory_period_s), and then a snapshot
+      // the next merge withdrew: the peers of a robot that merges every few seconds fetched
+      // its memory only once it stopped changing (the demo's team merged a third of what the
+      // offline replay merges).
       spdlog::debug("memory snapshot {}: its bodies were withdrawn when the memory was replaced",
                     snapshot->version);
+      withdrawn_through_ = std::max(withdrawn_through_, snapshot->version);
       return;
     }
     memory_portion_v2_t scratch;

@@ -151,8 +151,11 @@ class Daemon {
   // The snapshot snapshot_ replaced: a peer still assembling it gets its missing portions from
   // it, so an exchange completes while the memory keeps learning (loop thread only). Not after
   // a merge or consolidation replaced the memory: its bodies are withdrawn then, and the peer
-  // moves on to the snapshot broadcast next.
+  // moves on to the current structure (AnswerRequest).
   std::shared_ptr<const MemorySnapshot> previous_snapshot_;
+  // Snapshots of this version or older no longer serve bodies (the worker withdrew them when
+  // a merge or consolidation replaced the memory): not held, whatever snapshot_ still is.
+  int64_t withdrawn_through_ = 0;  // loop thread only
   bool broadcast_wanted_ = false;  // loop thread only
   // The bodies the last broadcast carried or named: the next one sends only bodies beyond them.
   std::unordered_set<int64_t> broadcast_bodies_;    // loop thread only

@@ -545,6 +545,101 @@ TEST_F(TscdTest, ARestartedRobotBroadcastsItsStructureAndSendsItsBodiesWhenAsked
   EXPECT_EQ(dut.Wait(seconds(20)), 0) << dut.Log();
 }
 
+// A peer still assembling a snapshot whose memory a merge has replaced since asks for bodies
+// the snapshot can no longer serve (their memory is gone). It is answered with the current
+// structure and moves on: a robot whose memory changed by merges every few seconds was never
+// fetched whole by its peers while it kept merging (they asked for the same bodies until they
+// gave up, then for those of the next withdrawn snapshot). No periodic broadcast here
+// (lcm.memory_period_s 3600): only the answer can bring the current structure.
+TEST_F(TscdTest, ABodyRequestOfAMemoryReplacedSinceIsAnsweredWithTheCurrentStructure) {
+  TSCD_REQUIRE_PRIVATE_NETNS();
+  const fs::path ours = dir_ / "ours", theirs = dir_ / "theirs";
+  {
+    BusListener bus("TSC_ANNOUNCE");
+    RunUntilPlaces(bus, ours, 2, dir_ / "first.log");
+    ASSERT_FALSE(HasFatalFailure());
+  }
+  // Robot 2's own places, learned alone (its store is then merged into robot 1's memory).
+  std::vector<std::string> robot2 = FastSimRobot(theirs);
+  robot2[2] = "2";  // --robot 2
+  {
+    BusListener bus("TSC_ANNOUNCE");
+    ChildProcess peer(robot2, dir_ / "peer-first.log");
+    ASSERT_TRUE(bus.WaitFor(
+        [](const BusListener& b) {
+          return b.announces.count("TSC_ANNOUNCE") &&
+                 b.announces.at("TSC_ANNOUNCE").back().places >= 2;
+        },
+        seconds(60)))
+        << peer.Log();
+    peer.Signal(SIGTERM);
+    ASSERT_EQ(peer.Wait(seconds(20)), 0) << peer.Log();
+  }
+  BusListener bus("TSC_ANNOUNCE|TSC_MEMORY_1");
+  // Still: a frame every 10 s, so no place closes and only the merge changes the memory.
+  const std::vector<std::string> still = {"--set", "camera.fps=0.1", "--set",
+                                          "lcm.memory_period_s=3600"};
+  ChildProcess dut(FastSimRobot(ours, still), dir_ / "dut.log");
+  announce_t before{};
+  ASSERT_TRUE(bus.WaitFor(
+      [&](const BusListener& b) {
+        if (!b.announces.count("TSC_ANNOUNCE")) return false;
+        for (const announce_t& a : b.announces.at("TSC_ANNOUNCE")) {
+          if (a.robot == 1 && a.portions > a.structure_portions) before = a;
+        }
+        return before.robot == 1;
+      },
+      seconds(30)))
+      << dut.Log();
+  // Robot 2 comes back; robot 1 fetches its memory and merges it: robot 1's memory is replaced.
+  robot2.insert(robot2.end(), still.begin(), still.end());
+  {
+    ChildProcess peer(robot2, dir_ / "peer.log");
+    const std::regex merged("merged the memory of robot 2 \\(version [0-9]+, [^)]*\\): case");
+    for (int i = 0; i < 300 && !std::regex_search(dut.Log(), merged); ++i) {
+      std::this_thread::sleep_for(milliseconds(100));
+    }
+    ASSERT_TRUE(std::regex_search(dut.Log(), merged)) << dut.Log();
+    peer.Signal(SIGTERM);
+    ASSERT_EQ(peer.Wait(seconds(20)), 0) << peer.Log();
+  }
+  std::this_thread::sleep_for(milliseconds(500));  // what robot 2 asked for is out
+  size_t heard = 0;
+  bus.Inspect([&](const BusListener& b) {
+    heard = b.portions.count("TSC_MEMORY_1") ? b.portions.at("TSC_MEMORY_1").size() : 0;
+  });
+  // As peer 9 that has the structure of the version announced before the merge and lacks its
+  // bodies: asked again every 0.5 s, as PeerExchange does.
+  memory_request_t req{};
+  req.utime = 1;
+  req.requester = 9;
+  req.robot = 1;
+  req.version = before.memory_version;
+  for (int32_t i = before.structure_portions; i < before.portions; ++i) req.missing.push_back(i);
+  req.num_missing = static_cast<int32_t>(req.missing.size());
+  req.hmac_size = 0;
+  auto moved_on = [&](const BusListener& b) {
+    if (!b.portions.count("TSC_MEMORY_1")) return false;
+    const auto& got = b.portions.at("TSC_MEMORY_1");
+    for (size_t k = heard; k < got.size(); ++k) {
+      if (got[k].version > before.memory_version && got[k].index < got[k].structure_portions) {
+        return true;
+      }
+    }
+    return false;
+  };
+  bool answered = false;
+  for (int ask = 0; ask < 10 && !answered; ++ask) {
+    bus.lcm().publish("TSC_REQUEST_1", &req);
+    answered = bus.WaitFor(moved_on, milliseconds(500));
+  }
+  EXPECT_TRUE(answered) << "no structure newer than version " << before.memory_version
+                        << " in answer to a request for its bodies\n"
+                        << dut.Log();
+  dut.Signal(SIGTERM);
+  EXPECT_EQ(dut.Wait(seconds(20)), 0) << dut.Log();
+}
+
 // A folder camera with a truncated JPEG, then the folder disappears mid-run.
 TEST_F(TscdTest, TruncatedFrameAndVanishingCameraAreLoggedAndSurvived) {
   TSCD_REQUIRE_PRIVATE_NETNS();
