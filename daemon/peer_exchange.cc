@@ -16,11 +16,15 @@ bool PeerExchange::OnAnnounce(const announce_t& a, Clock::time_point now) {
     ++replays_;
     return false;
   }
+  // Versions only grow within a boot: an announce older than a version its portions already
+  // brought (an answer moves past the announced version) is not new content.
+  if (fresh || a.boot_id != p.boot_id || a.memory_version >= p.version) {
+    p.version = a.memory_version;
+    p.digest = a.memory_digest;
+    p.structure_portions = a.structure_portions;
+  }
   p.boot_id = a.boot_id;
   p.sequence = a.sequence;
-  p.version = a.memory_version;
-  p.digest = a.memory_digest;
-  p.structure_portions = a.structure_portions;
   p.other_basis = a.view_basis != options_.view_basis;
   if (p.other_basis) {
     ++other_basis_;
@@ -133,6 +137,15 @@ std::optional<SnapshotAssembler> PeerExchange::OnPortion(const memory_portion_v2
   // Known before the caller has checked and kept them (it merges in the order completed, so
   // before a next fetch completes); a check, merge or keeping that fails makes it Forget them.
   known_[p.robot] = std::make_shared<const KnownDigests>(assembler_->Named());
+  // The peer answered with a version newer than it announced (the one asked for had been
+  // withdrawn by a merge): that one is what it holds now. The announced one, fetched again,
+  // would bring back this version at every tick until the peer's next announce.
+  if (auto peer = peers_.find(p.robot); peer != peers_.end() && peer->second.boot_id == p.boot_id &&
+                                        assembler_->version() > peer->second.version) {
+    peer->second.version = assembler_->version();
+    peer->second.digest = assembler_->digest();
+    peer->second.structure_portions = p.structure_portions;
+  }
   std::optional<SnapshotAssembler> complete = std::move(assembler_);
   fetching_.reset();
   assembler_.reset();

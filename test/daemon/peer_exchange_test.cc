@@ -185,6 +185,44 @@ TEST(PeerExchange, AsksAgainForTheVersionBeingAssembled) {
   EXPECT_EQ(requests[0].missing.size(), static_cast<size_t>(v2.count()) - 1);
 }
 
+// A peer may answer with a version newer than it announced (tscd sends its current structure
+// for a snapshot a merge withdrew). Once that version is complete, the announced one is not
+// fetched again: it would bring back the version just merged at every tick until the peer's
+// next announce (seen in the demo's team, ten rounds a second); nor is it after an announce of
+// it heard late. A newer version, or the same one after a restart, is fetched as ever.
+TEST(PeerExchange, AnAnnouncedVersionOlderThanOneCompletedIsNotFetched) {
+  const MemorySnapshot v1 = MakeSnapshot(2, 20, 1);
+  const MemorySnapshot v2 = MakeSnapshot(2, 21, 2);
+  PeerExchange dut(1, PeerExchangeOptions{});
+  Clock::time_point t{};
+  dut.OnAnnounce(Announce(2, 1, v1), t);
+  ASSERT_EQ(dut.Tick(t).at(0).version, 1);
+  std::optional<SnapshotAssembler> complete;
+  for (const memory_portion_v2_t& p : AllPortions(v2)) complete = dut.OnPortion(p, t);
+  ASSERT_TRUE(complete.has_value());
+  EXPECT_EQ(complete->version(), 2);
+  dut.MarkMerged(2, {v2.version, v2.digest});
+  EXPECT_TRUE(dut.Tick(t + milliseconds(100)).empty());
+  dut.OnAnnounce(Announce(2, 2, v1), t + milliseconds(200));  // sent before the answer
+  EXPECT_TRUE(dut.Tick(t + milliseconds(300)).empty());
+
+  const MemorySnapshot v3 = MakeSnapshot(2, 22, 3);
+  dut.OnAnnounce(Announce(2, 3, v3), t + milliseconds(400));
+  auto requests = dut.Tick(t + milliseconds(500));
+  ASSERT_EQ(requests.size(), 1u);
+  EXPECT_EQ(requests[0].version, 3);
+  for (const memory_portion_v2_t& p : AllPortions(v3)) complete = dut.OnPortion(p, t);
+  ASSERT_TRUE(complete.has_value());
+  dut.MarkMerged(2, {v3.version, v3.digest});
+
+  announce_t restarted = Announce(2, 1, v1);
+  restarted.boot_id = 6;
+  dut.OnAnnounce(restarted, t + milliseconds(600));
+  requests = dut.Tick(t + milliseconds(700));
+  ASSERT_EQ(requests.size(), 1u);
+  EXPECT_EQ(requests[0].version, 1);
+}
+
 TEST(PeerExchange, GivesUpOnASilentPeerAndForgetsIt) {
   const MemorySnapshot two = MakeSnapshot(2, 4, 1);
   PeerExchangeOptions o;
