@@ -87,7 +87,12 @@ class TscdTest : public ::testing::Test {
   // HasFatalFailure()).
   static void RunUntilPlaces(BusListener& bus, const fs::path& state, int32_t places,
                              const fs::path& log) {
-    ChildProcess dut(FastSimRobot(state), log);
+    RunUntilPlaces(bus, FastSimRobot(state), places, log);
+  }
+  // The same for the tscd command line `argv` (another robot id, other settings).
+  static void RunUntilPlaces(BusListener& bus, const std::vector<std::string>& argv, int32_t places,
+                             const fs::path& log) {
+    ChildProcess dut(argv, log);
     ASSERT_TRUE(bus.WaitFor(
         [places](const BusListener& b) {
           return b.announces.count("TSC_ANNOUNCE") &&
@@ -564,16 +569,8 @@ TEST_F(TscdTest, ABodyRequestOfAMemoryReplacedSinceIsAnsweredWithTheCurrentStruc
   robot2[2] = "2";  // --robot 2
   {
     BusListener bus("TSC_ANNOUNCE");
-    ChildProcess peer(robot2, dir_ / "peer-first.log");
-    ASSERT_TRUE(bus.WaitFor(
-        [](const BusListener& b) {
-          return b.announces.count("TSC_ANNOUNCE") &&
-                 b.announces.at("TSC_ANNOUNCE").back().places >= 2;
-        },
-        seconds(60)))
-        << peer.Log();
-    peer.Signal(SIGTERM);
-    ASSERT_EQ(peer.Wait(seconds(20)), 0) << peer.Log();
+    RunUntilPlaces(bus, robot2, 2, dir_ / "peer-first.log");
+    ASSERT_FALSE(HasFatalFailure());
   }
   BusListener bus("TSC_ANNOUNCE|TSC_MEMORY_1");
   // Still: a frame every 10 s, so no place closes and only the merge changes the memory.
