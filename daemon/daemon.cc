@@ -657,13 +657,9 @@ void Daemon::PublishPortions(std::shared_ptr<const MemorySnapshot> snapshot,
                   end](PipelineWorker::Bodies bodies) mutable {
     if (bodies.empty()) {
       // The memory was replaced whole since (a merge or consolidation): this snapshot and the
-      // older ones are no longer held, so the peer's next request for what it lacks is
-      // answered with the current structure (AnswerRequest), and it moves on keeping the
-      // bodies it has that are unchanged. Held, they were asked for the same bodies until the
-      // peer gave up (10 s) or our next broadcast (lcm.memory_period_s), and then a snapshot
-      // the next merge withdrew: the peers of a robot that merges every few seconds fetched
-      // its memory only once it stopped changing (the demo's team merged a third of what the
-      // offline replay merges).
+      // older ones are no longer held, so the peer's next request is answered with the current
+      // structure (AnswerRequest) and it moves on, keeping the bodies it has. Held, they
+      // starved the peers of a robot that merges often (docs/decisions.md, "Memory exchange").
       spdlog::debug("memory snapshot {}: its bodies were withdrawn when the memory was replaced",
                     snapshot->version);
       withdrawn_through_ = std::max(withdrawn_through_, snapshot->version);

@@ -739,6 +739,9 @@ void PipelineWorker::LoadMemoryBack(const std::string& why) {
     StoredState saved =
         store_->Load(header_.robot, pipeline_->memory().options(), settings_.daemon.MergeThreads());
     pipeline_->AdoptMerged(std::move(saved.memory), TopologicalMap(pipeline_->map()));
+    // A new version: the snapshots built before the merge no longer serve bodies (it withdrew
+    // them), so peers are to move on to a snapshot of the memory loaded back.
+    ++counters_.memory_version;
     spdlog::info("memory loaded back: {} places", pipeline_->memory().places().size());
   } catch (const std::exception& e) {
     // Going on without it would learn places under ids already given; everything is in the
