@@ -45,7 +45,7 @@ int64_t RandomBootId() {
 }
 
 place_ref_t Ref(const PlaceId& id) {
-  place_ref_t r;
+  place_ref_t r{};
   r.robot = static_cast<int32_t>(id.robot);
   r.local = static_cast<int32_t>(id.local);
   return r;
@@ -58,13 +58,13 @@ place_event_t ToMessage(const PlaceEvent& e, uint32_t robot, int64_t utime) {
   m.frame = e.frame;
   m.event = EventKindName(e.kind);
   m.detected_place = static_cast<int32_t>(e.detected_place);
-  m.has_place = e.place.has_value();
+  m.has_place = e.place.has_value() ? 1 : 0;
   m.place = e.place ? Ref(*e.place) : place_ref_t{0, 0};
-  m.has_from = e.from.has_value();
+  m.has_from = e.from.has_value() ? 1 : 0;
   m.from = e.from ? Ref(*e.from) : place_ref_t{0, 0};
   m.cost = e.cost;
-  m.partial = e.partial;
-  m.hybrid = e.hybrid;
+  m.partial = e.partial ? 1 : 0;
+  m.hybrid = e.hybrid ? 1 : 0;
   m.members = e.members;
   m.transition_first = e.transition.empty() ? -1 : e.transition.first;
   m.transition_last = e.transition.empty() ? -1 : e.transition.last;
@@ -769,12 +769,11 @@ void Daemon::CameraLoop() {
         // A source that fails at once again and again must not spin a core.
         std::this_thread::sleep_for(std::chrono::milliseconds(100));
         continue;
-      } else {
-        spdlog::error("camera {} failed for good: {}; tscd keeps serving its memory",
-                      camera_->name(), e.what());
-        degraded_camera_ = true;
-        return;
       }
+      spdlog::error("camera {} failed for good: {}; tscd keeps serving its memory", camera_->name(),
+                    e.what());
+      degraded_camera_ = true;
+      return;
     } catch (const std::exception& e) {
       spdlog::error("camera {}: unexpected failure: {}", camera_->name(), e.what());
       degraded_camera_ = true;

@@ -129,7 +129,7 @@ std::optional<SnapshotAssembler> PeerExchange::OnPortion(const memory_portion_v2
     retries_ = 0;  // progress: the retry budget is for silence
     // The structure we asked for alone just came in whole: ask for the bodies it names that we
     // lack at the next tick instead of after the retry period.
-    if (!had_structure && assembler_->structure_complete() && known_.count(p.robot)) {
+    if (!had_structure && assembler_->structure_complete() && known_.contains(p.robot)) {
       last_request_ = now - options_.retry;
     }
   }
