@@ -57,8 +57,8 @@ constexpr const char* kTeamHelp =
     R"(usage: tsc team --robots N --world SEED [--kind office|corridors|outdoor]
                 [--seconds S] [--out DIR] [--fps F] [--config FILE] [--set KEY=VALUE]...
                 [--netns new|current]
-       tsc team --offline --robots N --world SEED [--order I,J,..] [--kind ..] [--out DIR]
-                [--config FILE] [--set KEY=VALUE]...
+       tsc team --offline --robots N --world SEED [--order I,J,..] [--exchange-every B]
+                [--kind ..] [--out DIR] [--config FILE] [--set KEY=VALUE]...
 
 Runs a team simulation on this host: N tscd processes (robot ids 1..N) in one private network
 namespace (`unshare -n`, multicast routed on lo only, so no packet leaves the namespace), each
@@ -74,8 +74,12 @@ DIR/robot-<id>/memory.db, tscd.log and memory.png. --netns current runs in the c
 replayed in this process with the pipeline and settings its tscd would use; then, in rounds
 until nothing changes, each robot in --order merges every other robot's memory in --order
 (received as tscd receives it; MergeMemories, MergeMaps). The summary and DIR/summary.json
-are the live run's (cpu, memory and seconds null), plus "mode", "order" and "settled". The
-same arguments give the same file.
+are the live run's (cpu, memory and seconds null), plus "mode", "order", "exchange_every" and
+"settled". The same arguments give the same file. With --exchange-every B the robots also
+exchange while they drive, as live robots do: each drives B base points, then each in --order
+merges the others' memories as they stand and goes on with what it adopted; the rounds after
+the routes follow. A live tscd announces every 5 s (lcm.announce_period_s), ~50 base points of
+a 10 fps camera.
 
 Both runs draw DIR/team_map.png: robot 1's final memory over the simulated floor plan, each
 place at the mean position of its frames in the colour of the robot whose id it carries,
@@ -250,8 +254,9 @@ struct TeamRequest {
   std::string netns;  ///< new|current
   fs::path out;
   std::optional<std::vector<uint32_t>> offline_order;  ///< set: --offline, in this order
-  std::vector<std::string> common;                     ///< tscd arguments every robot gets
-  std::vector<Settings> settings;                      ///< robot i + 1's
+  int64_t exchange_every = 0;  ///< --offline: base points between exchanges while driving; 0 none
+  std::vector<std::string> common;  ///< tscd arguments every robot gets
+  std::vector<Settings> settings;   ///< robot i + 1's
 };
 
 // "2,1,3": a permutation of 1..n (UsageError otherwise).
@@ -307,7 +312,10 @@ std::optional<TeamRequest> ParseTeam(const std::vector<std::string>& args) {
       "(no robot processes, no network; DIR/summary.json as the live run writes it)")(
       "order", po::value<std::string>()->value_name("I,J,..."),
       "with --offline: the order in which the robots merge each other's memories (a "
-      "permutation of 1..N; default 1,2,..,N)");
+      "permutation of 1..N; default 1,2,..,N)")(
+      "exchange-every", po::value<long long>()->value_name("B"),
+      "with --offline: the robots also exchange while they drive, every B base points (as "
+      "live robots do; default: only after the routes)");
   const po::variables_map vm = ParseCommandLine(args, desc);
   if (vm.count("help")) {
     std::cout << desc << "\n";
@@ -323,6 +331,11 @@ std::optional<TeamRequest> ParseTeam(const std::vector<std::string>& args) {
   req.netns = vm["netns"].as<std::string>();
   if (req.netns != "new" && req.netns != "current") throw UsageError("--netns is new or current");
   if (vm.count("order") && !vm.count("offline")) throw UsageError("--order needs --offline");
+  if (vm.count("exchange-every")) {
+    if (!vm.count("offline")) throw UsageError("--exchange-every needs --offline");
+    req.exchange_every = vm["exchange-every"].as<long long>();
+    if (req.exchange_every < 1) throw UsageError("--exchange-every must be at least 1");
+  }
   req.world = vm["world"].as<long long>();
   req.kind = vm["kind"].as<std::string>();
   req.fps = vm["fps"].as<double>();
@@ -392,15 +405,21 @@ int TeamOffline(const TeamRequest& req) {
             << req.kind << "), merge order";
   for (uint32_t id : order) std::cout << " " << id;
   std::cout << ", output in " << req.out.string() << "\n";
+  const int portion_bytes = req.settings.front().daemon.bus.portion_bytes;
   std::vector<ReplayedRobot> robots;
-  for (size_t i = 0; i < req.settings.size(); ++i) {
-    robots.push_back(ReplayRoute(req.settings[i], static_cast<uint32_t>(i + 1)));
-    const ReplayedRobot& r = robots.back();
+  if (req.exchange_every > 0) {
+    std::cout << "exchanging every " << req.exchange_every << " base points while driving\n";
+    robots = ReplayTeam(req.settings, order, req.exchange_every, portion_bytes);
+  } else {
+    for (size_t i = 0; i < req.settings.size(); ++i) {
+      robots.push_back(ReplayRoute(req.settings[i], static_cast<uint32_t>(i + 1)));
+    }
+  }
+  for (const ReplayedRobot& r : robots) {
     std::cout << "robot " << r.id << ": route replayed, " << r.frames << " base points, "
               << r.memory.places().size() << " places, " << r.recognitions << " recognised\n";
   }
-  const bool settled =
-      ExchangeMemories(robots, order, req.settings.front().daemon.bus.portion_bytes);
+  const bool settled = ExchangeMemories(robots, order, portion_bytes);
   std::cout << "memory exchange " << (settled ? "settled" : "did NOT settle (20 rounds)") << "\n";
 
   std::vector<TeamMemoryForScoring> scoring;
@@ -423,7 +442,8 @@ int TeamOffline(const TeamRequest& req) {
   tail << ",\"seconds\":null,\"fps\":" << JsonNumber(req.fps)
        << ",\"mode\":\"offline\",\"order\":[";
   for (size_t i = 0; i < order.size(); ++i) tail << (i ? "," : "") << order[i];
-  tail << "],\"settled\":" << (settled ? "true" : "false");
+  tail << "],\"exchange_every\":" << req.exchange_every
+       << ",\"settled\":" << (settled ? "true" : "false");
   WriteTeamSummary(req, rows, JudgeTeam(scoring), robots, tail.str(), false);
   return settled ? kExitOk : kExitFailure;
 }

@@ -3,7 +3,9 @@
 #include <algorithm>
 #include <cmath>
 #include <cstdio>
+#include <limits>
 #include <map>
+#include <memory>
 #include <optional>
 #include <ostream>
 #include <sstream>
@@ -112,46 +114,92 @@ void RecordRoute(const SimCamera& camera, int stride, ReplayedRobot& out) {
   }
 }
 
+// One robot's route replayed a stretch at a time, so that a team can exchange memories while
+// its robots drive (ReplayTeam), as live robots do.
+class RouteReplay {
+ public:
+  RouteReplay(const Settings& settings, uint32_t robot)
+      : camera_(CameraOptionsOf(settings)),
+        base_points_(BasePointsOf(FramesOf(settings, camera_))),
+        taken_(base_points_.stride),
+        pipeline_(camera_.intrinsics(), PipelineOptionsOf(settings, robot),
+                  PlaceMemory(robot, PipelineOptionsOf(settings, robot).memory), TopologicalMap{}),
+        recorder_(out_) {
+    out_.id = robot;
+    RecordRoute(camera_, base_points_.stride, out_);
+  }
+  RouteReplay(const RouteReplay&) = delete;
+  RouteReplay& operator=(const RouteReplay&) = delete;
+
+  /// Processes up to `count` base points; false once the route has ended (then finished).
+  bool Advance(int64_t count) {
+    for (int64_t done = 0; !ended_ && done < count;) {
+      std::optional<CameraFrame> frame = camera_.Next();
+      if (!frame) {
+        recorder_.Consume(pipeline_.Finish());
+        ended_ = true;
+        break;
+      }
+      if (!taken_.Take(frame->ends_base_point, ViewMotion{frame->pose, std::nullopt, 0})) continue;
+      sweep_.push_back(std::move(frame->observation));
+      if (!frame->ends_base_point) continue;
+      recorder_.Consume(pipeline_.Process(sweep_));
+      sweep_.clear();
+      ++done;
+    }
+    return !ended_;
+  }
+
+  /// The robot as a peer would receive it now: its memory and map as they stand.
+  ReplayedRobot& Current() {
+    out_.memory = pipeline_.memory();
+    out_.map = pipeline_.map();
+    return out_;
+  }
+  /// After MergePeer adopted a merge into Current(): the pipeline goes on with it (as tscd's
+  /// worker adopts a merge between base points).
+  void AdoptCurrent() { pipeline_.AdoptMerged(out_.memory, out_.map); }
+  ReplayedRobot Take() { return std::move(Current()); }
+
+ private:
+  static SimCameraOptions CameraOptionsOf(const Settings& settings) {
+    if (settings.daemon.camera.source != "sim") {
+      throw std::invalid_argument("team replay: camera.source is " + settings.daemon.camera.source +
+                                  ", not sim");
+    }
+    SimCameraOptions options =
+        ToSimCameraOptions(settings.daemon.camera, settings.daemon.sim, false);
+    options.fps = 0.0;  // as fast as they render: nothing is dropped, nothing waits
+    options.loop = false;
+    return options;
+  }
+  // The daemon's pipeline (daemon.cc, pipeline_worker.cc): its options, robot id, and the
+  // spacing its camera declares, with the base points its camera thread takes.
+  PipelineOptions PipelineOptionsOf(const Settings& settings, uint32_t robot) const {
+    PipelineOptions options = settings.pipeline;
+    options.robot = robot;
+    AdaptToSpacing(options, base_points_.spacing);
+    AdaptToLens(options, CameraLens::Of(camera_.intrinsics(), camera_.views_per_base_point()));
+    return options;
+  }
+
+  SimCamera camera_;
+  BasePoints base_points_;
+  BasePointPicker taken_;
+  Pipeline pipeline_;
+  ReplayedRobot out_;
+  RouteRecorder recorder_;
+  std::vector<Observation> sweep_;
+  bool ended_ = false;
+};
+
 }  // namespace
 
 ReplayedRobot ReplayRoute(const Settings& settings, uint32_t robot) {
-  if (settings.daemon.camera.source != "sim") {
-    throw std::invalid_argument("team replay: camera.source is " + settings.daemon.camera.source +
-                                ", not sim");
+  RouteReplay replay(settings, robot);
+  while (replay.Advance(std::numeric_limits<int64_t>::max())) {
   }
-  SimCameraOptions camera_options =
-      ToSimCameraOptions(settings.daemon.camera, settings.daemon.sim, false);
-  camera_options.fps = 0.0;  // as fast as they render: nothing is dropped, nothing waits
-  camera_options.loop = false;
-  SimCamera camera(camera_options);
-
-  // The daemon's pipeline (daemon.cc, pipeline_worker.cc): its options, robot id, and the
-  // spacing its camera declares, with the base points its camera thread takes.
-  PipelineOptions options = settings.pipeline;
-  options.robot = robot;
-  const BasePoints base_points = BasePointsOf(FramesOf(settings, camera));
-  BasePointPicker taken(base_points.stride);
-  AdaptToSpacing(options, base_points.spacing);
-  AdaptToLens(options, CameraLens::Of(camera.intrinsics(), camera.views_per_base_point()));
-
-  ReplayedRobot out;
-  out.id = robot;
-  RecordRoute(camera, base_points.stride, out);
-  Pipeline pipeline(camera.intrinsics(), options, PlaceMemory(robot, options.memory),
-                    TopologicalMap{});
-  RouteRecorder recorder(out);
-  std::vector<Observation> sweep;
-  while (std::optional<CameraFrame> frame = camera.Next()) {
-    if (!taken.Take(frame->ends_base_point, ViewMotion{frame->pose, std::nullopt, 0})) continue;
-    sweep.push_back(std::move(frame->observation));
-    if (!frame->ends_base_point) continue;
-    recorder.Consume(pipeline.Process(sweep));
-    sweep.clear();
-  }
-  recorder.Consume(pipeline.Finish());
-  out.memory = pipeline.memory();
-  out.map = pipeline.map();
-  return out;
+  return replay.Take();
 }
 
 bool MergePeer(ReplayedRobot& ours, const ReplayedRobot& peer, int portion_bytes) {
@@ -167,19 +215,29 @@ bool MergePeer(ReplayedRobot& ours, const ReplayedRobot& peer, int portion_bytes
   return true;
 }
 
+namespace {
+
+// Robot id → its position in `ids`; throws when `order` is not a permutation of them.
+std::map<uint32_t, size_t> IndexInOrder(const std::vector<uint32_t>& ids,
+                                        const std::vector<uint32_t>& order) {
+  std::map<uint32_t, size_t> index;
+  for (size_t i = 0; i < ids.size(); ++i) index[ids[i]] = i;
+  std::vector<uint32_t> sorted = order, known;
+  std::sort(sorted.begin(), sorted.end());
+  for (const auto& [id, i] : index) known.push_back(id);
+  if (sorted != known || index.size() != ids.size()) {
+    throw std::invalid_argument("the merge order must name every robot of the team once");
+  }
+  return index;
+}
+
+}  // namespace
+
 bool ExchangeMemories(std::vector<ReplayedRobot>& robots, const std::vector<uint32_t>& order,
                       int portion_bytes, int max_rounds) {
-  std::map<uint32_t, size_t> index;
-  for (size_t i = 0; i < robots.size(); ++i) index[robots[i].id] = i;
-  {
-    std::vector<uint32_t> sorted = order;
-    std::sort(sorted.begin(), sorted.end());
-    std::vector<uint32_t> ids;
-    for (const auto& [id, i] : index) ids.push_back(id);
-    if (sorted != ids || index.size() != robots.size()) {
-      throw std::invalid_argument("the merge order must name every robot of the team once");
-    }
-  }
+  std::vector<uint32_t> ids;
+  for (const ReplayedRobot& r : robots) ids.push_back(r.id);
+  std::map<uint32_t, size_t> index = IndexInOrder(ids, order);
   for (int round = 0; round < max_rounds; ++round) {
     bool changed = false;
     for (uint32_t r : order) {
@@ -190,6 +248,35 @@ bool ExchangeMemories(std::vector<ReplayedRobot>& robots, const std::vector<uint
     if (!changed) return true;
   }
   return false;
+}
+
+std::vector<ReplayedRobot> ReplayTeam(const std::vector<Settings>& settings,
+                                      const std::vector<uint32_t>& order, int64_t exchange_every,
+                                      int portion_bytes) {
+  if (exchange_every < 1) throw std::invalid_argument("exchange_every must be at least 1");
+  std::vector<std::unique_ptr<RouteReplay>> replays;
+  std::vector<uint32_t> ids;
+  for (size_t i = 0; i < settings.size(); ++i) {
+    ids.push_back(static_cast<uint32_t>(i + 1));
+    replays.push_back(std::make_unique<RouteReplay>(settings[i], ids.back()));
+  }
+  std::map<uint32_t, size_t> index = IndexInOrder(ids, order);
+  for (bool driving = true; driving;) {
+    driving = false;
+    for (auto& r : replays) driving |= r->Advance(exchange_every);
+    for (uint32_t r : order) {  // one round, each merging the others as they stand now
+      for (uint32_t s : order) {
+        if (s == r) continue;
+        RouteReplay& ours = *replays[index[r]];
+        if (MergePeer(ours.Current(), replays[index[s]]->Current(), portion_bytes)) {
+          ours.AdoptCurrent();
+        }
+      }
+    }
+  }
+  std::vector<ReplayedRobot> robots;
+  for (auto& r : replays) robots.push_back(r->Take());
+  return robots;
 }
 
 TeamMemoryForScoring ForMergeScoring(const ReplayedRobot& route, const PlaceMemory& memory) {

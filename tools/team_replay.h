@@ -70,6 +70,17 @@ bool MergePeer(ReplayedRobot& ours, const ReplayedRobot& peer, int portion_bytes
 bool ExchangeMemories(std::vector<ReplayedRobot>& robots, const std::vector<uint32_t>& order,
                       int portion_bytes, int max_rounds = 20);
 
+/// The team's routes replayed together, exchanging while they drive as live robots do: every
+/// robot processes `exchange_every` base points, then each robot of `order` merges (MergePeer)
+/// every other robot's memory as it stands and its pipeline goes on with the merge it adopted;
+/// until every route has ended. `tsc team --offline` then settles the exchange
+/// (ExchangeMemories). Robot i + 1 drives with `settings[i]`. Throws std::invalid_argument on
+/// `exchange_every` < 1 or an `order` that is not a permutation of 1..N, and what ReplayRoute
+/// throws.
+std::vector<ReplayedRobot> ReplayTeam(const std::vector<Settings>& settings,
+                                      const std::vector<uint32_t>& order, int64_t exchange_every,
+                                      int portion_bytes);
+
 /// What robot `route.id`'s final memory says for merge scoring: its own places labelled from
 /// the frames of the detected places assigned to them (`route.assignments`, base point k =
 /// frame k of `route.labels`) with those frames' poses, peer places its pipeline recognised,

@@ -141,6 +141,33 @@ TEST_F(TeamOfflineTest, MergeBarsWithPanSweepsOnThreeWorlds) {
   }
 }
 
+// Exchanging while driving (--exchange-every), as live robots do: the pipelines go on with the
+// merges they adopt, so they meet places their teammates learned first, which robots that
+// exchange only after their routes never do. Deterministic like the rest of the evaluation.
+TEST_F(TeamOfflineTest, ExchangingWhileDrivingIsDeterministicAndThePipelinesMeetPeerPlaces) {
+  const auto after = Run("after");
+  ASSERT_EQ(after.code, 0) << after.out << after.err;
+  EXPECT_EQ(JsonNumberAt(Summary("after"), "peer_recognitions"), 0);
+  EXPECT_NE(Summary("after").find("\"exchange_every\":0"), std::string::npos);
+
+  const auto first = Run("driving-a", "--exchange-every 50");
+  ASSERT_EQ(first.code, 0) << first.out << first.err;
+  const auto second = Run("driving-b", "--exchange-every 50");
+  ASSERT_EQ(second.code, 0) << second.out << second.err;
+  const std::string json = Summary("driving-a");
+  std::cout << first.out << json;
+  EXPECT_EQ(Summary("driving-b"), json);
+  EXPECT_NE(json.find("\"exchange_every\":50"), std::string::npos);
+  EXPECT_GT(JsonNumberAt(json, "peer_recognitions"), 0);
+  EXPECT_NE(json.find("\"settled\":true"), std::string::npos);
+  EXPECT_NE(json.find("\"consistent\":true"), std::string::npos);
+
+  for (const std::string bad : {"0", "-3"}) {
+    const auto run = Run("bad", "--exchange-every " + bad);
+    EXPECT_EQ(run.code, 2) << bad << ": " << run.err;
+  }
+}
+
 TEST_F(TeamOfflineTest, AGivenOrderIsUsedAndWritten) {
   const auto run = Run("order", "--order 3,1,2");
   ASSERT_EQ(run.code, 0) << run.out << run.err;
