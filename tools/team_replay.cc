@@ -128,8 +128,12 @@ class RouteReplay {
     out_.id = robot;
     RecordRoute(camera_, base_points_.stride, out_);
   }
+  // The recorder holds a reference to out_: neither copied nor moved.
   RouteReplay(const RouteReplay&) = delete;
   RouteReplay& operator=(const RouteReplay&) = delete;
+  RouteReplay(RouteReplay&&) = delete;
+  RouteReplay& operator=(RouteReplay&&) = delete;
+  ~RouteReplay() = default;
 
   /// Processes up to `count` base points; false once the route has ended (then finished).
   bool Advance(int64_t count) {
@@ -236,6 +240,7 @@ std::map<uint32_t, size_t> IndexInOrder(const std::vector<uint32_t>& ids,
 bool ExchangeMemories(std::vector<ReplayedRobot>& robots, const std::vector<uint32_t>& order,
                       int portion_bytes, int max_rounds) {
   std::vector<uint32_t> ids;
+  ids.reserve(robots.size());
   for (const ReplayedRobot& r : robots) ids.push_back(r.id);
   std::map<uint32_t, size_t> index = IndexInOrder(ids, order);
   for (int round = 0; round < max_rounds; ++round) {
@@ -275,6 +280,7 @@ std::vector<ReplayedRobot> ReplayTeam(const std::vector<Settings>& settings,
     }
   }
   std::vector<ReplayedRobot> robots;
+  robots.reserve(replays.size());
   for (auto& r : replays) robots.push_back(r->Take());
   return robots;
 }
