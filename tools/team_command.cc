@@ -78,8 +78,8 @@ are the live run's (cpu, memory and seconds null), plus "mode", "order", "exchan
 "settled". The same arguments give the same file. With --exchange-every B the robots also
 exchange while they drive, as live robots do: each drives B base points, then each in --order
 merges the others' memories as they stand and goes on with what it adopted; the rounds after
-the routes follow. A live tscd announces every 5 s (lcm.announce_period_s), ~50 base points of
-a 10 fps camera.
+the routes follow. A live tscd broadcasts a changed memory every 5 s (lcm.memory_period_s):
+about 50 base points of a 10 fps camera.
 
 Both runs draw DIR/team_map.png: robot 1's final memory over the simulated floor plan, each
 place at the mean position of its frames in the colour of the robot whose id it carries,
