@@ -122,8 +122,7 @@ class RouteReplay {
       : camera_(CameraOptionsOf(settings)),
         base_points_(BasePointsOf(FramesOf(settings, camera_))),
         taken_(base_points_.stride),
-        pipeline_(camera_.intrinsics(), PipelineOptionsOf(settings, robot),
-                  PlaceMemory(robot, PipelineOptionsOf(settings, robot).memory), TopologicalMap{}),
+        pipeline_(PipelineOf(settings, robot)),
         recorder_(out_) {
     out_.id = robot;
     RecordRoute(camera_, base_points_.stride, out_);
@@ -135,7 +134,8 @@ class RouteReplay {
   RouteReplay& operator=(RouteReplay&&) = delete;
   ~RouteReplay() = default;
 
-  /// Processes up to `count` base points; false once the route has ended (then finished).
+  /// Processes up to `count` base points, then robot() holds the memory and map as they stand;
+  /// false once the route has ended (then finished).
   bool Advance(int64_t count) {
     for (int64_t done = 0; !ended_ && done < count;) {
       std::optional<CameraFrame> frame = camera_.Next();
@@ -151,19 +151,16 @@ class RouteReplay {
       sweep_.clear();
       ++done;
     }
+    out_.memory = pipeline_.memory();
+    out_.map = pipeline_.map();
     return !ended_;
   }
 
-  /// The robot as a peer would receive it now: its memory and map as they stand.
-  ReplayedRobot& Current() {
-    out_.memory = pipeline_.memory();
-    out_.map = pipeline_.map();
-    return out_;
-  }
-  /// After MergePeer adopted a merge into Current(): the pipeline goes on with it (as tscd's
+  /// The robot as a peer would receive it: its memory and map as of the last Advance or merge.
+  ReplayedRobot& robot() { return out_; }
+  /// After MergePeer adopted a merge into robot(): the pipeline goes on with it (as tscd's
   /// worker adopts a merge between base points).
-  void AdoptCurrent() { pipeline_.AdoptMerged(out_.memory, out_.map); }
-  ReplayedRobot Take() { return std::move(Current()); }
+  void AdoptMerged() { pipeline_.AdoptMerged(out_.memory, out_.map); }
 
  private:
   static SimCameraOptions CameraOptionsOf(const Settings& settings) {
@@ -179,12 +176,13 @@ class RouteReplay {
   }
   // The daemon's pipeline (daemon.cc, pipeline_worker.cc): its options, robot id, and the
   // spacing its camera declares, with the base points its camera thread takes.
-  PipelineOptions PipelineOptionsOf(const Settings& settings, uint32_t robot) const {
+  Pipeline PipelineOf(const Settings& settings, uint32_t robot) const {
     PipelineOptions options = settings.pipeline;
     options.robot = robot;
     AdaptToSpacing(options, base_points_.spacing);
     AdaptToLens(options, CameraLens::Of(camera_.intrinsics(), camera_.views_per_base_point()));
-    return options;
+    return Pipeline(camera_.intrinsics(), options, PlaceMemory(robot, options.memory),
+                    TopologicalMap{});
   }
 
   SimCamera camera_;
@@ -203,7 +201,7 @@ ReplayedRobot ReplayRoute(const Settings& settings, uint32_t robot) {
   RouteReplay replay(settings, robot);
   while (replay.Advance(std::numeric_limits<int64_t>::max())) {
   }
-  return replay.Take();
+  return std::move(replay.robot());
 }
 
 bool MergePeer(ReplayedRobot& ours, const ReplayedRobot& peer, int portion_bytes) {
@@ -273,15 +271,13 @@ std::vector<ReplayedRobot> ReplayTeam(const std::vector<Settings>& settings,
       for (uint32_t s : order) {
         if (s == r) continue;
         RouteReplay& ours = *replays[index[r]];
-        if (MergePeer(ours.Current(), replays[index[s]]->Current(), portion_bytes)) {
-          ours.AdoptCurrent();
-        }
+        if (MergePeer(ours.robot(), replays[index[s]]->robot(), portion_bytes)) ours.AdoptMerged();
       }
     }
   }
   std::vector<ReplayedRobot> robots;
   robots.reserve(replays.size());
-  for (auto& r : replays) robots.push_back(r->Take());
+  for (auto& r : replays) robots.push_back(std::move(r->robot()));
   return robots;
 }
 
