@@ -338,7 +338,9 @@ void Daemon::WaitLcm() {
 void Daemon::OnAnnounceTimer() {
   if (stopping_) return;
   const auto memory_period = std::chrono::duration<double>(settings_.daemon.bus.memory_period_s);
-  if (Clock::now() - last_memory_broadcast_ >= memory_period) PublishMemoryIfChanged();
+  if (!last_memory_broadcast_ || Clock::now() - *last_memory_broadcast_ >= memory_period) {
+    PublishMemoryIfChanged();
+  }
   announce_t a;
   a.utime = NowUtime();
   a.protocol = announce_t::PROTOCOL;

@@ -161,7 +161,10 @@ class Daemon {
   std::unordered_set<int64_t> broadcast_bodies_;    // loop thread only
   bool broadcast_once_ = false;                     // loop thread only: this life broadcast
   std::vector<memory_request_t> waiting_requests_;  // loop thread only: for a fresh snapshot
-  std::chrono::steady_clock::time_point last_memory_broadcast_{};
+  // None until this life's first broadcast, which the first announce brings: the steady
+  // clock counts from the host's boot, so a time point of zero put a robot started within
+  // lcm.memory_period_s of boot out of the team until that much uptime.
+  std::optional<std::chrono::steady_clock::time_point> last_memory_broadcast_;
   int64_t announces_sent_ = 0;
   const std::chrono::steady_clock::time_point started_ = std::chrono::steady_clock::now();
   int64_t last_rejected_logged_ = 0;
