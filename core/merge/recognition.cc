@@ -224,7 +224,8 @@ void RecogniseFreshBasePlaces(const PlaceMemory& base, const PlaceMemory& incomi
   for (const std::vector<Join>& of_star : joins) {
     for (const Join& j : of_star) {
       join.places.Unite(j.place, j.holder);
-      fold_cost[static_cast<size_t>(j.place)] = j.cost;
+      // On the place folded: the union keeps the lower index, which may be the fresh place.
+      fold_cost[static_cast<size_t>(std::max(j.place, j.holder))] = j.cost;
     }
   }
 }

@@ -25,8 +25,9 @@ struct Recognitions {
   std::vector<double> cost;  ///< g of (3.8) of its absorption (0: joined by ids)
   std::vector<int> nearest;  ///< the base place nearest to it among N*'s, −1: not measured
   std::vector<double> nearest_gamma;  ///< γ to `nearest` (a cross link of the merged tree)
-  std::vector<double> fold_cost;      ///< g of a fresh base place recognised as a place the base
-                                      ///< knows (0: joined by ids alone)
+  std::vector<double> fold_cost;      ///< g of the recognition that folds this base place into
+                                      ///< another (a fresh one recognised as a place the base
+                                      ///< knows, or that place's copy; 0: joined by ids alone)
 };
 
 /// Recognises the new incoming places (KnownIds::is_new) against `base` and the `fresh` base

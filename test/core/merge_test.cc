@@ -1114,6 +1114,25 @@ TEST(MergeMemories, AFreshPeerPlaceIsRecognisedAgainstOursAndTheCostIsKept) {
   EXPECT_LE(dut.absorbed[0].cost, UnitScale().tau_r);
 }
 
+// The same with the fresh place first in the base: the peer learned 2:1 before it took our 1:1
+// (then seen from 0.3 away, not recognised). We have since seen our room again at 0, and the
+// merge recognises the peer's 2:1 as our 1:1. The union keeps the place of lower index, so the
+// base's copy of 1:1 is what is folded: the absorption still records the cost that joined them
+// (it recorded 0, as if joined by ids alone).
+TEST(MergeMemories, AFreshPeerPlaceJoinedWithALaterBasePlaceKeepsTheCost) {
+  PlaceMemory ours = MakeMemory(1, {At(0.3f)}, 1);
+  const PlaceMemory peer = MergeMemories(MakeMemory(2, {At(0), At(5)}, 2), ours).memory;
+  ASSERT_EQ(peer.places().size(), 3u);
+  ASSERT_EQ(peer.places()[2].id, (PlaceId{1, 1}));  // not recognised: added after 2:1 and 2:2
+  ours.Update(0, MakePlace(At(0), 7, 40));
+  const MemoryMerge dut = MergeMemories(ours, peer);
+  EXPECT_FALSE(dut.peer_into_ours);
+  EXPECT_EQ(Groups(dut.memory), (std::set<std::set<PlaceId>>{{{1, 1}, {2, 1}}, {{2, 2}}}));
+  ASSERT_EQ(dut.absorbed.size(), 1u);
+  EXPECT_GT(dut.absorbed[0].cost, 0.0);  // recognised, not joined by ids alone
+  EXPECT_LE(dut.absorbed[0].cost, UnitScale().tau_r);
+}
+
 // Chapter 4 in a live team: robots learn places and merge each other's memories over and over,
 // in an order nobody controls. Whatever the order, once every robot has merged every other's
 // last memory the three memories group the same ids into the same places, and every place
