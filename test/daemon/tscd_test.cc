@@ -104,6 +104,15 @@ class TscdTest : public ::testing::Test {
     dut.Signal(SIGTERM);
     ASSERT_EQ(dut.Wait(seconds(20)), 0) << dut.Log();
   }
+  // The same, listening for the announces itself: a robot's first life before the test's.
+  static void RunUntilPlaces(const fs::path& state, int32_t places, const fs::path& log) {
+    RunUntilPlaces(FastSimRobot(state), places, log);
+  }
+  static void RunUntilPlaces(const std::vector<std::string>& argv, int32_t places,
+                             const fs::path& log) {
+    BusListener bus("TSC_ANNOUNCE");
+    RunUntilPlaces(bus, argv, places, log);
+  }
 
   // Runs tscd on a simulated camera of `fps` frames a second on the simulated base, drives
   // the base at 0.5 m/s in a wide circle (inside the room it starts in) with a motor command
@@ -501,11 +510,8 @@ TEST_F(TscdTest, ARestartMapsNoEdgeFromThePlaceBeforeIt) {
 TEST_F(TscdTest, ARestartedRobotBroadcastsItsStructureAndSendsItsBodiesWhenAsked) {
   TSCD_REQUIRE_PRIVATE_NETNS();
   const fs::path state = dir_ / "state";
-  {
-    BusListener bus("TSC_ANNOUNCE");
-    RunUntilPlaces(bus, state, 2, dir_ / "first.log");
-    ASSERT_FALSE(HasFatalFailure());
-  }
+  RunUntilPlaces(state, 2, dir_ / "first.log");
+  ASSERT_FALSE(HasFatalFailure());
   // Later lives take a frame every 10 s: no place closes, so their memory stays the loaded one.
   const std::vector<std::string> still = {"--set", "camera.fps=0.1"};
   // Each portion received, by whether it is a body (a place of its own, after the structure).
@@ -560,19 +566,13 @@ TEST_F(TscdTest, ARestartedRobotBroadcastsItsStructureAndSendsItsBodiesWhenAsked
 TEST_F(TscdTest, ABodyRequestOfAMemoryReplacedSinceIsAnsweredWithTheCurrentStructure) {
   TSCD_REQUIRE_PRIVATE_NETNS();
   const fs::path ours = dir_ / "ours", theirs = dir_ / "theirs";
-  {
-    BusListener bus("TSC_ANNOUNCE");
-    RunUntilPlaces(bus, ours, 2, dir_ / "first.log");
-    ASSERT_FALSE(HasFatalFailure());
-  }
+  RunUntilPlaces(ours, 2, dir_ / "first.log");
+  ASSERT_FALSE(HasFatalFailure());
   // Robot 2's own places, learned alone (its store is then merged into robot 1's memory).
   std::vector<std::string> robot2 = FastSimRobot(theirs);
   robot2[2] = "2";  // --robot 2
-  {
-    BusListener bus("TSC_ANNOUNCE");
-    RunUntilPlaces(bus, robot2, 2, dir_ / "peer-first.log");
-    ASSERT_FALSE(HasFatalFailure());
-  }
+  RunUntilPlaces(robot2, 2, dir_ / "peer-first.log");
+  ASSERT_FALSE(HasFatalFailure());
   BusListener bus("TSC_ANNOUNCE|TSC_MEMORY_1");
   // Still: a frame every 10 s, so no place closes and only the merge changes the memory.
   const std::vector<std::string> still = {"--set", "camera.fps=0.1", "--set",
@@ -662,11 +662,8 @@ std::optional<std::vector<std::string>> JustBooted(std::vector<std::string> argv
 TEST_F(TscdTest, ARobotStartedJustAfterBootBroadcastsItsMemoryAtOnce) {
   TSCD_REQUIRE_PRIVATE_NETNS();
   const fs::path state = dir_ / "state";
-  {
-    BusListener bus("TSC_ANNOUNCE");
-    RunUntilPlaces(bus, state, 2, dir_ / "first.log");
-    ASSERT_FALSE(HasFatalFailure());
-  }
+  RunUntilPlaces(state, 2, dir_ / "first.log");
+  ASSERT_FALSE(HasFatalFailure());
   const std::optional<std::vector<std::string>> booted = JustBooted(
       FastSimRobot(state, {"--set", "camera.fps=0.1", "--set", "lcm.memory_period_s=3600"}));
   if (!booted) GTEST_SKIP() << "no time namespace here (unshare --time)";
