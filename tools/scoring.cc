@@ -510,7 +510,11 @@ MergeScore ScoreMerges(const std::vector<TeamMemoryForScoring>& robots) {
     for (const auto& [place, l] : r.peer_recognitions) {
       ++s.peer_recognitions;
       const auto it = label.find(place);
-      if (it != label.end() && !l.empty() && it->second == l) ++s.peer_recognitions_correct;
+      if (it != label.end() && !l.empty() && it->second == l) {
+        ++s.peer_recognitions_correct;
+      } else {
+        s.wrong_peer_recognitions.push_back({place, it == label.end() ? "" : it->second, l});
+      }
     }
   }
   if (s.merges > 0) s.precision = static_cast<double>(s.correct) / s.merges;

@@ -263,6 +263,13 @@ struct MergeScore {
   double view_place_recall = std::numeric_limits<double>::quiet_NaN();
   int peer_recognitions = 0;          ///< detected places recognised as a peer's place
   int peer_recognitions_correct = 0;  ///< of those, with the peer place's label
+  /// The others, in robot order: which peer place was recognised on frames of which label.
+  struct WrongPeerRecognition {
+    PlaceId place;
+    std::string place_label;  ///< empty: the place has no label
+    std::string frames_label;
+  };
+  std::vector<WrongPeerRecognition> wrong_peer_recognitions;
 };
 MergeScore ScoreMerges(const std::vector<TeamMemoryForScoring>& robots);
 

@@ -353,7 +353,15 @@ std::string TeamVerdictJson(const TeamVerdict& v) {
        << ",\"view_places_merged_with_namesake\":" << merge.view_places_merged_with_namesake
        << ",\"view_place_recall\":" << JsonNumber(merge.view_place_recall)
        << ",\"peer_recognitions\":" << merge.peer_recognitions
-       << ",\"peer_recognitions_correct\":" << merge.peer_recognitions_correct << "}";
+       << ",\"peer_recognitions_correct\":" << merge.peer_recognitions_correct
+       << ",\"wrong_peer_recognitions\":[";
+  for (size_t i = 0; i < merge.wrong_peer_recognitions.size(); ++i) {
+    const MergeScore::WrongPeerRecognition& w = merge.wrong_peer_recognitions[i];
+    json << (i ? "," : "") << "{\"place\":" << JsonString(w.place.ToString())
+         << ",\"place_label\":" << JsonString(w.place_label)
+         << ",\"frames_label\":" << JsonString(w.frames_label) << "}";
+  }
+  json << "]}";
   json << ",\"consistent\":" << (v.consistent ? "true" : "false") << ",\"known_places\":[";
   for (size_t i = 0; i < v.known.size(); ++i) json << (i ? "," : "") << v.known[i].size();
   json << "],\"places_per_label\":[";
@@ -451,6 +459,11 @@ void PrintTeamVerdict(std::ostream& out, const TeamVerdict& v) {
   }
   out << "peer places recognised by the robots' pipelines: " << merge.peer_recognitions
       << " detected places, " << merge.peer_recognitions_correct << " correct\n";
+  for (const MergeScore::WrongPeerRecognition& w : merge.wrong_peer_recognitions) {
+    out << "  wrong: " << w.place.ToString() << " ("
+        << (w.place_label.empty() ? "no label" : w.place_label) << ") recognised on frames of "
+        << (w.frames_label.empty() ? "no label" : w.frames_label) << "\n";
+  }
   out << "memories " << (v.consistent ? "consistent" : "NOT consistent")
       << ": places known (own, taken or absorbed) per robot:";
   for (const std::set<PlaceId>& k : v.known) out << " " << k.size();

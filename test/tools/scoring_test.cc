@@ -234,6 +234,13 @@ TEST(ScoreMerges, ScoresRecognitionsOfPeerPlacesAgainstTheirOwnersLabels) {
   const MergeScore dut = ScoreMerges({r1, r2});
   EXPECT_EQ(dut.peer_recognitions, 3);
   EXPECT_EQ(dut.peer_recognitions_correct, 1);
+  ASSERT_EQ(dut.wrong_peer_recognitions.size(), 2u);
+  EXPECT_EQ(dut.wrong_peer_recognitions[0].place, a1);
+  EXPECT_EQ(dut.wrong_peer_recognitions[0].place_label, "A");
+  EXPECT_EQ(dut.wrong_peer_recognitions[0].frames_label, "B");
+  EXPECT_EQ(dut.wrong_peer_recognitions[1].place, (PlaceId{3, 1}));
+  EXPECT_EQ(dut.wrong_peer_recognitions[1].place_label, "");
+  EXPECT_EQ(dut.wrong_peer_recognitions[1].frames_label, "A");
   EXPECT_EQ(dut.merges, 0);
 }
 

@@ -159,6 +159,14 @@ TEST_F(TeamOfflineTest, ExchangingWhileDrivingIsDeterministicAndThePipelinesMeet
   EXPECT_EQ(Summary("driving-b"), json);
   EXPECT_NE(json.find("\"exchange_every\":50"), std::string::npos);
   EXPECT_GT(JsonNumberAt(json, "peer_recognitions"), 0);
+  // Each wrong one is named (place, its label, the frames' label).
+  size_t wrong = 0;
+  for (size_t at = json.find("\"frames_label\":"); at != std::string::npos;
+       at = json.find("\"frames_label\":", at + 1)) {
+    ++wrong;
+  }
+  EXPECT_EQ(static_cast<double>(wrong), JsonNumberAt(json, "peer_recognitions") -
+                                            JsonNumberAt(json, "peer_recognitions_correct"));
   EXPECT_NE(json.find("\"settled\":true"), std::string::npos);
   EXPECT_NE(json.find("\"consistent\":true"), std::string::npos);
 
