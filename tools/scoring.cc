@@ -39,7 +39,7 @@ bool RevisitsThird(const GroundTruth& truth, const std::vector<int>& a, const st
   for (int f : a) {
     if (f < 0 || f >= static_cast<int>(truth.revisits.size())) continue;
     const auto& r = truth.revisits[f];
-    hits += std::any_of(r.begin(), r.end(), [&b](int g) { return b.count(g) > 0; });
+    hits += std::any_of(r.begin(), r.end(), [&b](int g) { return b.contains(g); });
   }
   return 3 * hits >= static_cast<int>(a.size());
 }
@@ -225,7 +225,7 @@ FrameSpan VisitOf(const std::vector<std::string>& labels, int k) {
   const auto& label = labels.at(static_cast<size_t>(k));
   while (visit.first > 0 && labels[static_cast<size_t>(visit.first - 1)] == label) --visit.first;
   while (visit.last + 1 < static_cast<int>(labels.size()) &&
-         labels[static_cast<size_t>(visit.last + 1)] == label) {
+         labels[static_cast<size_t>(visit.last) + 1] == label) {
     ++visit.last;
   }
   return visit;
@@ -288,7 +288,7 @@ int FramesWithEarlierRevisit(const GroundTruth& truth, int frames) {
   for (int k = 0; k < frames; ++k) {
     const std::string& label = LabelOf(truth, k);
     if (k > 0 && LabelOf(truth, k - 1) != label) visited.insert(LabelOf(truth, k - 1));
-    n += !label.empty() && visited.count(label) > 0;
+    n += !label.empty() && visited.contains(label);
   }
   return n;
 }
@@ -494,6 +494,7 @@ MergeScore ScoreMerges(const std::vector<TeamMemoryForScoring>& robots) {
     merged_with_namesake.insert({a, b});
   }
   std::vector<PlaceId> ids;
+  ids.reserve(label.size());
   for (const auto& [id, l] : label) ids.push_back(id);
   for (size_t i = 0; i < ids.size(); ++i) {
     for (size_t j = i + 1; j < ids.size(); ++j) {

@@ -38,6 +38,7 @@ struct StarCandidates {
   StarCandidates& operator=(StarCandidates&&) = default;
   StarCandidates(const StarCandidates&) = delete;  // a copy's views would be the original's
   StarCandidates& operator=(const StarCandidates&) = delete;
+  ~StarCandidates() = default;
 };
 
 StarCandidates CandidatesOf(const PlaceMemory& base, const HyperTerminal& h) {
@@ -54,7 +55,7 @@ StarCandidates CandidatesOf(const PlaceMemory& base, const HyperTerminal& h) {
       out.units.push_back(base.DistanceUnit());
       out.index.push_back(place);
     }
-    out.candidates.push_back(std::move(candidate));
+    out.candidates.push_back(candidate);
   }
   out.columns.resize(out.places.size());
   out.decoded.resize(out.places.size());
