@@ -456,10 +456,10 @@ void ScoreViewNamesakes(const std::vector<TeamMemoryForScoring>& robots,
   for (const PlaceId& id : with_view_namesake) {
     s.view_places_merged_with_namesake += static_cast<int>(merged_with_namesake.count(id));
   }
-  s.view_place_recall =
-      s.view_places_with_namesake > 0
-          ? static_cast<double>(s.view_places_merged_with_namesake) / s.view_places_with_namesake
-          : 0.0;
+  if (s.view_places_with_namesake > 0) {
+    s.view_place_recall =
+        static_cast<double>(s.view_places_merged_with_namesake) / s.view_places_with_namesake;
+  }
 }
 
 }  // namespace

@@ -247,17 +247,23 @@ struct MergeScore {
   int correct = 0;
   int same_label_pairs = 0;
   double precision = 1.0;  ///< correct / merges (1 when nothing was merged)
-  double recall = 0.0;     ///< correct / same_label_pairs (0 when there are none)
+  /// correct / same_label_pairs. Null (NaN) when there are none: a team whose pipelines
+  /// recognised every room a teammate learned first leaves nothing to merge, which is not a
+  /// recall of 0.
+  double recall = std::numeric_limits<double>::quiet_NaN();
   /// Per place, like recognition recall: places that have a place of another robot with
   /// their label (a namesake), and of those, the ones merged with a namesake. A robot that
   /// learned one room as two places (two headings) makes four pairs with a peer's two, of
   /// which merging each place with its own view merges two.
   int places_with_namesake = 0;
   int places_merged_with_namesake = 0;
-  double place_recall = 0.0;  ///< places_merged_with_namesake / places_with_namesake
+  /// places_merged_with_namesake / places_with_namesake; null (NaN) when no place has a
+  /// namesake, as `recall`.
+  double place_recall = std::numeric_limits<double>::quiet_NaN();
   /// The same counted only over places that share a view with a namesake (some frame of each
   /// within 2 m and 45°: ViewsOverlap), as view-overlap recall counts recognitions: a forward
-  /// camera that crossed a room the other way saw other walls. Null (NaN) without poses.
+  /// camera that crossed a room the other way saw other walls. Null (NaN) without poses, or
+  /// when no place shares a view with a namesake.
   int view_places_with_namesake = 0;
   int view_places_merged_with_namesake = 0;
   double view_place_recall = std::numeric_limits<double>::quiet_NaN();

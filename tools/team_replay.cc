@@ -33,6 +33,9 @@ std::string Figure(double v) {
   return buf;
 }
 
+// A recall for people: "-" when there was nothing to recall (null in the JSON).
+std::string RecallFigure(double v) { return std::isfinite(v) ? Figure(v) : "-"; }
+
 // What the route did, from the pipeline's results alone (as the store records it): each
 // decided detected place and its place, and the counts of the announces.
 class RouteRecorder {
@@ -448,10 +451,10 @@ void PrintTeamVerdict(std::ostream& out, const TeamVerdict& v) {
   out << "merges (DESIGN 7.1b): " << merge.merges << " pairs merged, " << merge.correct
       << " correct, " << merge.same_label_pairs
       << " pairs of places of different robots in the same room; precision "
-      << Figure(merge.precision) << ", recall " << Figure(merge.recall) << "\n"
+      << Figure(merge.precision) << ", recall " << RecallFigure(merge.recall) << "\n"
       << "places merged with a place of another robot in their room: "
       << merge.places_merged_with_namesake << " of " << merge.places_with_namesake
-      << " (place recall " << Figure(merge.place_recall) << ")\n";
+      << " (place recall " << RecallFigure(merge.place_recall) << ")\n";
   if (std::isfinite(merge.view_place_recall)) {
     out << "of those sharing a view with it (2 m, 45 degrees): "
         << merge.view_places_merged_with_namesake << " of " << merge.view_places_with_namesake

@@ -244,6 +244,25 @@ TEST(ScoreMerges, ScoresRecognitionsOfPeerPlacesAgainstTheirOwnersLabels) {
   EXPECT_EQ(dut.merges, 0);
 }
 
+// Robot 2's pipeline recognised robot 1's room A instead of learning a copy of it (as robots
+// that exchange while they drive do), so no place of one robot has a namesake of another and
+// nothing is left to merge: the recalls are undefined (null in the JSON), not 0, although the
+// team shares its one room.
+TEST(ScoreMerges, ATeamThatSharedEveryRoomByRecognitionHasNoRecallToScore) {
+  const PlaceId a1{1, 1};
+  TeamMemoryForScoring r1{{{a1, "A"}}, {{a1}}, {}, {}};
+  TeamMemoryForScoring r2{{}, {{a1}}, {{a1, "A"}}, {}};
+  r1.own_poses[a1] = {GroundTruthPose{0, 0, 0}};
+  const MergeScore dut = ScoreMerges({r1, r2});
+  EXPECT_EQ(dut.peer_recognitions_correct, 1);
+  EXPECT_EQ(dut.merges, 0);
+  EXPECT_EQ(dut.places_with_namesake, 0);
+  EXPECT_TRUE(std::isnan(dut.recall));
+  EXPECT_TRUE(std::isnan(dut.place_recall));
+  EXPECT_TRUE(std::isnan(dut.view_place_recall));  // poses, but no namesake to share a view
+  EXPECT_DOUBLE_EQ(dut.precision, 1.0);
+}
+
 TEST(ScoreMerges, UnlabelledPlacesNeverCountAsSameAndNothingMergedIsPrecise) {
   const PlaceId a1{1, 1}, a2{2, 1};
   TeamMemoryForScoring r1{{{a1, ""}}, {{a1}}, {}, {}};
@@ -252,7 +271,7 @@ TEST(ScoreMerges, UnlabelledPlacesNeverCountAsSameAndNothingMergedIsPrecise) {
   EXPECT_EQ(dut.merges, 0);
   EXPECT_EQ(dut.same_label_pairs, 0);
   EXPECT_DOUBLE_EQ(dut.precision, 1.0);
-  EXPECT_DOUBLE_EQ(dut.recall, 0.0);
+  EXPECT_TRUE(std::isnan(dut.recall));  // no pair to merge
 }
 
 // View-overlap merge recall (DESIGN §7.1b's rule for a forward camera): room A's places of
