@@ -108,36 +108,68 @@ TEST_F(TeamOfflineTest, TwoRunsWriteTheSameSummaryAndTheFiguresAreSane) {
   }
 }
 
-// Issue 21's bars on the deterministic evaluation: three robots with the pan-sweep camera
-// (config/sweep.ini) at 160x120, on three worlds whose seeds were picked before measuring
-// (201 office, 202 corridors, 203 outdoor), merged in the default order: merge place recall
-// >= 0.8 at precision >= 0.95, places per label <= 1.5 in every final memory, memories
-// consistent.
-TEST_F(TeamOfflineTest, MergeBarsWithPanSweepsOnThreeWorlds) {
+// The swept bar worlds (seeds picked before measuring: 201 office, 202 corridors, 203 outdoor),
+// three robots at 160x120 with config/sweep.ini, merged in the default order; `extra` adds to
+// the command. Returns each world's summary.json, named as "office-201".
+std::vector<std::pair<std::string, std::string>> RunBarWorlds(const fs::path& dir,
+                                                              const std::string& extra) {
+  std::vector<std::pair<std::string, std::string>> out;
   for (const auto& [kind, seed] : std::vector<std::pair<std::string, int>>{
            {"office", 201}, {"corridors", 202}, {"outdoor", 203}}) {
-    const std::string out = kind + "-" + std::to_string(seed);
+    const std::string name = kind + "-" + std::to_string(seed);
     const auto run = testing_support::RunTsc(
-        temp_.path(),
-        "team --offline --robots 3 --world " + std::to_string(seed) + " --kind " + kind +
-            " --config " +
-            testing_support::Quote(std::string(TSCD_SOURCE_DIR) + "/config/sweep.ini") +
-            " --set sim.width=160 --set sim.height=120 --out " +
-            testing_support::Quote((temp_.path() / out).string()));
-    ASSERT_EQ(run.code, 0) << run.out << run.err;
-    const std::string json = Summary(out);
-    std::cout << out << ": " << json;
-    SCOPED_TRACE(out);
+        dir, "team --offline --robots 3 --world " + std::to_string(seed) + " --kind " + kind +
+                 " --config " +
+                 testing_support::Quote(std::string(TSCD_SOURCE_DIR) + "/config/sweep.ini") +
+                 " --set sim.width=160 --set sim.height=120 --out " +
+                 testing_support::Quote((dir / name).string()) + " " + extra);
+    EXPECT_EQ(run.code, 0) << name << ": " << run.out << run.err;
+    out.emplace_back(name, ReadFile(dir / name / "summary.json"));
+    std::cout << name << ": " << out.back().second;
+  }
+  return out;
+}
+
+// Every final memory holds at most `most` places per label.
+void ExpectPlacesPerLabelAtMost(const std::string& json, double most) {
+  const std::string ppl = ArrayAt(json, "places_per_label");
+  ASSERT_FALSE(ppl.empty()) << json;
+  for (size_t p = 1; p < ppl.size();) {
+    EXPECT_LE(std::stod(ppl.substr(p)), most) << ppl;
+    p = ppl.find(',', p);
+    if (p == std::string::npos) break;
+    ++p;
+  }
+}
+
+// Issue 21's bars on the deterministic evaluation, the routes driven first and then merged:
+// merge place recall >= 0.8 at precision >= 0.95, places per label <= 1.5 in every final
+// memory, memories consistent.
+TEST_F(TeamOfflineTest, MergeBarsWithPanSweepsOnThreeWorlds) {
+  for (const auto& [name, json] : RunBarWorlds(temp_.path(), "")) {
+    SCOPED_TRACE(name);
     EXPECT_GE(JsonNumberAt(json, "place_recall"), 0.8);
     EXPECT_GE(JsonNumberAt(json, "precision", json.find("\"merge\":")), 0.95);
     EXPECT_NE(json.find("\"consistent\":true"), std::string::npos);
-    const std::string ppl = ArrayAt(json, "places_per_label");
-    for (size_t p = 1; p < ppl.size();) {
-      EXPECT_LE(std::stod(ppl.substr(p)), 1.5) << ppl;
-      p = ppl.find(',', p);
-      if (p == std::string::npos) break;
-      ++p;
-    }
+    ExpectPlacesPerLabelAtMost(json, 1.5);
+  }
+}
+
+// The same worlds exchanging while they drive, as live robots do (docs/open-decisions.md 12):
+// a robot recognises a room its teammate learned first, so few copies are left for the merge
+// to join and place recall counts only those (null on corridors 202, where none is left).
+// What a user of a live team sees is held to the bars instead: at most 1.5 places per label,
+// merges and the pipelines' recognitions of peer places at precision >= 0.95, consistent.
+TEST_F(TeamOfflineTest, DrivingTeamsOnThePanSweepBarWorldsKeepOnePlaceARoom) {
+  for (const auto& [name, json] : RunBarWorlds(temp_.path(), "--exchange-every 50")) {
+    SCOPED_TRACE(name);
+    EXPECT_GE(JsonNumberAt(json, "precision", json.find("\"merge\":")), 0.95);
+    const double peer = JsonNumberAt(json, "peer_recognitions");
+    EXPECT_GT(peer, 0);  // the robots met their teammates' places while driving
+    EXPECT_GE(JsonNumberAt(json, "peer_recognitions_correct") / peer, 0.95);
+    EXPECT_NE(json.find("\"settled\":true"), std::string::npos);
+    EXPECT_NE(json.find("\"consistent\":true"), std::string::npos);
+    ExpectPlacesPerLabelAtMost(json, 1.5);
   }
 }
 
