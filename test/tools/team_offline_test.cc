@@ -19,7 +19,6 @@
 
 namespace tsc {
 namespace {
-namespace fs = std::filesystem;
 
 using testing_support::JsonNumberAt;
 using testing_support::ReadFile;
@@ -30,6 +29,19 @@ std::string ArrayAt(const std::string& json, const std::string& key) {
   if (at == std::string::npos) return "";
   const size_t open = at + key.size() + 3;
   return json.substr(open, json.find(']', open) - open + 1);
+}
+
+// The numbers of `places_per_label`, one per final memory (empty when absent).
+std::vector<double> PlacesPerLabel(const std::string& json) {
+  const std::string ppl = ArrayAt(json, "places_per_label");
+  std::vector<double> out;
+  for (size_t p = 1; p < ppl.size();) {
+    out.push_back(std::stod(ppl.substr(p)));
+    p = ppl.find(',', p);
+    if (p == std::string::npos) break;
+    ++p;
+  }
+  return out;
 }
 
 class TeamOfflineTest : public ::testing::Test {
@@ -46,6 +58,27 @@ class TeamOfflineTest : public ::testing::Test {
   }
   std::string Summary(const std::string& out) {
     return ReadFile(temp_.path() / out / "summary.json");
+  }
+  // The swept bar worlds (seeds picked before measuring: 201 office, 202 corridors, 203
+  // outdoor), three robots at 160x120 with config/sweep.ini, merged in the default order;
+  // `extra` adds to the command. Returns each world's summary.json, named as "office-201".
+  std::vector<std::pair<std::string, std::string>> RunBarWorlds(const std::string& extra) {
+    std::vector<std::pair<std::string, std::string>> out;
+    for (const auto& [kind, seed] : std::vector<std::pair<std::string, int>>{
+             {"office", 201}, {"corridors", 202}, {"outdoor", 203}}) {
+      const std::string name = kind + "-" + std::to_string(seed);
+      const auto run = testing_support::RunTsc(
+          temp_.path(),
+          "team --offline --robots 3 --world " + std::to_string(seed) + " --kind " + kind +
+              " --config " +
+              testing_support::Quote(std::string(TSCD_SOURCE_DIR) + "/config/sweep.ini") +
+              " --set sim.width=160 --set sim.height=120 --out " +
+              testing_support::Quote((temp_.path() / name).string()) + " " + extra);
+      EXPECT_EQ(run.code, 0) << name << ": " << run.out << run.err;
+      out.emplace_back(name, Summary(name));
+      std::cout << name << ": " << out.back().second;
+    }
+    return out;
   }
   testing_support::TempDir temp_{"tscd_team_offline_test"};
 };
@@ -97,56 +130,25 @@ TEST_F(TeamOfflineTest, TwoRunsWriteTheSameSummaryAndTheFiguresAreSane) {
   EXPECT_GT(with, 0);
   EXPECT_LE(merged, with);
   EXPECT_DOUBLE_EQ(JsonNumberAt(json, "place_recall"), merged / with);
-  const std::string ppl = ArrayAt(json, "places_per_label");
+  const std::vector<double> ppl = PlacesPerLabel(json);
   ASSERT_FALSE(ppl.empty());
-  for (size_t p = 1; p < ppl.size();) {
-    const double v = std::stod(ppl.substr(p));
-    EXPECT_GE(v, 1.0) << ppl;  // a labelled place per room at least
-    p = ppl.find(',', p);
-    if (p == std::string::npos) break;
-    ++p;
+  for (double v : ppl) {
+    EXPECT_GE(v, 1.0) << ArrayAt(json, "places_per_label");  // a labelled place per room at least
   }
-}
-
-// The swept bar worlds (seeds picked before measuring: 201 office, 202 corridors, 203 outdoor),
-// three robots at 160x120 with config/sweep.ini, merged in the default order; `extra` adds to
-// the command. Returns each world's summary.json, named as "office-201".
-std::vector<std::pair<std::string, std::string>> RunBarWorlds(const fs::path& dir,
-                                                              const std::string& extra) {
-  std::vector<std::pair<std::string, std::string>> out;
-  for (const auto& [kind, seed] : std::vector<std::pair<std::string, int>>{
-           {"office", 201}, {"corridors", 202}, {"outdoor", 203}}) {
-    const std::string name = kind + "-" + std::to_string(seed);
-    const auto run = testing_support::RunTsc(
-        dir, "team --offline --robots 3 --world " + std::to_string(seed) + " --kind " + kind +
-                 " --config " +
-                 testing_support::Quote(std::string(TSCD_SOURCE_DIR) + "/config/sweep.ini") +
-                 " --set sim.width=160 --set sim.height=120 --out " +
-                 testing_support::Quote((dir / name).string()) + " " + extra);
-    EXPECT_EQ(run.code, 0) << name << ": " << run.out << run.err;
-    out.emplace_back(name, ReadFile(dir / name / "summary.json"));
-    std::cout << name << ": " << out.back().second;
-  }
-  return out;
 }
 
 // Every final memory holds at most `most` places per label.
 void ExpectPlacesPerLabelAtMost(const std::string& json, double most) {
-  const std::string ppl = ArrayAt(json, "places_per_label");
+  const std::vector<double> ppl = PlacesPerLabel(json);
   ASSERT_FALSE(ppl.empty()) << json;
-  for (size_t p = 1; p < ppl.size();) {
-    EXPECT_LE(std::stod(ppl.substr(p)), most) << ppl;
-    p = ppl.find(',', p);
-    if (p == std::string::npos) break;
-    ++p;
-  }
+  for (double v : ppl) EXPECT_LE(v, most) << ArrayAt(json, "places_per_label");
 }
 
 // Issue 21's bars on the deterministic evaluation, the routes driven first and then merged:
 // merge place recall >= 0.8 at precision >= 0.95, places per label <= 1.5 in every final
 // memory, memories consistent.
 TEST_F(TeamOfflineTest, MergeBarsWithPanSweepsOnThreeWorlds) {
-  for (const auto& [name, json] : RunBarWorlds(temp_.path(), "")) {
+  for (const auto& [name, json] : RunBarWorlds("")) {
     SCOPED_TRACE(name);
     EXPECT_GE(JsonNumberAt(json, "place_recall"), 0.8);
     EXPECT_GE(JsonNumberAt(json, "precision", json.find("\"merge\":")), 0.95);
@@ -161,7 +163,7 @@ TEST_F(TeamOfflineTest, MergeBarsWithPanSweepsOnThreeWorlds) {
 // What a user of a live team sees is held to the bars instead: at most 1.5 places per label,
 // merges and the pipelines' recognitions of peer places at precision >= 0.95, consistent.
 TEST_F(TeamOfflineTest, DrivingTeamsOnThePanSweepBarWorldsKeepOnePlaceARoom) {
-  for (const auto& [name, json] : RunBarWorlds(temp_.path(), "--exchange-every 50")) {
+  for (const auto& [name, json] : RunBarWorlds("--exchange-every 50")) {
     SCOPED_TRACE(name);
     EXPECT_GE(JsonNumberAt(json, "precision", json.find("\"merge\":")), 0.95);
     const double peer = JsonNumberAt(json, "peer_recognitions");
